@@ -1,0 +1,89 @@
+//! Generates the PETSc bindings (`$OUT_DIR/petsc_bindings.rs`) against Debian's PETSc 3.18
+//! (found through pkg-config `PETSc`) and OpenMPI's `mpi.h` (pkg-config `ompi-c`).
+//! Only what `src/petsc/` uses is allowlisted: full bindings cost seconds per rebuild.
+
+use std::env;
+use std::path::PathBuf;
+
+const FUNCTIONS: &[&str] = &[
+    "PetscInitialize",
+    "PetscFinalize",
+    "PetscInitialized",
+    "PetscPushErrorHandler",
+    "PetscReturnErrorHandler",
+    "PetscErrorMessage",
+    "PetscOptions(Begin|End|Real|Int|String|Bool)_Private",
+    "PetscOptionsHasName",
+    "PetscOptionsGetString",
+    "PetscOptionsSetValue",
+    "PetscOptionsLeft",
+    "PetscLogStageRegister",
+    "PetscLogStagePush",
+    "PetscLogStagePop",
+    "PetscMemoryGetMaximumUsage",
+    "PetscMemorySetGetMaximumUsage",
+    "PetscObjectSetName",
+    "ISCreateGeneral",
+    "ISDestroy",
+    "Vec(Create|CreateMPI|CreateSeq|Destroy|Duplicate|Set|GetSize|GetLocalSize|GetOwnershipRange|GetArray|RestoreArray|GetArrayRead|RestoreArrayRead|Norm|AXPY|Copy|SetUp)",
+    "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|ZeroRowsColumns|SetOption|SetBlockSize|SetNearNullSpace|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo)",
+    "MatSeqAIJSetPreallocationCSR",
+    "MatMPIAIJSetPreallocationCSR",
+    "MatNullSpace(CreateRigidBody|Destroy)",
+    "MatMumpsSetIcntl",
+    "KSP(Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|SetReusePreconditioner)",
+    "PC(SetType|FactorSetMatSolverType|FactorSetUpMatSolverType|FactorGetMatrix|GetType)",
+];
+const VARS: &[&str] = &["PETSC_COMM_WORLD", "PetscOptionsPublish"];
+const TYPES: &[&str] = &[
+    "PetscOptionItems",
+    "MatOption",
+    "MatFactorSchurStatus",
+    "NormType",
+    "InsertMode",
+    "KSPConvergedReason",
+    "MatInfo",
+    "MatInfoType",
+];
+
+fn main() {
+    println!("cargo:rerun-if-changed=build.rs");
+    let petsc = pkg_config::Config::new()
+        .atleast_version("3.18")
+        .probe("PETSc")
+        .expect("PETSc not found by pkg-config: install Debian's petsc-dev (see README)");
+    let ompi = pkg_config::probe_library("ompi-c")
+        .expect("OpenMPI not found by pkg-config: install libopenmpi-dev (see README)");
+    for lib in &petsc.link_paths {
+        // Find libpetsc at run time without LD_LIBRARY_PATH.
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib.display());
+    }
+
+    let mut builder = bindgen::Builder::default()
+        .header_contents(
+            "wrapper.h",
+            "#include <petscksp.h>\n#include <petscmat.h>\n#include <petscpc.h>\n",
+        )
+        .parse_callbacks(Box::new(bindgen::CargoCallbacks::new()))
+        .layout_tests(false)
+        .derive_default(true)
+        .prepend_enum_name(false)
+        .blocklist_item("FP_.*");
+    for p in petsc.include_paths.iter().chain(ompi.include_paths.iter()) {
+        builder = builder.clang_arg(format!("-I{}", p.display()));
+    }
+    for f in FUNCTIONS {
+        builder = builder.allowlist_function(f);
+    }
+    for v in VARS {
+        builder = builder.allowlist_var(v);
+    }
+    for t in TYPES {
+        builder = builder.allowlist_type(t);
+    }
+    let bindings = builder
+        .generate()
+        .expect("bindgen could not generate the PETSc bindings");
+    let out = PathBuf::from(env::var("OUT_DIR").unwrap()).join("petsc_bindings.rs");
+    bindings.write_to_file(out).expect("cannot write bindings");
+}

@@ -1,0 +1,92 @@
+//! Speed benchmark of issue 2: `paper` on `-n 2` at several mesh levels to tol 1e-8, printing
+//! wall time, iterations and the phase split (maximum over ranks, from the JSON summary).
+//! Run through `jobs/bench-speed [n …]`.
+
+use std::process::Command;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let levels: Vec<usize> = if args.is_empty() {
+        vec![16, 64, 256, 512]
+    } else {
+        args.iter()
+            .map(|a| a.parse().expect("mesh levels are integers"))
+            .collect()
+    };
+    let exe = std::env::var("NNDD").unwrap_or_else(|_| "target/release/nndd".into());
+    let dir = std::env::temp_dir().join(format!("nndd-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    println!(
+        "{:>5} {:>9} {:>4} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
+        "n",
+        "dofs",
+        "its",
+        "wall_s",
+        "assem",
+        "factor",
+        "dirich",
+        "contact",
+        "neumann",
+        "wait",
+        "output",
+        "iter/fac",
+        "MiB/rank"
+    );
+    for n in levels {
+        let prefix = dir.join(format!("paper{n}"));
+        eprintln!("bench-speed: n = {n} …");
+        let t = std::time::Instant::now();
+        let out = Command::new("mpirun")
+            .args([
+                "-n",
+                "2",
+                &exe,
+                "-options_file",
+                "petsc-options/paper.opts",
+                "-nndd_monitor",
+                "0",
+            ])
+            .args([
+                "-nndd_n",
+                &n.to_string(),
+                "-nndd_tol",
+                "1e-8",
+                "-nndd_output",
+                prefix.to_str().unwrap(),
+            ])
+            .output()
+            .expect("mpirun runs");
+        let wall = t.elapsed().as_secs_f64();
+        if !out.status.success() {
+            eprintln!("n = {n} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+            std::process::exit(1);
+        }
+        let text = std::fs::read_to_string(format!("{}.json", prefix.display())).unwrap();
+        let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let t = &j["timings"];
+        let g = |k: &str| t[k].as_f64().unwrap();
+        let its = j["iterations"].as_u64().unwrap();
+        let per_iter =
+            (g("dirichlet_step").max(g("contact_step")) + g("neumann_step") + g("exchange"))
+                / its as f64;
+        println!(
+            "{:>5} {:>9} {:>4} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>9.3} {:>8.0}",
+            n,
+            j["dofs"],
+            its,
+            wall,
+            g("assembly"),
+            g("factorisation"),
+            g("dirichlet_step"),
+            g("contact_step"),
+            g("neumann_step"),
+            g("exchange"),
+            g("output"),
+            per_iter / g("factorisation"),
+            j["peak_memory_mib"].as_f64().unwrap()
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    println!("wall_s: mpirun start to end; phases: seconds, maximum over the 2 ranks; wait: time a rank waited for the other");
+    println!("iter/fac: cost of one NNDD iteration over the one-time factorisation");
+}

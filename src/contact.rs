@@ -1,0 +1,88 @@
+//! The contact step on Ω² (paper (11)–(14), method.md §2 step 2), condensed on Γc.
+//!
+//! With S the interface Schur complement of body 2's Neumann system on the Γc normal dofs and
+//! v* = B u₀ the normal trace of the unconstrained solution u₀ (K u₀ = f, u₀ = u_D on Γ_D),
+//! body 2's potential energy as a function of its Γc normal displacements v is
+//! ½ (v − v*)ᵀ S (v − v*) + const. The contact step is
+//!   minimise ½ (v − v*)ᵀ S (v − v*)  subject to  v ≥ λ_p,
+//! a small dense QP. With z = v − λ_p ≥ 0 it reads min ½ zᵀS z + zᵀS(λ_p − v*), z ≥ 0; its
+//! multiplier μ = S(v − v*) ≥ 0 is exactly the Γc nodal force T² on body 2, and the body's
+//! field is u² = u₀ + K⁻¹Bᵀμ (one back-solve, [`ContactStep::field`]). The iteration itself
+//! needs only T² and the contact set, so the field is formed only where it is used (the
+//! reported iterate, the estimates).
+
+use crate::body::{Body, BodyError};
+use crate::dense::SymMatrix;
+use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
+
+#[derive(Debug, thiserror::Error)]
+pub enum ContactError {
+    #[error(transparent)]
+    Body(#[from] BodyError),
+    #[error("contact QP: {0}")]
+    Qp(#[from] QpError),
+    #[error("body {0} has no interface Schur complement")]
+    NoSchur(usize),
+}
+
+/// The result of one contact step.
+pub struct ContactSolution {
+    /// T²_p = K u² − f² on the Γc normal dofs (≥ 0, compression).
+    pub forces: Vec<f64>,
+    /// Nodes in contact (v = λ_p).
+    pub active: Vec<bool>,
+    pub qp_iterations: u32,
+    pub kkt_residual: f64,
+}
+
+/// The condensed contact problem of body 2 (set up once).
+pub struct ContactStep {
+    u0: Vec<f64>,
+    v_star: Vec<f64>,
+    qp: QpSettings,
+}
+
+impl ContactStep {
+    pub fn new(body: &Body, qp: QpSettings) -> Result<ContactStep, ContactError> {
+        if body.schur.is_none() {
+            return Err(ContactError::NoSchur(body.alpha()));
+        }
+        let u0 = body.neumann_solve(&vec![0.0; body.gc.len()], true)?;
+        let v_star = body.normal_trace(&u0);
+        Ok(ContactStep { u0, v_star, qp })
+    }
+
+    /// Body 2's displacement u² = u₀ + K⁻¹Bᵀ T² for the Γc forces `forces` of a contact step.
+    pub fn field(&self, body: &Body, forces: &[f64]) -> Result<Vec<f64>, ContactError> {
+        let w = body.neumann_solve(forces, false)?;
+        Ok(self.u0.iter().zip(&w).map(|(a, b)| a + b).collect())
+    }
+
+    /// The unconstrained solution u₀ and its normal trace v*.
+    pub fn free_solution(&self) -> (&[f64], &[f64]) {
+        (&self.u0, &self.v_star)
+    }
+
+    /// Solve the contact step for the obstacle λ_p.
+    pub fn solve(&self, body: &Body, lambda: &[f64]) -> Result<ContactSolution, ContactError> {
+        let s: &SymMatrix = body
+            .schur
+            .as_ref()
+            .ok_or(ContactError::NoSchur(body.alpha()))?;
+        let m = lambda.len();
+        let diff: Vec<f64> = lambda
+            .iter()
+            .zip(&self.v_star)
+            .map(|(l, v)| l - v)
+            .collect();
+        let mut q = vec![0.0; m];
+        s.matvec(&diff, &mut q);
+        let sol = solve_nonneg_qp(s, &q, &self.qp)?;
+        Ok(ContactSolution {
+            forces: sol.y,
+            active: sol.active,
+            qp_iterations: sol.iterations,
+            kkt_residual: sol.kkt_residual,
+        })
+    }
+}

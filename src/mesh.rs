@@ -1,0 +1,132 @@
+//! Structured P1 triangle meshes of the benchmark blocks (benchmarks.md, "Meshes").
+//!
+//! A body is an `nx × ny` grid of equal rectangles; the rectangle with corners a (lower left),
+//! b (lower right), c (upper left), d (upper right) is split into the triangles (a, b, d) and
+//! (a, d, c). Node (i, j) has index `j (nx + 1) + i`; its dofs are `2 node` (x) and
+//! `2 node + 1` (y).
+
+/// A structured triangle mesh of the rectangle `origin + [0, size.0] × [0, size.1]`.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    pub nx: usize,
+    pub ny: usize,
+    pub origin: [f64; 2],
+    pub size: [f64; 2],
+    pub points: Vec<[f64; 2]>,
+    pub triangles: Vec<[usize; 3]>,
+}
+
+impl Mesh {
+    pub fn structured(origin: [f64; 2], size: [f64; 2], nx: usize, ny: usize) -> Mesh {
+        let (hx, hy) = (size[0] / nx as f64, size[1] / ny as f64);
+        let mut points = Vec::with_capacity((nx + 1) * (ny + 1));
+        for j in 0..=ny {
+            for i in 0..=nx {
+                points.push([origin[0] + i as f64 * hx, origin[1] + j as f64 * hy]);
+            }
+        }
+        let node = |i: usize, j: usize| j * (nx + 1) + i;
+        let mut triangles = Vec::with_capacity(2 * nx * ny);
+        for j in 0..ny {
+            for i in 0..nx {
+                let (a, b, c, d) = (
+                    node(i, j),
+                    node(i + 1, j),
+                    node(i, j + 1),
+                    node(i + 1, j + 1),
+                );
+                triangles.push([a, b, d]);
+                triangles.push([a, d, c]);
+            }
+        }
+        Mesh {
+            nx,
+            ny,
+            origin,
+            size,
+            points,
+            triangles,
+        }
+    }
+
+    pub fn node(&self, i: usize, j: usize) -> usize {
+        j * (self.nx + 1) + i
+    }
+
+    pub fn num_nodes(&self) -> usize {
+        self.points.len()
+    }
+
+    pub fn num_dofs(&self) -> usize {
+        2 * self.points.len()
+    }
+
+    /// Nodes of the bottom edge, left to right.
+    pub fn bottom_nodes(&self) -> Vec<usize> {
+        (0..=self.nx).map(|i| self.node(i, 0)).collect()
+    }
+
+    /// Nodes of the top edge, left to right.
+    pub fn top_nodes(&self) -> Vec<usize> {
+        (0..=self.nx).map(|i| self.node(i, self.ny)).collect()
+    }
+
+    /// Edges of the right side x = origin.0 + size.0, bottom to top.
+    pub fn right_edges(&self) -> Vec<[usize; 2]> {
+        (0..self.ny)
+            .map(|j| [self.node(self.nx, j), self.node(self.nx, j + 1)])
+            .collect()
+    }
+
+    /// The vertex coordinates of triangle `e`.
+    pub fn triangle_points(&self, e: usize) -> [[f64; 2]; 3] {
+        let t = self.triangles[e];
+        [self.points[t[0]], self.points[t[1]], self.points[t[2]]]
+    }
+
+    /// Sorted node neighbourhoods (each node with itself), the sparsity pattern of P1.
+    pub fn node_neighbours(&self) -> Vec<Vec<usize>> {
+        let mut nb: Vec<Vec<usize>> = (0..self.num_nodes()).map(|i| vec![i]).collect();
+        for t in &self.triangles {
+            for &a in t {
+                for &b in t {
+                    if a != b {
+                        nb[a].push(b);
+                    }
+                }
+            }
+        }
+        for l in &mut nb {
+            l.sort_unstable();
+            l.dedup();
+        }
+        nb
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_area_and_diagonal() {
+        let m = Mesh::structured([0.0, 1.0], [1.0, 1.0], 4, 3);
+        assert_eq!(m.num_nodes(), 20);
+        assert_eq!(m.triangles.len(), 24);
+        let mut area = 0.0;
+        for e in 0..m.triangles.len() {
+            let p = m.triangle_points(e);
+            let a = 0.5
+                * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                    - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]));
+            assert!(a > 0.0, "triangle {e} is not counter-clockwise");
+            area += a;
+        }
+        assert!((area - 1.0).abs() < 1e-14);
+        // The diagonal of the first rectangle goes from a = (0,1) to d = (0.25, 1 + 1/3).
+        assert_eq!(m.triangles[0], [0, 1, 6]);
+        assert_eq!(m.triangles[1], [0, 6, 5]);
+        assert_eq!(m.top_nodes(), vec![15, 16, 17, 18, 19]);
+        assert_eq!(m.right_edges()[0], [4, 9]);
+    }
+}

@@ -1,0 +1,228 @@
+//! The Neumann–Neumann iteration (paper §3, method.md §2).
+//!
+//! Each iteration p: the Dirichlet step on Ω¹ and the contact step on Ω² (at the same time on
+//! two ranks), the equilibrium defect R_p = T¹_p + T²_p, the two Neumann steps, and the update
+//! λ_{p+1} = λ_p + θ (w¹ − w²)·n.
+
+use crate::body::{Body, BodyError};
+use crate::contact::{ContactError, ContactStep};
+use crate::layout::Layout;
+use crate::log::{Stages, Timer};
+use crate::settings::Settings;
+
+#[derive(Debug, thiserror::Error)]
+pub enum NnddError {
+    #[error(transparent)]
+    Body(#[from] BodyError),
+    #[error(transparent)]
+    Contact(#[from] ContactError),
+}
+
+/// How an NNDD run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    Converged,
+    MaxIterations,
+    Diverged,
+    Stagnated,
+}
+
+impl Status {
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Converged => "converged",
+            Status::MaxIterations => "max_it",
+            Status::Diverged => "diverged",
+            Status::Stagnated => "stagnated",
+        }
+    }
+}
+
+/// One line of the convergence history.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct IterationRecord {
+    pub iteration: usize,
+    /// ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
+    pub lambda_change: f64,
+    /// ‖R_p‖ = ‖T¹_p + T²_p‖ (N/m, nodal forces).
+    pub residual: f64,
+    /// Number of Γc nodes in contact at step p.
+    pub active: usize,
+}
+
+/// Per-phase wall times of the loop on this rank.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LoopTimers {
+    pub dirichlet_step: Timer,
+    pub contact_step: Timer,
+    pub neumann_step: Timer,
+    pub exchange: Timer,
+}
+
+/// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
+pub struct Iterate {
+    pub lambda: Vec<f64>,
+    /// u¹_p on body 1's ranks, u²_p on body 2's (empty elsewhere; u²_p is formed after the
+    /// loop, for the reported step only).
+    pub u: [Vec<f64>; 2],
+    /// T¹_p, T²_p on the Γc normal dofs (known on every rank).
+    pub forces: [Vec<f64>; 2],
+    pub active: Vec<bool>,
+    /// Relative KKT violation of the contact QP of this step.
+    pub qp_kkt: f64,
+}
+
+pub struct NnddResult {
+    pub status: Status,
+    pub iterations: usize,
+    pub history: Vec<IterationRecord>,
+    pub last: Iterate,
+    pub timers: LoopTimers,
+}
+
+/// Step 1 on Ω¹: `(u¹_p, T¹_p)`.
+pub fn dirichlet_step(body1: &Body, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
+    body1.dirichlet_solve(lambda)
+}
+
+/// Step 4 on body α: the normal trace of w^α, K^α w^α = ±½ R_p on Γc (homogeneous data).
+pub fn neumann_step(body: &Body, residual: &[f64]) -> Result<Vec<f64>, BodyError> {
+    // Body 1 receives −½R, body 2 +½R (method.md §2 step 4).
+    let sign = if body.alpha() == 1 { -0.5 } else { 0.5 };
+    let load: Vec<f64> = residual.iter().map(|r| sign * r).collect();
+    let w = body.neumann_solve(&load, false)?;
+    Ok(body.normal_trace(&w))
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// Run the NNDD loop. `bodies[α-1]` is `Some` on the ranks owning body α; `contact` on body 2's.
+pub fn solve(
+    settings: &Settings,
+    layout: &Layout,
+    bodies: [Option<&Body>; 2],
+    contact: Option<&ContactStep>,
+    stages: &Stages,
+    mut monitor: impl FnMut(&IterationRecord),
+) -> Result<NnddResult, NnddError> {
+    let m = settings.body_grid(1).0 + 1;
+    let mut lambda = vec![0.0; m];
+    let mut history = Vec::new();
+    let mut timers = LoopTimers::default();
+    let mut status = Status::MaxIterations;
+    let mut best = f64::INFINITY;
+    let mut best_at = 0usize;
+    let mut growth = 0usize;
+    let mut last: Option<Iterate> = None;
+    for p in 1..=settings.max_it {
+        // Step 1: Dirichlet problem on Ω¹ and contact problem on Ω², concurrently.
+        let mut t1 = vec![0.0; m];
+        let mut u1 = Vec::new();
+        if let Some(b1) = bodies[0] {
+            let _s = stages.dirichlet_step.enter();
+            let (u, t) = timers.dirichlet_step.time(|| dirichlet_step(b1, &lambda))?;
+            u1 = u;
+            t1 = t;
+        }
+        let mut t2 = vec![0.0; m];
+        let mut act = vec![0.0; m + 1];
+        if let (Some(b2), Some(c)) = (bodies[1], contact) {
+            let _s = stages.contact_step.enter();
+            let sol = timers.contact_step.time(|| c.solve(b2, &lambda))?;
+            t2 = sol.forces;
+            act = sol.active.iter().map(|&a| a as u8 as f64).collect();
+            act.push(sol.kkt_residual);
+        }
+        timers.exchange.time(|| {
+            layout.share(1, &mut t1);
+            layout.share(2, &mut t2);
+            layout.share(2, &mut act);
+        });
+        // Step 3: equilibrium defect.
+        let r: Vec<f64> = t1.iter().zip(&t2).map(|(a, b)| a + b).collect();
+        // Step 4: two Neumann problems.
+        let mut w1 = vec![0.0; m];
+        let mut w2 = vec![0.0; m];
+        {
+            let _s = stages.neumann_step.enter();
+            if let Some(b1) = bodies[0] {
+                w1 = timers.neumann_step.time(|| neumann_step(b1, &r))?;
+            }
+            if let Some(b2) = bodies[1] {
+                w2 = timers.neumann_step.time(|| neumann_step(b2, &r))?;
+            }
+        }
+        timers.exchange.time(|| {
+            layout.share(1, &mut w1);
+            layout.share(2, &mut w2);
+        });
+        // Step 5: update.
+        let new: Vec<f64> = (0..m)
+            .map(|i| lambda[i] + settings.theta * (w1[i] - w2[i]))
+            .collect();
+        let dl: Vec<f64> = new.iter().zip(&lambda).map(|(a, b)| a - b).collect();
+        let nl = norm(&new);
+        let change = if nl > 0.0 { norm(&dl) / nl } else { norm(&dl) };
+        let record = IterationRecord {
+            iteration: p,
+            lambda_change: change,
+            residual: norm(&r),
+            active: act[..m].iter().filter(|&&a| a > 0.5).count(),
+        };
+        monitor(&record);
+        history.push(record);
+        last = Some(Iterate {
+            lambda: lambda.clone(),
+            u: [u1, Vec::new()],
+            forces: [t1, t2],
+            active: act[..m].iter().map(|&a| a > 0.5).collect(),
+            qp_kkt: act[m],
+        });
+        // Step 6: stop? (all ranks computed the same numbers; rank 0 decides for all)
+        let verdict = if !change.is_finite() {
+            Some(Status::Diverged)
+        } else if change <= settings.tol {
+            Some(Status::Converged)
+        } else {
+            if change < best {
+                best = change;
+                best_at = p;
+            }
+            growth = if p > 1 && change > history[p - 2].lambda_change {
+                growth + 1
+            } else {
+                0
+            };
+            if growth >= 5 && change > 10.0 * best {
+                Some(Status::Diverged)
+            } else if p - best_at >= 50 {
+                Some(Status::Stagnated)
+            } else {
+                None
+            }
+        };
+        let code = verdict.map_or(0u8, |s| s as u8 + 1);
+        let stop = layout.agree(code != 0);
+        if stop {
+            status = verdict.unwrap_or(Status::Stagnated);
+            break;
+        }
+        lambda = new;
+    }
+    let iterations = history.len();
+    let mut last = last.expect("max_it ≥ 1");
+    // Body 2's field of the reported step (the loop needs only its Γc forces).
+    if let (Some(b2), Some(c)) = (bodies[1], contact) {
+        let _s = stages.contact_step.enter();
+        last.u[1] = timers.contact_step.time(|| c.field(b2, &last.forces[1]))?;
+    }
+    Ok(NnddResult {
+        status,
+        iterations,
+        history,
+        last,
+        timers,
+    })
+}

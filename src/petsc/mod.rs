@@ -1,0 +1,639 @@
+//! The one home of PETSc: the unsafe FFI (`ffi`) and safe RAII wrappers around it.
+//!
+//! Every `PetscErrorCode` becomes a [`PetscError`] carrying PETSc's own message; PETSc's
+//! traceback printer is replaced by a returning error handler, so an error reaches the user
+//! as one line. Nothing outside this module calls FFI.
+
+mod ffi;
+
+use std::ffi::{CStr, CString};
+use std::os::raw::{c_char, c_int};
+use std::ptr;
+
+pub use ffi::MPI_Comm as RawComm;
+
+/// PETSc's `PetscInt` (32-bit in Debian's build).
+pub type Int = ffi::PetscInt;
+
+const PETSC_DETERMINE: Int = -1;
+
+/// A PETSc call that failed.
+#[derive(Debug, thiserror::Error)]
+#[error("PETSc error {code} in {call}: {message}")]
+pub struct PetscError {
+    pub code: i32,
+    pub call: &'static str,
+    pub message: String,
+}
+
+pub type Result<T> = std::result::Result<T, PetscError>;
+
+impl PetscError {
+    /// The same error, reported as a bad value of option `name`.
+    fn for_option(mut self, name: &str) -> PetscError {
+        self.message = format!("{name}: {}", self.message);
+        self
+    }
+}
+
+fn check(code: ffi::PetscErrorCode, call: &'static str) -> Result<()> {
+    if code == 0 {
+        return Ok(());
+    }
+    let mut text: *const c_char = ptr::null();
+    let mut specific: *mut c_char = ptr::null_mut();
+    // SAFETY: PetscErrorMessage only writes the two pointers to static strings.
+    unsafe { ffi::PetscErrorMessage(code, &mut text, &mut specific) };
+    let pick = |p: *const c_char| {
+        if p.is_null() {
+            String::new()
+        } else {
+            // SAFETY: PETSc returns NUL-terminated static buffers.
+            unsafe { CStr::from_ptr(p) }
+                .to_string_lossy()
+                .trim()
+                .to_string()
+        }
+    };
+    let mut message = pick(specific);
+    if message.is_empty() {
+        message = pick(text);
+    }
+    Err(PetscError {
+        code,
+        call,
+        message: message.replace('\n', " "),
+    })
+}
+
+macro_rules! call {
+    ($f:ident ( $($arg:expr),* $(,)? )) => {
+        check(unsafe { ffi::$f($($arg),*) }, stringify!($f))
+    };
+}
+
+fn cstr(s: &str) -> CString {
+    CString::new(s).expect("option strings never contain NUL")
+}
+
+/// An initialised PETSc. Create it once per process after MPI; dropping it finalises PETSc.
+pub struct Petsc {
+    _argv: Vec<CString>,
+}
+
+impl Petsc {
+    /// `PetscInitialize` with the process arguments; `help` is printed by `-help`.
+    pub fn initialize(args: &[String], help: &str) -> Result<Petsc> {
+        let argv_owned: Vec<CString> = args.iter().map(|a| cstr(a)).collect();
+        // PETSc keeps argv: leak the pointer array for the life of the process.
+        let mut ptrs: Vec<*mut c_char> = argv_owned
+            .iter()
+            .map(|a| a.as_ptr() as *mut c_char)
+            .collect();
+        ptrs.push(ptr::null_mut());
+        let ptrs = Box::leak(ptrs.into_boxed_slice());
+        let mut argc: c_int = args.len() as c_int;
+        let mut argv: *mut *mut c_char = ptrs.as_mut_ptr();
+        let help = Box::leak(cstr(help).into_boxed_c_str());
+        call!(PetscInitialize(
+            &mut argc,
+            &mut argv,
+            ptr::null(),
+            help.as_ptr()
+        ))?;
+        // Errors come back as codes; we print them as one line ourselves.
+        call!(PetscPushErrorHandler(
+            Some(ffi::PetscReturnErrorHandler),
+            ptr::null_mut()
+        ))?;
+        Ok(Petsc { _argv: argv_owned })
+    }
+
+    /// `PETSC_COMM_WORLD`.
+    pub fn comm_world() -> RawComm {
+        // SAFETY: a global set by PetscInitialize.
+        unsafe { ffi::PETSC_COMM_WORLD }
+    }
+
+    /// Ask PETSc to track the peak resident memory (`-memory_view` style).
+    pub fn track_memory() -> Result<()> {
+        call!(PetscMemorySetGetMaximumUsage())
+    }
+
+    /// Peak resident set size of this process in bytes (0 when not tracked).
+    pub fn peak_memory() -> f64 {
+        let mut m: ffi::PetscLogDouble = 0.0;
+        if call!(PetscMemoryGetMaximumUsage(&mut m)).is_err() {
+            return 0.0;
+        }
+        m
+    }
+}
+
+impl Drop for Petsc {
+    fn drop(&mut self) {
+        // SAFETY: every PETSc object is dropped before `Petsc` by construction of `main`.
+        unsafe { ffi::PetscFinalize() };
+    }
+}
+
+/// Convert an rsmpi raw communicator into PETSc's `MPI_Comm` (both are OpenMPI's
+/// `ompi_communicator_t *`; the two bindings only name the type differently).
+pub fn comm_from_rsmpi(raw: mpi::ffi::MPI_Comm) -> RawComm {
+    raw.0 as RawComm
+}
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+/// Whether an option is present in the options database (e.g. `-help`).
+pub fn option_present(name: &str) -> bool {
+    let mut set: ffi::PetscBool = ffi::PETSC_FALSE;
+    let n = cstr(name);
+    call!(PetscOptionsHasName(
+        ptr::null_mut(),
+        ptr::null(),
+        n.as_ptr(),
+        &mut set
+    ))
+    .is_ok()
+        && set == ffi::PETSC_TRUE
+}
+
+/// Set an option unless the user gave it (`PetscOptionsSetValue` when absent).
+pub fn option_default(name: &str, value: &str) -> Result<()> {
+    if option_present(name) {
+        return Ok(());
+    }
+    let (n, v) = (cstr(name), cstr(value));
+    call!(PetscOptionsSetValue(
+        ptr::null_mut(),
+        n.as_ptr(),
+        v.as_ptr()
+    ))
+}
+
+/// A block of registered options (`PetscOptionsBegin` … `PetscOptionsEnd`): each query
+/// registers the option with its help text, so `-help` lists it with its default.
+pub struct OptionsBlock {
+    items: Box<ffi::PetscOptionItems>,
+    ended: bool,
+}
+
+fn to_bool(b: ffi::PetscBool) -> bool {
+    b == ffi::PETSC_TRUE
+}
+
+impl OptionsBlock {
+    pub fn begin(comm: RawComm, title: &str, mansec: &str) -> Result<OptionsBlock> {
+        // SAFETY: PetscOptionItems is a plain C struct, zero-initialised as the C macro does.
+        let mut items: Box<ffi::PetscOptionItems> = Box::new(unsafe { std::mem::zeroed() });
+        items.count = 1; // one pass: no SAWs publishing
+        let (t, m) = (cstr(title), cstr(mansec));
+        call!(PetscOptionsBegin_Private(
+            &mut *items,
+            comm,
+            ptr::null(),
+            t.as_ptr(),
+            m.as_ptr()
+        ))?;
+        Ok(OptionsBlock {
+            items,
+            ended: false,
+        })
+    }
+
+    pub fn real(&mut self, name: &str, help: &str, default: f64) -> Result<(f64, bool)> {
+        self.real_(name, help, default)
+            .map_err(|e| e.for_option(name))
+    }
+
+    fn real_(&mut self, name: &str, help: &str, default: f64) -> Result<(f64, bool)> {
+        let (n, h, m) = (cstr(name), cstr(help), cstr("None"));
+        let mut value = default;
+        let mut set = ffi::PETSC_FALSE;
+        call!(PetscOptionsReal_Private(
+            &mut *self.items,
+            n.as_ptr(),
+            h.as_ptr(),
+            m.as_ptr(),
+            default,
+            &mut value,
+            &mut set
+        ))?;
+        Ok((value, to_bool(set)))
+    }
+
+    pub fn int(&mut self, name: &str, help: &str, default: i64) -> Result<(i64, bool)> {
+        self.int_(name, help, default)
+            .map_err(|e| e.for_option(name))
+    }
+
+    fn int_(&mut self, name: &str, help: &str, default: i64) -> Result<(i64, bool)> {
+        let (n, h, m) = (cstr(name), cstr(help), cstr("None"));
+        let mut value: Int = default as Int;
+        let mut set = ffi::PETSC_FALSE;
+        call!(PetscOptionsInt_Private(
+            &mut *self.items,
+            n.as_ptr(),
+            h.as_ptr(),
+            m.as_ptr(),
+            default as Int,
+            &mut value,
+            &mut set,
+            Int::MIN + 1,
+            Int::MAX
+        ))?;
+        Ok((value as i64, to_bool(set)))
+    }
+
+    pub fn string(&mut self, name: &str, help: &str, default: &str) -> Result<(String, bool)> {
+        let (n, h, m, d) = (cstr(name), cstr(help), cstr("None"), cstr(default));
+        let mut buf = vec![0 as c_char; 4096];
+        let mut set = ffi::PETSC_FALSE;
+        call!(PetscOptionsString_Private(
+            &mut *self.items,
+            n.as_ptr(),
+            h.as_ptr(),
+            m.as_ptr(),
+            d.as_ptr(),
+            buf.as_mut_ptr(),
+            buf.len(),
+            &mut set
+        ))?;
+        let value = if to_bool(set) {
+            // SAFETY: PETSc NUL-terminates within the buffer.
+            unsafe { CStr::from_ptr(buf.as_ptr()) }
+                .to_string_lossy()
+                .into_owned()
+        } else {
+            default.to_string()
+        };
+        Ok((value, to_bool(set)))
+    }
+
+    pub fn flag(&mut self, name: &str, help: &str, default: bool) -> Result<bool> {
+        self.flag_(name, help, default)
+            .map_err(|e| e.for_option(name))
+    }
+
+    fn flag_(&mut self, name: &str, help: &str, default: bool) -> Result<bool> {
+        let (n, h, m) = (cstr(name), cstr(help), cstr("None"));
+        let d = if default {
+            ffi::PETSC_TRUE
+        } else {
+            ffi::PETSC_FALSE
+        };
+        let mut value = d;
+        let mut set = ffi::PETSC_FALSE;
+        call!(PetscOptionsBool_Private(
+            &mut *self.items,
+            n.as_ptr(),
+            h.as_ptr(),
+            m.as_ptr(),
+            d,
+            &mut value,
+            &mut set
+        ))?;
+        Ok(to_bool(value))
+    }
+
+    pub fn end(mut self) -> Result<()> {
+        self.ended = true;
+        call!(PetscOptionsEnd_Private(&mut *self.items))
+    }
+}
+
+impl Drop for OptionsBlock {
+    fn drop(&mut self) {
+        if !self.ended {
+            unsafe { ffi::PetscOptionsEnd_Private(&mut *self.items) };
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Logging
+
+/// A `-log_view` stage.
+#[derive(Clone, Copy, Debug)]
+pub struct LogStage(ffi::PetscLogStage);
+
+impl LogStage {
+    pub fn register(name: &str) -> Result<LogStage> {
+        let n = cstr(name);
+        let mut s: ffi::PetscLogStage = 0;
+        call!(PetscLogStageRegister(n.as_ptr(), &mut s))?;
+        Ok(LogStage(s))
+    }
+
+    /// Push the stage; it is popped when the guard drops.
+    pub fn enter(self) -> StageGuard {
+        let ok = call!(PetscLogStagePush(self.0)).is_ok();
+        StageGuard(ok)
+    }
+}
+
+pub struct StageGuard(bool);
+
+impl Drop for StageGuard {
+    fn drop(&mut self) {
+        if self.0 {
+            unsafe { ffi::PetscLogStagePop() };
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Index sets
+
+struct Is(ffi::IS);
+
+impl Is {
+    fn new(comm: RawComm, idx: &[Int]) -> Result<Is> {
+        let mut is: ffi::IS = ptr::null_mut();
+        call!(ISCreateGeneral(
+            comm,
+            idx.len() as Int,
+            idx.as_ptr(),
+            ffi::PETSC_COPY_VALUES,
+            &mut is
+        ))?;
+        Ok(Is(is))
+    }
+}
+
+impl Drop for Is {
+    fn drop(&mut self) {
+        unsafe { ffi::ISDestroy(&mut self.0) };
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Vectors
+
+/// A PETSc vector (sequential or distributed over `comm`).
+pub struct Vector(ffi::Vec);
+
+impl Vector {
+    /// A vector with `local` entries on this rank, on communicator `comm`.
+    pub fn new(comm: RawComm, local: usize) -> Result<Vector> {
+        let mut v: ffi::Vec = ptr::null_mut();
+        call!(VecCreateMPI(comm, local as Int, PETSC_DETERMINE, &mut v))?;
+        Ok(Vector(v))
+    }
+
+    pub fn duplicate(&self) -> Result<Vector> {
+        let mut v: ffi::Vec = ptr::null_mut();
+        call!(VecDuplicate(self.0, &mut v))?;
+        Ok(Vector(v))
+    }
+
+    pub fn local_len(&self) -> Result<usize> {
+        let mut n: Int = 0;
+        call!(VecGetLocalSize(self.0, &mut n))?;
+        Ok(n as usize)
+    }
+
+    /// Copy the local part out.
+    pub fn to_vec(&self) -> Result<Vec<f64>> {
+        let n = self.local_len()?;
+        let mut a: *const f64 = ptr::null();
+        call!(VecGetArrayRead(self.0, &mut a))?;
+        // SAFETY: PETSc gives `n` readable entries until the restore below.
+        let out = unsafe { std::slice::from_raw_parts(a, n) }.to_vec();
+        call!(VecRestoreArrayRead(self.0, &mut a))?;
+        Ok(out)
+    }
+
+    /// Overwrite the local part.
+    pub fn copy_from(&mut self, values: &[f64]) -> Result<()> {
+        let n = self.local_len()?;
+        assert_eq!(n, values.len(), "vector length mismatch");
+        let mut a: *mut f64 = ptr::null_mut();
+        call!(VecGetArray(self.0, &mut a))?;
+        // SAFETY: PETSc gives `n` writable entries until the restore below.
+        unsafe { std::slice::from_raw_parts_mut(a, n) }.copy_from_slice(values);
+        call!(VecRestoreArray(self.0, &mut a))
+    }
+}
+
+impl Drop for Vector {
+    fn drop(&mut self) {
+        unsafe { ffi::VecDestroy(&mut self.0) };
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Matrices
+
+/// A PETSc AIJ matrix (SeqAIJ or MPIAIJ depending on the communicator size).
+pub struct Matrix(ffi::Mat);
+
+impl Matrix {
+    /// Build from this rank's rows in CSR form (global column indices), block size 2.
+    pub fn from_csr(
+        comm: RawComm,
+        local_rows: usize,
+        row_ptr: &[Int],
+        cols: &[Int],
+        vals: &[f64],
+    ) -> Result<Matrix> {
+        let mut m: ffi::Mat = ptr::null_mut();
+        call!(MatCreate(comm, &mut m))?;
+        let mat = Matrix(m);
+        let n = local_rows as Int;
+        call!(MatSetSizes(mat.0, n, n, PETSC_DETERMINE, PETSC_DETERMINE))?;
+        call!(MatSetBlockSize(mat.0, 2))?;
+        let aij = cstr("aij");
+        call!(MatSetType(mat.0, aij.as_ptr()))?;
+        call!(MatSeqAIJSetPreallocationCSR(
+            mat.0,
+            row_ptr.as_ptr(),
+            cols.as_ptr(),
+            vals.as_ptr()
+        ))?;
+        call!(MatMPIAIJSetPreallocationCSR(
+            mat.0,
+            row_ptr.as_ptr(),
+            cols.as_ptr(),
+            vals.as_ptr()
+        ))?;
+        call!(MatSetOption(mat.0, ffi::MAT_SYMMETRIC, ffi::PETSC_TRUE))?;
+        call!(MatSetOption(mat.0, ffi::MAT_SPD, ffi::PETSC_TRUE))?;
+        Ok(mat)
+    }
+
+    pub fn duplicate(&self) -> Result<Matrix> {
+        let mut m: ffi::Mat = ptr::null_mut();
+        call!(MatDuplicate(self.0, ffi::MAT_COPY_VALUES, &mut m))?;
+        Ok(Matrix(m))
+    }
+
+    /// Zero the given global rows and columns, putting `diag` on the diagonal: symmetric
+    /// elimination of Dirichlet conditions (the right-hand side is lifted by the caller).
+    pub fn zero_rows_columns(&mut self, rows: &[Int], diag: f64) -> Result<()> {
+        call!(MatZeroRowsColumns(
+            self.0,
+            rows.len() as Int,
+            rows.as_ptr(),
+            diag,
+            ptr::null_mut(),
+            ptr::null_mut()
+        ))?;
+        // The elimination keeps the matrix SPD; tell the factorisation again.
+        call!(MatSetOption(self.0, ffi::MAT_SPD, ffi::PETSC_TRUE))
+    }
+
+    /// y = A x.
+    pub fn mult(&self, x: &Vector, y: &mut Vector) -> Result<()> {
+        call!(MatMult(self.0, x.0, y.0))
+    }
+
+    /// Attach the rigid-body modes (from the interlaced nodal coordinates) as near null space,
+    /// for algebraic multigrid.
+    pub fn set_rigid_body_near_null_space(&mut self, coords: &Vector) -> Result<()> {
+        let mut ns: ffi::MatNullSpace = ptr::null_mut();
+        call!(MatNullSpaceCreateRigidBody(coords.0, &mut ns))?;
+        let r = call!(MatSetNearNullSpace(self.0, ns));
+        unsafe { ffi::MatNullSpaceDestroy(&mut ns) };
+        r
+    }
+}
+
+impl Drop for Matrix {
+    fn drop(&mut self) {
+        unsafe { ffi::MatDestroy(&mut self.0) };
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Linear solvers
+
+/// What a solve did.
+#[derive(Clone, Copy, Debug)]
+pub struct SolveInfo {
+    pub iterations: i64,
+    pub reason: i32,
+}
+
+/// A KSP with its operator; configured by defaults (a direct Cholesky factorisation by MUMPS)
+/// that the options database (`-<prefix>ksp_type`, `-<prefix>pc_type`, …) overrides.
+pub struct Ksp {
+    ksp: ffi::KSP,
+    _mat: Matrix,
+    schur: Option<Vec<f64>>,
+    prefix: String,
+}
+
+impl Ksp {
+    /// Create the solver for `mat` with options prefix `prefix` (e.g. `body1_`). When
+    /// `schur_rows` is given and the factorisation is MUMPS, its Schur complement on those rows
+    /// is computed during the factorisation ([`Ksp::schur_complement`]).
+    pub fn new(
+        comm: RawComm,
+        mat: Matrix,
+        prefix: &str,
+        schur_rows: Option<&[Int]>,
+    ) -> Result<Ksp> {
+        let mut ksp: ffi::KSP = ptr::null_mut();
+        call!(KSPCreate(comm, &mut ksp))?;
+        let mut solver = Ksp {
+            ksp,
+            _mat: mat,
+            schur: None,
+            prefix: prefix.to_string(),
+        };
+        call!(KSPSetOperators(solver.ksp, solver._mat.0, solver._mat.0))?;
+        let p = cstr(prefix);
+        call!(KSPSetOptionsPrefix(solver.ksp, p.as_ptr()))?;
+        let preonly = cstr("preonly");
+        call!(KSPSetType(solver.ksp, preonly.as_ptr()))?;
+        let mut pc: ffi::PC = ptr::null_mut();
+        call!(KSPGetPC(solver.ksp, &mut pc))?;
+        let chol = cstr("cholesky");
+        call!(PCSetType(pc, chol.as_ptr()))?;
+        let mumps = cstr("mumps");
+        call!(PCFactorSetMatSolverType(pc, mumps.as_ptr()))?;
+        call!(KSPSetFromOptions(solver.ksp))?;
+        let mut factor: ffi::Mat = ptr::null_mut();
+        let mut schur_is = None;
+        if let Some(rows) = schur_rows {
+            if solver.uses_mumps_factor(pc)? {
+                call!(PCFactorSetUpMatSolverType(pc))?;
+                call!(PCFactorGetMatrix(pc, &mut factor))?;
+                let is = Is::new(comm, rows)?;
+                call!(MatFactorSetSchurIS(factor, is.0))?;
+                schur_is = Some((is, rows.len()));
+            }
+        }
+        call!(KSPSetUp(solver.ksp))?;
+        if let Some((_is, m)) = schur_is {
+            let mut s: ffi::Mat = ptr::null_mut();
+            let mut status = ffi::MAT_FACTOR_SCHUR_UNFACTORED;
+            call!(MatFactorCreateSchurComplement(factor, &mut s, &mut status))?;
+            let s = Matrix(s);
+            let mut a: *const f64 = ptr::null();
+            call!(MatDenseGetArrayRead(s.0, &mut a))?;
+            // SAFETY: a sequential dense m x m matrix, column-major.
+            let dense = unsafe { std::slice::from_raw_parts(a, m * m) }.to_vec();
+            call!(MatDenseRestoreArrayRead(s.0, &mut a))?;
+            solver.schur = Some(dense);
+        }
+        Ok(solver)
+    }
+
+    fn uses_mumps_factor(&self, pc: ffi::PC) -> Result<bool> {
+        let mut t: ffi::PCType = ptr::null();
+        call!(PCGetType(pc, &mut t))?;
+        let t = unsafe { CStr::from_ptr(t) }.to_string_lossy().into_owned();
+        if t != "cholesky" && t != "lu" {
+            return Ok(false);
+        }
+        // PCFactorGetMatSolverType is not in the allowlist; read the option instead.
+        let name = format!("-{}pc_factor_mat_solver_type", self.prefix);
+        let mut buf = vec![0 as c_char; 64];
+        let mut set = ffi::PETSC_FALSE;
+        let n = cstr(&name);
+        call!(PetscOptionsGetString(
+            ptr::null_mut(),
+            ptr::null(),
+            n.as_ptr(),
+            buf.as_mut_ptr(),
+            buf.len(),
+            &mut set
+        ))?;
+        if !to_bool(set) {
+            return Ok(true);
+        }
+        let v = unsafe { CStr::from_ptr(buf.as_ptr()) }
+            .to_string_lossy()
+            .into_owned();
+        Ok(v == "mumps")
+    }
+
+    /// The dense Schur complement computed during factorisation (column-major, symmetric part
+    /// completed), if MUMPS computed one.
+    pub fn schur_complement(&self) -> Option<&[f64]> {
+        self.schur.as_deref()
+    }
+
+    /// Solve A x = b.
+    pub fn solve(&self, b: &Vector, x: &mut Vector) -> Result<SolveInfo> {
+        call!(KSPSolve(self.ksp, b.0, x.0))?;
+        let mut reason = ffi::KSP_CONVERGED_ITERATING;
+        call!(KSPGetConvergedReason(self.ksp, &mut reason))?;
+        let mut its: Int = 0;
+        call!(KSPGetIterationNumber(self.ksp, &mut its))?;
+        Ok(SolveInfo {
+            iterations: its as i64,
+            reason: reason as i32,
+        })
+    }
+}
+
+impl Drop for Ksp {
+    fn drop(&mut self) {
+        unsafe { ffi::KSPDestroy(&mut self.ksp) };
+    }
+}

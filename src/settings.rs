@@ -1,0 +1,286 @@
+//! Run settings: every one is a PETSc option (`-nndd_…`), registered with its help text and
+//! default so that `-help` lists it, and validated into a plain struct.
+
+use std::path::PathBuf;
+
+use crate::fem::Material;
+use crate::petsc::{self, OptionsBlock, RawComm};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProblemKind {
+    Paper,
+    Uniform,
+}
+
+impl ProblemKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            ProblemKind::Paper => "paper",
+            ProblemKind::Uniform => "uniform",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolverKind {
+    /// The Neumann–Neumann iteration (method.md §2).
+    Nndd,
+    /// The discrete global contact problem solved at once (the NNDD's check).
+    Monolithic,
+}
+
+impl SolverKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Nndd => "nndd",
+            SolverKind::Monolithic => "monolithic",
+        }
+    }
+}
+
+/// Bad input, naming the option and what it accepts.
+#[derive(Debug, thiserror::Error)]
+pub enum SettingsError {
+    #[error("{option} must be {accepted} (got {value})")]
+    OutOfRange {
+        option: &'static str,
+        accepted: &'static str,
+        value: String,
+    },
+    #[error("{option}: unknown value '{value}' (accepted: {accepted})")]
+    UnknownValue {
+        option: &'static str,
+        value: String,
+        accepted: &'static str,
+    },
+    #[error(transparent)]
+    Petsc(#[from] petsc::PetscError),
+}
+
+/// All settings of a run, with the paper's defaults.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub problem: ProblemKind,
+    /// Mesh level n: each body is an n × n grid unless overridden.
+    pub n: usize,
+    /// Per-body grids (nx, ny) for Ω¹ and Ω².
+    pub grids: [(usize, usize); 2],
+    pub material: Material,
+    /// Prescribed vertical displacement of the top of Ω² (m).
+    pub u_d: f64,
+    /// Maximum of the linear load on the right edge of Ω² (Pa).
+    pub f_max: f64,
+    pub solver: SolverKind,
+    /// NNDD relaxation θ of the update λ ← λ + θ (w¹ − w²)·n.
+    pub theta: f64,
+    /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
+    pub tol: f64,
+    pub max_it: usize,
+    /// Print one line per NNDD iteration.
+    pub monitor: bool,
+    /// Output prefix: PREFIX.h5, PREFIX.xdmf, PREFIX.json.
+    pub output: PathBuf,
+    /// Clarabel's tolerances for the contact QPs.
+    pub qp_tol: f64,
+}
+
+impl Settings {
+    /// Read, register (for `-help`) and validate the `-nndd_` options.
+    pub fn from_options(comm: RawComm) -> Result<Settings, SettingsError> {
+        let mut o = OptionsBlock::begin(
+            comm,
+            "nndd: two-body frictionless contact by Neumann-Neumann DD",
+            "nndd",
+        )?;
+        let (problem, _) = o.string(
+            "-nndd_problem",
+            "Benchmark problem: paper, uniform",
+            "paper",
+        )?;
+        let problem = match problem.as_str() {
+            "paper" => ProblemKind::Paper,
+            "uniform" => ProblemKind::Uniform,
+            _ => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_problem",
+                    value: problem,
+                    accepted: "paper, uniform",
+                })
+            }
+        };
+        let (n, _) = o.int(
+            "-nndd_n",
+            "Mesh level n: each body is an n x n grid of split squares",
+            8,
+        )?;
+        let n = positive("-nndd_n", n)?;
+        let mut grids = [(n, n); 2];
+        for (b, grid) in grids.iter_mut().enumerate() {
+            for (k, name) in [(0, "nx"), (1, "ny")] {
+                let opt: &'static str = OPTS_GRID[2 * b + k];
+                let (v, _) = o.int(
+                    opt,
+                    &format!("Body {} cells in {} (default n)", b + 1, &name[1..]),
+                    n as i64,
+                )?;
+                let v = positive(opt, v)?;
+                if k == 0 {
+                    grid.0 = v
+                } else {
+                    grid.1 = v
+                }
+            }
+        }
+        if grids[0].0 != grids[1].0 {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_body2_nx",
+                accepted: "equal to -nndd_body1_nx (matching nodes on the contact interface)",
+                value: format!("{} vs {}", grids[1].0, grids[0].0),
+            });
+        }
+        let (young, _) = o.real("-nndd_E", "Young's modulus E of both bodies (Pa)", 210e9)?;
+        if !(young > 0.0 && young.is_finite()) {
+            return Err(range("-nndd_E", "> 0", young));
+        }
+        let (poisson, _) = o.real(
+            "-nndd_nu",
+            "Poisson's ratio of both bodies, in (-1, 0.5)",
+            0.27,
+        )?;
+        if !(poisson > -1.0 && poisson < 0.5) {
+            return Err(range("-nndd_nu", "in (-1, 0.5)", poisson));
+        }
+        let (u_d, _) = o.real(
+            "-nndd_u_D",
+            "Prescribed vertical displacement of the top of body 2 (m)",
+            -1e-4,
+        )?;
+        if !u_d.is_finite() {
+            return Err(range("-nndd_u_D", "a finite number", u_d));
+        }
+        let f_default = if problem == ProblemKind::Paper {
+            1e7
+        } else {
+            0.0
+        };
+        let (f_max, _) = o.real(
+            "-nndd_F_max",
+            "Maximum of the linear load on the right edge of body 2 (Pa)",
+            f_default,
+        )?;
+        if !f_max.is_finite() {
+            return Err(range("-nndd_F_max", "a finite number", f_max));
+        }
+        let (solver, _) = o.string(
+            "-nndd_solver",
+            "Solver: nndd (Neumann-Neumann), monolithic (direct global QP)",
+            "nndd",
+        )?;
+        let solver = match solver.as_str() {
+            "nndd" => SolverKind::Nndd,
+            "monolithic" => SolverKind::Monolithic,
+            _ => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_solver",
+                    value: solver,
+                    accepted: "nndd, monolithic",
+                })
+            }
+        };
+        let (theta, _) = o.real(
+            "-nndd_theta",
+            "NNDD relaxation theta of the lambda update, > 0",
+            0.25,
+        )?;
+        if !(theta > 0.0 && theta.is_finite()) {
+            return Err(range("-nndd_theta", "> 0", theta));
+        }
+        let (tol, _) = o.real(
+            "-nndd_tol",
+            "NNDD stopping tolerance on |dlambda|/|lambda|",
+            1e-8,
+        )?;
+        if !(tol > 0.0 && tol.is_finite()) {
+            return Err(range("-nndd_tol", "> 0", tol));
+        }
+        let (max_it, _) = o.int("-nndd_max_it", "Maximum number of NNDD iterations", 1000)?;
+        let max_it = positive("-nndd_max_it", max_it)?;
+        let monitor = o.flag("-nndd_monitor", "Print one line per NNDD iteration", false)?;
+        let default_out = format!("results/{}", problem.name());
+        let (output, _) = o.string(
+            "-nndd_output",
+            "Output prefix: PREFIX.h5, PREFIX.xdmf, PREFIX.json",
+            &default_out,
+        )?;
+        if output.is_empty() {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_output",
+                accepted: "a non-empty path prefix",
+                value: "''".into(),
+            });
+        }
+        let (qp_tol, _) = o.real(
+            "-nndd_qp_tol",
+            "Clarabel tolerance of the contact QPs (then polished)",
+            1e-10,
+        )?;
+        if !(qp_tol > 0.0 && qp_tol < 1.0) {
+            return Err(range("-nndd_qp_tol", "in (0, 1)", qp_tol));
+        }
+        o.end()?;
+        Ok(Settings {
+            problem,
+            n,
+            grids,
+            material: Material { young, poisson },
+            u_d,
+            f_max,
+            solver,
+            theta,
+            tol,
+            max_it,
+            monitor,
+            output: PathBuf::from(output),
+            qp_tol,
+        })
+    }
+
+    /// (nx, ny) of body `alpha` (1 or 2).
+    pub fn body_grid(&self, alpha: usize) -> (usize, usize) {
+        self.grids[alpha - 1]
+    }
+
+    /// Total number of dofs of both bodies.
+    pub fn dofs(&self) -> usize {
+        self.grids
+            .iter()
+            .map(|(nx, ny)| 2 * (nx + 1) * (ny + 1))
+            .sum()
+    }
+}
+
+const OPTS_GRID: [&str; 4] = [
+    "-nndd_body1_nx",
+    "-nndd_body1_ny",
+    "-nndd_body2_nx",
+    "-nndd_body2_ny",
+];
+
+fn range(option: &'static str, accepted: &'static str, value: f64) -> SettingsError {
+    SettingsError::OutOfRange {
+        option,
+        accepted,
+        value: format!("{value}"),
+    }
+}
+
+fn positive(option: &'static str, v: i64) -> Result<usize, SettingsError> {
+    if v <= 0 || v > 1 << 16 {
+        return Err(SettingsError::OutOfRange {
+            option,
+            accepted: "a positive integer (at most 65536)",
+            value: v.to_string(),
+        });
+    }
+    Ok(v as usize)
+}

@@ -1,0 +1,71 @@
+//! The JSON run summary (`PREFIX.json`), written by world rank 0 with serde.
+
+use serde::Serialize;
+
+use crate::nndd::IterationRecord;
+
+/// Seconds per phase (maximum over ranks).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Timings {
+    pub assembly: f64,
+    pub factorisation: f64,
+    pub dirichlet_step: f64,
+    pub contact_step: f64,
+    pub neumann_step: f64,
+    pub exchange: f64,
+    pub monolithic: f64,
+    pub output: f64,
+    pub total: f64,
+}
+
+/// Where a field lives in `PREFIX.h5`.
+#[derive(Clone, Debug, Serialize)]
+pub struct FieldInfo {
+    pub grid: String,
+    pub name: String,
+    /// "node" or "cell".
+    pub center: &'static str,
+    pub components: usize,
+    pub dataset: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    pub problem: String,
+    pub n: usize,
+    /// (nx, ny) of body 1 and body 2.
+    pub grids: [[usize; 2]; 2],
+    pub dofs: usize,
+    pub ranks: i32,
+    pub solver: String,
+    pub theta: f64,
+    pub tol: f64,
+    pub max_it: usize,
+    pub young: f64,
+    pub poisson: f64,
+    pub u_d: f64,
+    pub f_max: f64,
+    pub converged: bool,
+    /// "converged", "max_it", "diverged", "stagnated" (NNDD) or "solved" (monolithic).
+    pub status: String,
+    pub iterations: usize,
+    pub history: Vec<IterationRecord>,
+    /// Σ_α ½ a^α(u, u) − ∫_{Γ_N} F·u (J/m).
+    pub potential_energy: f64,
+    /// Total normal force on Γc (N/m), positive in compression.
+    pub contact_force: f64,
+    /// [x_min, x_max] of the nodes in contact (null when none).
+    pub contact_zone: Option<[f64; 2]>,
+    pub active_nodes: usize,
+    pub contact_nodes: usize,
+    /// How the interface Schur complements were formed ("mumps" or "solves").
+    pub schur_source: String,
+    /// Largest relative KKT violation of the contact QPs of the reported step.
+    pub qp_kkt_residual: f64,
+    pub timings: Timings,
+    /// Peak resident memory over ranks (MiB).
+    pub peak_memory_mib: f64,
+    pub h5: String,
+    pub xdmf: String,
+    pub fields: Vec<FieldInfo>,
+}

@@ -1,0 +1,118 @@
+//! Capability: bad input is refused with one line naming the option and the accepted range,
+//! a non-zero exit, no panic or backtrace, and no result file.
+
+mod common;
+use common::*;
+
+fn refused(np: usize, args: &[&str], option: &str) {
+    let dir = scratch(&format!("bad{}", option.replace(['-', ' '], "")));
+    let prefix = dir.join("out/run");
+    let p = prefix.to_str().unwrap();
+    let mut all = vec!["-nndd_n", "4", "-nndd_output", p];
+    all.extend_from_slice(args);
+    let out = mpirun(np, &all);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success(), "{args:?} was accepted:\n{stdout}");
+    let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
+    assert_eq!(
+        ours.len(),
+        1,
+        "{args:?}: expected one error line, got:\n{stderr}"
+    );
+    assert!(ours[0].starts_with("nndd: error: "), "{}", ours[0]);
+    assert!(
+        ours[0].contains(option),
+        "{args:?}: '{}' does not name {option}",
+        ours[0]
+    );
+    for bad in [
+        "panicked",
+        "backtrace",
+        "RUST_BACKTRACE",
+        "PETSC ERROR",
+        "internal error",
+    ] {
+        assert!(
+            !stderr.contains(bad) && !stdout.contains(bad),
+            "{args:?}: '{bad}' in\n{stderr}"
+        );
+    }
+    let left: Vec<_> = walk(&dir);
+    assert!(left.is_empty(), "{args:?} left files behind: {left:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[test]
+fn theta_must_be_positive() {
+    refused(1, &["-nndd_theta", "0"], "-nndd_theta");
+    refused(2, &["-nndd_theta", "-0.5"], "-nndd_theta");
+}
+
+#[test]
+fn young_modulus_must_be_positive() {
+    refused(1, &["-nndd_E", "-2e11"], "-nndd_E");
+    refused(1, &["-nndd_E", "0"], "-nndd_E");
+}
+
+#[test]
+fn poisson_ratio_in_range() {
+    refused(1, &["-nndd_nu", "0.5"], "-nndd_nu");
+    refused(1, &["-nndd_nu", "-1"], "-nndd_nu");
+}
+
+#[test]
+fn mesh_size_must_be_positive() {
+    refused(1, &["-nndd_n", "0"], "-nndd_n");
+    refused(1, &["-nndd_body2_ny", "-3"], "-nndd_body2_ny");
+    refused(1, &["-nndd_body2_nx", "5"], "-nndd_body2_nx");
+}
+
+#[test]
+fn unknown_names_are_refused() {
+    refused(1, &["-nndd_problem", "hertz"], "-nndd_problem");
+    refused(1, &["-nndd_solver", "penalty"], "-nndd_solver");
+}
+
+#[test]
+fn malformed_numbers_are_refused() {
+    refused(1, &["-nndd_theta", "quarter"], "-nndd_theta");
+}
+
+#[test]
+fn unwritable_output_is_refused() {
+    let dir = scratch("unwritable");
+    let blocker = dir.join("file");
+    std::fs::write(&blocker, b"x").unwrap();
+    let prefix = blocker.join("run");
+    let out = mpirun(
+        2,
+        &["-nndd_n", "4", "-nndd_output", prefix.to_str().unwrap()],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
+    assert_eq!(ours.len(), 1, "{stderr}");
+    assert!(ours[0].contains("-nndd_output"), "{}", ours[0]);
+    assert!(!stderr.contains("panicked"));
+    assert_eq!(walk(&dir), vec![blocker]);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn three_ranks_are_refused() {
+    refused(3, &[], "mpirun -n");
+}

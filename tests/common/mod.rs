@@ -1,0 +1,80 @@
+//! Shared helpers of the integration tests: run the `nndd` binary under mpirun (a process
+//! initialises PETSc once, so every run is its own process) and read its results back.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A fresh, empty directory for one test's output.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("nndd-test-{}-{}", name, std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `mpirun -n np nndd args…` (oversubscribed when np exceeds the cores).
+pub fn mpirun(np: usize, args: &[&str]) -> Output {
+    let mut cmd = Command::new("mpirun");
+    cmd.args([
+        "-n",
+        &np.to_string(),
+        "--oversubscribe",
+        "--bind-to",
+        "none",
+    ])
+    .arg(env!("CARGO_BIN_EXE_nndd"))
+    .args(args)
+    .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+    .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
+    cmd.output().expect("mpirun runs")
+}
+
+/// Run and require success; returns the parsed JSON summary of `prefix`.
+pub fn solve(np: usize, prefix: &Path, args: &[&str]) -> serde_json::Value {
+    let p = prefix.to_str().unwrap();
+    let mut all = vec!["-nndd_output", p];
+    all.extend_from_slice(args);
+    let out = mpirun(np, &all);
+    assert!(
+        out.status.success(),
+        "nndd {:?} failed ({}):\n{}\n{}",
+        all,
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    json(prefix)
+}
+
+pub fn json(prefix: &Path) -> serde_json::Value {
+    let text =
+        std::fs::read_to_string(format!("{}.json", prefix.display())).expect("summary exists");
+    serde_json::from_str(&text).expect("summary is JSON")
+}
+
+/// A dataset of `PREFIX.h5`, flattened.
+pub fn h5(prefix: &Path, dataset: &str) -> Vec<f64> {
+    let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
+    let d = f
+        .dataset(dataset)
+        .unwrap_or_else(|e| panic!("{dataset}: {e}"));
+    d.read_raw::<f64>().unwrap()
+}
+
+/// Maximum of |a − b| over max |b|.
+pub fn rel_max_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
+pub fn f(v: &serde_json::Value, key: &str) -> f64 {
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} missing in summary"))
+}

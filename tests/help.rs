@@ -1,0 +1,30 @@
+//! Capability: `-help` lists every `-nndd_` option with its default, and the per-body solver
+//! options, without solving.
+
+mod common;
+use common::*;
+
+#[test]
+fn help_lists_options() {
+    let out = mpirun(1, &["-help"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for opt in [
+        "-nndd_problem <now paper",
+        "-nndd_n <now 8",
+        "-nndd_theta <0.25",
+        "-nndd_tol <1e-08",
+        "-nndd_max_it",
+        "-nndd_solver <now nndd",
+        "-nndd_E <2.1e+11",
+        "-nndd_nu <0.27",
+        "-nndd_monitor",
+        "-nndd_output <now results/paper",
+        "-nndd_body1_nx",
+        "-body1_ksp_type",
+        "-body2_pc_type",
+    ] {
+        assert!(text.contains(opt), "-help lacks '{opt}':\n{text}");
+    }
+    assert!(!text.contains("converged after"), "-help must not solve");
+}
