@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use mpi::topology::SimpleCommunicator;
 
-use crate::body::{Body, BodyError};
+use crate::body::{Body, BodyError, SchurMode};
 use crate::contact::{ContactError, ContactStep};
+use crate::dirichlet::DirichletStep;
 use crate::fem::{self, Material};
 use crate::layout::{Layout, LayoutError};
 use crate::log::Stages;
@@ -19,7 +20,7 @@ use crate::output::{
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::{self, interface_mass};
 use crate::qp::QpSettings;
-use crate::settings::{Settings, SettingsError, SolverKind};
+use crate::settings::{DirichletChoice, Settings, SettingsError, SolverKind};
 use crate::summary::{FieldInfo, Summary, Timings};
 
 /// Printed by `-help` before the option list.
@@ -120,15 +121,17 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     for alpha in [1, 2] {
         if layout.owns(alpha) {
             let p = problem::body(&settings, alpha);
-            let with_dirichlet = nndd_run && alpha == 1;
-            let with_schur = alpha == 2 || !nndd_run;
-            bodies[alpha - 1] = Some(Body::setup(
-                p,
-                layout.body_comm(),
-                with_dirichlet,
-                with_schur,
-                &stages,
-            )?);
+            let schur = match (settings.solver, alpha, settings.dirichlet_step) {
+                (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
+                (_, _, DirichletChoice::Auto) => SchurMode::IfFactored,
+                (_, _, DirichletChoice::Condensed) => SchurMode::Always,
+                (_, _, DirichletChoice::System) => SchurMode::None,
+            };
+            let mut body = Body::setup(p, layout.body_comm(), schur, &stages)?;
+            if nndd_run && alpha == 1 && body.schur.is_none() {
+                body.add_dirichlet_system(&stages)?;
+            }
+            bodies[alpha - 1] = Some(body);
         }
     }
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
@@ -149,28 +152,43 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     }
 
     // Solve.
+    let mut dirichlet_step = "";
     let sol = match settings.solver {
         SolverKind::Nndd => {
+            let dirichlet = match refs[0] {
+                Some(b1) => Some(DirichletStep::new(b1)?),
+                None => None,
+            };
+            dirichlet_step = dirichlet.as_ref().map_or("", |d| d.name());
             let contact = match refs[1] {
-                Some(b2) => Some(ContactStep::new(b2, qp.clone())?),
+                Some(b2) => Some(ContactStep::new(b2, qp.clone(), settings.qp_warm_start)?),
                 None => None,
             };
             let root = layout.is_root();
             let monitor = settings.monitor;
-            let res = nndd::solve(&settings, &layout, refs, contact.as_ref(), &stages, |r| {
-                if monitor && root {
-                    println!(
-                        "{:4} NNDD dlambda/lambda {:.12e} |R| {:.6e} active {}/{}",
-                        r.iteration,
-                        r.lambda_change,
-                        r.residual,
-                        r.active,
-                        settings.body_grid(1).0 + 1
-                    );
-                    use std::io::Write;
-                    let _ = std::io::stdout().flush();
-                }
-            })?;
+            let res = nndd::solve(
+                &settings,
+                &layout,
+                refs,
+                dirichlet.as_ref(),
+                contact.as_ref(),
+                &stages,
+                |r| {
+                    if monitor && root {
+                        println!(
+                            "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}",
+                            r.iteration,
+                            sci(r.lambda_change, 12),
+                            sci(r.residual, 6),
+                            r.active,
+                            settings.body_grid(1).0 + 1,
+                            r.qp_iterations
+                        );
+                        use std::io::Write;
+                        let _ = std::io::stdout().flush();
+                    }
+                },
+            )?;
             timings.dirichlet_step = res.timers.dirichlet_step.seconds();
             timings.contact_step = res.timers.contact_step.seconds();
             timings.neumann_step = res.timers.neumann_step.seconds();
@@ -362,6 +380,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
             active_nodes: sol.active.iter().filter(|&&a| a).count(),
             contact_nodes: m,
             schur_source: schur_source.into(),
+            dirichlet_step: dirichlet_step.into(),
             qp_kkt_residual: sol.qp_kkt,
             timings: timings.clone(),
             peak_memory_mib: peak,
@@ -391,15 +410,15 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         if !sol.converged {
             let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
             eprintln!(
-                "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {:.3e} > -nndd_tol {:.1e}); try a smaller -nndd_theta (now {})",
+                "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); try a smaller -nndd_theta (now {})",
                 match sol.status.as_str() {
                     "diverged" => "diverged",
                     "stagnated" => "stagnated",
                     _ => "reached -nndd_max_it",
                 },
                 sol.iterations,
-                last,
-                settings.tol,
+                sci(last, 3),
+                sci(settings.tol, 1),
                 settings.theta
             );
         }
@@ -409,6 +428,17 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     } else {
         Outcome::NotConverged
     })
+}
+
+/// C's `%.{digits}e` (PETSc's monitors): `1.234e-03`, not Rust's `1.234e-3`.
+pub fn sci(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    let s = format!("{:.*e}", digits, x);
+    let (mant, exp) = s.split_once('e').expect("scientific format");
+    let e: i32 = exp.parse().expect("exponent");
+    format!("{mant}e{}{:02}", if e < 0 { '-' } else { '+' }, e.abs())
 }
 
 /// Displacement (node vector), stress (cell tensor, plane strain σ_zz) and von Mises stress.

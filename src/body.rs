@@ -3,12 +3,17 @@
 //!
 //! Two systems exist, both SPD with Dirichlet rows and columns eliminated symmetrically:
 //! - the *Neumann* system: Γ_D^α prescribed; used for the contact step and the Neumann step;
-//! - the *Dirichlet* system (body 1 only): Γ_D¹ and the Γc normal dofs prescribed (step 1).
-//! Each is a PETSc KSP with prefix `body<α>_`, factored once at setup.
+//! - the *Dirichlet* system (body 1, when step 1 is not condensed): Γ_D¹ and the Γc normal dofs
+//!   prescribed.
+//!
+//! Each is a PETSc KSP with prefix `body<α>_`, factored once at setup. With MUMPS, the
+//! factorisation of the Neumann system also yields the interface Schur complement S^α on the
+//! Γc normal dofs (everything else condensed), used by the contact step and the condensed
+//! Dirichlet step.
 
 use crate::dense::{DenseError, SymMatrix};
 use crate::fem::assemble_stiffness;
-use crate::petsc::{self, Ksp, Matrix, RawComm, Vector};
+use crate::petsc::{self, Comm, Ksp, Matrix, Vector};
 use crate::problem::BodyProblem;
 
 #[derive(Debug, thiserror::Error)]
@@ -23,6 +28,16 @@ pub enum BodyError {
     },
     #[error("body {alpha}: interface Schur complement: {source}")]
     Schur { alpha: usize, source: DenseError },
+}
+
+/// Whether a body needs its interface Schur complement S^α.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SchurMode {
+    None,
+    /// Only when the factorisation computes it at no extra cost (MUMPS).
+    IfFactored,
+    /// Always: from MUMPS, else from m back-solves.
+    Always,
 }
 
 /// Which factorised system to solve with.
@@ -40,6 +55,7 @@ pub struct Body {
     pub load: Vec<f64>,
     /// Value on the diagonal of eliminated rows (mean diagonal of K, for conditioning).
     diag: f64,
+    comm: Comm,
     neumann: Ksp,
     dirichlet: Option<Ksp>,
     /// Γc normal dofs in pair order.
@@ -58,19 +74,17 @@ pub struct Body {
 }
 
 impl Body {
-    /// Assemble K^α and factor the systems the run needs. `schur` asks for S^α.
+    /// Assemble K^α and factor its Neumann system; `schur` says whether S^α is wanted.
     pub fn setup(
         problem: BodyProblem,
-        comm: RawComm,
-        with_dirichlet_system: bool,
-        schur: bool,
+        comm: Comm,
+        schur: SchurMode,
         stages: &crate::log::Stages,
     ) -> Result<Body, BodyError> {
         let alpha = problem.alpha;
-        let prefix = format!("body{alpha}_");
         let ndof = problem.mesh.num_dofs();
         let t0 = std::time::Instant::now();
-        let (k, diag, k_neu, k_dir) = {
+        let (k, diag, k_neu) = {
             let _s = stages.assembly.enter();
             let csr = assemble_stiffness(&problem.mesh, &problem.material);
             let diag = csr.diag_mean();
@@ -83,50 +97,31 @@ impl Body {
                 .collect();
             let mut k_neu = k.duplicate()?;
             k_neu.zero_rows_columns(&rows, diag)?;
-            let k_dir = if with_dirichlet_system {
-                let mut rows = rows.clone();
-                rows.extend(
-                    problem
-                        .contact_normal_dofs()
-                        .iter()
-                        .map(|&d| d as petsc::Int),
-                );
-                rows.sort_unstable();
-                rows.dedup();
-                let mut m = k.duplicate()?;
-                m.zero_rows_columns(&rows, diag)?;
-                Some(m)
-            } else {
-                None
-            };
-            (k, diag, k_neu, k_dir)
+            (k, diag, k_neu)
         };
         let gc = problem.contact_normal_dofs();
         let gc_rows: Vec<petsc::Int> = gc.iter().map(|&d| d as petsc::Int).collect();
         let t_assembly = t0.elapsed().as_secs_f64();
         let t1 = std::time::Instant::now();
         let _s = stages.factorisation.enter();
-        let neumann = Ksp::new(
-            comm,
-            k_neu,
-            &prefix,
-            if schur { Some(&gc_rows) } else { None },
-        )?;
-        let dirichlet = match k_dir {
-            Some(m) => Some(Ksp::new(comm, m, &prefix, None)?),
-            None => None,
+        let want = if schur == SchurMode::None {
+            None
+        } else {
+            Some(&gc_rows[..])
         };
+        let neumann = Ksp::new(comm, k_neu, &format!("body{alpha}_"), want)?;
         let x = Vector::new(comm, ndof)?;
         let b = x.duplicate()?;
         let kx = x.duplicate()?;
         let load = problem.load();
         let mut body = Body {
             problem,
+            comm,
             k,
             load,
             diag,
             neumann,
-            dirichlet,
+            dirichlet: None,
             gc,
             schur: None,
             schur_source: "none",
@@ -136,11 +131,48 @@ impl Body {
             b: std::cell::RefCell::new(b),
             kx: std::cell::RefCell::new(kx),
         };
-        if schur {
+        if schur == SchurMode::Always
+            || (schur == SchurMode::IfFactored && body.neumann.schur_complement().is_some())
+        {
             body.schur = Some(body.compute_schur()?);
         }
         body.setup_seconds.1 = t1.elapsed().as_secs_f64();
         Ok(body)
+    }
+
+    /// Assemble and factor the Dirichlet system (Γ_D and the Γc normal dofs prescribed).
+    pub fn add_dirichlet_system(&mut self, stages: &crate::log::Stages) -> Result<(), BodyError> {
+        let t0 = std::time::Instant::now();
+        let m = {
+            let _s = stages.assembly.enter();
+            let mut rows: Vec<petsc::Int> = self
+                .problem
+                .dirichlet
+                .iter()
+                .map(|d| d.0 as petsc::Int)
+                .collect();
+            rows.extend(self.gc.iter().map(|&d| d as petsc::Int));
+            rows.sort_unstable();
+            rows.dedup();
+            let mut m = self.k.duplicate()?;
+            m.zero_rows_columns(&rows, self.diag)?;
+            m
+        };
+        self.setup_seconds.0 += t0.elapsed().as_secs_f64();
+        let t1 = std::time::Instant::now();
+        let _s = stages.factorisation.enter();
+        self.dirichlet = Some(Ksp::new(
+            self.comm,
+            m,
+            &format!("body{}_", self.alpha()),
+            None,
+        )?);
+        self.setup_seconds.1 += t1.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    pub fn has_dirichlet_system(&self) -> bool {
+        self.dirichlet.is_some()
     }
 
     pub fn alpha(&self) -> usize {
@@ -268,8 +300,8 @@ impl Body {
         Ok(self.gc.iter().map(|&d| ku[d] - self.load[d]).collect())
     }
 
-    /// Step 1 on Ω¹ (paper (8)–(10)): u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
-    /// Returns the displacement and the reaction T¹ = K u − f on the Γc normal dofs.
+    /// Solve the Dirichlet system: u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
+    /// Returns the displacement and the reaction T = K u − f on the Γc normal dofs.
     pub fn dirichlet_solve(&self, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
         let u = self.solve(System::Dirichlet, &self.load, false, Some(lambda))?;
         let t = self.interface_forces(&u)?;

@@ -243,8 +243,8 @@ mod tests {
             [-p[0][1], p[0][0], -p[1][1], p[1][0], -p[2][1], p[2][0]],
         ];
         for m in &modes {
-            for r in 0..6 {
-                let f: f64 = (0..6).map(|c| ke[r][c] * m[c]).sum();
+            for row in &ke {
+                let f: f64 = row.iter().zip(m).map(|(k, v)| k * v).sum();
                 assert!(f.abs() < 1e-4, "rigid mode force {f}"); // entries ~1e11
             }
         }

@@ -7,7 +7,7 @@
 use mpi::topology::{Color, Communicator, SimpleCommunicator};
 use mpi::traits::*;
 
-use crate::petsc::{comm_from_rsmpi, RawComm};
+use crate::petsc::{comm_from_rsmpi, Comm};
 
 #[derive(Debug, thiserror::Error)]
 pub enum LayoutError {
@@ -54,7 +54,7 @@ impl Layout {
     }
 
     /// The communicator of the body group this rank belongs to.
-    pub fn body_comm(&self) -> RawComm {
+    pub fn body_comm(&self) -> Comm {
         comm_from_rsmpi(self.group.as_raw())
     }
 

@@ -1,7 +1,7 @@
 //! nndd: two-body frictionless contact by the Neumann–Neumann domain decomposition of
 //! Gallimard, Choi & Sassi (2013), with one home per concept:
 //! `mesh` (structured meshes), `fem` (P1 plane strain), `problem` (the benchmarks),
-//! `body` (a subdomain's PETSc systems), `contact` (the contact step QP), `nndd` (the loop),
+//! `body` (a subdomain's PETSc systems), `contact` (the contact step QP), `dirichlet` (the Dirichlet step), `nndd` (the loop),
 //! `monolithic` (the global QP), `qp` + `dense` (Clarabel and dense algebra),
 //! `layout` (ranks and exchanges), `output` + `summary` (files), `app` (the run).
 
@@ -9,6 +9,7 @@ pub mod app;
 pub mod body;
 pub mod contact;
 pub mod dense;
+pub mod dirichlet;
 pub mod fem;
 pub mod layout;
 pub mod log;

@@ -6,6 +6,7 @@
 
 use crate::body::{Body, BodyError};
 use crate::contact::{ContactError, ContactStep};
+use crate::dirichlet::DirichletStep;
 use crate::layout::Layout;
 use crate::log::{Stages, Timer};
 use crate::settings::Settings;
@@ -48,6 +49,9 @@ pub struct IterationRecord {
     pub residual: f64,
     /// Number of Γc nodes in contact at step p.
     pub active: usize,
+    /// Clarabel's iterations in the contact step (0: the previous contact set was certified
+    /// optimal by the KKT conditions).
+    pub qp_iterations: u32,
 }
 
 /// Per-phase wall times of the loop on this rank.
@@ -62,8 +66,8 @@ pub struct LoopTimers {
 /// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
 pub struct Iterate {
     pub lambda: Vec<f64>,
-    /// u¹_p on body 1's ranks, u²_p on body 2's (empty elsewhere; u²_p is formed after the
-    /// loop, for the reported step only).
+    /// u¹_p on body 1's ranks, u²_p on body 2's (empty elsewhere; formed after the loop, for
+    /// the reported step, where the steps did not produce them).
     pub u: [Vec<f64>; 2],
     /// T¹_p, T²_p on the Γc normal dofs (known on every rank).
     pub forces: [Vec<f64>; 2],
@@ -80,11 +84,6 @@ pub struct NnddResult {
     pub timers: LoopTimers,
 }
 
-/// Step 1 on Ω¹: `(u¹_p, T¹_p)`.
-pub fn dirichlet_step(body1: &Body, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
-    body1.dirichlet_solve(lambda)
-}
-
 /// Step 4 on body α: the normal trace of w^α, K^α w^α = ±½ R_p on Γc (homogeneous data).
 pub fn neumann_step(body: &Body, residual: &[f64]) -> Result<Vec<f64>, BodyError> {
     // Body 1 receives −½R, body 2 +½R (method.md §2 step 4).
@@ -98,11 +97,13 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-/// Run the NNDD loop. `bodies[α-1]` is `Some` on the ranks owning body α; `contact` on body 2's.
+/// Run the NNDD loop. `bodies[α-1]` is `Some` on the ranks owning body α, with `dirichlet`
+/// on body 1's and `contact` on body 2's.
 pub fn solve(
     settings: &Settings,
     layout: &Layout,
     bodies: [Option<&Body>; 2],
+    dirichlet: Option<&DirichletStep>,
     contact: Option<&ContactStep>,
     stages: &Stages,
     mut monitor: impl FnMut(&IterationRecord),
@@ -120,20 +121,21 @@ pub fn solve(
         // Step 1: Dirichlet problem on Ω¹ and contact problem on Ω², concurrently.
         let mut t1 = vec![0.0; m];
         let mut u1 = Vec::new();
-        if let Some(b1) = bodies[0] {
+        if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
             let _s = stages.dirichlet_step.enter();
-            let (u, t) = timers.dirichlet_step.time(|| dirichlet_step(b1, &lambda))?;
-            u1 = u;
+            let (u, t) = timers.dirichlet_step.time(|| d.solve(b1, &lambda))?;
+            u1 = u.unwrap_or_default();
             t1 = t;
         }
         let mut t2 = vec![0.0; m];
-        let mut act = vec![0.0; m + 1];
+        let mut act = vec![0.0; m + 2];
         if let (Some(b2), Some(c)) = (bodies[1], contact) {
             let _s = stages.contact_step.enter();
             let sol = timers.contact_step.time(|| c.solve(b2, &lambda))?;
             t2 = sol.forces;
             act = sol.active.iter().map(|&a| a as u8 as f64).collect();
             act.push(sol.kkt_residual);
+            act.push(sol.qp_iterations as f64);
         }
         timers.exchange.time(|| {
             layout.share(1, &mut t1);
@@ -170,6 +172,7 @@ pub fn solve(
             lambda_change: change,
             residual: norm(&r),
             active: act[..m].iter().filter(|&&a| a > 0.5).count(),
+            qp_iterations: act[m + 1] as u32,
         };
         monitor(&record);
         history.push(record);
@@ -213,7 +216,15 @@ pub fn solve(
     }
     let iterations = history.len();
     let mut last = last.expect("max_it ≥ 1");
-    // Body 2's field of the reported step (the loop needs only its Γc forces).
+    // The fields of the reported step (the loop needs only the Γc forces).
+    if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
+        if last.u[0].is_empty() {
+            let _s = stages.dirichlet_step.enter();
+            last.u[0] = timers
+                .dirichlet_step
+                .time(|| d.field(b1, &last.lambda, &last.forces[0]))?;
+        }
+    }
     if let (Some(b2), Some(c)) = (bodies[1], contact) {
         let _s = stages.contact_step.enter();
         last.u[1] = timers.contact_step.time(|| c.field(b2, &last.forces[1]))?;

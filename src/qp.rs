@@ -106,6 +106,8 @@ pub struct QpSolution {
     pub polished: bool,
     /// Relative KKT violation of (`x`, `y`), see [`kkt_residual`].
     pub kkt_residual: f64,
+    /// Whether the point came from [`solve_with_active_set`] (Clarabel not called).
+    pub warm: bool,
 }
 
 /// Errors of [`solve_nonneg_qp`].
@@ -179,6 +181,7 @@ pub fn solve_nonneg_qp(
             iterations: 0,
             polished: true,
             kkt_residual: 0.0,
+            warm: false,
         });
     }
     let d = p.diag_mean();
@@ -214,6 +217,7 @@ pub fn solve_nonneg_qp(
                 iterations,
                 polished: true,
                 kkt_residual: kkt,
+                warm: false,
             });
         }
     }
@@ -225,6 +229,29 @@ pub fn solve_nonneg_qp(
         iterations,
         polished: false,
         kkt_residual: kkt,
+        warm: false,
+    })
+}
+
+/// Certified warm start: try the active set `guess` (e.g. the contact set of the previous
+/// NNDD iteration). Solves `P_FF x_F = −q_F` exactly on its free set and accepts the point
+/// only if the KKT conditions hold to round-off (`x_F ≥ 0`, `y_A = (Px + q)_A ≥ 0`, with the
+/// polish tolerance). `P` being positive definite, such a point *is* the unique solution;
+/// otherwise `None`, and the caller solves with Clarabel.
+pub fn solve_with_active_set(p: &SymMatrix, q: &[f64], guess: &[bool]) -> Option<QpSolution> {
+    if guess.len() != p.n() || q.len() != p.n() || inf_norm(q) == 0.0 {
+        return None;
+    }
+    let (x, y, active) = polish(p, q, guess.to_vec(), 1)?;
+    let kkt = kkt_residual(p, q, &x, &y);
+    Some(QpSolution {
+        x,
+        y,
+        active,
+        iterations: 0,
+        polished: true,
+        kkt_residual: kkt,
+        warm: true,
     })
 }
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use crate::fem::Material;
-use crate::petsc::{self, OptionsBlock, RawComm};
+use crate::petsc::{self, Comm, OptionsBlock};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ProblemKind {
@@ -19,6 +19,15 @@ impl ProblemKind {
             ProblemKind::Uniform => "uniform",
         }
     }
+}
+
+/// How the Dirichlet step on Ω¹ is solved (see `dirichlet.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirichletChoice {
+    /// Condensed when the factorisation gives S¹ (MUMPS), else the Dirichlet system.
+    Auto,
+    System,
+    Condensed,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,11 +91,14 @@ pub struct Settings {
     pub output: PathBuf,
     /// Clarabel's tolerances for the contact QPs.
     pub qp_tol: f64,
+    /// Try the previous contact set first in the contact step (certified, else Clarabel).
+    pub qp_warm_start: bool,
+    pub dirichlet_step: DirichletChoice,
 }
 
 impl Settings {
     /// Read, register (for `-help`) and validate the `-nndd_` options.
-    pub fn from_options(comm: RawComm) -> Result<Settings, SettingsError> {
+    pub fn from_options(comm: Comm) -> Result<Settings, SettingsError> {
         let mut o = OptionsBlock::begin(
             comm,
             "nndd: two-body frictionless contact by Neumann-Neumann DD",
@@ -221,12 +233,34 @@ impl Settings {
         }
         let (qp_tol, _) = o.real(
             "-nndd_qp_tol",
-            "Clarabel tolerance of the contact QPs (then polished)",
-            1e-10,
+            "Clarabel tolerance of the contact QPs (the result is then polished to round-off)",
+            1e-8,
         )?;
         if !(qp_tol > 0.0 && qp_tol < 1.0) {
             return Err(range("-nndd_qp_tol", "in (0, 1)", qp_tol));
         }
+        let qp_warm_start = o.flag(
+            "-nndd_qp_warm_start",
+            "Contact step: try the previous contact set first, kept only if the KKT conditions certify it (else Clarabel)",
+            true,
+        )?;
+        let (d, _) = o.string(
+            "-nndd_dirichlet_step",
+            "Dirichlet step on body 1: auto (condensed with a MUMPS factorisation), system, condensed",
+            "auto",
+        )?;
+        let dirichlet_step = match d.as_str() {
+            "auto" => DirichletChoice::Auto,
+            "system" => DirichletChoice::System,
+            "condensed" => DirichletChoice::Condensed,
+            _ => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_dirichlet_step",
+                    value: d,
+                    accepted: "auto, system, condensed",
+                })
+            }
+        };
         o.end()?;
         Ok(Settings {
             problem,
@@ -242,6 +276,8 @@ impl Settings {
             monitor,
             output: PathBuf::from(output),
             qp_tol,
+            qp_warm_start,
+            dirichlet_step,
         })
     }
 

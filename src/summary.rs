@@ -60,6 +60,8 @@ pub struct Summary {
     pub contact_nodes: usize,
     /// How the interface Schur complements were formed ("mumps" or "solves").
     pub schur_source: String,
+    /// How the Dirichlet step was solved: "condensed" or "system" ("" for monolithic).
+    pub dirichlet_step: String,
     /// Largest relative KKT violation of the contact QPs of the reported step.
     pub qp_kkt_residual: f64,
     pub timings: Timings,

@@ -28,3 +28,34 @@ fn help_lists_options() {
     }
     assert!(!text.contains("converged after"), "-help must not solve");
 }
+
+#[test]
+fn log_view_shows_the_stages() {
+    let dir = scratch("logview");
+    let out = mpirun(
+        2,
+        &[
+            "-nndd_n",
+            "4",
+            "-log_view",
+            "-nndd_output",
+            dir.join("r").to_str().unwrap(),
+        ],
+    );
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for stage in [
+        "Assembly",
+        "Factorisation",
+        "Dirichlet step",
+        "Contact step",
+        "Neumann step",
+        "Output",
+    ] {
+        assert!(
+            text.lines().any(|l| l.contains(&format!("{stage}:"))),
+            "-log_view lacks stage {stage}:\n{text}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -10,7 +10,10 @@ use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_int};
 use std::ptr;
 
-pub use ffi::MPI_Comm as RawComm;
+/// An MPI communicator handed to PETSc. Made only from valid communicators
+/// ([`Petsc::comm_world`], [`comm_from_rsmpi`]), so passing it on is safe.
+#[derive(Clone, Copy, Debug)]
+pub struct Comm(ffi::MPI_Comm);
 
 /// PETSc's `PetscInt` (32-bit in Debian's build).
 pub type Int = ffi::PetscInt;
@@ -110,9 +113,9 @@ impl Petsc {
     }
 
     /// `PETSC_COMM_WORLD`.
-    pub fn comm_world() -> RawComm {
+    pub fn comm_world() -> Comm {
         // SAFETY: a global set by PetscInitialize.
-        unsafe { ffi::PETSC_COMM_WORLD }
+        Comm(unsafe { ffi::PETSC_COMM_WORLD })
     }
 
     /// Ask PETSc to track the peak resident memory (`-memory_view` style).
@@ -139,8 +142,8 @@ impl Drop for Petsc {
 
 /// Convert an rsmpi raw communicator into PETSc's `MPI_Comm` (both are OpenMPI's
 /// `ompi_communicator_t *`; the two bindings only name the type differently).
-pub fn comm_from_rsmpi(raw: mpi::ffi::MPI_Comm) -> RawComm {
-    raw.0 as RawComm
+pub fn comm_from_rsmpi(raw: mpi::ffi::MPI_Comm) -> Comm {
+    Comm(raw.0 as ffi::MPI_Comm)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -185,14 +188,14 @@ fn to_bool(b: ffi::PetscBool) -> bool {
 }
 
 impl OptionsBlock {
-    pub fn begin(comm: RawComm, title: &str, mansec: &str) -> Result<OptionsBlock> {
+    pub fn begin(comm: Comm, title: &str, mansec: &str) -> Result<OptionsBlock> {
         // SAFETY: PetscOptionItems is a plain C struct, zero-initialised as the C macro does.
         let mut items: Box<ffi::PetscOptionItems> = Box::new(unsafe { std::mem::zeroed() });
         items.count = 1; // one pass: no SAWs publishing
         let (t, m) = (cstr(title), cstr(mansec));
         call!(PetscOptionsBegin_Private(
             &mut *items,
-            comm,
+            comm.0,
             ptr::null(),
             t.as_ptr(),
             m.as_ptr()
@@ -350,10 +353,10 @@ impl Drop for StageGuard {
 struct Is(ffi::IS);
 
 impl Is {
-    fn new(comm: RawComm, idx: &[Int]) -> Result<Is> {
+    fn new(comm: Comm, idx: &[Int]) -> Result<Is> {
         let mut is: ffi::IS = ptr::null_mut();
         call!(ISCreateGeneral(
-            comm,
+            comm.0,
             idx.len() as Int,
             idx.as_ptr(),
             ffi::PETSC_COPY_VALUES,
@@ -377,9 +380,9 @@ pub struct Vector(ffi::Vec);
 
 impl Vector {
     /// A vector with `local` entries on this rank, on communicator `comm`.
-    pub fn new(comm: RawComm, local: usize) -> Result<Vector> {
+    pub fn new(comm: Comm, local: usize) -> Result<Vector> {
         let mut v: ffi::Vec = ptr::null_mut();
-        call!(VecCreateMPI(comm, local as Int, PETSC_DETERMINE, &mut v))?;
+        call!(VecCreateMPI(comm.0, local as Int, PETSC_DETERMINE, &mut v))?;
         Ok(Vector(v))
     }
 
@@ -433,14 +436,14 @@ pub struct Matrix(ffi::Mat);
 impl Matrix {
     /// Build from this rank's rows in CSR form (global column indices), block size 2.
     pub fn from_csr(
-        comm: RawComm,
+        comm: Comm,
         local_rows: usize,
         row_ptr: &[Int],
         cols: &[Int],
         vals: &[f64],
     ) -> Result<Matrix> {
         let mut m: ffi::Mat = ptr::null_mut();
-        call!(MatCreate(comm, &mut m))?;
+        call!(MatCreate(comm.0, &mut m))?;
         let mat = Matrix(m);
         let n = local_rows as Int;
         call!(MatSetSizes(mat.0, n, n, PETSC_DETERMINE, PETSC_DETERMINE))?;
@@ -489,16 +492,6 @@ impl Matrix {
     pub fn mult(&self, x: &Vector, y: &mut Vector) -> Result<()> {
         call!(MatMult(self.0, x.0, y.0))
     }
-
-    /// Attach the rigid-body modes (from the interlaced nodal coordinates) as near null space,
-    /// for algebraic multigrid.
-    pub fn set_rigid_body_near_null_space(&mut self, coords: &Vector) -> Result<()> {
-        let mut ns: ffi::MatNullSpace = ptr::null_mut();
-        call!(MatNullSpaceCreateRigidBody(coords.0, &mut ns))?;
-        let r = call!(MatSetNearNullSpace(self.0, ns));
-        unsafe { ffi::MatNullSpaceDestroy(&mut ns) };
-        r
-    }
 }
 
 impl Drop for Matrix {
@@ -530,14 +523,9 @@ impl Ksp {
     /// Create the solver for `mat` with options prefix `prefix` (e.g. `body1_`). When
     /// `schur_rows` is given and the factorisation is MUMPS, its Schur complement on those rows
     /// is computed during the factorisation ([`Ksp::schur_complement`]).
-    pub fn new(
-        comm: RawComm,
-        mat: Matrix,
-        prefix: &str,
-        schur_rows: Option<&[Int]>,
-    ) -> Result<Ksp> {
+    pub fn new(comm: Comm, mat: Matrix, prefix: &str, schur_rows: Option<&[Int]>) -> Result<Ksp> {
         let mut ksp: ffi::KSP = ptr::null_mut();
-        call!(KSPCreate(comm, &mut ksp))?;
+        call!(KSPCreate(comm.0, &mut ksp))?;
         let mut solver = Ksp {
             ksp,
             _mat: mat,
@@ -627,7 +615,7 @@ impl Ksp {
         call!(KSPGetIterationNumber(self.ksp, &mut its))?;
         Ok(SolveInfo {
             iterations: its as i64,
-            reason: reason as i32,
+            reason,
         })
     }
 }

@@ -1,0 +1,83 @@
+//! The Dirichlet step on Ω¹ (paper (8)–(10), method.md §2 step 1): u¹ = u_D on Γ_D¹,
+//! u¹_n = λ_p on Γc (tangential Γc dofs free), and its reaction T¹_p = K u¹ − f¹ on the Γc
+//! normal dofs.
+//!
+//! Two exact ways, the same discrete solution:
+//! - `System`: a KSP solve with the Dirichlet system (Γc normal dofs eliminated);
+//! - `Condensed`: static condensation with the interface Schur complement S¹ of the Neumann
+//!   system (free when MUMPS factors it): with u¹₀ the solution with free Γc and
+//!   v¹* = B u¹₀, the Γc force that puts the interface at λ_p is T¹_p = S¹(λ_p − v¹*), and
+//!   u¹_p = u¹₀ + K⁻¹BᵀT¹_p (one back-solve, only when the field is wanted). This saves the
+//!   second factorisation and a back-solve per iteration.
+
+use crate::body::{Body, BodyError};
+
+pub enum DirichletStep {
+    System,
+    Condensed { u0: Vec<f64>, v_star: Vec<f64> },
+}
+
+impl DirichletStep {
+    /// Condensed when body 1 carries S¹, else the Dirichlet system (which must exist).
+    pub fn new(body: &Body) -> Result<DirichletStep, BodyError> {
+        if body.schur.is_some() {
+            let u0 = body.neumann_solve(&vec![0.0; body.gc.len()], true)?;
+            let v_star = body.normal_trace(&u0);
+            Ok(DirichletStep::Condensed { u0, v_star })
+        } else {
+            assert!(
+                body.has_dirichlet_system(),
+                "body 1 needs S¹ or its Dirichlet system"
+            );
+            Ok(DirichletStep::System)
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            DirichletStep::System => "system",
+            DirichletStep::Condensed { .. } => "condensed",
+        }
+    }
+
+    /// T¹_p for the interface position λ_p, and u¹_p when it came for free.
+    pub fn solve(
+        &self,
+        body: &Body,
+        lambda: &[f64],
+    ) -> Result<(Option<Vec<f64>>, Vec<f64>), BodyError> {
+        match self {
+            DirichletStep::System => {
+                let (u, t) = body.dirichlet_solve(lambda)?;
+                Ok((Some(u), t))
+            }
+            DirichletStep::Condensed { v_star, .. } => {
+                let s = body.schur.as_ref().expect("condensed step has S¹");
+                let d: Vec<f64> = lambda.iter().zip(v_star).map(|(l, v)| l - v).collect();
+                let mut t = vec![0.0; d.len()];
+                s.matvec(&d, &mut t);
+                Ok((None, t))
+            }
+        }
+    }
+
+    /// u¹_p from its reaction T¹_p (condensed) or by a solve (system).
+    pub fn field(
+        &self,
+        body: &Body,
+        lambda: &[f64],
+        forces: &[f64],
+    ) -> Result<Vec<f64>, BodyError> {
+        match self {
+            DirichletStep::System => Ok(body.dirichlet_solve(lambda)?.0),
+            DirichletStep::Condensed { u0, .. } => {
+                let w = body.neumann_solve(forces, false)?;
+                let mut u: Vec<f64> = u0.iter().zip(&w).map(|(a, b)| a + b).collect();
+                for (&d, &l) in body.gc.iter().zip(lambda) {
+                    u[d] = l; // equal to round-off; make the prescribed trace exact
+                }
+                Ok(u)
+            }
+        }
+    }
+}
