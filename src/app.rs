@@ -1,7 +1,9 @@
-//! The run, as the algorithm reads: settings, setup (mesh, assembly, factorisation), solve
-//! (NNDD or monolithic), post-processing, output.
+//! The run, as the algorithm reads: settings, setup (mesh, assembly, factorisation), the
+//! reference solution when asked, the solve (NNDD or monolithic) with its error estimates,
+//! post-processing, output.
 
-use std::path::Path;
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use mpi::topology::SimpleCommunicator;
@@ -9,24 +11,26 @@ use mpi::topology::SimpleCommunicator;
 use crate::body::{Body, BodyError, SchurMode};
 use crate::contact::{ContactError, ContactStep};
 use crate::dirichlet::DirichletStep;
+use crate::estimate::{EstimateError, EstimateRecord, Estimator, Interface, Reference};
 use crate::fem::{self, Material};
 use crate::layout::{Layout, LayoutError};
 use crate::log::Stages;
 use crate::monolithic::{self, MonolithicError};
-use crate::nndd::{self, IterationRecord, NnddError, Status};
+use crate::nndd::{self, Iterate, IterationRecord, NnddError, Status};
 use crate::output::{
     self, Center, Field, Grid, GridFields, Kind, OutputError, Results, Step, Topology,
 };
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
-use crate::problem::{self, interface_mass};
+use crate::problem::{self, BodyProblem};
 use crate::qp::QpSettings;
 use crate::settings::{DirichletChoice, Settings, SettingsError, SolverKind};
-use crate::summary::{FieldInfo, Summary, Timings};
+use crate::summary::{EquilibriumResiduals, FieldInfo, Summary, Timings};
 
 /// Printed by `-help` before the option list.
 pub const HELP: &str =
     "nndd: two-body frictionless contact in 2D plane-strain elasticity, solved by the\n\
-Neumann-Neumann domain decomposition of Gallimard, Choi & Sassi (2013).\n\
+Neumann-Neumann domain decomposition of Gallimard, Choi & Sassi (2013), with guaranteed\n\
+error bounds (eta_glo) split into discretisation (eta_FE) and algebraic (eta_NNDD) parts.\n\
 Usage: mpirun -n 2 nndd -options_file petsc-options/paper.opts [-nndd_monitor] [-log_view]\n\
 Subdomain solvers take the prefixes body1_ and body2_ (default: MUMPS Cholesky).\n\n";
 
@@ -48,6 +52,8 @@ pub enum AppError {
     Nndd(#[from] NnddError),
     #[error(transparent)]
     Monolithic(#[from] MonolithicError),
+    #[error(transparent)]
+    Estimate(#[from] EstimateError),
     #[error("{0}")]
     Json(String),
     /// The error was detected and reported by rank 0; this rank only exits.
@@ -60,8 +66,11 @@ impl AppError {
     pub fn is_collective(&self) -> bool {
         matches!(
             self,
-            AppError::Settings(_) | AppError::Layout(_) | AppError::ReportedElsewhere
-        ) || matches!(self, AppError::Output(_))
+            AppError::Settings(_)
+                | AppError::Layout(_)
+                | AppError::ReportedElsewhere
+                | AppError::Output(_)
+        )
     }
 }
 
@@ -75,19 +84,17 @@ pub enum Outcome {
     Help,
 }
 
-/// The solution both solvers hand to post-processing.
+/// What a solver hands to post-processing.
 struct Solution {
     status: String,
     converged: bool,
     iterations: usize,
     history: Vec<IterationRecord>,
-    /// Body 1's normal Γc displacement (λ_p for the NNDD).
-    lambda: Vec<f64>,
-    u: [Vec<f64>; 2],
-    /// Body 2's Γc nodal forces (≥ 0).
-    forces: Vec<f64>,
-    active: Vec<bool>,
-    qp_kkt: f64,
+    /// The reported iterate (λ = u¹_n, T¹, T², contact set, fields on their owners).
+    last: Iterate,
+    /// The estimates, in iteration order (the last one is of `last` when estimating).
+    estimates: Vec<EstimateRecord>,
+    dirichlet_step: &'static str,
 }
 
 pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
@@ -98,48 +105,13 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         return Ok(Outcome::Help);
     }
     let layout = Layout::new(world)?;
-    // Fail before any work when the output cannot be written.
-    let checked = if layout.is_root() {
-        output::check_writable(&settings.output)
-    } else {
-        Ok(())
-    };
-    if !layout.agree(checked.is_ok()) {
-        checked?;
-        return Err(AppError::ReportedElsewhere);
-    }
+    check_output(&settings, &layout)?;
     let stages = Stages::register()?;
     Petsc::track_memory()?;
-    let qp = QpSettings {
-        tol: settings.qp_tol,
-        ..QpSettings::default()
-    };
-
-    // Setup: meshes, assembly and factorisation of the bodies this rank owns.
-    let nndd_run = settings.solver == SolverKind::Nndd;
-    let mut bodies: [Option<Body>; 2] = [None, None];
-    for alpha in [1, 2] {
-        if layout.owns(alpha) {
-            let p = problem::body(&settings, alpha);
-            let schur = match (settings.solver, alpha, settings.dirichlet_step) {
-                (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
-                (_, _, DirichletChoice::Auto) => SchurMode::IfFactored,
-                (_, _, DirichletChoice::Condensed) => SchurMode::Always,
-                (_, _, DirichletChoice::System) => SchurMode::None,
-            };
-            let mut body = Body::setup(p, layout.body_comm(), schur, &stages)?;
-            if nndd_run && alpha == 1 && body.schur.is_none() {
-                body.add_dirichlet_system(&stages)?;
-            }
-            bodies[alpha - 1] = Some(body);
-        }
-    }
-    let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mut timings = Timings::default();
-    for b in refs.iter().flatten() {
-        timings.assembly += b.setup_seconds.0;
-        timings.factorisation += b.setup_seconds.1;
-    }
+
+    let bodies = setup_bodies(&settings, &layout, &stages, &mut timings)?;
+    let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     if settings.monitor && layout.is_root() {
         println!(
             "nndd: {} n = {}, {} dofs, {} rank(s): setup {:.3} s",
@@ -150,284 +122,637 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
             t_start.elapsed().as_secs_f64()
         );
     }
+    let reference = match settings.reference_factor {
+        0 => None,
+        r => Some(solve_reference(
+            &settings,
+            &layout,
+            &stages,
+            r,
+            &mut timings,
+        )?),
+    };
+    let estimator = settings.estimate.then(|| Estimator {
+        iface: Interface::new(problem::body(&settings, 1).contact_x()),
+        qp: qp_settings(&settings),
+        recovery: settings.recovery,
+        nndd_variant: settings.eta_nndd,
+        layout: &layout,
+        reference,
+    });
 
-    // Solve.
-    let mut dirichlet_step = "";
     let sol = match settings.solver {
-        SolverKind::Nndd => {
-            let dirichlet = match refs[0] {
-                Some(b1) => Some(DirichletStep::new(b1)?),
-                None => None,
-            };
-            dirichlet_step = dirichlet.as_ref().map_or("", |d| d.name());
-            let contact = match refs[1] {
-                Some(b2) => Some(ContactStep::new(b2, qp.clone(), settings.qp_warm_start)?),
-                None => None,
-            };
-            let root = layout.is_root();
-            let monitor = settings.monitor;
-            let res = nndd::solve(
-                &settings,
-                &layout,
-                refs,
-                dirichlet.as_ref(),
-                contact.as_ref(),
-                &stages,
-                |r| {
-                    if monitor && root {
-                        println!(
-                            "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}",
-                            r.iteration,
-                            sci(r.lambda_change, 12),
-                            sci(r.residual, 6),
-                            r.active,
-                            settings.body_grid(1).0 + 1,
-                            r.qp_iterations
-                        );
-                        use std::io::Write;
-                        let _ = std::io::stdout().flush();
-                    }
-                },
-            )?;
-            timings.dirichlet_step = res.timers.dirichlet_step.seconds();
-            timings.contact_step = res.timers.contact_step.seconds();
-            timings.neumann_step = res.timers.neumann_step.seconds();
-            timings.exchange = res.timers.exchange.seconds();
-            let last = res.last;
-            Solution {
-                status: res.status.name().to_string(),
-                converged: res.status == Status::Converged,
-                iterations: res.iterations,
-                history: res.history,
-                lambda: last.lambda,
-                u: last.u,
-                forces: last.forces[1].clone(),
-                active: last.active,
-                qp_kkt: last.qp_kkt,
-            }
-        }
-        SolverKind::Monolithic => {
-            let t = Instant::now();
-            let res = {
-                let _s = stages.monolithic.enter();
-                monolithic::solve(&layout, refs, &qp)?
-            };
-            timings.monolithic = t.elapsed().as_secs_f64();
-            let mut lambda = refs[0]
-                .map(|b| b.normal_trace(&res.u[0]))
-                .unwrap_or_default();
-            layout.share_vec(1, &mut lambda);
-            Solution {
-                status: "solved".into(),
-                converged: true,
-                iterations: 0,
-                history: Vec::new(),
-                lambda,
-                u: res.u,
-                forces: res.forces,
-                active: res.active,
-                qp_kkt: res.kkt_residual,
-            }
-        }
+        SolverKind::Nndd => solve_nndd(
+            &settings,
+            &layout,
+            refs,
+            estimator.as_ref(),
+            &stages,
+            &mut timings,
+        )?,
+        SolverKind::Monolithic => solve_monolithic(
+            &settings,
+            &layout,
+            refs,
+            estimator.as_ref(),
+            &stages,
+            &mut timings,
+        )?,
     };
 
-    // Post-processing: energy (summed over ranks), fields gathered to rank 0.
-    let mut energy = 0.0;
-    for (k, b) in refs.iter().enumerate() {
-        if let Some(b) = b {
-            energy += b.potential_energy(&sol.u[k])?;
+    let energy = {
+        let mut e = 0.0;
+        for (k, b) in refs.iter().enumerate() {
+            if let Some(b) = b {
+                e += b.potential_energy(&sol.last.u[k])?;
+            }
         }
-    }
-    let energy = layout.sum(energy);
-    let mut u = sol.u.clone();
-    layout.share_vec(1, &mut u[0]);
-    layout.share_vec(2, &mut u[1]);
-    // How body 2's interface Schur complement was formed (known on body 2's root).
-    let mut src = [refs[1].map_or(0.0, |b| (b.schur_source == "mumps") as u8 as f64)];
-    layout.share(2, &mut src);
-    let schur_source = if src[0] > 0.5 { "mumps" } else { "solves" };
-    for t in [
-        &mut timings.assembly,
-        &mut timings.factorisation,
-        &mut timings.dirichlet_step,
-        &mut timings.contact_step,
-        &mut timings.neumann_step,
-        &mut timings.exchange,
-        &mut timings.monolithic,
-    ] {
-        *t = layout.max(*t);
-    }
+        layout.sum(e)
+    };
+    let schur_source = schur_source(&layout, refs);
+    let reference_iterations = estimator
+        .as_ref()
+        .and_then(|e| e.reference.as_ref())
+        .map(|r| r.iterations);
+    drop(estimator);
+    let mut last = sol.last.clone();
+    layout.share_vec(1, &mut last.u[0]);
+    layout.share_vec(2, &mut last.u[1]);
+    max_over_ranks(&layout, &mut timings);
     let peak = layout.max(Petsc::peak_memory()) / (1024.0 * 1024.0);
     drop(bodies);
 
     if layout.is_root() {
         let t_out = Instant::now();
         let _s = stages.output.enter();
-        let p1 = problem::body(&settings, 1);
-        let p2 = problem::body(&settings, 2);
-        let x = p1.contact_x();
-        let (mass_d, mass_u) = interface_mass(&x);
-        let m = x.len();
-        let lumped: Vec<f64> = (0..m)
-            .map(|i| {
-                mass_d[i]
-                    + if i > 0 { mass_u[i - 1] } else { 0.0 }
-                    + if i + 1 < m { mass_u[i] } else { 0.0 }
-            })
-            .collect();
-        let u1n: Vec<f64> = p1.contact_normal_dofs().iter().map(|&d| u[0][d]).collect();
-        let u2n: Vec<f64> = p2.contact_normal_dofs().iter().map(|&d| u[1][d]).collect();
-        let gap: Vec<f64> = (0..m).map(|i| u2n[i] - u1n[i]).collect();
-        let pressure: Vec<f64> = (0..m).map(|i| sol.forces[i] / lumped[i]).collect();
-        let contact_force: f64 = sol.forces.iter().sum();
-        let xs: Vec<f64> = (0..m).filter(|&i| sol.active[i]).map(|i| x[i]).collect();
-        let zone = if xs.is_empty() {
-            None
-        } else {
-            Some([
-                xs.iter().cloned().fold(f64::INFINITY, f64::min),
-                xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-            ])
-        };
-        let time = sol.iterations as f64;
-        let mut grids = Vec::new();
-        let mut step = Step {
-            time,
-            grids: Vec::new(),
-        };
-        for (k, p) in [&p1, &p2].into_iter().enumerate() {
-            let name = format!("body{}", k + 1);
-            grids.push(Grid {
-                name: name.clone(),
-                points: p.mesh.points.clone(),
-                topology: Topology::Triangle(
-                    p.mesh
-                        .triangles
-                        .iter()
-                        .map(|t| t.map(|v| v as u32))
-                        .collect(),
-                ),
-            });
-            step.grids.push(GridFields {
-                grid: name,
-                fields: body_fields(&p.mesh, &p.material, &u[k]),
-            });
-        }
-        grids.push(Grid {
-            name: "contact".into(),
-            points: x.iter().map(|&xi| [xi, 1.0]).collect(),
-            topology: Topology::Segment(
-                (0..m.saturating_sub(1) as u32)
-                    .map(|i| [i, i + 1])
-                    .collect(),
-            ),
-        });
-        let scalar = |name: &str, values: Vec<f64>| Field {
-            name: name.into(),
-            center: Center::Node,
-            kind: Kind::Scalar,
-            values,
-        };
-        step.grids.push(GridFields {
-            grid: "contact".into(),
-            fields: vec![
-                scalar("lambda", sol.lambda.clone()),
-                scalar("normal_force", sol.forces.clone()),
-                scalar("pressure", pressure),
-                scalar("gap", gap),
-                scalar(
-                    "active",
-                    sol.active.iter().map(|&a| a as u8 as f64).collect(),
-                ),
-            ],
-        });
-        let fields = describe(&step);
-        let results = Results {
-            grids,
-            steps: vec![step],
-            attributes: vec![
-                ("n".into(), settings.n as f64),
-                ("dofs".into(), settings.dofs() as f64),
-                ("iterations".into(), sol.iterations as f64),
-                ("potential_energy".into(), energy),
-                ("contact_force".into(), contact_force),
-            ],
-        };
+        let results = results_files(&settings, &sol, &last);
         output::write_results(&settings.output, &results)?;
         timings.output = t_out.elapsed().as_secs_f64();
         timings.total = t_start.elapsed().as_secs_f64();
-        let summary = Summary {
-            problem: settings.problem.name().into(),
-            n: settings.n,
-            grids: [0, 1].map(|k| [settings.grids[k].0, settings.grids[k].1]),
-            dofs: settings.dofs(),
-            ranks: layout.size,
-            solver: settings.solver.name().into(),
-            theta: settings.theta,
-            tol: settings.tol,
-            max_it: settings.max_it,
-            young: settings.material.young,
-            poisson: settings.material.poisson,
-            u_d: settings.u_d,
-            f_max: settings.f_max,
-            converged: sol.converged,
-            status: sol.status.clone(),
-            iterations: sol.iterations,
-            history: sol.history.clone(),
-            potential_energy: energy,
-            contact_force,
-            contact_zone: zone,
-            active_nodes: sol.active.iter().filter(|&&a| a).count(),
-            contact_nodes: m,
-            schur_source: schur_source.into(),
-            dirichlet_step: dirichlet_step.into(),
-            qp_kkt_residual: sol.qp_kkt,
-            timings: timings.clone(),
-            peak_memory_mib: peak,
-            h5: file_name(&settings.output, "h5"),
-            xdmf: file_name(&settings.output, "xdmf"),
-            fields,
-        };
+        let summary = summarise(
+            &settings,
+            &layout,
+            &sol,
+            energy,
+            schur_source,
+            reference_iterations,
+            &results,
+            timings.clone(),
+            peak,
+        );
         let json =
             serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
-        let json_path = settings.output.with_extension_added("json");
-        output::write_atomic(&json_path, json.as_bytes())?;
-        println!(
-            "nndd: {} n = {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {:.10e} J/m, contact force {:.6e} N/m, zone {}; {:.2} s; wrote {}.{{h5,xdmf,json}}",
-            summary.problem,
-            summary.n,
-            summary.dofs,
-            summary.ranks,
-            summary.solver,
-            summary.status,
-            summary.iterations,
-            energy,
-            contact_force,
-            zone.map_or("none".to_string(), |z| format!("[{:.4}, {:.4}]", z[0], z[1])),
-            timings.total,
-            settings.output.display()
-        );
-        if !sol.converged {
-            let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
-            eprintln!(
-                "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); try a smaller -nndd_theta (now {})",
-                match sol.status.as_str() {
-                    "diverged" => "diverged",
-                    "stagnated" => "stagnated",
-                    _ => "reached -nndd_max_it",
-                },
-                sol.iterations,
-                sci(last, 3),
-                sci(settings.tol, 1),
-                settings.theta
-            );
-        }
+        output::write_atomic(&with_ext(&settings.output, "json"), json.as_bytes())?;
+        report(&settings, &summary, &sol);
     }
     Ok(if sol.converged {
         Outcome::Solved
     } else {
         Outcome::NotConverged
     })
+}
+
+/// Fail before any work when the output cannot be written (rank 0 checks, all agree).
+fn check_output(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
+    let checked = if layout.is_root() {
+        output::check_writable(&settings.output)
+    } else {
+        Ok(())
+    };
+    if !layout.agree(checked.is_ok()) {
+        checked?;
+        return Err(AppError::ReportedElsewhere);
+    }
+    Ok(())
+}
+
+fn qp_settings(settings: &Settings) -> QpSettings {
+    QpSettings {
+        tol: settings.qp_tol,
+        ..QpSettings::default()
+    }
+}
+
+/// Meshes, assembly and factorisation of the bodies this rank owns.
+fn setup_bodies(
+    settings: &Settings,
+    layout: &Layout,
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<[Option<Body>; 2], AppError> {
+    let nndd_run = settings.solver == SolverKind::Nndd;
+    let mut bodies: [Option<Body>; 2] = [None, None];
+    for alpha in [1, 2] {
+        if !layout.owns(alpha) {
+            continue;
+        }
+        let schur = match (settings.solver, alpha, settings.dirichlet_step) {
+            (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
+            (_, _, DirichletChoice::Auto) => SchurMode::IfFactored,
+            (_, _, DirichletChoice::Condensed) => SchurMode::Always,
+            (_, _, DirichletChoice::System) => SchurMode::None,
+        };
+        let mut body = Body::setup(
+            problem::body(settings, alpha),
+            layout.body_comm(),
+            schur,
+            stages,
+        )?;
+        if nndd_run && alpha == 1 && body.schur.is_none() {
+            body.add_dirichlet_system(stages)?;
+        }
+        timings.assembly += body.setup_seconds.0;
+        timings.factorisation += body.setup_seconds.1;
+        bodies[alpha - 1] = Some(body);
+    }
+    Ok(bodies)
+}
+
+/// The reference solution of (26): the nested mesh r·n, NNDD to tol 1e−8.
+fn solve_reference(
+    settings: &Settings,
+    layout: &Layout,
+    stages: &Stages,
+    r: usize,
+    timings: &mut Timings,
+) -> Result<Reference, AppError> {
+    let t = Instant::now();
+    let fine = settings.refined(r);
+    let mut scratch = Timings::default();
+    let bodies = setup_bodies(&fine, layout, stages, &mut scratch)?;
+    let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
+    let sol = {
+        let _s = stages.reference.enter();
+        solve_nndd(&fine, layout, refs, None, stages, &mut scratch)?
+    };
+    timings.reference = t.elapsed().as_secs_f64();
+    if layout.is_root() && settings.monitor {
+        println!(
+            "nndd: reference solution on mesh {} ({} dofs): {} after {} iterations, {:.2} s",
+            fine.n,
+            fine.dofs(),
+            sol.status,
+            sol.iterations,
+            timings.reference
+        );
+    }
+    Ok(Reference {
+        factor: r,
+        u: sol.last.u,
+        iterations: sol.iterations,
+        bodies,
+    })
+}
+
+/// The NNDD loop (paper §3), estimating where asked.
+fn solve_nndd(
+    settings: &Settings,
+    layout: &Layout,
+    refs: [Option<&Body>; 2],
+    estimator: Option<&Estimator>,
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<Solution, AppError> {
+    let dirichlet = refs[0].map(DirichletStep::new).transpose()?;
+    let qp = qp_settings(settings);
+    let contact = refs[1]
+        .map(|b2| ContactStep::new(b2, qp, settings.qp_warm_start))
+        .transpose()?;
+    let estimates: RefCell<Vec<EstimateRecord>> = RefCell::new(Vec::new());
+    let mut t_est = 0.0;
+    let every = if estimator.is_some() && settings.estimate_every > 0 {
+        Some(settings.estimate_every)
+    } else {
+        None
+    };
+    let root = layout.is_root();
+    let res = nndd::solve(
+        settings,
+        layout,
+        refs,
+        dirichlet.as_ref(),
+        contact.as_ref(),
+        stages,
+        every,
+        |it| {
+            if let Some(est) = estimator {
+                let t = Instant::now();
+                let _s = stages.estimation.enter();
+                estimates.borrow_mut().push(est.estimate(refs, it)?);
+                t_est += t.elapsed().as_secs_f64();
+            }
+            Ok(())
+        },
+        |r| {
+            if settings.monitor && root {
+                monitor_line(
+                    settings,
+                    r,
+                    estimates
+                        .borrow()
+                        .last()
+                        .filter(|e| e.iteration == r.iteration),
+                );
+            }
+        },
+    )?;
+    let mut estimates = estimates.into_inner();
+    if let Some(est) = estimator {
+        if estimates.last().map(|e| e.iteration) != Some(res.iterations) {
+            let t = Instant::now();
+            let _s = stages.estimation.enter();
+            let rec = est.estimate(refs, &res.last)?;
+            t_est += t.elapsed().as_secs_f64();
+            if settings.monitor && root {
+                println!("{}", estimate_text(&rec));
+            }
+            estimates.push(rec);
+        }
+    }
+    timings.estimation += t_est;
+    timings.dirichlet_step = res.timers.dirichlet_step.seconds();
+    timings.contact_step = res.timers.contact_step.seconds();
+    timings.neumann_step = res.timers.neumann_step.seconds();
+    timings.exchange = res.timers.exchange.seconds();
+    let mut history = res.history;
+    attach_estimates(&mut history, &estimates);
+    Ok(Solution {
+        status: res.status.name().to_string(),
+        converged: res.status == Status::Converged,
+        iterations: res.iterations,
+        history,
+        last: res.last,
+        estimates,
+        dirichlet_step: dirichlet.as_ref().map_or("", |d| d.name()),
+    })
+}
+
+/// The discrete global contact problem at once (the NNDD's check).
+fn solve_monolithic(
+    settings: &Settings,
+    layout: &Layout,
+    refs: [Option<&Body>; 2],
+    estimator: Option<&Estimator>,
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<Solution, AppError> {
+    let t = Instant::now();
+    let res = {
+        let _s = stages.monolithic.enter();
+        monolithic::solve(layout, refs, &qp_settings(settings))?
+    };
+    timings.monolithic = t.elapsed().as_secs_f64();
+    let mut lambda = refs[0]
+        .map(|b| b.normal_trace(&res.u[0]))
+        .unwrap_or_default();
+    layout.share_vec(1, &mut lambda);
+    let last = Iterate {
+        lambda,
+        u: res.u,
+        forces: [res.forces.iter().map(|f| -f).collect(), res.forces.clone()],
+        active: res.active,
+        qp_kkt: res.kkt_residual,
+        iteration: 0,
+    };
+    let mut estimates = Vec::new();
+    if let Some(est) = estimator {
+        let t = Instant::now();
+        let _s = stages.estimation.enter();
+        estimates.push(est.estimate(refs, &last)?);
+        timings.estimation = t.elapsed().as_secs_f64();
+    }
+    Ok(Solution {
+        status: "solved".into(),
+        converged: true,
+        iterations: 0,
+        history: Vec::new(),
+        last,
+        estimates,
+        dirichlet_step: "",
+    })
+}
+
+fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord]) {
+    for e in estimates {
+        if let Some(h) = history.iter_mut().find(|h| h.iteration == e.iteration) {
+            h.eta_glo = Some(e.eta_glo);
+            h.eta_fe = Some(e.eta_fe);
+            h.eta_nndd = Some(e.eta_nndd);
+            h.eta_ratio = Some(e.eta_ratio);
+            h.e_ref = e.e_ref;
+            h.effectivity = e.effectivity;
+        }
+    }
+}
+
+fn monitor_line(settings: &Settings, r: &IterationRecord, est: Option<&EstimateRecord>) {
+    println!(
+        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}",
+        r.iteration,
+        sci(r.lambda_change, 12),
+        sci(r.residual, 6),
+        r.active,
+        settings.body_grid(1).0 + 1,
+        r.qp_iterations
+    );
+    if let Some(e) = est {
+        println!("{}", estimate_text(e));
+    }
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+}
+
+fn estimate_text(e: &EstimateRecord) -> String {
+    let mut s = format!(
+        "{:4} NNDD eta_glo {} eta_FE {} eta_NNDD {} ratio {:.4}",
+        e.iteration,
+        sci(e.eta_glo, 6),
+        sci(e.eta_fe, 6),
+        sci(e.eta_nndd, 6),
+        e.eta_ratio
+    );
+    if let (Some(r), Some(g)) = (e.e_ref, e.effectivity) {
+        s += &format!(" e_ref {} effectivity {:.4}", sci(r, 6), g);
+    }
+    s
+}
+
+/// How body 2's interface Schur complement was formed (known on body 2's root).
+fn schur_source(layout: &Layout, refs: [Option<&Body>; 2]) -> &'static str {
+    let mut src = [refs[1].map_or(0.0, |b| (b.schur_source == "mumps") as u8 as f64)];
+    layout.share(2, &mut src);
+    if src[0] > 0.5 {
+        "mumps"
+    } else {
+        "solves"
+    }
+}
+
+fn max_over_ranks(layout: &Layout, t: &mut Timings) {
+    for x in [
+        &mut t.assembly,
+        &mut t.factorisation,
+        &mut t.dirichlet_step,
+        &mut t.contact_step,
+        &mut t.neumann_step,
+        &mut t.exchange,
+        &mut t.monolithic,
+        &mut t.estimation,
+        &mut t.reference,
+    ] {
+        *x = layout.max(*x);
+    }
+}
+
+/// The quantities of the summary that come from the reported iterate.
+struct Contact {
+    force: f64,
+    zone: Option<[f64; 2]>,
+    active: usize,
+    nodes: usize,
+}
+
+fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
+    let x = p1.contact_x();
+    let xs: Vec<f64> = (0..x.len())
+        .filter(|&i| last.active[i])
+        .map(|i| x[i])
+        .collect();
+    let zone = (!xs.is_empty()).then(|| {
+        [
+            xs.iter().cloned().fold(f64::INFINITY, f64::min),
+            xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        ]
+    });
+    Contact {
+        force: last.forces[1].iter().sum(),
+        zone,
+        active: xs.len(),
+        nodes: x.len(),
+    }
+}
+
+/// The HDF5/XDMF content: the meshes and one time step per estimated iteration (or the
+/// reported iterate alone).
+fn results_files(settings: &Settings, sol: &Solution, last: &Iterate) -> Results {
+    let problems = [problem::body(settings, 1), problem::body(settings, 2)];
+    let iface = Interface::new(problems[0].contact_x());
+    let m = iface.len();
+    let mut grids: Vec<Grid> = problems
+        .iter()
+        .map(|p| Grid {
+            name: format!("body{}", p.alpha),
+            points: p.mesh.points.clone(),
+            topology: Topology::Triangle(
+                p.mesh
+                    .triangles
+                    .iter()
+                    .map(|t| t.map(|v| v as u32))
+                    .collect(),
+            ),
+        })
+        .collect();
+    grids.push(Grid {
+        name: "contact".into(),
+        points: iface.x.iter().map(|&xi| [xi, 1.0]).collect(),
+        topology: Topology::Segment(
+            (0..m.saturating_sub(1) as u32)
+                .map(|i| [i, i + 1])
+                .collect(),
+        ),
+    });
+    let step = |it: &Iterate, est: Option<&EstimateRecord>| {
+        let mut grids = Vec::new();
+        for (k, p) in problems.iter().enumerate() {
+            let mut fields = body_fields(&p.mesh, &p.material, &it.u[k]);
+            if let Some(e) = est {
+                for (name, map) in ["eta_glo", "eta_fe", "eta_nndd"].iter().zip(&e.maps[k]) {
+                    fields.push(Field {
+                        name: name.to_string(),
+                        center: Center::Cell,
+                        kind: Kind::Scalar,
+                        values: map.clone(),
+                    });
+                }
+            }
+            grids.push(GridFields {
+                grid: format!("body{}", p.alpha),
+                fields,
+            });
+        }
+        let normal = |p: &BodyProblem, u: &[f64]| -> Vec<f64> {
+            p.contact_normal_dofs().iter().map(|&d| u[d]).collect()
+        };
+        let (u1n, u2n) = (
+            normal(&problems[0], &it.u[0]),
+            normal(&problems[1], &it.u[1]),
+        );
+        let lumped = iface.forces(&vec![1.0; m]);
+        let scalar = |name: &str, values: Vec<f64>| Field {
+            name: name.into(),
+            center: Center::Node,
+            kind: Kind::Scalar,
+            values,
+        };
+        let mut fields = vec![
+            scalar("lambda", it.lambda.clone()),
+            scalar("normal_force", it.forces[1].clone()),
+            scalar(
+                "pressure",
+                (0..m).map(|i| it.forces[1][i] / lumped[i]).collect(),
+            ),
+            scalar("gap", (0..m).map(|i| u2n[i] - u1n[i]).collect()),
+            scalar(
+                "active",
+                it.active.iter().map(|&a| a as u8 as f64).collect(),
+            ),
+        ];
+        if let Some(e) = est {
+            fields.push(scalar("t_hat", e.t_hat.clone()));
+        }
+        grids.push(GridFields {
+            grid: "contact".into(),
+            fields,
+        });
+        Step {
+            time: it.iteration as f64,
+            grids,
+        }
+    };
+    let steps = if sol.estimates.is_empty() {
+        vec![step(last, None)]
+    } else {
+        sol.estimates
+            .iter()
+            .map(|e| step(&e.iterate, Some(e)))
+            .collect()
+    };
+    Results {
+        grids,
+        steps,
+        attributes: vec![
+            ("n".into(), settings.n as f64),
+            ("dofs".into(), settings.dofs() as f64),
+            ("iterations".into(), sol.iterations as f64),
+        ],
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn summarise(
+    settings: &Settings,
+    layout: &Layout,
+    sol: &Solution,
+    energy: f64,
+    schur_source: &str,
+    reference_iterations: Option<usize>,
+    results: &Results,
+    timings: Timings,
+    peak: f64,
+) -> Summary {
+    let contact = contact_of(&problem::body(settings, 1), &sol.last);
+    let residuals = (!sol.estimates.is_empty()).then(|| {
+        let mut r = EquilibriumResiduals::default();
+        for e in &sol.estimates {
+            let x = &e.residuals;
+            r.divergence = r.divergence.max(x.divergence);
+            r.internal_jump = r.internal_jump.max(x.internal_jump);
+            r.element_jump = r.element_jump.max(x.element_jump);
+            r.boundary = r.boundary.max(x.boundary);
+            r.point_reaction = r.point_reaction.max(x.point_reaction);
+        }
+        r
+    });
+    Summary {
+        problem: settings.problem.name().into(),
+        n: settings.n,
+        grids: [0, 1].map(|k| [settings.grids[k].0, settings.grids[k].1]),
+        dofs: settings.dofs(),
+        ranks: layout.size,
+        solver: settings.solver.name().into(),
+        theta: settings.theta,
+        tol: settings.tol,
+        max_it: settings.max_it,
+        young: settings.material.young,
+        poisson: settings.material.poisson,
+        u_d: settings.u_d,
+        f_max: settings.f_max,
+        converged: sol.converged,
+        status: sol.status.clone(),
+        iterations: sol.iterations,
+        history: sol.history.clone(),
+        potential_energy: energy,
+        contact_force: contact.force,
+        contact_zone: contact.zone,
+        active_nodes: contact.active,
+        contact_nodes: contact.nodes,
+        schur_source: schur_source.into(),
+        dirichlet_step: sol.dirichlet_step.into(),
+        qp_kkt_residual: sol.last.qp_kkt,
+        estimates: sol.estimates.iter().map(summary_estimate).collect(),
+        equilibrium_residuals: residuals,
+        reference_factor: (settings.reference_factor > 0).then_some(settings.reference_factor),
+        reference_iterations,
+        timings,
+        peak_memory_mib: peak,
+        h5: with_ext(&settings.output, "h5").display().to_string(),
+        xdmf: with_ext(&settings.output, "xdmf").display().to_string(),
+        fields: describe(results),
+    }
+}
+
+fn summary_estimate(e: &EstimateRecord) -> IterationRecord {
+    IterationRecord {
+        iteration: e.iteration,
+        eta_glo: Some(e.eta_glo),
+        eta_fe: Some(e.eta_fe),
+        eta_nndd: Some(e.eta_nndd),
+        eta_ratio: Some(e.eta_ratio),
+        e_ref: e.e_ref,
+        effectivity: e.effectivity,
+        ..Default::default()
+    }
+}
+
+/// The closing line (and the warning of a run that did not converge), on rank 0.
+fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
+    println!(
+        "nndd: {} n = {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {} J/m, contact force {} N/m, zone {}; {:.2} s; wrote {}.{{h5,xdmf,json}}",
+        summary.problem,
+        summary.n,
+        summary.dofs,
+        summary.ranks,
+        summary.solver,
+        summary.status,
+        summary.iterations,
+        sci(summary.potential_energy, 10),
+        sci(summary.contact_force, 6),
+        summary.contact_zone.map_or("none".to_string(), |z| format!("[{:.4}, {:.4}]", z[0], z[1])),
+        summary.timings.total,
+        settings.output.display()
+    );
+    if let Some(e) = sol.estimates.last() {
+        println!(
+            "nndd: estimates at iteration {}: {}",
+            e.iteration,
+            estimate_text(e).trim_start()
+        );
+    }
+    if !sol.converged {
+        let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
+        eprintln!(
+            "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); try a smaller -nndd_theta (now {})",
+            match sol.status.as_str() {
+                "diverged" => "diverged",
+                "stagnated" => "stagnated",
+                _ => "reached -nndd_max_it",
+            },
+            sol.iterations,
+            sci(last, 3),
+            sci(settings.tol, 1),
+            settings.theta
+        );
+    }
 }
 
 /// C's `%.{digits}e` (PETSc's monitors): `1.234e-03`, not Rust's `1.234e-3`.
@@ -474,48 +799,41 @@ fn body_fields(mesh: &crate::mesh::Mesh, mat: &Material, u: &[f64]) -> Vec<Field
     ]
 }
 
-/// The JSON description of the fields of a step (dataset paths of `PREFIX.h5`).
-fn describe(step: &Step) -> Vec<FieldInfo> {
+/// The JSON description of the fields of the last step (dataset paths of `PREFIX.h5`).
+fn describe(results: &Results) -> Vec<FieldInfo> {
+    let k = results.steps.len().saturating_sub(1);
     let mut out = Vec::new();
-    for g in &step.grids {
-        for f in &g.fields {
-            out.push(FieldInfo {
-                grid: g.grid.clone(),
-                name: f.name.clone(),
-                center: if matches!(f.center, Center::Node) {
-                    "node"
-                } else {
-                    "cell"
-                },
-                // Columns as stored (vectors padded to 3, tensors as full 3 × 3).
-                components: match f.kind {
-                    Kind::Scalar => 1,
-                    Kind::Vector => 3,
-                    Kind::Tensor => 9,
-                },
-                dataset: format!("/steps/0/{}/{}", g.grid, f.name),
-            });
+    if let Some(step) = results.steps.last() {
+        for g in &step.grids {
+            for f in &g.fields {
+                out.push(FieldInfo {
+                    grid: g.grid.clone(),
+                    name: f.name.clone(),
+                    center: if matches!(f.center, Center::Node) {
+                        "node"
+                    } else {
+                        "cell"
+                    },
+                    // Columns as stored (vectors padded to 3, tensors as full 3 × 3).
+                    components: match f.kind {
+                        Kind::Scalar => 1,
+                        Kind::Vector => 3,
+                        Kind::Tensor => 9,
+                    },
+                    dataset: format!("/steps/{k}/{}/{}", g.grid, f.name),
+                });
+            }
         }
     }
     out
 }
 
-fn file_name(prefix: &Path, ext: &str) -> String {
-    prefix.with_extension_added(ext).display().to_string()
-}
-
 /// `PREFIX` + `.ext` (a prefix may contain dots: never replace an extension).
-trait WithExtensionAdded {
-    fn with_extension_added(&self, ext: &str) -> std::path::PathBuf;
-}
-
-impl WithExtensionAdded for Path {
-    fn with_extension_added(&self, ext: &str) -> std::path::PathBuf {
-        let mut s = self.as_os_str().to_owned();
-        s.push(".");
-        s.push(ext);
-        s.into()
-    }
+fn with_ext(prefix: &Path, ext: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    s.into()
 }
 
 /// With `-help`: let both bodies' KSPs register their options (on a tiny matrix), so that

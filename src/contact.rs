@@ -69,10 +69,25 @@ impl ContactStep {
         })
     }
 
-    /// Body 2's displacement u² = u₀ + K⁻¹Bᵀ T² for the Γc forces `forces` of a contact step.
-    pub fn field(&self, body: &Body, forces: &[f64]) -> Result<Vec<f64>, ContactError> {
+    /// Body 2's displacement u² = u₀ + K⁻¹Bᵀ T² for the Γc forces `forces` of a contact step
+    /// at the obstacle `lambda`. On the contact set the QP gives u²_n = λ exactly; the
+    /// back-solve reproduces it to round-off only, so the trace is set to λ there (else the
+    /// contact terms of the estimates, |t̂| ≈ 1e7 times a round-off gap, would not vanish).
+    pub fn field(
+        &self,
+        body: &Body,
+        forces: &[f64],
+        lambda: &[f64],
+        active: &[bool],
+    ) -> Result<Vec<f64>, ContactError> {
         let w = body.neumann_solve(forces, false)?;
-        Ok(self.u0.iter().zip(&w).map(|(a, b)| a + b).collect())
+        let mut u: Vec<f64> = self.u0.iter().zip(&w).map(|(a, b)| a + b).collect();
+        for (i, &d) in body.gc.iter().enumerate() {
+            if active[i] {
+                u[d] = lambda[i];
+            }
+        }
+        Ok(u)
     }
 
     /// The unconstrained solution u₀ and its normal trace v*.

@@ -2,7 +2,7 @@
 //! Gallimard, Choi & Sassi (2013), with one home per concept:
 //! `mesh` (structured meshes), `fem` (P1 plane strain), `problem` (the benchmarks),
 //! `body` (a subdomain's PETSc systems), `contact` (the contact step QP), `dirichlet` (the Dirichlet step), `nndd` (the loop),
-//! `monolithic` (the global QP), `qp` + `dense` (Clarabel and dense algebra),
+//! `monolithic` (the global QP), `equilibrate` + `estimate` (the error estimates), `qp` + `dense` (Clarabel and dense algebra),
 //! `layout` (ranks and exchanges), `output` + `summary` (files), `app` (the run).
 
 pub mod app;
@@ -10,6 +10,8 @@ pub mod body;
 pub mod contact;
 pub mod dense;
 pub mod dirichlet;
+pub mod equilibrate;
+pub mod estimate;
 pub mod fem;
 pub mod layout;
 pub mod log;

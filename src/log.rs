@@ -12,6 +12,8 @@ pub struct Stages {
     pub contact_step: LogStage,
     pub neumann_step: LogStage,
     pub monolithic: LogStage,
+    pub estimation: LogStage,
+    pub reference: LogStage,
     pub output: LogStage,
 }
 
@@ -24,6 +26,8 @@ impl Stages {
             contact_step: LogStage::register("Contact step")?,
             neumann_step: LogStage::register("Neumann step")?,
             monolithic: LogStage::register("Monolithic QP")?,
+            estimation: LogStage::register("Estimation")?,
+            reference: LogStage::register("Reference solve")?,
             output: LogStage::register("Output")?,
         };
         // Enter every stage once on every rank: -log_view names a stage only where it ran, and
@@ -35,6 +39,8 @@ impl Stages {
             stages.contact_step,
             stages.neumann_step,
             stages.monolithic,
+            stages.estimation,
+            stages.reference,
             stages.output,
         ] {
             drop(s.enter());

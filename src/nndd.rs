@@ -17,6 +17,8 @@ pub enum NnddError {
     Body(#[from] BodyError),
     #[error(transparent)]
     Contact(#[from] ContactError),
+    #[error(transparent)]
+    Estimate(#[from] crate::estimate::EstimateError),
 }
 
 /// How an NNDD run ended.
@@ -40,7 +42,7 @@ impl Status {
 }
 
 /// One line of the convergence history.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct IterationRecord {
     pub iteration: usize,
     /// ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
@@ -52,6 +54,19 @@ pub struct IterationRecord {
     /// Clarabel's iterations in the contact step (0: the previous contact set was certified
     /// optimal by the KKT conditions).
     pub qp_iterations: u32,
+    /// The estimates, at estimated iterations (paper (22)–(26)).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_glo: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_fe: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_nndd: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_ratio: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub e_ref: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effectivity: Option<f64>,
 }
 
 /// Per-phase wall times of the loop on this rank.
@@ -64,6 +79,7 @@ pub struct LoopTimers {
 }
 
 /// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
+#[derive(Clone, Debug)]
 pub struct Iterate {
     pub lambda: Vec<f64>,
     /// u¹_p on body 1's ranks, u²_p on body 2's (empty elsewhere; formed after the loop, for
@@ -74,6 +90,8 @@ pub struct Iterate {
     pub active: Vec<bool>,
     /// Relative KKT violation of the contact QP of this step.
     pub qp_kkt: f64,
+    /// The iteration p.
+    pub iteration: usize,
 }
 
 pub struct NnddResult {
@@ -97,8 +115,39 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
+/// Form u¹_p and u²_p on their owners where the steps did not (condensed steps give only the
+/// Γc forces).
+fn form_fields(
+    it: &mut Iterate,
+    bodies: [Option<&Body>; 2],
+    dirichlet: Option<&DirichletStep>,
+    contact: Option<&ContactStep>,
+    stages: &Stages,
+    timers: &mut LoopTimers,
+) -> Result<(), NnddError> {
+    if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
+        if it.u[0].is_empty() {
+            let _s = stages.dirichlet_step.enter();
+            it.u[0] = timers
+                .dirichlet_step
+                .time(|| d.field(b1, &it.lambda, &it.forces[0]))?;
+        }
+    }
+    if let (Some(b2), Some(c)) = (bodies[1], contact) {
+        if it.u[1].is_empty() {
+            let _s = stages.contact_step.enter();
+            it.u[1] = timers
+                .contact_step
+                .time(|| c.field(b2, &it.forces[1], &it.lambda, &it.active))?;
+        }
+    }
+    Ok(())
+}
+
 /// Run the NNDD loop. `bodies[α-1]` is `Some` on the ranks owning body α, with `dirichlet`
-/// on body 1's and `contact` on body 2's.
+/// on body 1's and `contact` on body 2's. Every `estimate_every` iterations (if set), the
+/// fields of step p are formed and `observe` is called with the iterate (collectively).
+#[allow(clippy::too_many_arguments)]
 pub fn solve(
     settings: &Settings,
     layout: &Layout,
@@ -106,6 +155,8 @@ pub fn solve(
     dirichlet: Option<&DirichletStep>,
     contact: Option<&ContactStep>,
     stages: &Stages,
+    estimate_every: Option<usize>,
+    mut observe: impl FnMut(&Iterate) -> Result<(), NnddError>,
     mut monitor: impl FnMut(&IterationRecord),
 ) -> Result<NnddResult, NnddError> {
     let m = settings.body_grid(1).0 + 1;
@@ -173,16 +224,28 @@ pub fn solve(
             residual: norm(&r),
             active: act[..m].iter().filter(|&&a| a > 0.5).count(),
             qp_iterations: act[m + 1] as u32,
+            eta_glo: None,
+            eta_fe: None,
+            eta_nndd: None,
+            eta_ratio: None,
+            e_ref: None,
+            effectivity: None,
         };
-        monitor(&record);
-        history.push(record);
-        last = Some(Iterate {
+        let mut it = Iterate {
             lambda: lambda.clone(),
             u: [u1, Vec::new()],
             forces: [t1, t2],
             active: act[..m].iter().map(|&a| a > 0.5).collect(),
             qp_kkt: act[m],
-        });
+            iteration: p,
+        };
+        if estimate_every.is_some_and(|k| p % k == 0) {
+            form_fields(&mut it, bodies, dirichlet, contact, stages, &mut timers)?;
+            observe(&it)?;
+        }
+        monitor(&record);
+        history.push(record);
+        last = Some(it);
         // Step 6: stop? (all ranks computed the same numbers; rank 0 decides for all)
         let verdict = if !change.is_finite() {
             Some(Status::Diverged)
@@ -217,18 +280,7 @@ pub fn solve(
     let iterations = history.len();
     let mut last = last.expect("max_it ≥ 1");
     // The fields of the reported step (the loop needs only the Γc forces).
-    if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
-        if last.u[0].is_empty() {
-            let _s = stages.dirichlet_step.enter();
-            last.u[0] = timers
-                .dirichlet_step
-                .time(|| d.field(b1, &last.lambda, &last.forces[0]))?;
-        }
-    }
-    if let (Some(b2), Some(c)) = (bodies[1], contact) {
-        let _s = stages.contact_step.enter();
-        last.u[1] = timers.contact_step.time(|| c.field(b2, &last.forces[1]))?;
-    }
+    form_fields(&mut last, bodies, dirichlet, contact, stages, &mut timers)?;
     Ok(NnddResult {
         status,
         iterations,

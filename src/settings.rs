@@ -94,6 +94,16 @@ pub struct Settings {
     /// Try the previous contact set first in the contact step (certified, else Clarabel).
     pub qp_warm_start: bool,
     pub dirichlet_step: DirichletChoice,
+    /// Estimate the errors of the final iterate.
+    pub estimate: bool,
+    /// Also estimate every k-th iteration (0: never).
+    pub estimate_every: usize,
+    /// Reference mesh factor r of (26) (0: no reference solution).
+    pub reference_factor: usize,
+    /// How the equilibrated stresses are recovered (see `equilibrate.rs`).
+    pub recovery: crate::equilibrate::StarChoice,
+    /// The reference problem of η^NNDD (see `estimate.rs`).
+    pub eta_nndd: crate::estimate::NnddVariant,
 }
 
 impl Settings {
@@ -261,6 +271,83 @@ impl Settings {
                 })
             }
         };
+        let estimate_flag = o.flag(
+            "-nndd_estimate",
+            "Estimate eta_glo, eta_FE, eta_NNDD of the final iterate (paper (22)-(24))",
+            false,
+        )?;
+        let (every, _) = o.int(
+            "-nndd_estimate_every",
+            "Also estimate every k-th NNDD iteration (0: never)",
+            0,
+        )?;
+        if !(0..=1 << 16).contains(&every) {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_estimate_every",
+                accepted: "an integer >= 0 (0: never)",
+                value: every.to_string(),
+            });
+        }
+        let (reference, _) = o.int(
+            "-nndd_reference_factor",
+            "Solve the reference problem on the nested mesh r*n and report e_ref and the effectivity (0: off; paper: 8)",
+            0,
+        )?;
+        if reference < 0 || reference == 1 || reference > 64 {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_reference_factor",
+                accepted: "0 (off) or an integer in [2, 64]",
+                value: reference.to_string(),
+            });
+        }
+        let (recovery, _) = o.string(
+            "-nndd_recovery",
+            "Equilibrated stress recovery: patch (EET then patch-wise complementary energy minimisation), star (EET, star parameters minimising it), eet (EET, averaged tractions)",
+            "patch",
+        )?;
+        let (sweeps, _) = o.int(
+            "-nndd_recovery_sweeps",
+            "Patch relaxation sweeps of -nndd_recovery patch (>= 1)",
+            3,
+        )?;
+        if !(1..=1000).contains(&sweeps) {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_recovery_sweeps",
+                accepted: "an integer in [1, 1000]",
+                value: sweeps.to_string(),
+            });
+        }
+        let (variant, _) = o.string(
+            "-nndd_eta_nndd",
+            "eta_NNDD against: discrete (the discrete problem, nodal contact forces) or density (method.md 3.3 as written)",
+            "discrete",
+        )?;
+        let eta_nndd = match variant.as_str() {
+            "discrete" => crate::estimate::NnddVariant::Discrete,
+            "density" => crate::estimate::NnddVariant::Density,
+            _ => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_eta_nndd",
+                    value: variant,
+                    accepted: "discrete, density",
+                })
+            }
+        };
+        use crate::equilibrate::StarChoice;
+        let recovery = match recovery.as_str() {
+            "patch" => StarChoice::PatchRelaxation {
+                sweeps: sweeps as usize,
+            },
+            "star" => StarChoice::minimum_energy(),
+            "eet" => StarChoice::AveragedTraction,
+            _ => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_recovery",
+                    value: recovery,
+                    accepted: "patch, star, eet",
+                })
+            }
+        };
         o.end()?;
         Ok(Settings {
             problem,
@@ -278,12 +365,34 @@ impl Settings {
             qp_tol,
             qp_warm_start,
             dirichlet_step,
+            // A reference solution is only of use with an estimate to compare.
+            estimate: estimate_flag || every > 0 || reference > 0,
+            estimate_every: every as usize,
+            reference_factor: reference as usize,
+            recovery,
+            eta_nndd,
         })
     }
 
     /// (nx, ny) of body `alpha` (1 or 2).
     pub fn body_grid(&self, alpha: usize) -> (usize, usize) {
         self.grids[alpha - 1]
+    }
+
+    /// The same problem on the nested mesh refined `r` times, solved to tol 1e−8 without
+    /// output, monitor or estimates (the reference of (26)).
+    pub fn refined(&self, r: usize) -> Settings {
+        let mut s = self.clone();
+        s.n *= r;
+        for g in s.grids.iter_mut() {
+            *g = (g.0 * r, g.1 * r);
+        }
+        s.tol = 1e-8;
+        s.monitor = false;
+        s.estimate = false;
+        s.estimate_every = 0;
+        s.reference_factor = 0;
+        s
     }
 
     /// Total number of dofs of both bodies.

@@ -14,8 +14,19 @@ pub struct Timings {
     pub neumann_step: f64,
     pub exchange: f64,
     pub monolithic: f64,
+    pub estimation: f64,
+    pub reference: f64,
     pub output: f64,
     pub total: f64,
+}
+
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct EquilibriumResiduals {
+    pub divergence: f64,
+    pub internal_jump: f64,
+    pub element_jump: f64,
+    pub boundary: f64,
+    pub point_reaction: f64,
 }
 
 /// Where a field lives in `PREFIX.h5`.
@@ -64,9 +75,20 @@ pub struct Summary {
     pub dirichlet_step: String,
     /// Largest relative KKT violation of the contact QPs of the reported step.
     pub qp_kkt_residual: f64,
+    /// The estimated iterations (η^glo, η^FE, η^NNDD, ratio (25), e_ref and effectivity (26)).
+    pub estimates: Vec<IterationRecord>,
     pub timings: Timings,
     /// Peak resident memory over ranks (MiB).
     pub peak_memory_mib: f64,
+    /// Largest equilibrium residuals of the recovered stresses over the estimated iterations
+    /// (relative; method.md §3.1's "exact equilibrium" at round-off).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub equilibrium_residuals: Option<EquilibriumResiduals>,
+    /// Reference mesh factor and the reference NNDD's iterations (when solved).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_factor: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_iterations: Option<usize>,
     pub h5: String,
     pub xdmf: String,
     pub fields: Vec<FieldInfo>,

@@ -1,0 +1,243 @@
+//! Capability: guaranteed error estimates (paper §4, method.md §3): η^glo bounds the error
+//! (effectivity ≥ 1 against a reference solution), the recovered stresses are equilibrated to
+//! round-off, η^NNDD vanishes as the NNDD converges, η^FE falls with h, all vanish on the
+//! patch test, and the element maps in the HDF5 file add up to the totals.
+
+mod common;
+use common::*;
+
+fn estimates(j: &serde_json::Value) -> Vec<serde_json::Value> {
+    j["estimates"]
+        .as_array()
+        .expect("estimates in summary")
+        .clone()
+}
+
+fn g(e: &serde_json::Value, k: &str) -> f64 {
+    e[k].as_f64()
+        .unwrap_or_else(|| panic!("{k} missing in {e}"))
+}
+
+#[test]
+fn uniform_patch_test_has_zero_estimates() {
+    let dir = scratch("est-uniform");
+    let j = solve(
+        2,
+        &dir.join("u"),
+        &[
+            "-nndd_problem",
+            "uniform",
+            "-nndd_n",
+            "4",
+            "-nndd_tol",
+            "1e-13",
+            "-nndd_estimate_every",
+            "2",
+        ],
+    );
+    // ‖u‖_E² = uᵀKu = 2 × potential energy (no Neumann load).
+    let norm = (2.0 * f(&j, "potential_energy")).sqrt();
+    let est = estimates(&j);
+    assert!(est.len() >= 3);
+    for e in &est {
+        // The step-p problem is solved exactly by P1 at every iteration.
+        assert!(
+            g(e, "eta_fe") < 1e-10 * norm,
+            "η^FE {} at iteration {}",
+            g(e, "eta_fe"),
+            e["iteration"]
+        );
+    }
+    let last = est.last().unwrap();
+    for k in ["eta_glo", "eta_fe", "eta_nndd"] {
+        assert!(
+            g(last, k) < 1e-10 * norm,
+            "{k} = {} (‖u‖_E = {norm})",
+            g(last, k)
+        );
+    }
+    // Before convergence the algebraic error is seen: η^glo ≈ η^NNDD > 0 at iteration 2.
+    assert!(g(&est[0], "eta_nndd") > 1e-3 * norm);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn recovered_stresses_are_equilibrated() {
+    let dir = scratch("est-eq");
+    let j = solve(
+        2,
+        &dir.join("p"),
+        &["-nndd_n", "8", "-nndd_estimate_every", "3"],
+    );
+    let r = &j["equilibrium_residuals"];
+    for k in [
+        "divergence",
+        "internal_jump",
+        "element_jump",
+        "boundary",
+        "point_reaction",
+    ] {
+        let v = r[k].as_f64().unwrap();
+        assert!(v < 1e-10, "equilibrium residual {k} = {v:e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The bound holds: γ = η^glo / e_ref ≥ 1 at iterations 2, 6 and converged, n = 4, 8, 16.
+#[test]
+fn the_bound_holds() {
+    let dir = scratch("est-bound");
+    for n in ["4", "8", "16"] {
+        let p = dir.join(format!("b{n}"));
+        let j = solve(
+            2,
+            &p,
+            &[
+                "-nndd_n",
+                n,
+                "-nndd_estimate_every",
+                "2",
+                "-nndd_reference_factor",
+                "8",
+            ],
+        );
+        let est = estimates(&j);
+        let iters: Vec<u64> = est
+            .iter()
+            .map(|e| e["iteration"].as_u64().unwrap())
+            .collect();
+        assert!(iters.contains(&2) && iters.contains(&6), "{iters:?}");
+        assert_eq!(*iters.last().unwrap(), j["iterations"].as_u64().unwrap());
+        for e in &est {
+            let gamma = g(e, "effectivity");
+            assert!(
+                gamma >= 1.0,
+                "n = {n}, iteration {}: effectivity {gamma}",
+                e["iteration"]
+            );
+            assert!(
+                gamma < 3.0,
+                "n = {n}: effectivity {gamma} is not a useful bound"
+            );
+            assert!((g(e, "eta_glo") / g(e, "e_ref") - gamma).abs() < 1e-12 * gamma);
+        }
+        // The element maps of the last step add up to the totals.
+        let last = est.last().unwrap();
+        let k = est.len() - 1;
+        for (name, key) in [
+            ("eta_glo", "eta_glo"),
+            ("eta_fe", "eta_fe"),
+            ("eta_nndd", "eta_nndd"),
+        ] {
+            let mut s = 0.0;
+            for body in ["body1", "body2"] {
+                s += h5(&p, &format!("/steps/{k}/{body}/{name}"))
+                    .iter()
+                    .map(|x| x * x)
+                    .sum::<f64>();
+            }
+            // Element terms that are round-off negative are shown as 0 in the maps.
+            let want = g(last, key);
+            let scale = g(last, "eta_glo").powi(2);
+            assert!(
+                (s - want * want).abs() <= 1e-10 * scale,
+                "{name}: maps {} vs total {want}",
+                s.sqrt()
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn eta_nndd_vanishes_and_eta_fe_falls_with_h() {
+    let dir = scratch("est-limits");
+    let mut fe = Vec::new();
+    for n in ["4", "8", "16"] {
+        let j = solve(
+            2,
+            &dir.join(format!("l{n}")),
+            &["-nndd_n", n, "-nndd_tol", "1e-10", "-nndd_estimate"],
+        );
+        let e = estimates(&j).pop().unwrap();
+        assert!(
+            g(&e, "eta_nndd") < 1e-6 * g(&e, "eta_glo"),
+            "n = {n}: η^NNDD {} vs η^glo {}",
+            g(&e, "eta_nndd"),
+            g(&e, "eta_glo")
+        );
+        fe.push(g(&e, "eta_fe"));
+    }
+    for w in fe.windows(2) {
+        let rate = w[0] / w[1];
+        assert!(
+            (1.3..3.0).contains(&rate),
+            "η^FE falls by {rate} when n doubles ({fe:?})"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn estimates_agree_on_one_and_two_ranks() {
+    let dir = scratch("est-ranks");
+    let args = [
+        "-nndd_n",
+        "6",
+        "-nndd_estimate_every",
+        "3",
+        "-nndd_tol",
+        "1e-10",
+    ];
+    let a = estimates(&solve(1, &dir.join("r1"), &args));
+    let b = estimates(&solve(2, &dir.join("r2"), &args));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        for k in ["eta_glo", "eta_fe", "eta_nndd"] {
+            let (u, v) = (g(x, k), g(y, k));
+            assert!(
+                (u - v).abs() <= 1e-10 * u.abs().max(v.abs()),
+                "{k}: {u} (-n 1) vs {v} (-n 2)"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// method.md §3.3 builds η^NNDD from the P1 density t̂^c of η^glo: at the converged discrete
+/// solution it does not vanish (the density of the nodal contact forces changes sign near the
+/// end of the contact zone, and its projection on t̂ ≤ 0 alters the loads). The discrete
+/// variant, with nodal forces, does.
+#[test]
+fn method_md_eta_nndd_does_not_vanish_the_discrete_one_does() {
+    let dir = scratch("est-variant");
+    let base = ["-nndd_n", "8", "-nndd_tol", "1e-12", "-nndd_estimate"];
+    let d = estimates(&solve(
+        1,
+        &dir.join("d"),
+        &[&base[..], &["-nndd_eta_nndd", "discrete"]].concat(),
+    ))
+    .pop()
+    .unwrap();
+    let m = estimates(&solve(
+        1,
+        &dir.join("m"),
+        &[&base[..], &["-nndd_eta_nndd", "density"]].concat(),
+    ))
+    .pop()
+    .unwrap();
+    assert!(
+        g(&d, "eta_nndd") < 1e-8 * g(&d, "eta_glo"),
+        "discrete η^NNDD {}",
+        g(&d, "eta_nndd")
+    );
+    assert!(
+        g(&m, "eta_nndd") > 0.1 * g(&m, "eta_glo"),
+        "density η^NNDD {}",
+        g(&m, "eta_nndd")
+    );
+    // η^glo and η^FE do not depend on the variant.
+    assert_eq!(g(&d, "eta_glo"), g(&m, "eta_glo"));
+    assert_eq!(g(&d, "eta_fe"), g(&m, "eta_fe"));
+    std::fs::remove_dir_all(&dir).ok();
+}
