@@ -2,7 +2,8 @@
 //! wall time, iterations and the phase split (maximum over ranks, from the JSON summary).
 //! Run through `jobs/bench-speed [n …]`.
 
-use std::process::Command;
+#[path = "runner.rs"]
+mod runner;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -13,9 +14,7 @@ fn main() {
             .map(|a| a.parse().expect("mesh levels are integers"))
             .collect()
     };
-    let exe = std::env::var("NNDD").unwrap_or_else(|_| "target/release/nndd".into());
-    let dir = std::env::temp_dir().join(format!("nndd-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = runner::scratch("bench");
     println!(
         "{:>5} {:>9} {:>4} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
         "n",
@@ -35,34 +34,18 @@ fn main() {
     for n in levels {
         let prefix = dir.join(format!("paper{n}"));
         eprintln!("bench-speed: n = {n} …");
-        let t = std::time::Instant::now();
-        let out = Command::new("mpirun")
-            .args([
-                "-n",
-                "2",
-                &exe,
-                "-options_file",
-                "petsc-options/paper.opts",
-                "-nndd_monitor",
-                "0",
-            ])
-            .args([
-                "-nndd_n",
-                &n.to_string(),
-                "-nndd_tol",
-                "1e-8",
-                "-nndd_output",
-                prefix.to_str().unwrap(),
-            ])
-            .output()
-            .expect("mpirun runs");
-        let wall = t.elapsed().as_secs_f64();
-        if !out.status.success() {
-            eprintln!("n = {n} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-            std::process::exit(1);
-        }
-        let text = std::fs::read_to_string(format!("{}.json", prefix.display())).unwrap();
-        let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+        // The solver alone: no estimates, no reference solution.
+        let args = [
+            "-nndd_n",
+            &n.to_string(),
+            "-nndd_tol",
+            "1e-8",
+            "-nndd_estimate_every",
+            "0",
+            "-nndd_reference_factor",
+            "0",
+        ];
+        let (j, wall) = runner::run(2, &prefix, &args);
         let t = &j["timings"];
         let g = |k: &str| t[k].as_f64().unwrap();
         let its = j["iterations"].as_u64().unwrap();

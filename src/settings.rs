@@ -308,7 +308,7 @@ impl Settings {
         let (sweeps, _) = o.int(
             "-nndd_recovery_sweeps",
             "Patch relaxation sweeps of -nndd_recovery patch (>= 1)",
-            3,
+            10,
         )?;
         if !(1..=1000).contains(&sweeps) {
             return Err(SettingsError::OutOfRange {
