@@ -23,7 +23,7 @@ use crate::output::{
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::{self, BodyProblem};
 use crate::qp::QpSettings;
-use crate::settings::{DirichletChoice, Settings, SettingsError, SolverKind};
+use crate::settings::{DirichletChoice, Settings, SettingsError, SolverKind, StopRule};
 use crate::summary::{EquilibriumResiduals, FieldInfo, Summary, Timings};
 
 /// Printed by `-help` before the option list.
@@ -87,7 +87,10 @@ pub enum Outcome {
 /// What a solver hands to post-processing.
 struct Solution {
     status: String,
+    stop_reason: &'static str,
     converged: bool,
+    /// The run ended as asked (converged, balanced, or the fixed iteration count).
+    requested: bool,
     iterations: usize,
     history: Vec<IterationRecord>,
     /// The reported iterate (λ = u¹_n, T¹, T², contact set, fields on their owners).
@@ -205,7 +208,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         output::write_atomic(&with_ext(&settings.output, "json"), json.as_bytes())?;
         report(&settings, &summary, &sol);
     }
-    Ok(if sol.converged {
+    Ok(if sol.requested {
         Outcome::Solved
     } else {
         Outcome::NotConverged
@@ -335,13 +338,17 @@ fn solve_nndd(
         stages,
         every,
         |it| {
-            if let Some(est) = estimator {
-                let t = Instant::now();
-                let _s = stages.estimation.enter();
-                estimates.borrow_mut().push(est.estimate(refs, it)?);
-                t_est += t.elapsed().as_secs_f64();
-            }
-            Ok(())
+            let Some(est) = estimator else {
+                return Ok(false);
+            };
+            let t = Instant::now();
+            let _s = stages.estimation.enter();
+            let rec = est.estimate(refs, it)?;
+            t_est += t.elapsed().as_secs_f64();
+            let balanced = settings.stop == StopRule::Balanced
+                && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
+            estimates.borrow_mut().push(rec);
+            Ok(balanced)
         },
         |r| {
             if settings.monitor && root {
@@ -378,7 +385,11 @@ fn solve_nndd(
     attach_estimates(&mut history, &estimates);
     Ok(Solution {
         status: res.status.name().to_string(),
-        converged: res.status == Status::Converged,
+        stop_reason: res.status.stop_reason(),
+        // A fixed iteration count asked for (-nndd_stop none) is a success too.
+        converged: res.status.succeeded(),
+        requested: res.status.succeeded()
+            || (settings.stop == StopRule::None && res.status == Status::MaxIterations),
         iterations: res.iterations,
         history,
         last: res.last,
@@ -423,7 +434,9 @@ fn solve_monolithic(
     }
     Ok(Solution {
         status: "solved".into(),
+        stop_reason: "direct",
         converged: true,
+        requested: true,
         iterations: 0,
         history: Vec::new(),
         last,
@@ -679,6 +692,7 @@ fn summarise(
         f_max: settings.f_max,
         converged: sol.converged,
         status: sol.status.clone(),
+        stop_reason: sol.stop_reason.into(),
         iterations: sol.iterations,
         history: sol.history.clone(),
         potential_energy: energy,
@@ -738,7 +752,7 @@ fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             estimate_text(e).trim_start()
         );
     }
-    if !sol.converged {
+    if !sol.requested {
         let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
         eprintln!(
             "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); try a smaller -nndd_theta (now {})",

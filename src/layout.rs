@@ -94,6 +94,15 @@ impl Layout {
         v != 0
     }
 
+    /// Broadcast a small code from world rank 0.
+    pub fn agree_code(&self, code: u8) -> u8 {
+        let mut v = code;
+        if self.size > 1 {
+            self.world.process_at_rank(0).broadcast_into(&mut v);
+        }
+        v
+    }
+
     /// Sum over ranks.
     pub fn sum(&self, x: f64) -> f64 {
         let mut out = x;

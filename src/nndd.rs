@@ -9,7 +9,7 @@ use crate::contact::{ContactError, ContactStep};
 use crate::dirichlet::DirichletStep;
 use crate::layout::Layout;
 use crate::log::{Stages, Timer};
-use crate::settings::Settings;
+use crate::settings::{Settings, StopRule};
 
 #[derive(Debug, thiserror::Error)]
 pub enum NnddError {
@@ -24,7 +24,10 @@ pub enum NnddError {
 /// How an NNDD run ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Status {
+    /// ‖Δλ‖ ≤ tol ‖λ‖.
     Converged,
+    /// Balanced stopping: η^NNDD ≤ κ η^FE at an estimated iteration.
+    Balanced,
     MaxIterations,
     Diverged,
     Stagnated,
@@ -34,10 +37,36 @@ impl Status {
     pub fn name(self) -> &'static str {
         match self {
             Status::Converged => "converged",
+            Status::Balanced => "balanced",
             Status::MaxIterations => "max_it",
             Status::Diverged => "diverged",
             Status::Stagnated => "stagnated",
         }
+    }
+
+    /// Why the run ended, for the summary's `stop_reason`.
+    pub fn stop_reason(self) -> &'static str {
+        match self {
+            Status::Converged => "tol",
+            other => other.name(),
+        }
+    }
+
+    /// The run reached what it was asked for.
+    pub fn succeeded(self) -> bool {
+        matches!(self, Status::Converged | Status::Balanced)
+    }
+
+    fn from_code(c: u8) -> Option<Status> {
+        [
+            Status::Converged,
+            Status::Balanced,
+            Status::MaxIterations,
+            Status::Diverged,
+            Status::Stagnated,
+        ]
+        .into_iter()
+        .find(|s| *s as u8 + 1 == c)
     }
 }
 
@@ -146,7 +175,8 @@ fn form_fields(
 
 /// Run the NNDD loop. `bodies[α-1]` is `Some` on the ranks owning body α, with `dirichlet`
 /// on body 1's and `contact` on body 2's. Every `estimate_every` iterations (if set), the
-/// fields of step p are formed and `observe` is called with the iterate (collectively).
+/// fields of step p are formed and `observe` is called with the iterate (collectively); it
+/// returns whether the balanced stopping criterion holds there.
 #[allow(clippy::too_many_arguments)]
 pub fn solve(
     settings: &Settings,
@@ -156,7 +186,7 @@ pub fn solve(
     contact: Option<&ContactStep>,
     stages: &Stages,
     estimate_every: Option<usize>,
-    mut observe: impl FnMut(&Iterate) -> Result<(), NnddError>,
+    mut observe: impl FnMut(&Iterate) -> Result<bool, NnddError>,
     mut monitor: impl FnMut(&IterationRecord),
 ) -> Result<NnddResult, NnddError> {
     let m = settings.body_grid(1).0 + 1;
@@ -239,18 +269,22 @@ pub fn solve(
             qp_kkt: act[m],
             iteration: p,
         };
+        let mut balanced = false;
         if estimate_every.is_some_and(|k| p % k == 0) {
             form_fields(&mut it, bodies, dirichlet, contact, stages, &mut timers)?;
-            observe(&it)?;
+            balanced = observe(&it)?;
         }
         monitor(&record);
         history.push(record);
         last = Some(it);
         // Step 6: stop? (all ranks computed the same numbers; rank 0 decides for all)
+        let use_tol = settings.stop != StopRule::None;
         let verdict = if !change.is_finite() {
             Some(Status::Diverged)
-        } else if change <= settings.tol {
+        } else if use_tol && change <= settings.tol {
             Some(Status::Converged)
+        } else if balanced {
+            Some(Status::Balanced)
         } else {
             if change < best {
                 best = change;
@@ -263,16 +297,16 @@ pub fn solve(
             };
             if growth >= 5 && change > 10.0 * best {
                 Some(Status::Diverged)
-            } else if p - best_at >= 50 {
+            } else if use_tol && p - best_at >= 50 {
                 Some(Status::Stagnated)
             } else {
                 None
             }
         };
-        let code = verdict.map_or(0u8, |s| s as u8 + 1);
-        let stop = layout.agree(code != 0);
-        if stop {
-            status = verdict.unwrap_or(Status::Stagnated);
+        // Rank 0 decides for all (every rank computed the same numbers).
+        let code = layout.agree_code(verdict.map_or(0u8, |s| s as u8 + 1));
+        if let Some(s) = Status::from_code(code) {
+            status = s;
             break;
         }
         lambda = new;

@@ -21,6 +21,18 @@ impl ProblemKind {
     }
 }
 
+/// When the NNDD stops (besides divergence and -nndd_max_it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopRule {
+    /// ‖λ_{p+1} − λ_p‖ ≤ tol ‖λ_{p+1}‖ (method.md §2 step 6).
+    Tol,
+    /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE (the algebra no longer
+    /// matters next to the mesh).
+    Balanced,
+    /// Exactly -nndd_max_it iterations (studies at a fixed iteration count).
+    None,
+}
+
 /// How the Dirichlet step on Ω¹ is solved (see `dirichlet.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DirichletChoice {
@@ -104,6 +116,9 @@ pub struct Settings {
     pub recovery: crate::equilibrate::StarChoice,
     /// The reference problem of η^NNDD (see `estimate.rs`).
     pub eta_nndd: crate::estimate::NnddVariant,
+    pub stop: StopRule,
+    /// κ of the balanced stopping rule.
+    pub stop_ratio: f64,
 }
 
 impl Settings {
@@ -317,6 +332,31 @@ impl Settings {
                 value: sweeps.to_string(),
             });
         }
+        let (stop, _) = o.string(
+            "-nndd_stop",
+            "Stopping rule: tol (|dlambda| <= tol |lambda|), balanced (also when eta_NNDD <= kappa eta_FE), none (exactly -nndd_max_it iterations)",
+            "tol",
+        )?;
+        let stop = match stop.as_str() {
+            "tol" => StopRule::Tol,
+            "balanced" => StopRule::Balanced,
+            "none" => StopRule::None,
+            _ => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_stop",
+                    value: stop,
+                    accepted: "tol, balanced, none",
+                })
+            }
+        };
+        let (stop_ratio, _) = o.real(
+            "-nndd_stop_ratio",
+            "kappa of -nndd_stop balanced: stop when eta_NNDD <= kappa eta_FE",
+            0.1,
+        )?;
+        if !(stop_ratio > 0.0 && stop_ratio.is_finite()) {
+            return Err(range("-nndd_stop_ratio", "> 0", stop_ratio));
+        }
         let (variant, _) = o.string(
             "-nndd_eta_nndd",
             "eta_NNDD against: discrete (the discrete problem, nodal contact forces) or density (method.md 3.3 as written)",
@@ -365,12 +405,19 @@ impl Settings {
             qp_tol,
             qp_warm_start,
             dirichlet_step,
-            // A reference solution is only of use with an estimate to compare.
-            estimate: estimate_flag || every > 0 || reference > 0,
-            estimate_every: every as usize,
+            // A reference solution is only of use with an estimate to compare; balanced
+            // stopping estimates every iteration unless told otherwise.
+            estimate: estimate_flag || every > 0 || reference > 0 || stop == StopRule::Balanced,
+            estimate_every: if stop == StopRule::Balanced && every == 0 {
+                1
+            } else {
+                every as usize
+            },
             reference_factor: reference as usize,
             recovery,
             eta_nndd,
+            stop,
+            stop_ratio,
         })
     }
 
@@ -392,6 +439,7 @@ impl Settings {
         s.estimate = false;
         s.estimate_every = 0;
         s.reference_factor = 0;
+        s.stop = StopRule::Tol;
         s
     }
 

@@ -59,6 +59,9 @@ pub struct Summary {
     pub converged: bool,
     /// "converged", "max_it", "diverged", "stagnated" (NNDD) or "solved" (monolithic).
     pub status: String,
+    /// Why the run ended: "tol", "balanced", "max_it", "diverged", "stagnated" (NNDD) or
+    /// "direct" (monolithic).
+    pub stop_reason: String,
     pub iterations: usize,
     pub history: Vec<IterationRecord>,
     /// Σ_α ½ a^α(u, u) − ∫_{Γ_N} F·u (J/m).

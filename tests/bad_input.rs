@@ -63,6 +63,17 @@ fn theta_must_be_positive() {
 }
 
 #[test]
+fn estimator_settings_in_range() {
+    refused(1, &["-nndd_stop_ratio", "0"], "-nndd_stop_ratio");
+    refused(
+        1,
+        &["-nndd_reference_factor", "1"],
+        "-nndd_reference_factor",
+    );
+    refused(1, &["-nndd_estimate_every", "-2"], "-nndd_estimate_every");
+}
+
+#[test]
 fn young_modulus_must_be_positive() {
     refused(1, &["-nndd_E", "-2e11"], "-nndd_E");
     refused(1, &["-nndd_E", "0"], "-nndd_E");
@@ -85,6 +96,8 @@ fn mesh_size_must_be_positive() {
 fn unknown_names_are_refused() {
     refused(1, &["-nndd_problem", "hertz"], "-nndd_problem");
     refused(1, &["-nndd_solver", "penalty"], "-nndd_solver");
+    refused(1, &["-nndd_stop", "never"], "-nndd_stop");
+    refused(1, &["-nndd_recovery", "spr"], "-nndd_recovery");
 }
 
 #[test]
