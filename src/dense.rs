@@ -264,17 +264,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 mod tests {
     use super::*;
 
-    /// Deterministic LCG returning values in [-1, 1).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        }
-    }
+    use crate::testutil::Lcg;
 
     fn random_spd(n: usize, rng: &mut Lcg) -> SymMatrix {
         let b: Vec<f64> = (0..n * n).map(|_| rng.next()).collect();

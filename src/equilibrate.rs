@@ -1845,17 +1845,7 @@ mod tests {
         StarChoice::PatchRelaxation { sweeps: 3 },
     ];
 
-    /// Deterministic LCG returning values in [-1, 1).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        }
-    }
+    use crate::testutil::Lcg;
 
     fn known(a: f64, b: f64) -> EdgeComponent {
         EdgeComponent::Known([a, b])

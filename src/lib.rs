@@ -24,3 +24,5 @@ pub mod problem;
 pub mod qp;
 pub mod settings;
 pub mod summary;
+#[cfg(test)]
+mod testutil;

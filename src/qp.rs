@@ -413,17 +413,7 @@ fn norm2(v: &[f64]) -> f64 {
 mod tests {
     use super::*;
 
-    /// Deterministic LCG returning values in [-1, 1).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        }
-    }
+    use crate::testutil::Lcg;
 
     /// `Bᵀ B + shift I` with B uniform in [-1,1]ⁿˣⁿ.
     fn random_spd(n: usize, shift: f64, rng: &mut Lcg) -> SymMatrix {
