@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+pub use plotters::prelude::SeriesLabelPosition;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -21,13 +22,25 @@ pub enum Scale {
 pub struct Series {
     pub label: String,
     pub points: Vec<(f64, f64)>,
+    /// Markers at the points (data), or a plain line (a reference value).
+    pub marked: bool,
 }
 
 impl Series {
+    /// Data: markers joined by lines.
     pub fn new(label: &str, points: Vec<(f64, f64)>) -> Self {
         Series {
             label: label.to_string(),
             points,
+            marked: true,
+        }
+    }
+
+    /// A reference line without markers, e.g. a constant between two abscissae.
+    pub fn line(label: &str, points: Vec<(f64, f64)>) -> Self {
+        Series {
+            marked: false,
+            ..Series::new(label, points)
         }
     }
 }
@@ -39,11 +52,14 @@ pub struct Chart<'a> {
     pub y_label: &'a str,
     pub x_scale: Scale,
     pub y_scale: Scale,
+    /// Where the legend goes (away from the curves).
+    pub legend: SeriesLabelPosition,
 }
 
 /// Register DejaVu Sans as plotters' "sans-serif" (once per process); exits with a one-line
-/// message naming the package to install when the font file is missing.
-fn register_font() {
+/// message naming the package to install when the font file is missing. `line_chart` calls
+/// it; call it first too, to fail before the runs rather than after.
+pub fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let bytes = std::fs::read(FONT).unwrap_or_else(|_| {
@@ -60,7 +76,7 @@ fn register_font() {
 }
 
 /// The plotted range of some values: padded by 5 % of the span on a linear axis and by a
-/// factor on a logarithmic one (whose values must be positive); a single value gets a band.
+/// factor on a logarithmic one (whose values must be positive).
 fn range(values: impl Iterator<Item = f64>, scale: Scale) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite() && (scale == Scale::Linear || *v > 0.0))
@@ -70,7 +86,7 @@ fn range(values: impl Iterator<Item = f64>, scale: Scale) -> (f64, f64) {
     assert!(lo <= hi, "plot: no plottable value");
     match scale {
         Scale::Log => {
-            let pad = (hi / lo).powf(0.05).max(1.5);
+            let pad = (hi / lo).powf(0.04).max(1.25);
             (lo / pad, hi * pad)
         }
         Scale::Linear => {
@@ -84,24 +100,50 @@ fn range(values: impl Iterator<Item = f64>, scale: Scale) -> (f64, f64) {
     }
 }
 
+/// The ticks of a logarithmic axis on [lo, hi]: labelled at 1, 2, 5 × 10^k (at 10^k only over
+/// more than four decades) and grid lines at 1…9 × 10^k (at 10^k over more than six).
+fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let decades = (hi / lo).log10();
+    let ticks = |mantissas: &[f64]| -> Vec<f64> {
+        let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+        (k0..=k1)
+            .flat_map(|k| mantissas.iter().map(move |m| m * 10f64.powi(k)))
+            .filter(|v| (lo..=hi).contains(v))
+            .collect()
+    };
+    let all: Vec<f64> = (1..10).map(f64::from).collect();
+    let labelled = ticks(if decades > 4.0 {
+        &[1.0]
+    } else {
+        &[1.0, 2.0, 5.0]
+    });
+    let lines = if decades > 6.0 {
+        labelled.clone()
+    } else {
+        ticks(&all)
+    };
+    (labelled, lines)
+}
+
 /// Draw `series` into the PNG file `path` (800 × 560 pixels).
 pub fn line_chart(path: &Path, chart: &Chart, series: &[Series]) -> Result<(), String> {
     register_font();
     let points = || series.iter().flat_map(|s| s.points.iter());
     let (x0, x1) = range(points().map(|p| p.0), chart.x_scale);
     let (y0, y1) = range(points().map(|p| p.1), chart.y_scale);
+    let log = |lo: f64, hi: f64| {
+        let (labelled, lines) = log_ticks(lo, hi);
+        (lo..hi)
+            .log_scale()
+            .with_key_points(labelled)
+            .with_light_points(lines)
+    };
     use Scale::*;
     match (chart.x_scale, chart.y_scale) {
         (Linear, Linear) => draw(path, chart, series, x0..x1, y0..y1),
-        (Linear, Log) => draw(path, chart, series, x0..x1, (y0..y1).log_scale()),
-        (Log, Linear) => draw(path, chart, series, (x0..x1).log_scale(), y0..y1),
-        (Log, Log) => draw(
-            path,
-            chart,
-            series,
-            (x0..x1).log_scale(),
-            (y0..y1).log_scale(),
-        ),
+        (Linear, Log) => draw(path, chart, series, x0..x1, log(y0, y1)),
+        (Log, Linear) => draw(path, chart, series, log(x0, x1), y0..y1),
+        (Log, Log) => draw(path, chart, series, log(x0, x1), log(y0, y1)),
     }
     .map_err(|e| format!("plot {}: {e}", path.display()))
 }
@@ -141,6 +183,8 @@ where
         .y_desc(chart.y_label)
         .label_style(("sans-serif", 15))
         .axis_desc_style(("sans-serif", 18))
+        .light_line_style(RGBColor(235, 235, 235))
+        .max_light_lines(4)
         .x_label_formatter(&|v| short(*v))
         .y_label_formatter(&|v| short(*v))
         .draw()?;
@@ -152,6 +196,9 @@ where
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 24, y)], style.stroke_width(2))
             });
+        if !s.marked {
+            continue;
+        }
         // A different marker per series, so the curves stay apart in grey print too.
         let pts = s.points.iter().copied();
         match k % 3 {
@@ -161,7 +208,7 @@ where
         };
     }
     ctx.configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(chart.legend.clone())
         .label_font(("sans-serif", 16))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
@@ -170,10 +217,10 @@ where
     Ok(())
 }
 
-/// A tick label: plain for moderate magnitudes, else in scientific notation.
+/// A number in a few characters: plain for moderate magnitudes, else in scientific notation.
 fn short(v: f64) -> String {
     let a = v.abs();
-    if v == 0.0 || (1e-2..1e5).contains(&a) {
+    if v == 0.0 || (1e-2..1e6).contains(&a) {
         let s = format!("{v:.3}");
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {

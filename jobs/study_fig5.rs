@@ -14,10 +14,11 @@ mod runner;
 #[path = "study.rs"]
 mod study;
 
-use plot::{Scale, Series};
+use plot::{Scale, Series, SeriesLabelPosition};
 
 fn main() {
     let opts = study::options("fig5");
+    plot::register_font();
     let (n, iterations) = if opts.quick { (4, 10) } else { (15, 40) };
     let dir = runner::scratch("fig5");
     eprintln!("fig5: n = {n}, {iterations} iterations (1/1) …");
@@ -71,11 +72,12 @@ fn main() {
             y_label: "error (energy norm)",
             x_scale: Scale::Linear,
             y_scale: Scale::Log,
+            legend: SeriesLabelPosition::MiddleRight,
         },
         &[
-            Series::new("ηᵍˡᵒ", curve(|r| r.eta_glo)),
-            Series::new("ηᶠᴱ", curve(|r| r.eta_fe)),
-            Series::new("ηᴺᴺᴰᴰ", curve(|r| r.eta_nndd)),
+            Series::new("η^glo", curve(|r| r.eta_glo)),
+            Series::new("η^FE", curve(|r| r.eta_fe)),
+            Series::new("η^NNDD", curve(|r| r.eta_nndd)),
         ],
     )
     .unwrap_or_else(|e| {

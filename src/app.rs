@@ -11,7 +11,9 @@ use mpi::topology::SimpleCommunicator;
 use crate::body::{Body, BodyError, SchurMode};
 use crate::contact::{ContactError, ContactStep};
 use crate::dirichlet::DirichletStep;
-use crate::estimate::{EstimateError, EstimateRecord, Estimator, Interface, Reference};
+use crate::estimate::{
+    EstimateError, EstimateRecord, Estimator, Interface, NnddVariant, Reference,
+};
 use crate::fem::{self, Material};
 use crate::layout::{Layout, LayoutError};
 use crate::log::Stages;
@@ -322,6 +324,9 @@ fn solve_nndd(
         .map(|b2| ContactStep::new(b2, qp, settings.qp_warm_start))
         .transpose()?;
     let estimates: RefCell<Vec<EstimateRecord>> = RefCell::new(Vec::new());
+    // Balanced stopping's cheap checks (iteration, η^NNDD) and the last full η^FE.
+    let checks: RefCell<Vec<(usize, f64)>> = RefCell::new(Vec::new());
+    let last_fe: std::cell::Cell<Option<f64>> = std::cell::Cell::new(None);
     let mut t_est = 0.0;
     let every = if estimator.is_some() && settings.estimate_every > 0 {
         Some(settings.estimate_every)
@@ -343,8 +348,21 @@ fn solve_nndd(
             };
             let t = Instant::now();
             let _s = stages.estimation.enter();
+            let balanced_rule =
+                settings.stop == StopRule::Balanced && settings.eta_nndd == NnddVariant::Discrete;
+            // Balanced stopping: check the cheap η^NNDD against κ η^FE of the last full
+            // estimate; a full estimate only at the first check and when the rule may hold.
+            if let (true, Some(fe)) = (balanced_rule, last_fe.get()) {
+                let nndd = est.eta_nndd(refs, it)?;
+                if nndd > settings.stop_ratio * fe {
+                    checks.borrow_mut().push((it.iteration, nndd));
+                    t_est += t.elapsed().as_secs_f64();
+                    return Ok(false);
+                }
+            }
             let rec = est.estimate(refs, it)?;
             t_est += t.elapsed().as_secs_f64();
+            last_fe.set(Some(rec.eta_fe));
             let balanced = settings.stop == StopRule::Balanced
                 && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
             estimates.borrow_mut().push(rec);
@@ -383,6 +401,11 @@ fn solve_nndd(
     timings.exchange = res.timers.exchange.seconds();
     let mut history = res.history;
     attach_estimates(&mut history, &estimates);
+    for (iteration, nndd) in checks.into_inner() {
+        if let Some(h) = history.iter_mut().find(|h| h.iteration == iteration) {
+            h.eta_nndd = Some(nndd);
+        }
+    }
     Ok(Solution {
         status: res.status.name().to_string(),
         stop_reason: res.status.stop_reason(),

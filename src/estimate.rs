@@ -452,7 +452,52 @@ pub struct Estimator<'a> {
     pub reference: Option<Reference>,
 }
 
+/// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
+/// set, 0 where body 2 is off the obstacle (any μ̂ ≥ 0 is admissible; this one is exact at the
+/// discrete solution in both terms).
+fn nodal_contact_forces(it: &crate::nndd::Iterate) -> Vec<f64> {
+    (0..it.lambda.len())
+        .map(|i| {
+            if it.active[i] {
+                (0.5 * (it.forces[1][i] - it.forces[0][i])).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 impl Estimator<'_> {
+    /// η^NNDD alone, discrete variant, without any stress recovery: per body one Neumann
+    /// re-solve and (ũ − u_p)ᵀK(ũ − u_p), plus the nodal contact pairing. The same number as
+    /// [`Estimator::estimate`] gives, at the cost of two back-solves: what the balanced stopping
+    /// rule checks at every iteration.
+    pub fn eta_nndd(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &crate::nndd::Iterate,
+    ) -> Result<f64, EstimateError> {
+        let mu_hat = nodal_contact_forces(it);
+        let mut sum = 0.0;
+        for (k, body) in bodies.iter().enumerate() {
+            if let Some(b) = body {
+                let sign = if k == 0 { 1.0 } else { -1.0 };
+                let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
+                let u_d = b.neumann_solve(&f, true)?;
+                let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
+                let kd = b.apply_k(&d)?;
+                sum += d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
+                if k == 1 {
+                    let u2n = b.normal_trace(&it.u[1]);
+                    sum += (0..mu_hat.len())
+                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - it.lambda[i]))
+                        .sum::<f64>();
+                }
+            }
+        }
+        Ok(self.layout.sum(sum).max(0.0).sqrt())
+    }
+
     /// η^glo, η^FE, η^NNDD (and e_ref, γ with a reference) of the iterate `it`.
     pub fn estimate(
         &self,
@@ -469,17 +514,7 @@ impl Estimator<'_> {
         let t_glo = self.iface.admissible_traction(&target, &self.qp)?;
         let minus_t2: Vec<f64> = it.forces[1].iter().map(|t| -t).collect();
         let t_fe = self.iface.admissible_traction(&minus_t2, &self.qp)?;
-        // μ̂ ≥ 0 on the contact set, 0 where body 2 is off the obstacle (any μ̂ ≥ 0 is
-        // admissible; this one is exact at the discrete solution in both terms).
-        let mu_hat: Vec<f64> = (0..it.lambda.len())
-            .map(|i| {
-                if it.active[i] {
-                    (0.5 * (it.forces[1][i] - it.forces[0][i])).max(0.0)
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        let mu_hat = nodal_contact_forces(it);
         let data = IterationData {
             lambda: &it.lambda,
             t_glo: &t_glo,
