@@ -1,9 +1,9 @@
 //! Balanced stopping against the fixed tolerance on the `paper` benchmark: for n = 8 … 256
 //! (`--quick`: n = 8, 16), the NNDD stopped at ‖Δλ‖/‖λ‖ ≤ 1e-8 and stopped at the first
-//! iteration where η^NNDD ≤ κ η^FE (κ = 0.1, `-nndd_stop balanced`, estimating every
-//! iteration): the iterations of each, the iterations saved, η^glo of each final iterate and
-//! its relative change, and the wall times (the balanced run pays an estimate per iteration).
-//! About 2.5 minutes, most of it the balanced runs at n = 128 and 256.
+//! iteration where η^NNDD ≤ κ η^FE (κ = 0.1, `-nndd_stop balanced`, a recovery-free η^NNDD
+//! check every iteration, full estimates at the first check and at the stop): the iterations
+//! of each, the iterations saved, η^glo of each final iterate and its relative change, and the
+//! wall times. About 1 minute, most of it n = 128 and 256.
 //!
 //! Run: `jobs/study-balanced [--quick] [--out DIR]` → `DIR/balanced.csv` (default DIR =
 //! results/studies) and a table on stdout.
@@ -147,7 +147,7 @@ fn main() {
         );
     }
     println!(
-        "(tol: -nndd_tol 1e-8; bal: -nndd_stop balanced -nndd_stop_ratio {KAPPA}, estimating every \
+        "(tol: -nndd_tol 1e-8; bal: -nndd_stop balanced -nndd_stop_ratio {KAPPA}, η^NNDD checked every \
          iteration; rel_change = (eta_glo_bal - eta_glo_tol) / eta_glo_tol; wall times in s)"
     );
     study::write(&opts.out.join("balanced.csv"), &csv);
