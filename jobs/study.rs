@@ -2,7 +2,9 @@
 //! one row of estimates per point, and the CSV file and stdout table of the rows.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use crate::plot::{self, Scale, Series, SeriesLabelPosition};
 
 /// The command line of a study: `[--quick] [--out DIR]`.
 pub struct Options {
@@ -137,4 +139,36 @@ pub fn print_table(rows: &[Row]) {
         );
     }
     println!("(ratio = (eta_fe^2 + eta_nndd^2) / eta_glo^2, relation (25); gamma = eta_glo / e_ref, (26))");
+}
+
+/// Draw η^glo, η^FE and η^NNDD of `rows` against `x` (errors on a log axis) into `png`; exits
+/// with the error on failure.
+pub fn plot_estimates(
+    png: &Path,
+    title: &str,
+    x_label: &str,
+    x_scale: Scale,
+    legend: SeriesLabelPosition,
+    rows: &[Row],
+    x: fn(&Row) -> f64,
+) {
+    let curve =
+        |f: fn(&Row) -> f64| -> Vec<(f64, f64)> { rows.iter().map(|r| (x(r), f(r))).collect() };
+    let chart = plot::Chart {
+        title,
+        x_label,
+        y_label: "error (energy norm)",
+        x_scale,
+        y_scale: Scale::Log,
+        legend,
+    };
+    let series = [
+        Series::new("η^glo", curve(|r| r.eta_glo)),
+        Series::new("η^FE", curve(|r| r.eta_fe)),
+        Series::new("η^NNDD", curve(|r| r.eta_nndd)),
+    ];
+    plot::line_chart(png, &chart, &series).unwrap_or_else(|e| {
+        eprintln!("{e}");
+        std::process::exit(1)
+    });
 }

@@ -8,6 +8,8 @@
 //! Run: `jobs/study-balanced [--quick] [--out DIR]` → `DIR/balanced.csv` (default DIR =
 //! results/studies) and a table on stdout.
 
+#[path = "plot.rs"]
+mod plot;
 #[path = "runner.rs"]
 mod runner;
 #[path = "study.rs"]

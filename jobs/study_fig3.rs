@@ -13,7 +13,7 @@ mod runner;
 #[path = "study.rs"]
 mod study;
 
-use plot::{Scale, Series, SeriesLabelPosition};
+use plot::{Scale, SeriesLabelPosition};
 
 fn main() {
     let opts = study::options("fig3");
@@ -54,30 +54,16 @@ fn main() {
 
     study::print_table(&rows);
     study::write_csv(&opts.out.join("fig3.csv"), &rows);
-    let curve = |f: fn(&study::Row) -> f64| -> Vec<(f64, f64)> {
-        rows.iter().map(|r| (r.dofs as f64, f(r))).collect()
-    };
     let png = opts.out.join("fig3.png");
-    plot::line_chart(
+    study::plot_estimates(
         &png,
-        &plot::Chart {
-            title: "Errors after 6 NNDD iterations (paper Fig. 3)",
-            x_label: "number of dofs",
-            y_label: "error (energy norm)",
-            x_scale: Scale::Log,
-            y_scale: Scale::Log,
-            legend: SeriesLabelPosition::UpperRight,
-        },
-        &[
-            Series::new("η^glo", curve(|r| r.eta_glo)),
-            Series::new("η^FE", curve(|r| r.eta_fe)),
-            Series::new("η^NNDD", curve(|r| r.eta_nndd)),
-        ],
-    )
-    .unwrap_or_else(|e| {
-        eprintln!("{e}");
-        std::process::exit(1)
-    });
+        "Errors after 6 NNDD iterations (paper Fig. 3)",
+        "number of dofs",
+        Scale::Log,
+        SeriesLabelPosition::UpperRight,
+        &rows,
+        |r| r.dofs as f64,
+    );
     eprintln!(
         "fig3: wrote {} and {}",
         opts.out.join("fig3.csv").display(),

@@ -14,7 +14,7 @@ mod runner;
 #[path = "study.rs"]
 mod study;
 
-use plot::{Scale, Series, SeriesLabelPosition};
+use plot::{Scale, SeriesLabelPosition};
 
 fn main() {
     let opts = study::options("fig5");
@@ -56,34 +56,20 @@ fn main() {
 
     study::print_table(&rows);
     study::write_csv(&opts.out.join("fig5.csv"), &rows);
-    let curve = |f: fn(&study::Row) -> f64| -> Vec<(f64, f64)> {
-        rows.iter().map(|r| (r.iteration as f64, f(r))).collect()
-    };
     let png = opts.out.join("fig5.png");
     let title = format!(
         "Errors along the NNDD iterations, {} dofs (paper Fig. 5)",
         j["dofs"]
     );
-    plot::line_chart(
+    study::plot_estimates(
         &png,
-        &plot::Chart {
-            title: &title,
-            x_label: "NNDD iteration",
-            y_label: "error (energy norm)",
-            x_scale: Scale::Linear,
-            y_scale: Scale::Log,
-            legend: SeriesLabelPosition::MiddleRight,
-        },
-        &[
-            Series::new("η^glo", curve(|r| r.eta_glo)),
-            Series::new("η^FE", curve(|r| r.eta_fe)),
-            Series::new("η^NNDD", curve(|r| r.eta_nndd)),
-        ],
-    )
-    .unwrap_or_else(|e| {
-        eprintln!("{e}");
-        std::process::exit(1)
-    });
+        &title,
+        "NNDD iteration",
+        Scale::Linear,
+        SeriesLabelPosition::MiddleRight,
+        &rows,
+        |r| r.iteration as f64,
+    );
     eprintln!(
         "fig5: wrote {} and {}",
         opts.out.join("fig5.csv").display(),
