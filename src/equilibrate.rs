@@ -1054,6 +1054,18 @@ fn eval(x: &[f64; NC], a: usize, xi: [f64; 2]) -> [f64; 3] {
 }
 
 /// Edge midpoints of sub-triangle a = (0, q_a, q_{a+1}) (local frame).
+/// σ̂ of the JM coefficients `x` at the 3 edge midpoints of each of the 3 sub-triangles (the
+/// exact quadrature points of a quadratic integrand).
+fn midpoint_values(q: &[[f64; 2]; 3], x: &[f64; NC]) -> [[f64; 3]; 9] {
+    let mut out = [[0.0; 3]; 9];
+    for a in 0..3 {
+        for (m, pt) in midpoints(q, a).into_iter().enumerate() {
+            out[3 * a + m] = eval(x, a, pt);
+        }
+    }
+    out
+}
+
 fn midpoints(q: &[[f64; 2]; 3], a: usize) -> [[f64; 2]; 3] {
     let (p, r) = (q[a], q[(a + 1) % 3]);
     [
@@ -1360,15 +1372,7 @@ impl EnergyContext<'_> {
                     x0[9 * a + 3 * r] -= self.sig[e][r];
                 }
             }
-            let values = |x: &[f64; NC]| -> [[f64; 3]; 9] {
-                let mut out = [[0.0; 3]; 9];
-                for a in 0..3 {
-                    for (m, pt) in midpoints(&q, a).into_iter().enumerate() {
-                        out[3 * a + m] = eval(x, a, pt);
-                    }
-                }
-                out
-            };
+            let values = |x: &[f64; NC]| midpoint_values(&q, x);
             pv.push(values(&x0));
             for dt in &dts {
                 pv.push(values(&apply_operator(gop, dt)));
@@ -2361,15 +2365,7 @@ mod tests {
                     }
                 }
             }
-            let values = |x: &[f64; NC]| -> [[f64; 3]; 9] {
-                let mut out = [[0.0; 3]; 9];
-                for aa in 0..3 {
-                    for (m, pt) in midpoints(&q, aa).into_iter().enumerate() {
-                        out[3 * aa + m] = eval(x, aa, pt);
-                    }
-                }
-                out
-            };
+            let values = |x: &[f64; NC]| midpoint_values(&q, x);
             let mut x0 = apply_operator(&gop, &t0);
             for aa in 0..3 {
                 for r in 0..3 {
