@@ -25,12 +25,16 @@ const FUNCTIONS: &[&str] = &[
     "PetscObjectSetName",
     "ISCreateGeneral",
     "ISDestroy",
-    "Vec(Create|CreateMPI|CreateSeq|Destroy|Duplicate|Set|GetSize|GetLocalSize|GetOwnershipRange|GetArray|RestoreArray|GetArrayRead|RestoreArrayRead|Norm|AXPY|Copy|SetUp)",
-    "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|ZeroRowsColumns|SetOption|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo)",
+    "Vec(Create|CreateMPI|CreateSeq|Destroy|Duplicate|Set|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|GetArray|RestoreArray|GetArrayRead|RestoreArrayRead|Norm|AXPY|Copy|SetUp)",
+    "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|ZeroRowsColumns|SetOption|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo|SetValues|SetNearNullSpace|CreateDense|DenseGetColumnVecRead|DenseRestoreColumnVecRead)",
+    "MatNullSpace(CreateRigidBody|Destroy)",
+    "VecScatter(Create|Begin|End|Destroy)",
+    "MatSeqAIJSetPreallocation",
+    "MatMPIAIJSetPreallocation",
     "MatSeqAIJSetPreallocationCSR",
     "MatMPIAIJSetPreallocationCSR",
     "MatMumpsSetIcntl",
-    "KSP(Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|SetReusePreconditioner)",
+    "KSP(MatSolve|Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|SetReusePreconditioner)",
     "PC(SetType|FactorSetMatSolverType|FactorSetUpMatSolverType|FactorGetMatrix|GetType)",
 ];
 const VARS: &[&str] = &["PETSC_COMM_WORLD", "PetscOptionsPublish"];
@@ -43,6 +47,8 @@ const TYPES: &[&str] = &[
     "KSPConvergedReason",
     "MatInfo",
     "MatInfoType",
+    "MatAssemblyType",
+    "ScatterMode",
 ];
 
 fn main() {

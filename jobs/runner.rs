@@ -45,3 +45,62 @@ pub fn run(ranks: usize, prefix: &Path, args: &[&str]) -> (serde_json::Value, f6
 pub fn num(v: &serde_json::Value, key: &str) -> f64 {
     v[key].as_f64().unwrap_or(f64::NAN)
 }
+
+/// Like [`run`], with another options file and extra mpirun arguments (e.g. `--oversubscribe`),
+/// and a failed run (bad input, solver failure, killed for lack of memory …) is an `Err` with
+/// its exit status and one line of its stderr (nndd's error, else mpirun's) instead of ending
+/// the job.
+pub fn try_run(
+    ranks: usize,
+    options_file: &str,
+    mpirun_args: &[&str],
+    prefix: &Path,
+    args: &[&str],
+) -> Result<(serde_json::Value, f64), String> {
+    let exe = std::env::var("NNDD").unwrap_or_else(|_| "target/release/nndd".into());
+    let t = std::time::Instant::now();
+    let out = Command::new("mpirun")
+        .args(mpirun_args)
+        .args([
+            "-n",
+            &ranks.to_string(),
+            &exe,
+            "-options_file",
+            options_file,
+        ])
+        .args(["-nndd_monitor", "0"])
+        .args(args)
+        .args(["-nndd_output", prefix.to_str().expect("utf-8 path")])
+        .output()
+        .map_err(|e| format!("mpirun: {e}"))?;
+    let wall = t.elapsed().as_secs_f64();
+    if !out.status.success() {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        // Our own error line ("nndd: …") if any, else mpirun's note of a signal (e.g. the
+        // kernel's out-of-memory kill), else the last line.
+        let lines: Vec<&str> = stderr
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.chars().all(|c| c == '-'))
+            .collect();
+        let last = lines
+            .iter()
+            .find(|l| l.starts_with("nndd"))
+            .or_else(|| lines.iter().find(|l| l.contains("signal")))
+            .or_else(|| lines.last())
+            .copied()
+            .unwrap_or("")
+            .to_string();
+        let status = match out.status.code() {
+            Some(137) => "exit 137: signal 9, killed (out of memory?)".to_string(),
+            Some(c) if c > 128 => format!("exit {c}: signal {}", c - 128),
+            Some(c) => format!("exit {c}"),
+            None => "killed by a signal".to_string(),
+        };
+        return Err(format!("{status}: {last}"));
+    }
+    let path = format!("{}.json", prefix.display());
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("{path}: {e}"))?;
+    let summary = serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?;
+    Ok((summary, wall))
+}

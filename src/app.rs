@@ -15,7 +15,9 @@ use crate::estimate::{
     EstimateError, EstimateRecord, Estimator, Interface, NnddVariant, Reference,
 };
 use crate::fem::{self, Material};
+use crate::equilibrate::StarChoice;
 use crate::layout::{Layout, LayoutError};
+use crate::partition::{Partition, PartitionError};
 use crate::log::Stages;
 use crate::monolithic::{self, MonolithicError};
 use crate::nndd::{self, Iterate, IterationRecord, NnddError, Status};
@@ -42,6 +44,8 @@ pub enum AppError {
     Settings(#[from] SettingsError),
     #[error(transparent)]
     Layout(#[from] LayoutError),
+    #[error(transparent)]
+    Partition(#[from] PartitionError),
     #[error(transparent)]
     Output(#[from] OutputError),
     #[error(transparent)]
@@ -109,7 +113,8 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         list_solver_options()?;
         return Ok(Outcome::Help);
     }
-    let layout = Layout::new(world)?;
+    let layout = Layout::new(world, settings.body1_ranks, body_dofs(&settings))?;
+    check_recovery(&settings, &layout)?;
     check_output(&settings, &layout)?;
     let stages = Stages::register()?;
     Petsc::track_memory()?;
@@ -144,6 +149,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         nndd_variant: settings.eta_nndd,
         layout: &layout,
         reference,
+        overlaps: Default::default(),
     });
 
     let sol = match settings.solver {
@@ -169,7 +175,10 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         let mut e = 0.0;
         for (k, b) in refs.iter().enumerate() {
             if let Some(b) = b {
-                e += b.potential_energy(&sol.last.u[k])?;
+                let energy = b.potential_energy(&sol.last.u[k])?;
+                if b.is_root() {
+                    e += energy; // every rank of the group has it: count it once
+                }
             }
         }
         layout.sum(e)
@@ -180,20 +189,22 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         .and_then(|e| e.reference.as_ref())
         .map(|r| r.iterations);
     drop(estimator);
-    let mut last = sol.last.clone();
-    layout.share_vec(1, &mut last.u[0]);
-    layout.share_vec(2, &mut last.u[1]);
     max_over_ranks(&layout, &mut timings);
-    let peak = layout.max(Petsc::peak_memory()) / (1024.0 * 1024.0);
+    let peaks = peak_memory_per_rank(&layout);
     drop(bodies);
 
-    if layout.is_root() {
-        let t_out = Instant::now();
+    let t_out = Instant::now();
+    let results = {
         let _s = stages.output.enter();
-        let results = results_files(&settings, &sol, &last);
-        output::write_results(&settings.output, &results)?;
-        timings.output = t_out.elapsed().as_secs_f64();
-        timings.total = t_start.elapsed().as_secs_f64();
+        let have = [layout.owns(1), layout.owns(2)];
+        let results = results_files(&settings, &sol, have);
+        let shares = output_shares(&layout, &results);
+        output::write_results_parallel(&layout.world, &settings.output, &results, &shares)?;
+        results
+    };
+    timings.output = layout.max(t_out.elapsed().as_secs_f64());
+    timings.total = t_start.elapsed().as_secs_f64();
+    if layout.is_root() {
         let summary = summarise(
             &settings,
             &layout,
@@ -203,7 +214,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
             reference_iterations,
             &results,
             timings.clone(),
-            peak,
+            &peaks,
         );
         let json =
             serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
@@ -215,6 +226,28 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     } else {
         Outcome::NotConverged
     })
+}
+
+/// Dof counts of the two bodies (they size the rank groups).
+fn body_dofs(settings: &Settings) -> [usize; 2] {
+    [1, 2].map(|alpha| {
+        let (nx, ny) = settings.body_grid(alpha);
+        2 * (nx + 1) * (ny + 1)
+    })
+}
+
+/// The `star` recovery solves one global problem per body: exact only with the body on one
+/// rank (the others are local and computed on overlapping element sets, see `overlap.rs`).
+fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
+    let spread = layout.group_sizes.iter().any(|&n| n > 1);
+    if spread && matches!(settings.recovery, StarChoice::MinimumEnergy { .. }) && settings.estimate
+    {
+        return Err(LayoutError::GlobalRecovery {
+            ranks: layout.group_sizes,
+        }
+        .into());
+    }
+    Ok(())
 }
 
 /// Fail before any work when the output cannot be written (rank 0 checks, all agree).
@@ -257,12 +290,14 @@ fn setup_bodies(
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::System) => SchurMode::None,
         };
-        let mut body = Body::setup(
-            problem::body(settings, alpha),
-            layout.body_comm(),
-            schur,
-            stages,
+        let problem = problem::body(settings, alpha);
+        let partition = Partition::new(
+            &problem.mesh,
+            alpha,
+            layout.group_rank(),
+            layout.group_sizes[alpha - 1],
         )?;
+        let mut body = Body::setup(problem, layout.body_comm(), partition, schur, stages)?;
         if nndd_run && alpha == 1 && body.schur.is_none() {
             body.add_dirichlet_system(stages)?;
         }
@@ -440,8 +475,11 @@ fn solve_monolithic(
         .map(|b| b.normal_trace(&res.u[0]))
         .unwrap_or_default();
     layout.share_vec(1, &mut lambda);
+    let mut trace2 = refs[1].map_or(vec![0.0; lambda.len()], |b| b.normal_trace(&res.u[1]));
+    layout.share(2, &mut trace2);
     let last = Iterate {
         lambda,
+        trace2,
         u: res.u,
         forces: [res.forces.iter().map(|f| -f).collect(), res.forces.clone()],
         active: res.active,
@@ -524,6 +562,45 @@ fn schur_source(layout: &Layout, refs: [Option<&Body>; 2]) -> &'static str {
     }
 }
 
+/// Peak memory of every rank (MiB), on every rank.
+fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
+    use mpi::traits::*;
+    let mine = Petsc::peak_memory() / (1024.0 * 1024.0);
+    let mut all = vec![0.0; layout.size as usize];
+    layout.world.all_gather_into(&mine, &mut all[..]);
+    all
+}
+
+/// The rows of each grid this rank writes: a body's points and cells split evenly over its
+/// group's ranks (which all hold its fields); the Γc grid by rank 0.
+fn output_shares(layout: &Layout, results: &Results) -> Vec<output::Share> {
+    results
+        .grids
+        .iter()
+        .map(|g| {
+            let alpha = match g.name.as_str() {
+                "body1" => 1,
+                "body2" => 2,
+                _ => 0,
+            };
+            let (mine, k, parts) = if alpha == 0 {
+                (layout.is_root(), 0, 1)
+            } else {
+                (layout.owns(alpha), layout.group_rank(), layout.group_sizes[alpha - 1])
+            };
+            let block = |len: usize| if mine { len * k / parts..len * (k + 1) / parts } else { 0..0 };
+            let cells = match &g.topology {
+                Topology::Triangle(t) => t.len(),
+                Topology::Segment(t) => t.len(),
+            };
+            output::Share {
+                points: block(g.points.len()),
+                cells: block(cells),
+            }
+        })
+        .collect()
+}
+
 fn max_over_ranks(layout: &Layout, t: &mut Timings) {
     for x in [
         &mut t.assembly,
@@ -570,7 +647,10 @@ fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
 
 /// The HDF5/XDMF content: the meshes and one time step per estimated iteration (or the
 /// reported iterate alone).
-fn results_files(settings: &Settings, sol: &Solution, last: &Iterate) -> Results {
+/// Body α's fields are filled on the ranks of its group (`have`), empty elsewhere; the
+/// geometry and the Γc fields are known everywhere.
+fn results_files(settings: &Settings, sol: &Solution, have: [bool; 2]) -> Results {
+    let last = &sol.last;
     let problems = [problem::body(settings, 1), problem::body(settings, 2)];
     let iface = Interface::new(problems[0].contact_x());
     let m = iface.len();
@@ -600,14 +680,14 @@ fn results_files(settings: &Settings, sol: &Solution, last: &Iterate) -> Results
     let step = |it: &Iterate, est: Option<&EstimateRecord>| {
         let mut grids = Vec::new();
         for (k, p) in problems.iter().enumerate() {
-            let mut fields = body_fields(&p.mesh, &p.material, &it.u[k]);
+            let mut fields = body_fields(&p.mesh, &p.material, &it.u[k], have[k]);
             if let Some(e) = est {
                 for (name, map) in ["eta_glo", "eta_fe", "eta_nndd"].iter().zip(&e.maps[k]) {
                     fields.push(Field {
                         name: name.to_string(),
                         center: Center::Cell,
                         kind: Kind::Scalar,
-                        values: map.clone(),
+                        values: if have[k] { map.clone() } else { Vec::new() },
                     });
                 }
             }
@@ -616,13 +696,8 @@ fn results_files(settings: &Settings, sol: &Solution, last: &Iterate) -> Results
                 fields,
             });
         }
-        let normal = |p: &BodyProblem, u: &[f64]| -> Vec<f64> {
-            p.contact_normal_dofs().iter().map(|&d| u[d]).collect()
-        };
-        let (u1n, u2n) = (
-            normal(&problems[0], &it.u[0]),
-            normal(&problems[1], &it.u[1]),
-        );
+        // u²_n − u¹_n = u²_n − λ (step 1 puts u¹_n at λ exactly); u²_n is shared by body 2.
+        let u2n = &it.trace2;
         let lumped = iface.forces(&vec![1.0; m]);
         let scalar = |name: &str, values: Vec<f64>| Field {
             name: name.into(),
@@ -637,7 +712,7 @@ fn results_files(settings: &Settings, sol: &Solution, last: &Iterate) -> Results
                 "pressure",
                 (0..m).map(|i| it.forces[1][i] / lumped[i]).collect(),
             ),
-            scalar("gap", (0..m).map(|i| u2n[i] - u1n[i]).collect()),
+            scalar("gap", (0..m).map(|i| u2n[i] - it.lambda[i]).collect()),
             scalar(
                 "active",
                 it.active.iter().map(|&a| a as u8 as f64).collect(),
@@ -684,7 +759,7 @@ fn summarise(
     reference_iterations: Option<usize>,
     results: &Results,
     timings: Timings,
-    peak: f64,
+    peaks: &[f64],
 ) -> Summary {
     let contact = contact_of(&problem::body(settings, 1), &sol.last);
     let residuals = (!sol.estimates.is_empty()).then(|| {
@@ -731,7 +806,9 @@ fn summarise(
         reference_factor: (settings.reference_factor > 0).then_some(settings.reference_factor),
         reference_iterations,
         timings,
-        peak_memory_mib: peak,
+        peak_memory_mib: peaks.iter().cloned().fold(0.0, f64::max),
+        peak_memory_mib_per_rank: peaks.to_vec(),
+        body_ranks: layout.group_sizes,
         h5: with_ext(&settings.output, "h5").display().to_string(),
         xdmf: with_ext(&settings.output, "xdmf").display().to_string(),
         fields: describe(results),
@@ -804,8 +881,13 @@ pub fn sci(x: f64, digits: usize) -> String {
 }
 
 /// Displacement (node vector), stress (cell tensor, plane strain σ_zz) and von Mises stress.
-fn body_fields(mesh: &crate::mesh::Mesh, mat: &Material, u: &[f64]) -> Vec<Field> {
-    let s = fem::stresses(mesh, mat, u);
+/// Empty values unless `have` (the ranks of the body's group).
+fn body_fields(mesh: &crate::mesh::Mesh, mat: &Material, u: &[f64], have: bool) -> Vec<Field> {
+    let s = if have {
+        fem::stresses(mesh, mat, u)
+    } else {
+        Vec::new()
+    };
     let mut tensor = Vec::with_capacity(6 * s.len());
     let mut mises = Vec::with_capacity(s.len());
     for si in &s {
@@ -819,7 +901,7 @@ fn body_fields(mesh: &crate::mesh::Mesh, mat: &Material, u: &[f64]) -> Vec<Field
             name: "displacement".into(),
             center: Center::Node,
             kind: Kind::Vector,
-            values: u.to_vec(),
+            values: if have { u.to_vec() } else { Vec::new() },
         },
         Field {
             name: "stress".into(),

@@ -10,10 +10,21 @@
 //! factorisation of the Neumann system also yields the interface Schur complement S^α on the
 //! Γc normal dofs (everything else condensed), used by the contact step and the condensed
 //! Dirichlet step.
+//!
+//! A body spans the ranks of its group ([`Partition`]): each rank assembles its own elements
+//! into the distributed matrix (MPIAIJ) and owns a contiguous block of PETSc rows. Vectors cross
+//! this module's boundary in mesh numbering, whole, on every rank of the group: a solution is
+//! gathered from its owners (a `VecScatter`), or only its Γc normal entries when that is all the
+//! caller needs (the Neumann step, the Delassus operator). The interface Schur complement comes
+//! from MUMPS on one rank; PETSc 3.18's MUMPS interface computes it only sequentially, so a body
+//! on several ranks forms it from m back-solves.
+
+use std::cell::RefCell;
 
 use crate::dense::{DenseError, SymMatrix};
-use crate::fem::assemble_stiffness;
-use crate::petsc::{self, Comm, Ksp, Matrix, Vector};
+use crate::fem::{element_dofs, element_stiffness};
+use crate::partition::Partition;
+use crate::petsc::{self, Comm, Gather, Ksp, Matrix, Vector};
 use crate::problem::BodyProblem;
 
 #[derive(Debug, thiserror::Error)]
@@ -29,6 +40,9 @@ pub enum BodyError {
     #[error("body {alpha}: interface Schur complement: {source}")]
     Schur { alpha: usize, source: DenseError },
 }
+
+/// Unit right-hand sides per multiple-RHS solve when S^α comes from back-solves.
+const SCHUR_BATCH: usize = 64;
 
 /// Whether a body needs its interface Schur complement S^α.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -68,49 +82,48 @@ pub struct Body {
     pub solves: std::cell::Cell<usize>,
     /// Wall time of assembly and of factorisation (s).
     pub setup_seconds: (f64, f64),
-    x: std::cell::RefCell<Vector>,
-    b: std::cell::RefCell<Vector>,
-    kx: std::cell::RefCell<Vector>,
+    /// The body's distribution over its group.
+    pub partition: Partition,
+    x: RefCell<Vector>,
+    b: RefCell<Vector>,
+    kx: RefCell<Vector>,
+    /// Gathers a whole vector (mesh order) and its Γc normal entries to every rank.
+    whole: RefCell<Gather>,
+    trace: RefCell<Gather>,
 }
 
 impl Body {
-    /// Assemble K^α and factor its Neumann system; `schur` says whether S^α is wanted.
+    /// Assemble K^α (this rank's elements of `partition`) and factor its Neumann system;
+    /// `schur` says whether S^α is wanted.
     pub fn setup(
         problem: BodyProblem,
         comm: Comm,
+        partition: Partition,
         schur: SchurMode,
         stages: &crate::log::Stages,
     ) -> Result<Body, BodyError> {
         let alpha = problem.alpha;
-        let ndof = problem.mesh.num_dofs();
         let t0 = std::time::Instant::now();
         let (k, diag, k_neu) = {
             let _s = stages.assembly.enter();
-            let csr = assemble_stiffness(&problem.mesh, &problem.material);
-            let diag = csr.diag_mean();
-            let k = Matrix::from_csr(comm, ndof, &csr.row_ptr, &csr.cols, &csr.vals)?;
-            drop(csr);
-            let rows: Vec<petsc::Int> = problem
-                .dirichlet
-                .iter()
-                .map(|d| d.0 as petsc::Int)
-                .collect();
+            let (k, diag) = assemble(&problem, comm, &partition)?;
+            let rows = owned_rows(&partition, problem.dirichlet.iter().map(|d| d.0));
             let mut k_neu = k.duplicate()?;
             k_neu.zero_rows_columns(&rows, diag)?;
+            k_neu.set_rigid_body_near_null_space(comm, &local_coordinates(&problem, &partition))?;
             (k, diag, k_neu)
         };
         let gc = problem.contact_normal_dofs();
-        let gc_rows: Vec<petsc::Int> = gc.iter().map(|&d| d as petsc::Int).collect();
+        let gc_rows: Vec<petsc::Int> = gc.iter().map(|&d| partition.row(d)).collect();
         let t_assembly = t0.elapsed().as_secs_f64();
         let t1 = std::time::Instant::now();
         let _s = stages.factorisation.enter();
-        let want = if schur == SchurMode::None {
-            None
-        } else {
-            Some(&gc_rows[..])
-        };
+        // MUMPS forms S^α during the factorisation only on one rank (PETSc 3.18).
+        let want = (schur != SchurMode::None && partition.size == 1).then_some(&gc_rows[..]);
         let neumann = Ksp::new(comm, k_neu, &format!("body{alpha}_"), want)?;
-        let x = Vector::new(comm, ndof)?;
+        let x = Vector::new(comm, partition.local_rows())?;
+        let whole = Gather::new(&x, &partition.rows_in_mesh_order())?;
+        let trace = Gather::new(&x, &gc_rows)?;
         let b = x.duplicate()?;
         let kx = x.duplicate()?;
         let load = problem.load();
@@ -127,9 +140,12 @@ impl Body {
             schur_source: "none",
             solves: std::cell::Cell::new(0),
             setup_seconds: (t_assembly, 0.0),
-            x: std::cell::RefCell::new(x),
-            b: std::cell::RefCell::new(b),
-            kx: std::cell::RefCell::new(kx),
+            partition,
+            x: RefCell::new(x),
+            b: RefCell::new(b),
+            kx: RefCell::new(kx),
+            whole: RefCell::new(whole),
+            trace: RefCell::new(trace),
         };
         if schur == SchurMode::Always
             || (schur == SchurMode::IfFactored && body.neumann.schur_complement().is_some())
@@ -140,22 +156,25 @@ impl Body {
         Ok(body)
     }
 
+    /// The first rank of the body's group: the one that counts the body's replicated totals
+    /// (energy, e_ref) once, and solves the contact QP.
+    pub fn is_root(&self) -> bool {
+        self.partition.rank == 0
+    }
+
     /// Assemble and factor the Dirichlet system (Γ_D and the Γc normal dofs prescribed).
     pub fn add_dirichlet_system(&mut self, stages: &crate::log::Stages) -> Result<(), BodyError> {
         let t0 = std::time::Instant::now();
         let m = {
             let _s = stages.assembly.enter();
-            let mut rows: Vec<petsc::Int> = self
-                .problem
-                .dirichlet
-                .iter()
-                .map(|d| d.0 as petsc::Int)
-                .collect();
-            rows.extend(self.gc.iter().map(|&d| d as petsc::Int));
-            rows.sort_unstable();
-            rows.dedup();
+            let dofs = self.problem.dirichlet.iter().map(|d| d.0);
+            let rows = owned_rows(&self.partition, dofs.chain(self.gc.iter().copied()));
             let mut m = self.k.duplicate()?;
             m.zero_rows_columns(&rows, self.diag)?;
+            m.set_rigid_body_near_null_space(
+                self.comm,
+                &local_coordinates(&self.problem, &self.partition),
+            )?;
             m
         };
         self.setup_seconds.0 += t0.elapsed().as_secs_f64();
@@ -203,13 +222,29 @@ impl Body {
             self.schur_source = "mumps";
             return Ok(out);
         }
+        // The Delassus operator D = B K⁻¹ Bᵀ from m unit solves, in batches.
+        let nodes = self.partition.owned_nodes();
+        let owned = (2 * nodes.start) as petsc::Int..(2 * nodes.end) as petsc::Int;
+        let rows: Vec<petsc::Int> = self.gc.iter().map(|&d| self.partition.row(d)).collect();
+        let (cols, reason) = self.neumann.inverse_block(
+            self.comm,
+            owned,
+            &rows,
+            &mut self.trace.borrow_mut(),
+            SCHUR_BATCH,
+        )?;
+        self.solves.set(self.solves.get() + m);
+        if reason < 0 {
+            return Err(BodyError::NotConverged {
+                alpha,
+                system: "Neumann",
+                reason,
+            });
+        }
         let mut d = SymMatrix::new(m);
         for j in 0..m {
-            let mut e = vec![0.0; m];
-            e[j] = 1.0;
-            let w = self.neumann_solve(&e, false)?;
             for i in 0..m {
-                d.set(i, j, w[self.gc[i]]);
+                d.set(i, j, cols[j * m + i]);
             }
         }
         d.symmetrize();
@@ -219,14 +254,15 @@ impl Body {
     }
 
     /// Solve `system` with right-hand side `load` and prescribed values: Γ_D data (or zero when
-    /// `homogeneous`) and, for the Dirichlet system, `gc_values` on the Γc normal dofs.
+    /// `homogeneous`) and, for the Dirichlet system, `gc_values` on the Γc normal dofs. The
+    /// solution stays in the PETSc vector `x`; returns the prescribed (dof, value) pairs.
     fn solve(
         &self,
         system: System,
         load: &[f64],
         homogeneous: bool,
         gc_values: Option<&[f64]>,
-    ) -> Result<Vec<f64>, BodyError> {
+    ) -> Result<Vec<(usize, f64)>, BodyError> {
         let ndof = load.len();
         // x_g: the prescribed values, zero elsewhere; rhs = load − K x_g, prescribed rows = diag·g.
         let mut g = vec![0.0; ndof];
@@ -263,7 +299,7 @@ impl Body {
         };
         let mut b = self.b.borrow_mut();
         let mut x = self.x.borrow_mut();
-        b.copy_from(&rhs)?;
+        b.copy_from(&self.partition.local_part(&rhs))?;
         let info = ksp.solve(&b, &mut x)?;
         self.solves.set(self.solves.get() + 1);
         if info.reason < 0 {
@@ -277,9 +313,15 @@ impl Body {
                 reason: info.reason,
             });
         }
-        let mut u = x.to_vec()?;
-        for &(dof, v) in &fixed {
-            u[dof] = v; // exact prescribed values (the solve returns them to round-off)
+        Ok(fixed)
+    }
+
+    /// The last solution, whole (mesh order), with the exact prescribed values (the solve
+    /// returns them to round-off).
+    fn solution(&self, fixed: &[(usize, f64)]) -> Result<Vec<f64>, BodyError> {
+        let mut u = self.whole.borrow_mut().gather(&self.x.borrow())?;
+        for &(dof, v) in fixed {
+            u[dof] = v;
         }
         Ok(u)
     }
@@ -288,9 +330,9 @@ impl Body {
     pub fn apply_k(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         let mut x = self.x.borrow_mut();
         let mut kx = self.kx.borrow_mut();
-        x.copy_from(u)?;
+        x.copy_from(&self.partition.local_part(u))?;
         self.k.mult(&x, &mut kx)?;
-        Ok(kx.to_vec()?)
+        Ok(self.whole.borrow_mut().gather(&kx)?)
     }
 
     /// Interface nodal forces T^α = (K u − f) on the Γc normal dofs: the force the other body
@@ -303,14 +345,15 @@ impl Body {
     /// Solve the Dirichlet system: u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
     /// Returns the displacement and the reaction T = K u − f on the Γc normal dofs.
     pub fn dirichlet_solve(&self, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
-        let u = self.solve(System::Dirichlet, &self.load, false, Some(lambda))?;
+        let fixed = self.solve(System::Dirichlet, &self.load, false, Some(lambda))?;
+        let u = self.solution(&fixed)?;
         let t = self.interface_forces(&u)?;
         Ok((u, t))
     }
 
-    /// Solve the Neumann system with nodal forces `gc_forces` on the Γc normal dofs, plus the
-    /// body's own data (f^α and u_D) when `with_data`, else homogeneous (paper (15)–(16)).
-    pub fn neumann_solve(&self, gc_forces: &[f64], with_data: bool) -> Result<Vec<f64>, BodyError> {
+    /// The Neumann load: nodal forces `gc_forces` on the Γc normal dofs, plus the body's f^α
+    /// when `with_data`.
+    fn neumann_load(&self, gc_forces: &[f64], with_data: bool) -> Vec<f64> {
         let mut load = if with_data {
             self.load.clone()
         } else {
@@ -319,7 +362,22 @@ impl Body {
         for (&d, &f) in self.gc.iter().zip(gc_forces) {
             load[d] += f;
         }
-        self.solve(System::Neumann, &load, !with_data, None)
+        load
+    }
+
+    /// Solve the Neumann system with nodal forces `gc_forces` on the Γc normal dofs, plus the
+    /// body's own data (f^α and u_D) when `with_data`, else homogeneous (paper (15)–(16)).
+    pub fn neumann_solve(&self, gc_forces: &[f64], with_data: bool) -> Result<Vec<f64>, BodyError> {
+        let load = self.neumann_load(gc_forces, with_data);
+        let fixed = self.solve(System::Neumann, &load, !with_data, None)?;
+        self.solution(&fixed)
+    }
+
+    /// The normal Γc trace of [`Body::neumann_solve`]'s solution, gathered alone.
+    pub fn neumann_trace(&self, gc_forces: &[f64], with_data: bool) -> Result<Vec<f64>, BodyError> {
+        let load = self.neumann_load(gc_forces, with_data);
+        self.solve(System::Neumann, &load, !with_data, None)?;
+        Ok(self.trace.borrow_mut().gather(&self.x.borrow())?)
     }
 
     /// Normal Γc displacements B u.
@@ -336,4 +394,77 @@ impl Body {
             .map(|((u, ku), f)| 0.5 * u * ku - f * u)
             .sum())
     }
+}
+
+/// Assemble K^α from this rank's elements (rows of other ranks travel at assembly), with
+/// the exact preallocation of this rank's rows; returns K and its mean diagonal (the value put
+/// on eliminated rows, for conditioning).
+fn assemble(problem: &BodyProblem, comm: Comm, part: &Partition) -> Result<(Matrix, f64), BodyError> {
+    let mesh = &problem.mesh;
+    // Node neighbours (sharing an element) of the owned nodes, split by owner.
+    let owned = part.owned_nodes();
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); owned.len()];
+    for t in &mesh.triangles {
+        for &a in t {
+            let pa = part.petsc_node[a] as usize;
+            if owned.contains(&pa) {
+                let list = &mut neighbours[pa - owned.start];
+                for &b in t {
+                    let pb = part.petsc_node[b];
+                    if !list.contains(&pb) {
+                        list.push(pb);
+                    }
+                }
+            }
+        }
+    }
+    let (mut d_nnz, mut o_nnz) = (Vec::new(), Vec::new());
+    for list in &neighbours {
+        let d = 2 * list.iter().filter(|&&p| owned.contains(&(p as usize))).count();
+        let o = 2 * list.len() - d;
+        for _ in 0..2 {
+            d_nnz.push(d as petsc::Int);
+            o_nnz.push(o as petsc::Int);
+        }
+    }
+    drop(neighbours);
+    let mut k = Matrix::preallocated(comm, part.local_rows(), &d_nnz, &o_nnz)?;
+    let mut diag_sum = 0.0;
+    let mut vals = [0.0; 36];
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        if !part.owns_element(e) {
+            continue;
+        }
+        let ke = element_stiffness(&mesh.triangle_points(e), &problem.material);
+        let rows = element_dofs(t).map(|d| part.row(d));
+        for r in 0..6 {
+            vals[6 * r..6 * r + 6].copy_from_slice(&ke[r]);
+            diag_sum += ke[r][r];
+        }
+        k.add_values(&rows, &rows, &vals)?;
+    }
+    k.assemble()?;
+    // Σ over the group of the diagonal sums (through a PETSc vector of one entry per rank).
+    let mut partial = Vector::new(comm, 1)?;
+    partial.copy_from(&[diag_sum])?;
+    let every: Vec<petsc::Int> = (0..part.size as petsc::Int).collect();
+    let total: f64 = Gather::new(&partial, &every)?.gather(&partial)?.iter().sum();
+    Ok((k, total / mesh.num_dofs() as f64))
+}
+
+/// The PETSc rows of `dofs` that this rank owns (each once).
+fn owned_rows(part: &Partition, dofs: impl Iterator<Item = usize>) -> Vec<petsc::Int> {
+    let mut rows: Vec<petsc::Int> = dofs
+        .filter(|&d| part.owns_dof(d))
+        .map(|d| part.row(d))
+        .collect();
+    rows.sort_unstable();
+    rows.dedup();
+    rows
+}
+
+/// x, y of this rank's nodes in PETSc order (for the rigid-body modes).
+fn local_coordinates(problem: &BodyProblem, part: &Partition) -> Vec<f64> {
+    let flat: Vec<f64> = problem.mesh.points.iter().flat_map(|p| [p[0], p[1]]).collect();
+    part.local_part(&flat)
 }

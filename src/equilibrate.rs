@@ -44,13 +44,22 @@
 //!   problem over 2 parameters per interior vertex (and per Dirichlet boundary star), solved
 //!   by Jacobi-preconditioned conjugate gradients.
 //! - `PatchRelaxation`: drops the prolongation condition (which admissibility does not need:
-//!   only the self-equilibrium of every element does) and relaxes the edge tractions by block
-//!   Gauss–Seidel over vertex patches, each step an exact minimisation of the complementary
-//!   energy over the admissible changes of the tractions on the edges through the vertex.
-//!   The patch spaces span the whole admissible JM space (Airy functions of the
-//!   Hsieh–Clough–Tocher space are vertex- and edge-local), so the sweeps converge to the
-//!   global minimum (the JM mixed solution). Measured effectivities (tests):
-//!   averaged ≈ 2.8–3.9, star minimum ≈ 2.1–2.75, 3 patch sweeps ≈ 1.02–1.16.
+//!   only the self-equilibrium of every element does) and relaxes the edge tractions by
+//!   multicolour symmetric block Gauss–Seidel over vertex patches, each step an exact
+//!   minimisation of the complementary energy over the admissible changes of the tractions on
+//!   the edges through the vertex. The patch spaces span the whole admissible JM space (Airy
+//!   functions of the Hsieh–Clough–Tocher space are vertex- and edge-local), so the sweeps
+//!   converge to the global minimum (the JM mixed solution). Measured effectivities (tests):
+//!   averaged ≈ 2.0–3.9, star minimum ≈ 1.8–2.75, 3 patch sweeps ≈ 1.0–1.16.
+//!
+//! Locality and sub-meshes ([`Restriction`], `overlap.rs`): the star problems and the
+//! averaged-traction field of an element only depend on the elements around its vertices,
+//! and every patch step only on the elements around its vertex; the vertices are coloured
+//! ([`vertex_colours`]) so that the steps of one colour are independent, and the sweeps run
+//! colour by colour. The result on an element therefore depends on a bounded neighbourhood
+//! (`overlap::Overlap::rings_for`), and [`equilibrate_restricted`] on an overlapping sub-mesh
+//! reproduces the full-mesh field on the owned elements (to round-off). `MinimumEnergy` (a
+//! global conjugate-gradient solve) has no such locality and is refused on a sub-mesh.
 //!
 //! Costs (2-core machine, release, 256 × 256 mesh, 131k triangles): averaged 0.2 s, minimum
 //! energy 0.7 s, 3 patch sweeps 1.2 s. The local operators are cached per triangle shape (up
@@ -115,12 +124,15 @@ pub enum StarChoice {
         tolerance: f64,
     },
     /// Start from `AveragedTraction` and relax the EET prolongation condition: `sweeps`
-    /// symmetric block Gauss–Seidel sweeps over the vertex patches, each step minimising the
+    /// multicolour block Gauss–Seidel sweeps over the vertex patches, each step minimising the
     /// complementary energy over all changes of the linear tractions on the edges through
     /// the vertex that keep every element of the patch self-equilibrated (the patch kernel,
-    /// which contains the star parameters). Every iterate is exactly admissible; the limit is
-    /// the minimum of the complementary energy over the whole admissible JM space (the
-    /// JM mixed solution).
+    /// which contains the star parameters). The vertices are visited by increasing sweep key
+    /// ([`sweep_key`]: colour of [`vertex_colours`], then global index) in the even sweeps
+    /// (0, 2, …) and by decreasing key in the odd ones (symmetric Gauss–Seidel: colours
+    /// 0, 1, …, C−1, then C−1, …, 0). Every iterate is exactly admissible; the limit is the
+    /// minimum of the complementary energy over the whole admissible JM space (the JM mixed
+    /// solution).
     PatchRelaxation { sweeps: usize },
 }
 
@@ -153,6 +165,122 @@ pub enum EquilibrationError {
     DuplicateBoundaryEdge { a: usize, b: usize },
     #[error("the Johnson-Mercier local problem of triangle {element} is singular")]
     SingularLocalProblem { element: usize },
+    #[error("the minimum-energy recovery is a global solve: it is not exact on a sub-mesh")]
+    RestrictedMinimumEnergy,
+    #[error("restriction: `{what}` has {found} entries, the sub-mesh has {expected}")]
+    RestrictionLength {
+        what: &'static str,
+        expected: usize,
+        found: usize,
+    },
+}
+
+/// Restriction of an equilibration to an overlapping sub-mesh (see `overlap.rs`).
+///
+/// The sub-mesh must contain every element sharing a vertex with an owned element (at least
+/// one ring): then every sub-mesh boundary edge of an owned element is a real boundary edge,
+/// and the residual checks of [`EquilibratedStress::residuals_restricted`] never see the
+/// artificial boundary.
+#[derive(Clone, Copy, Debug)]
+pub struct Restriction<'a> {
+    /// Sweep-order key of every vertex of the sub-mesh: [`sweep_key`] of its colour in the
+    /// FULL mesh ([`vertex_colours`]) and its global index.
+    pub vertex_key: &'a [u64],
+    /// Per sub-mesh element: its result is kept (the rank's own elements). The residuals,
+    /// the FE-equilibrium defect, the point reactions and the energies of the statistics are
+    /// measured only there.
+    pub owned: &'a [bool],
+}
+
+/// Sweep-order key of a vertex for `PatchRelaxation`: colour in the high 32 bits, global
+/// vertex index in the low ones.
+pub fn sweep_key(colour: u8, global_index: usize) -> u64 {
+    ((colour as u64) << 32) | global_index as u64
+}
+
+/// Greedy vertex colouring in vertex index order: every vertex gets the smallest colour not
+/// used by a lower-indexed vertex sharing an element with it, so two vertices of one element
+/// never share a colour (at most max degree + 1 colours). The structured meshes
+/// ([`Mesh::structured`], six neighbours per interior vertex) get 4 colours (for nx ≥ 2,
+/// ny ≥ 2).
+///
+/// Panics if a triangle refers to a missing node or if more than 256 colours are needed
+/// (a vertex with more than 255 neighbours).
+pub fn vertex_colours(mesh: &Mesh) -> Vec<u8> {
+    let nn = mesh.num_nodes();
+    let (ptr, around) = vertex_stars(mesh);
+    let mut colour = vec![0u8; nn];
+    for i in 0..nn {
+        let mut used = [0u64; 4];
+        for &(e, _) in &around[ptr[i]..ptr[i + 1]] {
+            for &v in &mesh.triangles[e] {
+                if v < i {
+                    let c = colour[v] as usize;
+                    used[c / 64] |= 1 << (c % 64);
+                }
+            }
+        }
+        let c = (0..256)
+            .find(|&c| used[c / 64] & (1 << (c % 64)) == 0)
+            .expect("vertex colouring: more than 256 colours");
+        colour[i] = c as u8;
+    }
+    colour
+}
+
+/// The elements around every vertex, (element, local vertex) in increasing element order,
+/// as a compressed list: vertex i has `around[ptr[i]..ptr[i + 1]]`.
+fn vertex_stars(mesh: &Mesh) -> (Vec<usize>, Vec<(usize, usize)>) {
+    let nn = mesh.num_nodes();
+    let mut ptr = vec![0usize; nn + 1];
+    for t in &mesh.triangles {
+        for &v in t {
+            ptr[v + 1] += 1;
+        }
+    }
+    for i in 0..nn {
+        ptr[i + 1] += ptr[i];
+    }
+    let mut fill = ptr.clone();
+    let mut around = vec![(0, 0); 3 * mesh.triangles.len()];
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        for (a, &v) in t.iter().enumerate() {
+            around[fill[v]] = (e, a);
+            fill[v] += 1;
+        }
+    }
+    (ptr, around)
+}
+
+/// Err(error(expected, found)) if the lengths differ.
+fn check_len(
+    found: usize,
+    expected: usize,
+    error: impl FnOnce(usize, usize) -> EquilibrationError,
+) -> Result<(), EquilibrationError> {
+    if found == expected {
+        Ok(())
+    } else {
+        Err(error(expected, found))
+    }
+}
+
+/// Element e is owned (no restriction: every element is).
+fn is_owned(owned: Option<&[bool]>, e: usize) -> bool {
+    owned.is_none_or(|o| o[e])
+}
+
+/// Per vertex: it is a vertex of an owned element (None without restriction: all are).
+fn owned_vertices(mesh: &Mesh, owned: Option<&[bool]>) -> Option<Vec<bool>> {
+    owned.map(|o| {
+        let mut v = vec![false; mesh.num_nodes()];
+        for (t, _) in mesh.triangles.iter().zip(o).filter(|(_, &own)| own) {
+            for &a in t {
+                v[a] = true;
+            }
+        }
+        v
+    })
 }
 
 /// Equilibrium check of an [`EquilibratedStress`]; every entry is relative to max |σ̂| (the
@@ -212,7 +340,8 @@ pub struct EquilibrationStats {
 #[derive(Clone, Debug)]
 pub struct EquilibratedStress {
     coef: Vec<[f64; NC]>,
-    point_reaction: f64,
+    /// Per constrained star (vertex, relative least-squares residual): the point reactions.
+    reactions: Vec<(usize, f64)>,
     stats: EquilibrationStats,
 }
 
@@ -228,7 +357,7 @@ pub fn equilibrate(
     equilibrate_with(mesh, material, u, boundary, StarChoice::AveragedTraction)
 }
 
-/// Build σ̂ with a given choice of the star free parameters.
+/// Build σ̂ with a given choice of the star free parameters (on the whole mesh).
 pub fn equilibrate_with(
     mesh: &Mesh,
     material: &Material,
@@ -236,26 +365,53 @@ pub fn equilibrate_with(
     boundary: &Boundary,
     choice: StarChoice,
 ) -> Result<EquilibratedStress, EquilibrationError> {
+    equilibrate_restricted(mesh, material, u, boundary, choice, None)
+}
+
+/// Build σ̂ on a mesh or, with a [`Restriction`], on an overlapping sub-mesh of a larger
+/// mesh (`overlap::Overlap`: `u` and `boundary` restricted to it).
+///
+/// Without restriction: the sweep keys are [`sweep_key`] of [`vertex_colours`]`(mesh)` and the
+/// vertex index, and every element is owned. With a restriction, σ̂ equals the full-mesh
+/// field (to round-off) on every owned element whose neighbourhood of
+/// `Overlap::rings_for(choice, colours)` rings is in the sub-mesh; elsewhere it is
+/// meaningless (the artificial boundary of the sub-mesh is treated as traction free). The
+/// statistics `fe_equilibrium`, `energy_averaged` and `energy_final` are then measured on
+/// the owned elements only (the energies sum over the ranks to the full-mesh ones); the
+/// other counts are those of the sub-mesh. `MinimumEnergy` (a global solve) is refused
+/// with a restriction ([`EquilibrationError::RestrictedMinimumEnergy`]).
+pub fn equilibrate_restricted(
+    mesh: &Mesh,
+    material: &Material,
+    u: &[f64],
+    boundary: &Boundary,
+    choice: StarChoice,
+    restriction: Option<&Restriction>,
+) -> Result<EquilibratedStress, EquilibrationError> {
     let ndof = mesh.num_dofs();
-    if u.len() != ndof {
-        return Err(EquilibrationError::DisplacementLength {
-            expected: ndof,
-            found: u.len(),
-        });
-    }
-    if boundary.constrained.len() != ndof {
-        return Err(EquilibrationError::ConstrainedLength {
-            expected: ndof,
-            found: boundary.constrained.len(),
-        });
-    }
-    let topo = Topology::new(mesh)?;
-    let bc = edge_conditions(&topo, boundary)?;
     let nt = mesh.triangles.len();
     let nn = mesh.num_nodes();
+    use EquilibrationError as Error;
+    check_len(u.len(), ndof, |expected, found| Error::DisplacementLength { expected, found })?;
+    let found = boundary.constrained.len();
+    check_len(found, ndof, |expected, found| Error::ConstrainedLength { expected, found })?;
+    if let Some(r) = restriction {
+        if matches!(choice, StarChoice::MinimumEnergy { .. }) {
+            return Err(Error::RestrictedMinimumEnergy);
+        }
+        let what = "vertex_key";
+        check_len(r.vertex_key.len(), nn, |expected, found| Error::RestrictionLength { what, expected, found })?;
+        let what = "owned";
+        check_len(r.owned.len(), nt, |expected, found| Error::RestrictionLength { what, expected, found })?;
+    }
+    let owned = restriction.map(|r| r.owned);
+    let vertex_owned = owned_vertices(mesh, owned);
+    let topo = Topology::new(mesh)?;
+    let bc = edge_conditions(&topo, boundary)?;
     let ne = topo.edge_nodes.len();
 
-    // FE stresses and element nodal forces R_E = ∫_E σ̃ : ε(φ_a e_k).
+    // FE stresses and element nodal forces R_E = ∫_E σ̃ : ε(φ_a e_k); the force scale (of
+    // the relative FE-equilibrium defect and point reactions) over the owned elements.
     let d = material.hooke();
     let mut sig = vec![[0.0; 3]; nt];
     let mut force = vec![[0.0; 6]; nt];
@@ -270,7 +426,9 @@ pub fn equilibrate_with(
         let s: [f64; 3] = [0, 1, 2].map(|r| (0..3).map(|k| d[r][k] * eps[k]).sum());
         for c in 0..6 {
             force[e][c] = area * (0..3).map(|r| b[r][c] * s[r]).sum::<f64>();
-            force_scale = force_scale.max(force[e][c].abs());
+        }
+        if is_owned(owned, e) {
+            force_scale = force_scale.max(force[e].iter().fold(0.0, |m, f| m.max(f.abs())));
         }
         sig[e] = s;
     }
@@ -288,7 +446,7 @@ pub fn equilibrate_with(
         edge_ref[g] = traction(&s, n);
     }
     // Known moments (for the force scale).
-    for g in 0..ne {
+    for g in (0..ne).filter(|&g| is_owned(owned, topo.edge_elems[g][0])) {
         for k in 0..2 {
             if let Bc::Known(v) = bc[g][k] {
                 for end in 0..2 {
@@ -302,7 +460,7 @@ pub fn equilibrate_with(
     // (a) Star problems.
     let mut stars = Stars::default();
     let mut moments = vec![[[0.0; 2]; 2]; ne]; // [edge][end][k], unknown components only
-    let mut point_reaction: f64 = 0.0;
+    let mut reactions: Vec<(usize, f64)> = Vec::new();
     let mut fe_equilibrium: f64 = 0.0;
     let mut star_edges: Vec<usize> = Vec::new();
     let mut cols: Vec<usize> = Vec::new();
@@ -384,8 +542,8 @@ pub fn equilibrate_with(
                 moments[g][topo.end_of(g, i)][k] = bbar[c];
             }
             if boundary.constrained[2 * i + k] {
-                point_reaction = point_reaction.max(worst / force_scale);
-            } else {
+                reactions.push((i, worst / force_scale));
+            } else if vertex_owned.as_ref().is_none_or(|v| v[i]) {
                 fe_equilibrium = fe_equilibrium.max(worst / force_scale);
             }
             stars.star_op.push(op);
@@ -405,10 +563,9 @@ pub fn equilibrate_with(
         shape_of[e] = cache
             .index(&qv)
             .ok_or(EquilibrationError::SingularLocalProblem { element: e })?;
-        let t = element_tractions(&topo, &trac, mesh, e);
-        coef[e] = apply_operator(cache.operator(shape_of[e], &qv), &t);
     }
-    let energy_averaged = total_energy(mesh, material, &coef, &sig);
+    jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
+    let energy_averaged = total_energy(mesh, material, &coef, &sig, owned);
     let mut stats = EquilibrationStats {
         star_parameters,
         shapes: cache.ops.len(),
@@ -451,12 +608,8 @@ pub fn equilibrate_with(
                 }
             }
             trac = edge_tractions(&topo, &bc, &moments);
-            for e in 0..nt {
-                let (_, _, qv) = local_frame(&mesh.triangle_points(e));
-                let t = element_tractions(&topo, &trac, mesh, e);
-                coef[e] = apply_operator(cache.operator(shape_of[e], &qv), &t);
-            }
-            stats.energy_final = total_energy(mesh, material, &coef, &sig);
+            jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
+            stats.energy_final = total_energy(mesh, material, &coef, &sig, owned);
         }
     }
     if let StarChoice::PatchRelaxation { sweeps } = choice {
@@ -472,28 +625,54 @@ pub fn equilibrate_with(
             vertex_op: vec![NONE; nn],
             hhat: HashMap::new(),
         };
+        // Multicolour symmetric Gauss–Seidel: vertices by increasing sweep key (colour, then
+        // global index) in the even sweeps, decreasing in the odd ones. The steps of one
+        // colour touch disjoint data (see `Relaxation::step`).
+        let full_keys: Vec<u64>;
+        let keys = match restriction {
+            Some(r) => r.vertex_key,
+            None => {
+                let colours = vertex_colours(mesh);
+                full_keys = (0..nn).map(|i| sweep_key(colours[i], i)).collect();
+                &full_keys
+            }
+        };
+        let mut order: Vec<usize> = (0..nn).collect();
+        order.sort_unstable_by_key(|&i| keys[i]);
         for sweep in 0..sweeps {
             let forward = sweep % 2 == 0;
             for v in 0..nn {
-                let i = if forward { v } else { nn - 1 - v };
+                let i = order[if forward { v } else { nn - 1 - v }];
                 relax.step(&mut cache, i, &mut trac, &mut coef);
             }
         }
         stats.patch_patterns = relax.ops.len();
         // Rebuild σ̂ from the edge tractions (no drift of the incremental updates).
-        for e in 0..nt {
-            let (_, _, qv) = local_frame(&mesh.triangle_points(e));
-            let t = element_tractions(&topo, &trac, mesh, e);
-            coef[e] = apply_operator(cache.operator(shape_of[e], &qv), &t);
-        }
-        stats.energy_final = total_energy(mesh, material, &coef, &sig);
+        jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
+        stats.energy_final = total_energy(mesh, material, &coef, &sig, owned);
     }
     stats.shapes = cache.ops.len();
     Ok(EquilibratedStress {
         coef,
-        point_reaction,
+        reactions,
         stats,
     })
+}
+
+/// The JM coefficients of every element from the edge tractions.
+fn jm_fields(
+    mesh: &Mesh,
+    topo: &Topology,
+    trac: &[[[f64; 2]; 2]],
+    cache: &mut ShapeCache,
+    shape_of: &[usize],
+    coef: &mut [[f64; NC]],
+) {
+    for (e, c) in coef.iter_mut().enumerate() {
+        let (_, _, qv) = local_frame(&mesh.triangle_points(e));
+        let t = element_tractions(topo, trac, mesh, e);
+        *c = apply_operator(cache.operator(shape_of[e], &qv), &t);
+    }
 }
 
 impl EquilibratedStress {
@@ -561,8 +740,37 @@ impl EquilibratedStress {
     /// Every term is evaluated at the end points of the edges concerned, which is exact for
     /// the linear tractions (and the divergence is constant per sub-triangle).
     pub fn residuals(&self, mesh: &Mesh, boundary: &Boundary) -> Residuals {
+        self.residuals_restricted(mesh, boundary, None)
+    }
+
+    /// [`Self::residuals`] restricted to the owned elements of a sub-mesh (see
+    /// [`Restriction`]; None: every element): divergence, internal jumps and max |σ̂| over
+    /// the owned elements; inter-element jumps over the edges with both elements in the
+    /// mesh and at least one owned; boundary data over the boundary edges of owned elements
+    /// (with at least one ring of overlap these are real boundary edges, never the
+    /// artificial boundary of the sub-mesh); point reactions of the constrained stars at
+    /// vertices of owned elements. The maximum over the ranks bounds the full-mesh check
+    /// (each rank's scale is at most the full-mesh one).
+    ///
+    /// Panics if `owned` does not have one entry per element.
+    pub fn residuals_restricted(
+        &self,
+        mesh: &Mesh,
+        boundary: &Boundary,
+        owned: Option<&[bool]>,
+    ) -> Residuals {
+        if let Some(o) = owned {
+            assert_eq!(o.len(), mesh.triangles.len(), "`owned`: one entry per element");
+        }
+        let own = |e: usize| is_owned(owned, e);
+        let vertex_owned = owned_vertices(mesh, owned);
+        let point_reaction = self
+            .reactions
+            .iter()
+            .filter(|&&(i, _)| vertex_owned.as_ref().is_none_or(|v| v[i]))
+            .fold(0.0f64, |m, &(_, r)| m.max(r));
         let mut res = Residuals {
-            point_reaction: self.point_reaction,
+            point_reaction,
             ..Residuals::default()
         };
         let Ok(topo) = Topology::new(mesh) else {
@@ -574,7 +782,7 @@ impl EquilibratedStress {
         let nt = mesh.triangles.len();
         let mut smax: f64 = 0.0;
         let (mut div, mut jin): (f64, f64) = (0.0, 0.0);
-        for e in 0..nt {
+        for e in (0..nt).filter(|&e| own(e)) {
             let (_, _, qv) = local_frame(&mesh.triangle_points(e));
             let x = &self.coef[e];
             for a in 0..3 {
@@ -602,7 +810,7 @@ impl EquilibratedStress {
         let mut jel: f64 = 0.0;
         for g in 0..topo.edge_nodes.len() {
             let [e0, e1] = topo.edge_elems[g];
-            if e1 == NONE {
+            if e1 == NONE || !(own(e0) || own(e1)) {
                 continue;
             }
             let n = topo.edge_normal[g];
@@ -623,7 +831,7 @@ impl EquilibratedStress {
         let mut jb: f64 = 0.0;
         for g in 0..topo.edge_nodes.len() {
             let e0 = topo.edge_elems[g][0];
-            if topo.edge_elems[g][1] != NONE {
+            if topo.edge_elems[g][1] != NONE || !own(e0) {
                 continue;
             }
             let n = topo.edge_normal[g];
@@ -723,23 +931,7 @@ impl Topology {
                 }
             }
         }
-        let mut vert_ptr = vec![0usize; nn + 1];
-        for t in &mesh.triangles {
-            for &v in t {
-                vert_ptr[v + 1] += 1;
-            }
-        }
-        for i in 0..nn {
-            vert_ptr[i + 1] += vert_ptr[i];
-        }
-        let mut fill = vert_ptr.clone();
-        let mut vert_elems = vec![(0, 0); 3 * nt];
-        for (e, t) in mesh.triangles.iter().enumerate() {
-            for (a, &v) in t.iter().enumerate() {
-                vert_elems[fill[v]] = (e, a);
-                fill[v] += 1;
-            }
-        }
+        let (vert_ptr, vert_elems) = vertex_stars(mesh);
         Ok(Topology {
             edge_nodes,
             edge_elems,
@@ -1253,11 +1445,17 @@ fn compliance(material: &Material) -> [[f64; 3]; 3] {
     ]
 }
 
-/// Σ_E ‖σ̂ − σ̃_E‖²_{K⁻¹,E}.
-fn total_energy(mesh: &Mesh, material: &Material, coef: &[[f64; NC]], sig: &[[f64; 3]]) -> f64 {
+/// Σ_E ‖σ̂ − σ̃_E‖²_{K⁻¹,E} over the owned elements (all without restriction).
+fn total_energy(
+    mesh: &Mesh,
+    material: &Material,
+    coef: &[[f64; NC]],
+    sig: &[[f64; 3]],
+    owned: Option<&[bool]>,
+) -> f64 {
     let cm = compliance(material);
     let mut sum = 0.0;
-    for e in 0..coef.len() {
+    for e in (0..coef.len()).filter(|&e| is_owned(owned, e)) {
         let p = mesh.triangle_points(e);
         let (_, _, q) = local_frame(&p);
         let w = triangle_area(&p) / 9.0;
@@ -1546,6 +1744,16 @@ impl Relaxation<'_> {
     /// One block Gauss–Seidel step at vertex i: minimise the complementary energy of the
     /// patch over its admissible perturbations, update the edge tractions and the JM
     /// coefficients of the patch elements.
+    ///
+    /// Locality (what makes the multicolour order and the sub-mesh restriction exact): the
+    /// step at i reads only data of the patch of i — `coef` and `sig` of the elements around
+    /// i (`topo.vertex_elements(i)`), their geometry and shapes, and the boundary codes of
+    /// the edges through i — and writes only `trac` of the edges through i (both end values,
+    /// the `unknowns`) and `coef` of the elements around i (`apply`). Two vertices of one
+    /// colour share no element, so their patches and their edge sets are disjoint: the steps
+    /// of one colour are independent (any order, or in parallel, gives the same result; only
+    /// which vertex first builds a cached patch operator for a pattern can change, which is
+    /// round-off).
     fn step(
         &mut self,
         cache: &mut ShapeCache,
@@ -1833,12 +2041,13 @@ fn norm(a: &[f64]) -> f64 {
     dotv(a, a).sqrt()
 }
 
+/// Unit-test helpers are shared with `overlap.rs` (`fe_solve`, `block_rect`, `STEEL`).
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::dense::SymMatrix;
 
-    const STEEL: Material = Material {
+    pub(crate) const STEEL: Material = Material {
         young: 210e9,
         poisson: 0.27,
     };
@@ -1864,7 +2073,7 @@ mod tests {
     /// FE solution with u = 0 on the constrained dofs and the consistent loads of the Known
     /// edge components: dense Cholesky (`dense::SymMatrix`) up to 600 unknowns, a banded
     /// Cholesky beyond (the reference meshes).
-    fn fe_solve(mesh: &Mesh, boundary: &Boundary) -> Vec<f64> {
+    pub(crate) fn fe_solve(mesh: &Mesh, boundary: &Boundary) -> Vec<f64> {
         let k = fem::assemble_stiffness(mesh, &STEEL);
         let ndof = mesh.num_dofs();
         let mut f = vec![0.0; ndof];
@@ -1990,7 +2199,12 @@ mod tests {
     /// The benchmark-like block: bottom clamped, linear normal traction on top, linear shear
     /// on the right, left free.
     fn block(n: usize) -> (Mesh, Boundary) {
-        let mesh = Mesh::structured([0.0, 0.0], [1.0, 1.0], n, n);
+        block_rect(n, n)
+    }
+
+    /// [`block`] on an nx × ny mesh of the unit square.
+    pub(crate) fn block_rect(nx: usize, ny: usize) -> (Mesh, Boundary) {
+        let mesh = Mesh::structured([0.0, 0.0], [1.0, 1.0], nx, ny);
         let mut constrained = vec![false; mesh.num_dofs()];
         let mut edges = Vec::new();
         let bottom = mesh.bottom_nodes();
@@ -2472,13 +2686,14 @@ mod tests {
             sig[e] = fem::element_stress(mesh, e, &STEEL, u);
         }
         assert!(worst_eq < 1e-10, "self-equilibrium defect {worst_eq:e}");
-        total_energy(mesh, &STEEL, &coef, &sig)
+        total_energy(mesh, &STEEL, &coef, &sig, None)
     }
 
     #[test]
     fn patch_relaxation_converges_to_the_global_minimum() {
         // The patch kernels span the admissible JM space: many sweeps reach the minimum of
-        // the complementary energy computed by a dense KKT solve.
+        // the complementary energy computed by a dense KKT solve (relative excess with the
+        // multicolour order: 3 sweeps 1.7e-1, 100 1.8e-3, 300 2.8e-6, 1000 6e-15).
         let (mesh, bd) = block(4);
         let u = fe_solve(&mesh, &bd);
         let global = global_min_energy(&mesh, &bd, &u);
@@ -2487,7 +2702,7 @@ mod tests {
             StarChoice::AveragedTraction,
             StarChoice::minimum_energy(),
             StarChoice::PatchRelaxation { sweeps: 3 },
-            StarChoice::PatchRelaxation { sweeps: 300 },
+            StarChoice::PatchRelaxation { sweeps: 1000 },
         ] {
             let eq = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
             assert_admissible(&eq.residuals(&mesh, &bd), 1e-10);
@@ -2496,7 +2711,7 @@ mod tests {
         println!("global minimum {global:.6e}, energies {energies:?}");
         assert!(energies.iter().all(|&e| e >= global * (1.0 - 1e-9)));
         assert!(
-            (energies[3] - global).abs() < 1e-6 * global,
+            (energies[3] - global).abs() < 1e-9 * global,
             "{} vs {global}",
             energies[3]
         );
@@ -2613,6 +2828,132 @@ mod tests {
                     s += a[r * n + k] * apa;
                 }
                 assert!((s - a[r * n + c]).abs() < 1e-13);
+            }
+        }
+    }
+
+    #[test]
+    fn vertex_colouring_is_proper() {
+        for (nx, ny) in [(1, 1), (2, 2), (5, 3), (16, 12), (64, 48)] {
+            let mesh = Mesh::structured([0.0, 0.0], [1.0, 1.0], nx, ny);
+            let colours = vertex_colours(&mesh);
+            for t in &mesh.triangles {
+                let c = t.map(|v| colours[v]);
+                assert!(c[0] != c[1] && c[1] != c[2] && c[2] != c[0], "{t:?}: {c:?}");
+            }
+            let count = colours.iter().map(|&c| c as usize + 1).max().unwrap();
+            println!("{nx} x {ny}: {count} colours");
+            assert_eq!(count, if nx >= 2 && ny >= 2 { 4 } else { 3 });
+        }
+    }
+
+    #[test]
+    fn restriction_input_and_trivial_restriction() {
+        let (mesh, bd) = block(4);
+        let u = fe_solve(&mesh, &bd);
+        let colours = vertex_colours(&mesh);
+        let keys: Vec<u64> = colours.iter().enumerate().map(|(i, &c)| sweep_key(c, i)).collect();
+        let owned = vec![true; mesh.triangles.len()];
+        let all = Restriction {
+            vertex_key: &keys,
+            owned: &owned,
+        };
+        let restricted = |choice, r: &Restriction| {
+            equilibrate_restricted(&mesh, &STEEL, &u, &bd, choice, Some(r))
+        };
+        assert!(matches!(
+            restricted(StarChoice::minimum_energy(), &all),
+            Err(EquilibrationError::RestrictedMinimumEnergy)
+        ));
+        let short = Restriction {
+            vertex_key: &keys[1..],
+            ..all
+        };
+        assert!(matches!(
+            restricted(StarChoice::AveragedTraction, &short),
+            Err(EquilibrationError::RestrictionLength {
+                what: "vertex_key",
+                ..
+            })
+        ));
+        // Everything owned with the full-mesh keys: the unrestricted computation, bitwise.
+        for choice in [
+            StarChoice::AveragedTraction,
+            StarChoice::PatchRelaxation { sweeps: 2 },
+        ] {
+            let a = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
+            let b = restricted(choice, &all).unwrap();
+            for e in 0..mesh.triangles.len() {
+                assert_eq!(a.coefficients(e), b.coefficients(e));
+            }
+            assert_eq!(a.stats().energy_final, b.stats().energy_final);
+            let (ra, rb) = (a.residuals(&mesh, &bd), b.residuals_restricted(&mesh, &bd, Some(&owned)));
+            assert_eq!(format!("{ra:?}"), format!("{rb:?}"));
+        }
+    }
+
+    #[test]
+    fn restricted_residuals_only_see_owned_elements() {
+        // A load on top only, reacted by the three pinned dofs: large point reactions.
+        let n = 4;
+        let (mesh, mut bd) = patch(n, [0.0, -1e7, 0.0]);
+        let top = mesh.top_nodes();
+        bd.edges.retain(|be| top.contains(&be.nodes[0]) && top.contains(&be.nodes[1]));
+        let u = fe_solve(&mesh, &bd);
+        let eq = equilibrate(&mesh, &STEEL, &u, &bd).unwrap();
+        let full = eq.residuals(&mesh, &bd);
+        println!("unbalanced: {full:?}");
+        assert!(full.point_reaction > 1e-3);
+        // The elements touching a pin are not self-equilibrated (the point reaction is spread
+        // over them); "away": the elements sharing no vertex with them, whose neighbours
+        // across an edge are therefore exact.
+        let pins = [mesh.node(0, 0), mesh.node(n, 0)];
+        let mut near_pin = vec![false; mesh.num_nodes()];
+        for t in mesh.triangles.iter().filter(|t| t.iter().any(|v| pins.contains(v))) {
+            t.iter().for_each(|&v| near_pin[v] = true);
+        }
+        let away: Vec<bool> = mesh.triangles.iter().map(|t| !t.iter().any(|&v| near_pin[v])).collect();
+        let r = eq.residuals_restricted(&mesh, &bd, Some(&away));
+        assert_eq!(r.point_reaction, 0.0, "{r:?}");
+        assert_admissible(&r, 1e-10);
+        let near: Vec<bool> = away.iter().map(|a| !a).collect();
+        let r = eq.residuals_restricted(&mesh, &bd, Some(&near));
+        assert!(r.point_reaction > 1e-3, "{r:?}");
+        let none = vec![false; mesh.triangles.len()];
+        assert_eq!(eq.residuals_restricted(&mesh, &bd, Some(&none)).max(), 0.0);
+    }
+
+    /// Timing of the recoveries on a 256 × 256 block (release: `cargo test --release --lib
+    /// -- --ignored --nocapture equilibration_timing`). The displacement is a smooth field,
+    /// not an FE solution: only the cost is measured.
+    #[test]
+    #[ignore]
+    fn equilibration_timing() {
+        let (mesh, bd) = block(256);
+        let u: Vec<f64> = (0..mesh.num_dofs())
+            .map(|d| {
+                let x = mesh.points[d / 2];
+                1e-4 * ((3.0 * x[0] + (d % 2) as f64).sin() * (2.0 * x[1]).cos() + x[1] * x[1])
+            })
+            .collect();
+        for choice in [StarChoice::AveragedTraction, StarChoice::PatchRelaxation { sweeps: 3 }] {
+            // CPU time of this thread (the machine may be shared): utime + stime of
+            // /proc/thread-self/stat, in clock ticks (assumed 100 Hz).
+            let cpu = || -> f64 {
+                let s = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
+                let rest = s.rsplit(')').next().unwrap_or("");
+                let f: Vec<f64> = rest.split_whitespace().map(|v| v.parse().unwrap_or(0.0)).collect();
+                (f.get(11).unwrap_or(&0.0) + f.get(12).unwrap_or(&0.0)) / 100.0
+            };
+            for _ in 0..5 {
+                let (t, c) = (std::time::Instant::now(), cpu());
+                let eq = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
+                println!(
+                    "256x256 {choice:?}: {:.3} s wall, {:.3} s cpu (energy {:.6e})",
+                    t.elapsed().as_secs_f64(),
+                    cpu() - c,
+                    eq.stats().energy_final
+                );
             }
         }
     }

@@ -25,9 +25,10 @@ use std::collections::HashMap;
 use crate::body::{Body, BodyError};
 use crate::dense::SymMatrix;
 use crate::equilibrate::{
-    equilibrate_with, Boundary, BoundaryEdge, EdgeComponent, EquilibrationError, Residuals,
-    StarChoice,
+    equilibrate_restricted, equilibrate_with, vertex_colours, Boundary, BoundaryEdge,
+    EdgeComponent, EquilibratedStress, EquilibrationError, Residuals, StarChoice,
 };
+use crate::overlap::Overlap;
 use crate::fem::{element_dofs, element_stiffness, element_stress};
 use crate::mesh::Mesh;
 use crate::problem::{interface_mass, BodyProblem};
@@ -191,37 +192,104 @@ pub struct IterationData<'a> {
     pub recovery: StarChoice,
 }
 
-/// Element contributions of body α at iteration p; `u_p` is u^α_p.
+/// Where a rank's recovery runs: the whole body mesh (the body on one rank), or the rank's
+/// own elements with enough rings of neighbours that the recovered σ̂ on its own elements is
+/// exactly the whole-mesh one ([`Overlap`]).
+pub enum View<'a> {
+    Whole,
+    Overlap(&'a Overlap),
+}
+
+impl View<'_> {
+    fn equilibrate(
+        &self,
+        p: &BodyProblem,
+        u: &[f64],
+        gc: &[f64],
+        choice: StarChoice,
+    ) -> Result<(EquilibratedStress, Residuals), EstimateError> {
+        let b = boundary(p, gc);
+        let err = |source| EstimateError::Equilibration {
+            alpha: p.alpha,
+            source,
+        };
+        match self {
+            View::Whole => {
+                let s = equilibrate_with(&p.mesh, &p.material, u, &b, choice).map_err(err)?;
+                let r = s.residuals(&p.mesh, &b);
+                Ok((s, r))
+            }
+            View::Overlap(o) => {
+                let b = o.restrict_boundary(&b);
+                let restriction = o.restriction();
+                let s = equilibrate_restricted(
+                    &o.mesh,
+                    &p.material,
+                    &o.restrict_dofs(u),
+                    &b,
+                    choice,
+                    Some(&restriction),
+                )
+                .map_err(err)?;
+                let r = s.residuals_restricted(&o.mesh, &b, Some(&o.owned));
+                Ok((s, r))
+            }
+        }
+    }
+
+    /// The mesh the recovered stress lives on, and the (index there, body element) pairs this
+    /// rank estimates.
+    fn kept<'b>(&'b self, body: &'b Body) -> (&'b Mesh, Vec<(usize, usize)>) {
+        match self {
+            View::Whole => (
+                &body.problem.mesh,
+                (0..body.problem.mesh.triangles.len())
+                    .map(|e| (e, e))
+                    .collect(),
+            ),
+            View::Overlap(o) => (
+                &o.mesh,
+                o.elements
+                    .iter()
+                    .enumerate()
+                    .filter(|&(l, _)| o.owned[l])
+                    .map(|(l, &e)| (l, e))
+                    .collect(),
+            ),
+        }
+    }
+}
+
+/// Element contributions of body α at iteration p on this rank's elements (zero elsewhere);
+/// `u_p` is u^α_p (whole, on every rank of the body's group).
 pub fn estimate_body(
     body: &Body,
     u_p: &[f64],
     iface: &Interface,
     data: &IterationData,
+    view: &View,
 ) -> Result<BodyEstimate, EstimateError> {
     let p = &body.problem;
     let alpha = p.alpha;
     let mesh = &p.mesh;
     let ne = mesh.triangles.len();
-    let sigma_p: Vec<[f64; 3]> = (0..ne)
-        .map(|e| element_stress(mesh, e, &p.material, u_p))
+    let (sub, kept) = view.kept(body);
+    let sigma_p: Vec<[f64; 3]> = kept
+        .iter()
+        .map(|&(_, e)| element_stress(mesh, e, &p.material, u_p))
         .collect();
-    let eq = |u: &[f64], gc: &[f64]| {
-        equilibrate_with(mesh, &p.material, u, &boundary(p, gc), data.recovery)
-            .map_err(|source| EstimateError::Equilibration { alpha, source })
-    };
 
     // η^glo and η^NNDD: the Neumann re-solve with Γc data t̂^α, and its equilibration.
     let sign = if alpha == 1 { 1.0 } else { -1.0 };
     let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
     let u_tilde = body.neumann_solve(&iface.forces(&t_alpha), true)?;
-    let s_glo = eq(&u_tilde, &t_alpha)?;
+    let (s_glo, mut res) = view.equilibrate(p, &u_tilde, &t_alpha, data.recovery)?;
     let mut est = BodyEstimate {
         glo: vec![0.0; ne],
         fe: vec![0.0; ne],
         nndd: vec![0.0; ne],
         ..Default::default()
     };
-    let mut res = s_glo.residuals(mesh, &boundary(p, &t_alpha));
     // η^NNDD: the discretely equilibrated field of the discrete problem (nodal forces ∓μ̂),
     // or method.md's ũ^α_h of η^glo.
     let u_d = match data.nndd_variant {
@@ -231,8 +299,8 @@ pub fn estimate_body(
         }
         NnddVariant::Density => u_tilde.clone(),
     };
-    for (e, &sig) in sigma_p.iter().enumerate() {
-        est.glo[e] = s_glo.cre_squared(mesh, e, sig, &p.material);
+    for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
+        est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
         let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
         let dofs = element_dofs(&mesh.triangles[e]);
         let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
@@ -240,26 +308,24 @@ pub fn estimate_body(
             .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
             .sum();
     }
+    drop(s_glo);
 
     // η^FE: the step-p problem at fixed λ_p.
-    let s_fe = if alpha == 1 {
+    let (s_fe, r_fe) = if alpha == 1 {
         // Body 1: σ(u¹_p) is FE-equilibrated with its Γc reaction density M⁻¹T¹_p.
         let t = iface.density(data.reaction1);
-        let s = eq(u_p, &t)?;
-        res = worst(res, s.residuals(mesh, &boundary(p, &t)));
-        s
+        view.equilibrate(p, u_p, &t, data.recovery)?
     } else {
         let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
         let u_fe = body.neumann_solve(&iface.forces(&t2), true)?;
-        let s = eq(&u_fe, &t2)?;
-        res = worst(res, s.residuals(mesh, &boundary(p, &t2)));
-        s
+        view.equilibrate(p, &u_fe, &t2, data.recovery)?
     };
-    for (e, &sig) in sigma_p.iter().enumerate() {
-        est.fe[e] = s_fe.cre_squared(mesh, e, sig, &p.material);
+    res = worst(res, r_fe);
+    for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
+        est.fe[e] = s_fe.cre_squared(sub, l, sig, &p.material);
     }
 
-    // Contact terms 2∫ t̂ (λ_p − u²_n) ≥ 0, on the body-2 elements along Γc.
+    // Contact terms 2∫ t̂ (λ_p − u²_n) ≥ 0, on the body-2 elements along Γc (their owners).
     if alpha == 2 {
         let u2n: Vec<f64> = p.contact_normal_dofs().iter().map(|&d| u_p[d]).collect();
         let gap: Vec<f64> = data.lambda.iter().zip(&u2n).map(|(l, u)| l - u).collect();
@@ -270,6 +336,9 @@ pub fn estimate_body(
         for k in 0..c_glo.len() {
             let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
             let e = edges[&(a.min(b), a.max(b))];
+            if !body.partition.owns_element(e) {
+                continue;
+            }
             est.glo[e] += 2.0 * c_glo[k];
             est.fe[e] += 2.0 * c_fe[k];
             est.nndd[e] += match data.nndd_variant {
@@ -422,7 +491,8 @@ pub struct Reference {
     pub iterations: usize,
 }
 
-/// The estimates of one iteration: totals (on every rank) and element maps η_E (on rank 0,
+/// The estimates of one iteration: totals (on every rank) and element maps η_E (on the ranks
+/// of each body's group,
 /// for output; η² = Σ_E η_E²).
 #[derive(Clone, Debug)]
 pub struct EstimateRecord {
@@ -435,7 +505,7 @@ pub struct EstimateRecord {
     pub e_ref: Option<f64>,
     pub effectivity: Option<f64>,
     pub residuals: Residuals,
-    /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (rank 0).
+    /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (on the body's ranks, empty elsewhere).
     pub maps: [[Vec<f64>; 3]; 2],
     /// The iterate, with u^α_p gathered on rank 0 (for output), and t̂^c.
     pub iterate: crate::nndd::Iterate,
@@ -450,6 +520,9 @@ pub struct Estimator<'a> {
     pub nndd_variant: NnddVariant,
     pub layout: &'a crate::layout::Layout,
     pub reference: Option<Reference>,
+    /// Per body, this rank's overlapping element set (built at the first estimate; `None`:
+    /// the body is on one rank and the recovery runs on its whole mesh).
+    pub overlaps: [std::cell::OnceCell<Option<Overlap>>; 2],
 }
 
 /// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
@@ -468,6 +541,21 @@ fn nodal_contact_forces(it: &crate::nndd::Iterate) -> Vec<f64> {
 }
 
 impl Estimator<'_> {
+    /// This rank's overlapping element set of `body`: its own elements and as many rings as
+    /// the recovery needs to be exact there.
+    fn overlap(&self, body: &Body) -> Option<Overlap> {
+        let part = &body.partition;
+        (part.size > 1).then(|| {
+            let mesh = &body.problem.mesh;
+            let colours = vertex_colours(mesh);
+            let count = colours.iter().map(|&c| c as usize + 1).max().unwrap_or(1);
+            let own: Vec<bool> = (0..mesh.triangles.len())
+                .map(|e| part.owns_element(e))
+                .collect();
+            Overlap::new(mesh, &own, Overlap::rings_for(self.recovery, count), &colours)
+        })
+    }
+
     /// η^NNDD alone, discrete variant, without any stress recovery: per body one Neumann
     /// re-solve and (ũ − u_p)ᵀK(ũ − u_p), plus the nodal contact pairing. The same number as
     /// [`Estimator::estimate`] gives, at the cost of two back-solves: what the balanced stopping
@@ -486,6 +574,9 @@ impl Estimator<'_> {
                 let u_d = b.neumann_solve(&f, true)?;
                 let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
                 let kd = b.apply_k(&d)?;
+                if !b.is_root() {
+                    continue; // the same numbers on every rank of the group: count them once
+                }
                 sum += d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
                 if k == 1 {
                     let u2n = b.normal_trace(&it.u[1]);
@@ -530,7 +621,9 @@ impl Estimator<'_> {
         let mut e_ref2 = 0.0;
         for (k, body) in bodies.iter().enumerate() {
             if let Some(b) = body {
-                let est = estimate_body(b, &it.u[k], &self.iface, &data)?;
+                let overlap = self.overlaps[k].get_or_init(|| self.overlap(b));
+                let view = overlap.as_ref().map_or(View::Whole, View::Overlap);
+                let est = estimate_body(b, &it.u[k], &self.iface, &data, &view)?;
                 let t = est.totals();
                 for c in 0..3 {
                     sums[c] += t[c];
@@ -538,6 +631,9 @@ impl Estimator<'_> {
                 res = worst(res, est.residuals);
                 maps[k] = [&est.glo, &est.fe, &est.nndd]
                     .map(|v| v.iter().map(|x| x.max(0.0).sqrt()).collect());
+                for map in maps[k].iter_mut() {
+                    layout.group_sum(map); // each element from its owner
+                }
                 if let Some(r) = &self.reference {
                     let fine = r.bodies[k]
                         .as_ref()
@@ -545,7 +641,9 @@ impl Estimator<'_> {
                     let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &it.u[k])?;
                     let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
                     let kd = fine.apply_k(&d)?;
-                    e_ref2 += d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
+                    if b.is_root() {
+                        e_ref2 += d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
+                    }
                 }
             }
         }
@@ -561,13 +659,7 @@ impl Estimator<'_> {
             boundary: layout.max(res.boundary),
             point_reaction: layout.max(res.point_reaction),
         };
-        let mut iterate = it.clone();
-        for (k, body_maps) in maps.iter_mut().enumerate() {
-            for map in body_maps.iter_mut() {
-                layout.share_vec(k + 1, map);
-            }
-            layout.share_vec(k + 1, &mut iterate.u[k]);
-        }
+        let iterate = it.clone();
         let eta_glo = glo.max(0.0).sqrt();
         Ok(EstimateRecord {
             iteration: it.iteration,

@@ -1,8 +1,10 @@
 //! Which MPI ranks own which body, and the interface exchanges between the bodies.
 //!
-//! `-n 1`: both bodies on rank 0. `-n 2`: rank 0 owns Ω¹, rank 1 owns Ω², so the two step-1
-//! problems (and the two Neumann problems) run at the same time. Each body lives on its own
-//! communicator (a split of the world), so that a body can later span a group of ranks.
+//! `-n 1`: both bodies on rank 0. `-n N`, N ≥ 2: the ranks split into two groups, one per body
+//! (sized by the bodies' dof counts, or `-nndd_body1_ranks`), so the two step-1 problems (and
+//! the two Neumann problems) run at the same time; each body lives on its group's communicator,
+//! partitioned over it by METIS (`partition.rs`). Interface data (λ, the Γc forces, the contact
+//! set) are small: each group's root broadcasts them to every rank.
 
 use mpi::topology::{Color, Communicator, SimpleCommunicator};
 use mpi::traits::*;
@@ -11,31 +13,82 @@ use crate::petsc::{comm_from_rsmpi, Comm};
 
 #[derive(Debug, thiserror::Error)]
 pub enum LayoutError {
-    #[error(
-        "mpirun -n: nndd runs on 1 rank (both bodies) or 2 ranks (one per body) (got {0} ranks)"
-    )]
-    RankCount(i32),
+    #[error("-nndd_body1_ranks: accepted 1 .. {max} on {size} ranks (body 2 needs at least one), got {got}")]
+    Body1Ranks { size: i32, max: i32, got: usize },
+    #[error("-nndd_recovery star: solves one global problem per body, so each body must be on one rank (body ranks {ranks:?}); use -nndd_recovery patch or eet")]
+    GlobalRecovery { ranks: [usize; 2] },
+    #[error("mpirun -n: body {alpha} has {nodes} nodes for {ranks} ranks; use at most {max} ranks for it (a finer mesh, fewer ranks, or -nndd_body1_ranks)")]
+    TooManyRanks {
+        alpha: usize,
+        nodes: usize,
+        ranks: usize,
+        max: usize,
+    },
 }
 
 pub struct Layout {
     pub world: SimpleCommunicator,
     pub rank: i32,
     pub size: i32,
-    /// World rank of each body's root.
+    /// World rank of each body's root (the first rank of its group).
     roots: [i32; 2],
+    /// Number of ranks of each body's group.
+    pub group_sizes: [usize; 2],
     /// This rank's body communicator (one group per body; with one rank, both bodies on it).
     group: SimpleCommunicator,
 }
 
 impl Layout {
-    pub fn new(world: SimpleCommunicator) -> Result<Layout, LayoutError> {
+    /// Split the world into two groups: world ranks 0 .. n₁ for body 1 and n₁ .. N for body 2,
+    /// n₁ = `body1_ranks` if given, else in proportion to the bodies' dof counts `dofs`
+    /// (at least one rank each). With one rank both bodies share it.
+    pub fn new(
+        world: SimpleCommunicator,
+        body1_ranks: usize,
+        dofs: [usize; 2],
+    ) -> Result<Layout, LayoutError> {
         let (rank, size) = (world.rank(), world.size());
-        let roots = match size {
-            1 => [0, 0],
-            2 => [0, 1],
-            n => return Err(LayoutError::RankCount(n)),
+        let n1 = if size == 1 {
+            if body1_ranks > 1 {
+                return Err(LayoutError::Body1Ranks {
+                    size,
+                    max: 1,
+                    got: body1_ranks,
+                });
+            }
+            1
+        } else if body1_ranks > 0 {
+            if body1_ranks >= size as usize {
+                return Err(LayoutError::Body1Ranks {
+                    size,
+                    max: size - 1,
+                    got: body1_ranks,
+                });
+            }
+            body1_ranks
+        } else {
+            let share = size as f64 * dofs[0] as f64 / (dofs[0] + dofs[1]) as f64;
+            (share.round() as usize).clamp(1, size as usize - 1)
         };
-        let color = if size == 1 { 0 } else { rank };
+        let (roots, group_sizes) = if size == 1 {
+            ([0, 0], [1, 1])
+        } else {
+            ([0, n1 as i32], [n1, size as usize - n1])
+        };
+        // At least MIN_NODES nodes per rank, so that METIS gives every rank a part.
+        const MIN_NODES: usize = 16;
+        for alpha in [1, 2] {
+            let (nodes, ranks) = (dofs[alpha - 1] / 2, group_sizes[alpha - 1]);
+            if nodes < MIN_NODES * ranks {
+                return Err(LayoutError::TooManyRanks {
+                    alpha,
+                    nodes,
+                    ranks,
+                    max: (nodes / MIN_NODES).max(1),
+                });
+            }
+        }
+        let color = if size > 1 && rank >= n1 as i32 { 1 } else { 0 };
         let group = world
             .split_by_color(Color::with_value(color))
             .expect("every rank has a colour");
@@ -44,13 +97,29 @@ impl Layout {
             rank,
             size,
             roots,
+            group_sizes,
             group,
         })
     }
 
+    /// This rank's position in its body group.
+    pub fn group_rank(&self) -> usize {
+        self.group.rank() as usize
+    }
+
+    /// Sum `data` element-wise over the ranks of this rank's body group (in place).
+    pub fn group_sum(&self, data: &mut [f64]) {
+        if self.group.size() > 1 {
+            let send = data.to_vec();
+            self.group
+                .all_reduce_into(&send[..], data, mpi::collective::SystemOperation::sum());
+        }
+    }
+
     /// Does this rank take part in body `alpha`'s work?
     pub fn owns(&self, alpha: usize) -> bool {
-        self.size == 1 || self.rank == self.roots[alpha - 1]
+        let first = self.roots[alpha - 1];
+        self.size == 1 || (first..first + self.group_sizes[alpha - 1] as i32).contains(&self.rank)
     }
 
     /// The communicator of the body group this rank belongs to.

@@ -116,6 +116,8 @@ pub struct Iterate {
     pub u: [Vec<f64>; 2],
     /// T¹_p, T²_p on the Γc normal dofs (known on every rank).
     pub forces: [Vec<f64>; 2],
+    /// u²_{p,n}, body 2's normal Γc trace (known on every rank once the fields are formed).
+    pub trace2: Vec<f64>,
     pub active: Vec<bool>,
     /// Relative KKT violation of the contact QP of this step.
     pub qp_kkt: f64,
@@ -136,8 +138,7 @@ pub fn neumann_step(body: &Body, residual: &[f64]) -> Result<Vec<f64>, BodyError
     // Body 1 receives −½R, body 2 +½R (method.md §2 step 4).
     let sign = if body.alpha() == 1 { -0.5 } else { 0.5 };
     let load: Vec<f64> = residual.iter().map(|r| sign * r).collect();
-    let w = body.neumann_solve(&load, false)?;
-    Ok(body.normal_trace(&w))
+    body.neumann_trace(&load, false)
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -147,6 +148,7 @@ fn norm(v: &[f64]) -> f64 {
 /// Form u¹_p and u²_p on their owners where the steps did not (condensed steps give only the
 /// Γc forces).
 fn form_fields(
+    layout: &Layout,
     it: &mut Iterate,
     bodies: [Option<&Body>; 2],
     dirichlet: Option<&DirichletStep>,
@@ -170,6 +172,9 @@ fn form_fields(
                 .time(|| c.field(b2, &it.forces[1], &it.lambda, &it.active))?;
         }
     }
+    let mut trace = bodies[1].map_or(vec![0.0; it.lambda.len()], |b| b.normal_trace(&it.u[1]));
+    layout.share(2, &mut trace);
+    it.trace2 = trace;
     Ok(())
 }
 
@@ -210,7 +215,8 @@ pub fn solve(
         }
         let mut t2 = vec![0.0; m];
         let mut act = vec![0.0; m + 2];
-        if let (Some(b2), Some(c)) = (bodies[1], contact) {
+        // The contact QP lives on Γc: body 2's root solves it, the broadcast below shares it.
+        if let (Some(b2), Some(c)) = (bodies[1].filter(|b| b.is_root()), contact) {
             let _s = stages.contact_step.enter();
             let sol = timers.contact_step.time(|| c.solve(b2, &lambda))?;
             t2 = sol.forces;
@@ -265,13 +271,14 @@ pub fn solve(
             lambda: lambda.clone(),
             u: [u1, Vec::new()],
             forces: [t1, t2],
+            trace2: Vec::new(),
             active: act[..m].iter().map(|&a| a > 0.5).collect(),
             qp_kkt: act[m],
             iteration: p,
         };
         let mut balanced = false;
         if estimate_every.is_some_and(|k| p % k == 0) {
-            form_fields(&mut it, bodies, dirichlet, contact, stages, &mut timers)?;
+            form_fields(layout, &mut it, bodies, dirichlet, contact, stages, &mut timers)?;
             balanced = observe(&it)?;
         }
         monitor(&record);
@@ -314,7 +321,7 @@ pub fn solve(
     let iterations = history.len();
     let mut last = last.expect("max_it ≥ 1");
     // The fields of the reported step (the loop needs only the Γc forces).
-    form_fields(&mut last, bodies, dirichlet, contact, stages, &mut timers)?;
+    form_fields(layout, &mut last, bodies, dirichlet, contact, stages, &mut timers)?;
     Ok(NnddResult {
         status,
         iterations,

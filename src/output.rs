@@ -2,8 +2,27 @@
 //! description ParaView reads), written whole or not at all, and
 //! [`write_atomic`] for small text files such as `PREFIX.json`.
 //!
-//! Everything here runs on one process (rank 0, after gathering); no MPI call
-//! is made and the HDF5 file is opened with the default (serial) driver.
+//! # Processes
+//!
+//! [`write_results_parallel`] is collective over an MPI communicator and
+//! writes one `PREFIX.h5` whatever the number of ranks. Every rank passes
+//! [`Results`] of the same structure (the same grids with their full
+//! geometry, the same steps, field names, kinds and centers, the same
+//! attributes; checked with a hash) and, per grid, a [`Share`]: the
+//! contiguous rows of points and of cells it writes. The ranks' shares tile
+//! each grid (checked); a rank's field values may be empty where its share is.
+//! All ranks open the file with the MPI-IO driver (`H5Pset_fapl_mpio`),
+//! create every group, attribute and dataset together in the same order
+//! (creation is collective in parallel HDF5; datasets are contiguous), and
+//! write their hyperslab of every dataset (points, cells, each field at each
+//! step) in one collective transfer (`H5FD_MPIO_COLLECTIVE`) per dataset,
+//! ranks without rows taking part with an empty selection. Rank 0 alone
+//! writes `PREFIX.xdmf` and renames the files. The result is the same, dataset
+//! by dataset and attribute by attribute, as the one-process file.
+//!
+//! [`write_results`] is the same code on one process: each grid is one share,
+//! the file uses HDF5's default (serial) driver, and no MPI call is made (MPI
+//! need not be initialised).
 //!
 //! # Atomicity
 //!
@@ -17,6 +36,17 @@
 //! complete (when a pair is overwritten, the old `.xdmf` sits beside the new
 //! `.h5` between the two renames). The destination directory is not created by the writers: call
 //! [`check_writable`] first (it creates it).
+//!
+//! [`write_results_parallel`] keeps the same contract. Every rank validates
+//! its `Results` and shares before anything is created; rank 0 picks the
+//! temporary name and broadcasts it; the temporary is closed collectively,
+//! then rank 0 syncs it, writes the `.xdmf` temporary and renames both. The
+//! ranks agree on success after every step that can fail (validation, the
+//! temporary name, file creation, each group, attribute and dataset, the
+//! close, the renames): an all-reduce of a failure flag, then the message of
+//! the first failing rank is broadcast. So either every rank goes on or every
+//! rank returns an error (its own, or [`OutputError::OtherRank`]), and no rank
+//! waits in a collective call the others have left.
 //!
 //! # Names
 //!
@@ -74,24 +104,30 @@
 //! arrays, components and values); `OpenDataFile` picks Xdmf3ReaderS, which
 //! does not keep the block names, the other two do.
 
+use std::collections::hash_map::DefaultHasher;
 use std::ffi::OsString;
 use std::fmt::Write as _;
 use std::fs;
+use std::hash::{Hash, Hasher};
 use std::io::{self, Write as _};
+use std::ops::Range;
+use std::os::unix::ffi::{OsStrExt, OsStringExt};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{SystemTime, UNIX_EPOCH};
 
+use hdf5::plist::FileAccessBuilder;
+
 /// Cells of a grid: point indices (0-based) of linear triangles or of 2-node
 /// segments.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Hash)]
 pub enum Topology {
     Triangle(Vec<[u32; 3]>),
     Segment(Vec<[u32; 2]>),
 }
 
 /// Where a field lives.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Center {
     /// One entry per point.
     Node,
@@ -100,7 +136,7 @@ pub enum Center {
 }
 
 /// What one entry of a field is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Kind {
     /// 1 value per entry.
     Scalar,
@@ -154,7 +190,36 @@ pub struct Results {
     pub attributes: Vec<(String, f64)>,
 }
 
-/// Errors of this module; every variant names the path concerned.
+/// The rows of one grid this rank writes: a contiguous range of the grid's
+/// points and one of its cells (in the grid's own numbering). Ranges of
+/// different ranks must not overlap; together they cover the grid (ranks with
+/// nothing to write for a grid give empty ranges).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Share {
+    pub points: Range<usize>,
+    pub cells: Range<usize>,
+}
+
+impl Share {
+    /// All of `grid` (what one process writing everything holds).
+    pub fn whole(grid: &Grid) -> Share {
+        Share {
+            points: 0..grid.points.len(),
+            cells: 0..grid.topology.cell_count(),
+        }
+    }
+
+    /// The rows of a field with this center.
+    fn rows(&self, center: Center) -> Range<usize> {
+        match center {
+            Center::Node => self.points.clone(),
+            Center::Cell => self.cells.clone(),
+        }
+    }
+}
+
+/// Errors of this module; every variant but [`OutputError::OtherRank`] names
+/// the path concerned.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     /// The output location given with `-nndd_output` cannot be written.
@@ -185,6 +250,10 @@ pub enum OutputError {
         action: String,
         source: hdf5::Error,
     },
+    /// Another rank of a collective write failed with this message (which
+    /// names the path); this rank stopped at the same point.
+    #[error("{message} (reported by rank {rank})")]
+    OtherRank { rank: usize, message: String },
 }
 
 impl Topology {
@@ -209,10 +278,11 @@ impl Topology {
         }
     }
 
-    fn flat(&self) -> Vec<i64> {
+    /// Point indices of cells `rows`, cell after cell.
+    fn flat_rows(&self, rows: Range<usize>) -> Vec<i64> {
         match self {
-            Topology::Triangle(c) => c.iter().flatten().map(|&i| i64::from(i)).collect(),
-            Topology::Segment(c) => c.iter().flatten().map(|&i| i64::from(i)).collect(),
+            Topology::Triangle(c) => c[rows].iter().flatten().map(|&i| i64::from(i)).collect(),
+            Topology::Segment(c) => c[rows].iter().flatten().map(|&i| i64::from(i)).collect(),
         }
     }
 
@@ -262,21 +332,25 @@ impl Center {
 }
 
 impl Field {
-    /// The values as stored in the file (vectors padded with z = 0, tensors
-    /// expanded to 3×3 row by row).
-    fn stored_values(&self) -> Vec<f64> {
+    /// Entries `rows` as stored in the file (vectors padded with z = 0,
+    /// tensors expanded to 3×3 row by row); nothing for no rows (the values
+    /// may then be empty).
+    fn stored_rows(&self, rows: Range<usize>) -> Vec<f64> {
+        if rows.is_empty() {
+            return Vec::new();
+        }
+        let given = self.kind.given();
+        let values = &self.values[rows.start * given..rows.end * given];
         match self.kind {
-            Kind::Vector => self
-                .values
+            Kind::Vector => values
                 .chunks_exact(2)
                 .flat_map(|v| [v[0], v[1], 0.0])
                 .collect(),
-            Kind::Tensor => self
-                .values
+            Kind::Tensor => values
                 .chunks_exact(6)
                 .flat_map(|t| [t[0], t[3], t[5], t[3], t[1], t[4], t[5], t[4], t[2]])
                 .collect(),
-            Kind::Scalar => self.values.clone(),
+            Kind::Scalar => values.to_vec(),
         }
     }
 
@@ -324,20 +398,32 @@ pub fn check_writable(prefix: &Path) -> Result<(), OutputError> {
 
 /// Write PREFIX.h5 and PREFIX.xdmf (atomically: write to temporaries in the
 /// same directory, rename at the end; on any error remove the temporaries so
-/// no partial file remains).
+/// no partial file remains). One process, no MPI.
 pub fn write_results(prefix: &Path, results: &Results) -> Result<(), OutputError> {
-    let name = prefix_name(prefix)?;
-    let h5_path = with_suffix(prefix, "h5");
-    let xdmf_path = with_suffix(prefix, "xdmf");
-    validate(results, &h5_path)?;
-    let h5_name = format!("{name}.h5");
-    let xdmf = xdmf_text(results, &h5_name);
-    commit_pair(
-        &h5_path,
-        |tmp| write_h5(tmp, &h5_path, results),
-        &xdmf_path,
-        xdmf.as_bytes(),
-    )
+    let shares: Vec<Share> = results.grids.iter().map(Share::whole).collect();
+    write_on(&Alone, prefix, results, &shares)
+}
+
+/// Collective over `comm` (every rank calls it with Results of identical
+/// structure: same grids with the same full geometry — points and topology
+/// are known on every rank —, same steps, same field names/kinds/centers in
+/// the same order, same attributes). Field `values` are either full length
+/// (all entries of the grid, in the grid's numbering) on ranks whose share of
+/// that grid is non-empty, or may be empty on ranks whose share is empty
+/// (precisely: where this rank's rows of the field's center are empty).
+/// `shares[g]` is this rank's share of `results.grids[g]`. Each rank writes
+/// its hyperslabs (points, cells and every field dataset of that grid at
+/// every step) with collective transfer (H5FD_MPIO_COLLECTIVE); rank 0 writes
+/// the XDMF. Same file layout, atomicity and error contract as
+/// [`write_results`]: if any rank finds an error, every rank returns an error
+/// and no file is created (see the module documentation).
+pub fn write_results_parallel<C: mpi::traits::Communicator>(
+    comm: &C,
+    prefix: &Path,
+    results: &Results,
+    shares: &[Share],
+) -> Result<(), OutputError> {
+    write_on(&Team(comm), prefix, results, shares)
 }
 
 /// Atomic write of a small text file (temporary + rename), used for
@@ -350,15 +436,183 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// Writes the `.h5` through `write_h5` and the `.xdmf` bytes to temporaries,
-/// then renames both into place (`.h5` first). Temporaries are removed on
-/// any error.
-fn commit_pair(
+/// The processes writing one file together, and what they need from each
+/// other. Every method but `rank` is collective: all ranks call it at the
+/// same point.
+trait Writers {
+    fn rank(&self) -> usize;
+    /// The lowest rank whose `failed` is true, on every rank.
+    fn first_failed(&self, failed: bool) -> Option<usize>;
+    /// `root`'s `bytes`, on every rank.
+    fn broadcast(&self, root: usize, bytes: Vec<u8>) -> Vec<u8>;
+    /// Every rank's `values` (the same number on every rank), rank after rank.
+    fn all_gather(&self, values: &[u64]) -> Vec<u64>;
+    /// Sets the file driver.
+    fn file_access<'p>(&self, fapl: &'p mut FileAccessBuilder) -> &'p mut FileAccessBuilder;
+    /// The data transfer property list (`None`: HDF5's default).
+    fn transfer(&self) -> hdf5::Result<Option<hdf5::PropertyList>>;
+}
+
+/// One process: [`write_results`].
+struct Alone;
+
+impl Writers for Alone {
+    fn rank(&self) -> usize {
+        0
+    }
+
+    fn first_failed(&self, failed: bool) -> Option<usize> {
+        failed.then_some(0)
+    }
+
+    fn broadcast(&self, _root: usize, bytes: Vec<u8>) -> Vec<u8> {
+        bytes
+    }
+
+    fn all_gather(&self, values: &[u64]) -> Vec<u64> {
+        values.to_vec()
+    }
+
+    fn file_access<'p>(&self, fapl: &'p mut FileAccessBuilder) -> &'p mut FileAccessBuilder {
+        fapl
+    }
+
+    fn transfer(&self) -> hdf5::Result<Option<hdf5::PropertyList>> {
+        Ok(None)
+    }
+}
+
+/// The ranks of a communicator: [`write_results_parallel`].
+struct Team<'c, C>(&'c C);
+
+impl<C: mpi::traits::Communicator> Writers for Team<'_, C> {
+    fn rank(&self) -> usize {
+        self.0.rank() as usize
+    }
+
+    fn first_failed(&self, failed: bool) -> Option<usize> {
+        use mpi::collective::SystemOperation;
+        use mpi::traits::CommunicatorCollectives as _;
+        let size = self.0.size();
+        let mine = if failed { self.0.rank() } else { size };
+        let mut first = size;
+        self.0
+            .all_reduce_into(&mine, &mut first, SystemOperation::min());
+        (first < size).then_some(first as usize)
+    }
+
+    fn broadcast(&self, root: usize, mut bytes: Vec<u8>) -> Vec<u8> {
+        use mpi::traits::Root as _;
+        let root = self.0.process_at_rank(root as mpi::Rank);
+        let mut len = bytes.len() as u64;
+        root.broadcast_into(&mut len);
+        bytes.resize(len as usize, 0);
+        if len > 0 {
+            root.broadcast_into(&mut bytes[..]);
+        }
+        bytes
+    }
+
+    fn all_gather(&self, values: &[u64]) -> Vec<u64> {
+        use mpi::traits::CommunicatorCollectives as _;
+        let mut all = vec![0; values.len() * self.0.size() as usize];
+        self.0.all_gather_into(values, &mut all[..]);
+        all
+    }
+
+    fn file_access<'p>(&self, fapl: &'p mut FileAccessBuilder) -> &'p mut FileAccessBuilder {
+        fapl.mpio(self.0.as_raw(), None)
+    }
+
+    fn transfer(&self) -> hdf5::Result<Option<hdf5::PropertyList>> {
+        collective_transfer().map(Some)
+    }
+}
+
+/// `local` on every rank if no rank failed; otherwise an error on every rank:
+/// its own, or [`OutputError::OtherRank`] with the message of the first rank
+/// that failed. All ranks call it at the same point.
+fn agree<W: Writers, T>(w: &W, local: Result<T, OutputError>) -> Result<T, OutputError> {
+    let Some(first) = w.first_failed(local.is_err()) else {
+        return local;
+    };
+    let message = match &local {
+        Err(e) if w.rank() == first => e.to_string(),
+        _ => String::new(),
+    };
+    let message = String::from_utf8_lossy(&w.broadcast(first, message.into_bytes())).into_owned();
+    match local {
+        Err(e) => Err(e),
+        Ok(_) => Err(OutputError::OtherRank {
+            rank: first,
+            message,
+        }),
+    }
+}
+
+/// [`write_results`] and [`write_results_parallel`]: validate (and agree),
+/// then write.
+fn write_on<W: Writers>(
+    w: &W,
+    prefix: &Path,
+    results: &Results,
+    shares: &[Share],
+) -> Result<(), OutputError> {
+    let h5_path = with_suffix(prefix, "h5");
+    let xdmf_path = with_suffix(prefix, "xdmf");
+    let checked =
+        prefix_name(prefix).and_then(|name| validate(results, shares, &h5_path).map(|()| name));
+    let name = agree(w, checked)?;
+    check_team(w, results, shares).map_err(|reason| OutputError::Invalid {
+        path: h5_path.clone(),
+        reason,
+    })?;
+    let xdmf = if w.rank() == 0 {
+        xdmf_text(results, &format!("{name}.h5"))
+    } else {
+        String::new()
+    };
+    commit_pair(
+        w,
+        &h5_path,
+        |tmp| write_h5(w, tmp, &h5_path, results, shares),
+        &xdmf_path,
+        xdmf.as_bytes(),
+    )
+}
+
+/// Writes the `.h5` through `write_h5` (on every rank) and the `.xdmf` bytes
+/// (rank 0) to temporaries, then rank 0 renames both into place (`.h5`
+/// first). Temporaries are removed on any error.
+fn commit_pair<W: Writers>(
+    w: &W,
     h5_path: &Path,
     write_h5: impl FnOnce(&Path) -> Result<(), OutputError>,
     xdmf_path: &Path,
     xdmf: &[u8],
 ) -> Result<(), OutputError> {
+    // Rank 0 checks the targets and picks the temporary name; all learn it.
+    let picked = if w.rank() == 0 {
+        h5_temporary(h5_path, xdmf_path).map(Some)
+    } else {
+        Ok(None)
+    };
+    let h5_tmp = agree(w, picked)?;
+    let name = h5_tmp
+        .as_ref()
+        .map(|t| t.path.as_os_str().as_bytes().to_vec())
+        .unwrap_or_default();
+    let tmp_path = PathBuf::from(OsString::from_vec(w.broadcast(0, name)));
+    agree(w, write_h5(&tmp_path))?;
+    let renamed = match h5_tmp {
+        Some(tmp) => rename_pair(tmp, h5_path, xdmf_path, xdmf),
+        None => Ok(()),
+    };
+    agree(w, renamed)
+}
+
+/// The temporary for `h5_path`, once neither target is a directory.
+fn h5_temporary(h5_path: &Path, xdmf_path: &Path) -> Result<TempFile, OutputError> {
     for target in [h5_path, xdmf_path] {
         if target.is_dir() {
             return Err(OutputError::Io {
@@ -368,8 +622,16 @@ fn commit_pair(
             });
         }
     }
-    let h5_tmp = TempFile::for_target(h5_path)?;
-    write_h5(&h5_tmp.path)?;
+    TempFile::for_target(h5_path)
+}
+
+/// Syncs the written `.h5` temporary, writes the `.xdmf` one, renames both.
+fn rename_pair(
+    h5_tmp: TempFile,
+    h5_path: &Path,
+    xdmf_path: &Path,
+    xdmf: &[u8],
+) -> Result<(), OutputError> {
     fs::File::open(&h5_tmp.path)
         .and_then(|f| f.sync_all())
         .map_err(|e| OutputError::Io {
@@ -506,14 +768,21 @@ fn valid_name(name: &str) -> bool {
             .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'_' | b'-' | b'.'))
 }
 
-/// All checks, before anything is created.
-fn validate(results: &Results, path: &Path) -> Result<(), OutputError> {
+/// All checks of one rank's results and shares, before anything is created.
+fn validate(results: &Results, shares: &[Share], path: &Path) -> Result<(), OutputError> {
     let invalid = |reason: String| OutputError::Invalid {
         path: path.to_path_buf(),
         reason,
     };
     let name_rule = "non-empty, ASCII letters, digits, '_', '-', '.', not starting with '.'";
-    for (i, g) in results.grids.iter().enumerate() {
+    if shares.len() != results.grids.len() {
+        return Err(invalid(format!(
+            "{} shares for {} grids",
+            shares.len(),
+            results.grids.len()
+        )));
+    }
+    for (i, (g, share)) in results.grids.iter().zip(shares).enumerate() {
         if !valid_name(&g.name) {
             return Err(invalid(format!(
                 "grid name {:?}: must be {name_rule}",
@@ -529,6 +798,18 @@ fn validate(results: &Results, path: &Path) -> Result<(), OutputError> {
                     "grid {:?}: cell refers to point {max}, but it has {} points",
                     g.name,
                     g.points.len()
+                )));
+            }
+        }
+        let totals = [
+            (&share.points, g.points.len(), "points"),
+            (&share.cells, g.topology.cell_count(), "cells"),
+        ];
+        for (rows, total, what) in totals {
+            if rows.start > rows.end || rows.end > total {
+                return Err(invalid(format!(
+                    "grid {:?}: share of {what} {rows:?} is not within 0..{total}",
+                    g.name
                 )));
             }
         }
@@ -561,11 +842,9 @@ fn validate(results: &Results, path: &Path) -> Result<(), OutputError> {
         }
         previous = Some(step.time);
         for (j, gf) in step.grids.iter().enumerate() {
-            let grid = results
-                .grids
-                .iter()
-                .find(|g| g.name == gf.grid)
+            let gi = grid_index(results, &gf.grid)
                 .ok_or_else(|| invalid(format!("step {k}: unknown grid {:?}", gf.grid)))?;
+            let grid = &results.grids[gi];
             if step.grids[..j].iter().any(|o| o.grid == gf.grid) {
                 return Err(invalid(format!(
                     "step {k}: grid {:?} listed twice",
@@ -585,7 +864,8 @@ fn validate(results: &Results, path: &Path) -> Result<(), OutputError> {
                     Center::Cell => (grid.topology.cell_count(), "cells"),
                 };
                 let expected = entries.checked_mul(field.kind.given());
-                if expected != Some(field.values.len()) {
+                let absent = field.values.is_empty() && shares[gi].rows(field.center).is_empty();
+                if expected != Some(field.values.len()) && !absent {
                     return Err(invalid(format!(
                         "{at}: {} values, expected {entries} {what} x {} ({:?})",
                         field.values.len(),
@@ -608,92 +888,397 @@ fn h5err(target: &Path, action: String) -> impl FnOnce(hdf5::Error) -> OutputErr
     }
 }
 
-/// Writes the HDF5 file at `tmp` (created, must not exist). Errors name
-/// `target`.
-fn write_h5(tmp: &Path, target: &Path, results: &Results) -> Result<(), OutputError> {
-    let file = hdf5::File::with_options()
-        .with_fapl(|p| p.fclose_degree(hdf5::file::FileCloseDegree::Strong))
-        .create_excl(tmp)
-        .map_err(h5err(target, "creating the file".into()))?;
-    // All object handles of `fill_h5` are dropped when it returns; `close`
-    // then reports flush errors.
-    fill_h5(&file, results, target)?;
-    file.close()
-        .map_err(h5err(target, "closing the file".into()))
-}
-
-fn fill_h5(file: &hdf5::File, results: &Results, target: &Path) -> Result<(), OutputError> {
-    for (name, value) in &results.attributes {
-        file.new_attr::<f64>()
-            .create(name.as_str())
-            .and_then(|a| a.write_scalar(value))
-            .map_err(h5err(target, format!("writing file attribute {name:?}")))?;
+/// Checks, identically on every rank, that all ranks hold results of the
+/// same structure and that their shares tile every grid.
+fn check_team<W: Writers>(w: &W, results: &Results, shares: &[Share]) -> Result<(), String> {
+    let hashes = w.all_gather(&[structure_hash(results)]);
+    if let Some(r) = hashes.iter().position(|&h| h != hashes[0]) {
+        return Err(format!(
+            "rank {r} holds results of another structure than rank 0 \
+             (grids, geometry, steps, field names/kinds/centers or attributes differ)"
+        ));
     }
-    let grids = create_group(file, "grids", target)?;
-    for g in &results.grids {
-        let group = create_group(&grids, &g.name, target)?;
-        let points: Vec<f64> = g.points.iter().flatten().copied().collect();
-        write_dataset(&group, "points", &[g.points.len(), 2], &points, target)?;
-        let cells = g.topology.flat();
-        let shape = [g.topology.cell_count(), g.topology.nodes_per_cell()];
-        write_dataset(&group, "cells", &shape, &cells, target)?;
+    if shares.is_empty() {
+        return Ok(());
     }
-    let steps = create_group(file, "steps", target)?;
-    for (k, step) in results.steps.iter().enumerate() {
-        let sg = create_group(&steps, &k.to_string(), target)?;
-        sg.new_attr::<f64>()
-            .create("time")
-            .and_then(|a| a.write_scalar(&step.time))
-            .map_err(h5err(target, format!("writing /steps/{k} attribute time")))?;
-        for gf in &step.grids {
-            let grid = find_grid(results, &gf.grid);
-            let gg = create_group(&sg, &gf.grid, target)?;
-            for field in &gf.fields {
-                let shape = field.stored_shape(entries(grid, field.center));
-                write_dataset(&gg, &field.name, &shape, &field.stored_values(), target)?;
+    let mine: Vec<u64> = shares
+        .iter()
+        .flat_map(|s| [s.points.start, s.points.end, s.cells.start, s.cells.end])
+        .map(|v| v as u64)
+        .collect();
+    let all = w.all_gather(&mine);
+    for (gi, g) in results.grids.iter().enumerate() {
+        let totals = [
+            (0, g.points.len(), "points"),
+            (2, g.topology.cell_count(), "cells"),
+        ];
+        for (at, total, what) in totals {
+            let mut ranges: Vec<(usize, Range<usize>)> = all
+                .chunks_exact(mine.len())
+                .map(|r| r[4 * gi + at] as usize..r[4 * gi + at + 1] as usize)
+                .enumerate()
+                .filter(|(_, rows)| !rows.is_empty())
+                .collect();
+            ranges.sort_by_key(|(_, rows)| rows.start);
+            let mut next = 0;
+            for (_, rows) in &ranges {
+                if rows.start != next {
+                    break;
+                }
+                next = rows.end;
+            }
+            if next != total || ranges.iter().any(|(_, rows)| rows.end > total) {
+                let listed: Vec<String> = ranges
+                    .iter()
+                    .map(|(r, rows)| format!("rank {r}: {rows:?}"))
+                    .collect();
+                return Err(format!(
+                    "grid {:?}: the ranks' shares of its {what} ({}) do not cover 0..{total} exactly once",
+                    g.name,
+                    listed.join(", ")
+                ));
             }
         }
     }
     Ok(())
 }
 
-fn create_group(
-    parent: &hdf5::Group,
-    name: &str,
-    target: &Path,
-) -> Result<hdf5::Group, OutputError> {
-    parent.create_group(name).map_err(h5err(
-        target,
-        format!(
-            "creating group {}/{name}",
-            parent.name().trim_end_matches('/')
-        ),
-    ))
+/// A hash of what must be identical on every rank: grids (with geometry),
+/// steps (times, grids, field names, centers, kinds), attributes.
+fn structure_hash(results: &Results) -> u64 {
+    let mut h = DefaultHasher::new();
+    results.grids.len().hash(&mut h);
+    for g in &results.grids {
+        g.name.hash(&mut h);
+        g.points.len().hash(&mut h);
+        for p in &g.points {
+            p.map(f64::to_bits).hash(&mut h);
+        }
+        g.topology.hash(&mut h);
+    }
+    results.steps.len().hash(&mut h);
+    for step in &results.steps {
+        step.time.to_bits().hash(&mut h);
+        step.grids.len().hash(&mut h);
+        for gf in &step.grids {
+            gf.grid.hash(&mut h);
+            gf.fields.len().hash(&mut h);
+            for f in &gf.fields {
+                (&f.name, f.center, f.kind).hash(&mut h);
+            }
+        }
+    }
+    results.attributes.len().hash(&mut h);
+    for (name, value) in &results.attributes {
+        (name, value.to_bits()).hash(&mut h);
+    }
+    h.finish()
 }
 
-fn write_dataset<T: hdf5::H5Type>(
-    parent: &hdf5::Group,
-    name: &str,
-    shape: &[usize],
-    data: &[T],
+/// Writes the HDF5 file at `tmp` (created, must not exist; on every rank of
+/// `w`). Errors name `target`.
+fn write_h5<W: Writers>(
+    w: &W,
+    tmp: &Path,
     target: &Path,
+    results: &Results,
+    shares: &[Share],
 ) -> Result<(), OutputError> {
-    let path = format!("{}/{name}", parent.name().trim_end_matches('/'));
-    let ds = parent
-        .new_dataset::<T>()
-        .shape(shape.to_vec())
-        .create(name)
-        .map_err(h5err(target, format!("creating dataset {path}")))?;
-    if !data.is_empty() {
-        ds.write_raw(data)
-            .map_err(h5err(target, format!("writing dataset {path}")))?;
+    let xfer = agree(
+        w,
+        w.transfer().map_err(h5err(
+            target,
+            "creating the data transfer property list".into(),
+        )),
+    )?;
+    let created = hdf5::File::with_options()
+        .with_fapl(|p| w.file_access(p.fclose_degree(hdf5::file::FileCloseDegree::Strong)))
+        .create_excl(tmp)
+        .map_err(h5err(target, "creating the file".into()));
+    let file = agree(w, created)?;
+    let out = H5Out {
+        w,
+        target,
+        xfer: xfer.as_ref().map_or(ffi::H5P_DEFAULT, |p| p.id()),
+    };
+    // All object handles of `fill_h5` are dropped when it returns; `close`
+    // then reports flush errors. On an error every rank returns at the same
+    // point and drops (closes) the file.
+    fill_h5(&out, &file, results, shares)?;
+    agree(
+        w,
+        file.close()
+            .map_err(h5err(target, "closing the file".into())),
+    )
+}
+
+/// Writing an HDF5 file on the ranks of `w`: every step that can fail is
+/// agreed on.
+struct H5Out<'a, W> {
+    w: &'a W,
+    target: &'a Path,
+    /// Data transfer property list.
+    xfer: ffi::Hid,
+}
+
+impl<W: Writers> H5Out<'_, W> {
+    fn agreed<T>(
+        &self,
+        r: hdf5::Result<T>,
+        action: impl FnOnce() -> String,
+    ) -> Result<T, OutputError> {
+        agree(
+            self.w,
+            r.map_err(|source| OutputError::Hdf5 {
+                path: self.target.to_path_buf(),
+                action: action(),
+                source,
+            }),
+        )
+    }
+
+    fn group(&self, parent: &hdf5::Group, name: &str) -> Result<hdf5::Group, OutputError> {
+        self.agreed(parent.create_group(name), || {
+            format!(
+                "creating group {}/{name}",
+                parent.name().trim_end_matches('/')
+            )
+        })
+    }
+
+    /// A scalar `f64` attribute of `loc` (called `at` in messages).
+    fn attribute(
+        &self,
+        loc: &hdf5::Location,
+        at: &str,
+        name: &str,
+        value: f64,
+    ) -> Result<(), OutputError> {
+        let attr = self.agreed(loc.new_attr::<f64>().create(name), || {
+            format!("creating attribute {name:?} of {at}")
+        })?;
+        self.agreed(attr.write_scalar(&value), || {
+            format!("writing attribute {name:?} of {at}")
+        })
+    }
+
+    /// Creates dataset `name` of `shape` (contiguous) and writes `data`, its
+    /// rows `rows` (first dimension) from this rank.
+    fn dataset<T: hdf5::H5Type>(
+        &self,
+        parent: &hdf5::Group,
+        name: &str,
+        shape: &[usize],
+        rows: Range<usize>,
+        data: &[T],
+    ) -> Result<(), OutputError> {
+        let path = format!("{}/{name}", parent.name().trim_end_matches('/'));
+        let created = parent
+            .new_dataset::<T>()
+            .no_chunk()
+            .shape(shape.to_vec())
+            .create(name);
+        let ds = self.agreed(created, || format!("creating dataset {path}"))?;
+        if shape.iter().product::<usize>() == 0 {
+            return Ok(()); // nothing to write on any rank
+        }
+        let selected = self.agreed(RowSelection::new(&ds, rows, data.len()), || {
+            format!("selecting rows of dataset {path}")
+        })?;
+        self.agreed(selected.write(&ds, data, self.xfer), || {
+            format!("writing dataset {path}")
+        })
+    }
+}
+
+fn fill_h5<W: Writers>(
+    out: &H5Out<W>,
+    file: &hdf5::File,
+    results: &Results,
+    shares: &[Share],
+) -> Result<(), OutputError> {
+    for (name, value) in &results.attributes {
+        out.attribute(file, "/", name, *value)?;
+    }
+    let grids = out.group(file, "grids")?;
+    for (g, share) in results.grids.iter().zip(shares) {
+        let group = out.group(&grids, &g.name)?;
+        let rows = share.points.clone();
+        let points: Vec<f64> = g.points[rows.clone()].iter().flatten().copied().collect();
+        out.dataset(&group, "points", &[g.points.len(), 2], rows, &points)?;
+        let rows = share.cells.clone();
+        let cells = g.topology.flat_rows(rows.clone());
+        let shape = [g.topology.cell_count(), g.topology.nodes_per_cell()];
+        out.dataset(&group, "cells", &shape, rows, &cells)?;
+    }
+    let steps = out.group(file, "steps")?;
+    for (k, step) in results.steps.iter().enumerate() {
+        let sg = out.group(&steps, &k.to_string())?;
+        out.attribute(&sg, &format!("/steps/{k}"), "time", step.time)?;
+        for gf in &step.grids {
+            // Validated: the grid exists.
+            let gi = grid_index(results, &gf.grid);
+            let grid = gi.map(|i| &results.grids[i]);
+            let share = gi.map(|i| shares[i].clone()).unwrap_or_default();
+            let gg = out.group(&sg, &gf.grid)?;
+            for field in &gf.fields {
+                let shape = field.stored_shape(entries(grid, field.center));
+                let rows = share.rows(field.center);
+                let data = field.stored_rows(rows.clone());
+                out.dataset(&gg, &field.name, &shape, rows, &data)?;
+            }
+        }
     }
     Ok(())
 }
 
-/// Validated grids only: `validate` checked that the name exists.
-fn find_grid<'a>(results: &'a Results, name: &str) -> Option<&'a Grid> {
-    results.grids.iter().find(|g| g.name == name)
+/// The few HDF5 C functions used directly: the `hdf5` crate writes with the
+/// default transfer property list (independent I/O in parallel) and skips
+/// empty selections, while a collective write needs a collective transfer
+/// list and every rank in `H5Dwrite`. They come from the libhdf5 the crate
+/// links (HDF5 1.10 or later: `hid_t` is 64-bit).
+mod ffi {
+    use std::ffi::{c_int, c_void};
+
+    pub type Hid = i64;
+    pub type Herr = c_int;
+    pub type Hsize = u64;
+
+    pub const H5P_DEFAULT: Hid = 0;
+    /// `H5S_SELECT_SET` of `H5S_seloper_t`.
+    pub const H5S_SELECT_SET: c_int = 0;
+    /// `H5FD_MPIO_COLLECTIVE` of `H5FD_mpio_xfer_t`.
+    pub const H5FD_MPIO_COLLECTIVE: c_int = 1;
+
+    extern "C" {
+        pub fn H5Pcreate(cls_id: Hid) -> Hid;
+        pub fn H5Pset_dxpl_mpio(dxpl_id: Hid, xfer_mode: c_int) -> Herr;
+        pub fn H5Sselect_none(space_id: Hid) -> Herr;
+        pub fn H5Sselect_hyperslab(
+            space_id: Hid,
+            op: c_int,
+            start: *const Hsize,
+            stride: *const Hsize,
+            count: *const Hsize,
+            block: *const Hsize,
+        ) -> Herr;
+        pub fn H5Dwrite(
+            dset_id: Hid,
+            mem_type_id: Hid,
+            mem_space_id: Hid,
+            file_space_id: Hid,
+            dxpl_id: Hid,
+            buf: *const c_void,
+        ) -> Herr;
+    }
+}
+
+/// The error of a failed HDF5 C call: the library's error stack.
+fn h5_error() -> hdf5::Error {
+    hdf5::Error::query().unwrap_or_else(|e| e)
+}
+
+fn h5check(code: ffi::Herr) -> hdf5::Result<()> {
+    if code < 0 {
+        Err(h5_error())
+    } else {
+        Ok(())
+    }
+}
+
+/// A data transfer property list asking for collective MPI-IO.
+fn collective_transfer() -> hdf5::Result<hdf5::PropertyList> {
+    hdf5::sync::sync(|| {
+        // SAFETY: plain HDF5 calls on a property list this function owns.
+        unsafe {
+            let id = ffi::H5Pcreate(*hdf5::globals::H5P_DATASET_XFER);
+            if id < 0 {
+                return Err(h5_error());
+            }
+            let plist: hdf5::PropertyList = hdf5::from_id(id)?;
+            h5check(ffi::H5Pset_dxpl_mpio(plist.id(), ffi::H5FD_MPIO_COLLECTIVE))?;
+            Ok(plist)
+        }
+    })
+}
+
+/// This rank's rows of a dataset: the file selection and the memory space
+/// (none for no rows: the empty file selection serves as both).
+struct RowSelection {
+    file: hdf5::Dataspace,
+    memory: Option<hdf5::Dataspace>,
+}
+
+impl RowSelection {
+    /// Rows `rows` (first dimension, all of the others) of `ds`, to be
+    /// written from `len` values.
+    fn new(ds: &hdf5::Dataset, rows: Range<usize>, len: usize) -> hdf5::Result<RowSelection> {
+        let file = ds.space()?;
+        let mut count: Vec<usize> = file.shape();
+        if count.is_empty() || rows.end > count[0] {
+            return Err(format!("rows {rows:?} outside shape {count:?}").into());
+        }
+        count[0] = rows.len();
+        if count.iter().product::<usize>() != len {
+            return Err(format!("{len} values for {count:?} entries").into());
+        }
+        if rows.is_empty() {
+            // SAFETY: `file` is a dataspace this function owns.
+            h5check(hdf5::sync::sync(|| unsafe {
+                ffi::H5Sselect_none(file.id())
+            }))?;
+            return Ok(RowSelection { file, memory: None });
+        }
+        let memory = hdf5::Dataspace::try_new(count.clone())?;
+        let mut start = vec![0 as ffi::Hsize; count.len()];
+        start[0] = rows.start as ffi::Hsize;
+        let count: Vec<ffi::Hsize> = count.iter().map(|&c| c as ffi::Hsize).collect();
+        // SAFETY: `start` and `count` have the rank of `file`; null stride
+        // and block mean 1.
+        h5check(hdf5::sync::sync(|| unsafe {
+            ffi::H5Sselect_hyperslab(
+                file.id(),
+                ffi::H5S_SELECT_SET,
+                start.as_ptr(),
+                std::ptr::null(),
+                count.as_ptr(),
+                std::ptr::null(),
+            )
+        }))?;
+        Ok(RowSelection {
+            file,
+            memory: Some(memory),
+        })
+    }
+
+    /// `H5Dwrite` of `data` (as many values as selected) with transfer list
+    /// `xfer`: collective when `xfer` says so, so every rank calls it.
+    fn write<T: hdf5::H5Type>(
+        &self,
+        ds: &hdf5::Dataset,
+        data: &[T],
+        xfer: ffi::Hid,
+    ) -> hdf5::Result<()> {
+        let dtype = hdf5::Datatype::from_type::<T>()?;
+        let memory = self.memory.as_ref().unwrap_or(&self.file);
+        // SAFETY: `data` holds exactly the selected number of `T`s (checked
+        // in `new`), laid out as the memory space says; the ids are alive.
+        h5check(hdf5::sync::sync(|| unsafe {
+            ffi::H5Dwrite(
+                ds.id(),
+                dtype.id(),
+                memory.id(),
+                self.file.id(),
+                xfer,
+                data.as_ptr().cast(),
+            )
+        }))
+    }
+}
+
+/// Index of the grid called `name` (validated grids: it exists).
+fn grid_index(results: &Results, name: &str) -> Option<usize> {
+    results.grids.iter().position(|g| g.name == name)
 }
 
 fn entries(grid: Option<&Grid>, center: Center) -> usize {
@@ -1191,6 +1776,7 @@ mod tests {
         let h5 = dir.0.join("run.h5");
         let xdmf = dir.0.join("run.xdmf");
         let result = commit_pair(
+            &Alone,
             &h5,
             |tmp| {
                 fs::write(tmp, b"half an HDF5 file").unwrap();

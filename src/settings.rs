@@ -119,6 +119,9 @@ pub struct Settings {
     pub stop: StopRule,
     /// κ of the balanced stopping rule.
     pub stop_ratio: f64,
+    /// Ranks of body 1's group (0: by the bodies' dof counts); checked against the world
+    /// size by `Layout`.
+    pub body1_ranks: usize,
 }
 
 impl Settings {
@@ -373,6 +376,18 @@ impl Settings {
                 })
             }
         };
+        let (body1_ranks, _) = o.int(
+            "-nndd_body1_ranks",
+            "Ranks of body 1's group when running on N >= 2 ranks (1 .. N-1; 0: in proportion to the bodies' dofs); body 2 gets the others",
+            0,
+        )?;
+        if body1_ranks < 0 {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_body1_ranks",
+                accepted: "an integer >= 0 (0: automatic)",
+                value: body1_ranks.to_string(),
+            });
+        }
         use crate::equilibrate::StarChoice;
         let recovery = match recovery.as_str() {
             "patch" => StarChoice::PatchRelaxation {
@@ -418,6 +433,7 @@ impl Settings {
             eta_nndd,
             stop,
             stop_ratio,
+            body1_ranks: body1_ranks as usize,
         })
     }
 

@@ -83,6 +83,10 @@ pub struct Summary {
     pub timings: Timings,
     /// Peak resident memory over ranks (MiB).
     pub peak_memory_mib: f64,
+    /// Peak resident memory of every rank (MiB), by world rank.
+    pub peak_memory_mib_per_rank: Vec<f64>,
+    /// Ranks of each body's group.
+    pub body_ranks: [usize; 2],
     /// Largest equilibrium residuals of the recovered stresses over the estimated iterations
     /// (relative; method.md §3.1's "exact equilibrium" at round-off).
     #[serde(skip_serializing_if = "Option::is_none")]

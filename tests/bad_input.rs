@@ -126,6 +126,13 @@ fn unwritable_output_is_refused() {
 }
 
 #[test]
-fn three_ranks_are_refused() {
+fn more_ranks_than_the_mesh_can_use_are_refused() {
+    // n = 4: 25 nodes per body, fewer than 16 per rank on 3 ranks (2 for body 1).
     refused(3, &[], "mpirun -n");
+}
+
+#[test]
+fn body1_ranks_out_of_range_are_refused() {
+    refused(2, &["-nndd_body1_ranks", "2"], "-nndd_body1_ranks");
+    refused(1, &["-nndd_body1_ranks", "-1"], "-nndd_body1_ranks");
 }

@@ -421,6 +421,51 @@ impl Vector {
     }
 }
 
+/// Copies chosen global entries of a distributed vector to every rank (a `VecScatter` onto
+/// a sequential vector): the whole vector, or a few rows such as the Γc dofs.
+pub struct Gather {
+    scatter: ffi::VecScatter,
+    out: Vector,
+    _is: Is,
+}
+
+impl Gather {
+    /// Gather the global `rows` of vectors laid out like `like` (every rank asks for the same
+    /// rows, in this order).
+    pub fn new(like: &Vector, rows: &[Int]) -> Result<Gather> {
+        use mpi::traits::AsRaw;
+        let self_comm = comm_from_rsmpi(mpi::topology::SimpleCommunicator::self_comm().as_raw());
+        let is = Is::new(self_comm, rows)?;
+        let mut v: ffi::Vec = ptr::null_mut();
+        call!(VecCreateSeq(self_comm.0, rows.len() as Int, &mut v))?;
+        let out = Vector(v);
+        let mut scatter: ffi::VecScatter = ptr::null_mut();
+        call!(VecScatterCreate(like.0, is.0, out.0, ptr::null_mut(), &mut scatter))?;
+        Ok(Gather {
+            scatter,
+            out,
+            _is: is,
+        })
+    }
+
+    /// The gathered entries of `x` (collective over `x`'s communicator).
+    pub fn gather(&mut self, x: &Vector) -> Result<Vec<f64>> {
+        self.gather_raw(x.0)
+    }
+
+    fn gather_raw(&mut self, x: ffi::Vec) -> Result<Vec<f64>> {
+        call!(VecScatterBegin(self.scatter, x, self.out.0, ffi::INSERT_VALUES, ffi::SCATTER_FORWARD))?;
+        call!(VecScatterEnd(self.scatter, x, self.out.0, ffi::INSERT_VALUES, ffi::SCATTER_FORWARD))?;
+        self.out.to_vec()
+    }
+}
+
+impl Drop for Gather {
+    fn drop(&mut self) {
+        unsafe { ffi::VecScatterDestroy(&mut self.scatter) };
+    }
+}
+
 impl Drop for Vector {
     fn drop(&mut self) {
         unsafe { ffi::VecDestroy(&mut self.0) };
@@ -465,6 +510,60 @@ impl Matrix {
         call!(MatSetOption(mat.0, ffi::MAT_SYMMETRIC, ffi::PETSC_TRUE))?;
         call!(MatSetOption(mat.0, ffi::MAT_SPD, ffi::PETSC_TRUE))?;
         Ok(mat)
+    }
+
+    /// An AIJ matrix (block size 2) with `local_rows` rows on this rank, to be filled by
+    /// [`Matrix::add_values`]: `d_nnz[i]` / `o_nnz[i]` are the nonzeros of local row i in the
+    /// diagonal block (columns owned here) and off it (the exact counts: a missing one is an error).
+    pub fn preallocated(comm: Comm, local_rows: usize, d_nnz: &[Int], o_nnz: &[Int]) -> Result<Matrix> {
+        assert!(d_nnz.len() == local_rows && o_nnz.len() == local_rows);
+        let mut m: ffi::Mat = ptr::null_mut();
+        call!(MatCreate(comm.0, &mut m))?;
+        let mat = Matrix(m);
+        let n = local_rows as Int;
+        call!(MatSetSizes(mat.0, n, n, PETSC_DETERMINE, PETSC_DETERMINE))?;
+        call!(MatSetBlockSize(mat.0, 2))?;
+        let aij = cstr("aij");
+        call!(MatSetType(mat.0, aij.as_ptr()))?;
+        call!(MatSeqAIJSetPreallocation(mat.0, 0, d_nnz.as_ptr()))?;
+        call!(MatMPIAIJSetPreallocation(mat.0, 0, d_nnz.as_ptr(), 0, o_nnz.as_ptr()))?;
+        Ok(mat)
+    }
+
+    /// Add the dense block `vals` (row-major, rows × cols) at global `rows`, `cols`; rows of
+    /// other ranks are sent to their owners by [`Matrix::assemble`].
+    pub fn add_values(&mut self, rows: &[Int], cols: &[Int], vals: &[f64]) -> Result<()> {
+        assert_eq!(rows.len() * cols.len(), vals.len());
+        call!(MatSetValues(
+            self.0,
+            rows.len() as Int,
+            rows.as_ptr(),
+            cols.len() as Int,
+            cols.as_ptr(),
+            vals.as_ptr(),
+            ffi::ADD_VALUES
+        ))
+    }
+
+    /// Final assembly (collective), then mark the stiffness symmetric positive definite.
+    pub fn assemble(&mut self) -> Result<()> {
+        call!(MatAssemblyBegin(self.0, ffi::MAT_FINAL_ASSEMBLY))?;
+        call!(MatAssemblyEnd(self.0, ffi::MAT_FINAL_ASSEMBLY))?;
+        call!(MatSetOption(self.0, ffi::MAT_SYMMETRIC, ffi::PETSC_TRUE))?;
+        call!(MatSetOption(self.0, ffi::MAT_SPD, ffi::PETSC_TRUE))
+    }
+
+    /// Attach the rigid-body modes of 2D elasticity as near null space (for GAMG), from the
+    /// coordinates of this rank's nodes (x, y interleaved, in the matrix's row order).
+    pub fn set_rigid_body_near_null_space(&mut self, comm: Comm, coords: &[f64]) -> Result<()> {
+        let mut v = Vector::new(comm, coords.len())?;
+        call!(VecSetBlockSize(v.0, 2))?;
+        v.copy_from(coords)?;
+        let mut ns: ffi::MatNullSpace = ptr::null_mut();
+        call!(MatNullSpaceCreateRigidBody(v.0, &mut ns))?;
+        let set = call!(MatSetNearNullSpace(self.0, ns));
+        unsafe { ffi::MatNullSpaceDestroy(&mut ns) };
+        set
     }
 
     pub fn duplicate(&self) -> Result<Matrix> {
@@ -604,6 +703,58 @@ impl Ksp {
     /// completed), if MUMPS computed one.
     pub fn schur_complement(&self) -> Option<&[f64]> {
         self.schur.as_deref()
+    }
+
+    /// The block (A⁻¹)[rows, rows] (column-major), from the solves A X = E with the unit
+    /// vectors of `rows`, `batch` right-hand sides at a time (`KSPMatSolve`: one multiple-RHS
+    /// solve per batch with MUMPS, one solve per column otherwise). `owned` is this rank's row
+    /// range, `local_rows` its length; `gather` gathers exactly `rows`. Returns the block and
+    /// the worst converged reason.
+    pub fn inverse_block(
+        &self,
+        comm: Comm,
+        owned: std::ops::Range<Int>,
+        rows: &[Int],
+        gather: &mut Gather,
+        batch: usize,
+    ) -> Result<(Vec<f64>, i32)> {
+        let m = rows.len();
+        let local = owned.end - owned.start;
+        let mut out = vec![0.0; m * m];
+        let mut reason = 1;
+        for first in (0..m).step_by(batch.max(1)) {
+            let nb = batch.max(1).min(m - first);
+            let dense = |values: bool| -> Result<Matrix> {
+                let mut b: ffi::Mat = ptr::null_mut();
+                call!(MatCreateDense(comm.0, local, -1, PETSC_DETERMINE, nb as Int, ptr::null_mut(), &mut b))?;
+                let b = Matrix(b);
+                if values {
+                    for c in 0..nb {
+                        let row = rows[first + c];
+                        if owned.contains(&row) {
+                            let col = c as Int;
+                            call!(MatSetValues(b.0, 1, &row, 1, &col, &1.0, ffi::INSERT_VALUES))?;
+                        }
+                    }
+                }
+                call!(MatAssemblyBegin(b.0, ffi::MAT_FINAL_ASSEMBLY))?;
+                call!(MatAssemblyEnd(b.0, ffi::MAT_FINAL_ASSEMBLY))?;
+                Ok(b)
+            };
+            let (e, x) = (dense(true)?, dense(false)?);
+            call!(KSPMatSolve(self.ksp, e.0, x.0))?;
+            let mut r = ffi::KSP_CONVERGED_ITERATING;
+            call!(KSPGetConvergedReason(self.ksp, &mut r))?;
+            reason = reason.min(r);
+            for c in 0..nb {
+                let mut v: ffi::Vec = ptr::null_mut();
+                call!(MatDenseGetColumnVecRead(x.0, c as Int, &mut v))?;
+                let col = gather.gather_raw(v);
+                call!(MatDenseRestoreColumnVecRead(x.0, c as Int, &mut v))?;
+                out[(first + c) * m..(first + c + 1) * m].copy_from_slice(&col?);
+            }
+        }
+        Ok((out, reason))
     }
 
     /// Solve A x = b.

@@ -1,0 +1,447 @@
+//! Scaling benchmark: `paper` to tol 1e-8 with the estimate of the final iterate, at several
+//! mesh levels n and rank counts N, next to the monolithic solve (N = 2) of the same mesh.
+//! One row per (n, N) with the phase split, the peak memory per rank and the NNDD/monolithic
+//! time ratios, then the growth exponents of the NNDD wall time with the dofs. The table also
+//! goes to `results/bench-scaling.txt`. Run through
+//! `jobs/bench-scaling [--quick] [--ranks 1,2,4] [n …]`.
+
+#[path = "runner.rs"]
+mod runner;
+
+use std::io::Write;
+
+use serde_json::Value;
+
+const USAGE: &str = "usage: jobs/bench-scaling [--quick] [--ranks 1,2,4] [n …]
+  n …           mesh levels (default 64 128 256 512 1024; --quick: 64 128)
+  --ranks LIST  MPI rank counts of the NNDD runs (default 1,2,4; mpirun --oversubscribe above 2)
+  The monolithic solve runs once per n on 2 ranks. NNDD=path picks the binary.";
+
+const TABLE: &str = "results/bench-scaling.txt";
+
+/// A finished run: its summary and wall time (mpirun start to end), or why it failed.
+type Outcome = Result<(Value, f64), String>;
+
+fn main() {
+    let (levels, ranks) = parse_args();
+    let dir = runner::scratch("scaling");
+    std::fs::create_dir_all("results").expect("results/ directory");
+    let mut out = Out::new(TABLE);
+    out.line(&format!(
+        "# jobs/bench-scaling: paper, tol 1e-8, final estimate (no reference); {} on {} ({} cores); n = {:?}, N = {:?}",
+        now(),
+        hostname(),
+        std::thread::available_parallelism().map_or(0, |c| c.get()),
+        levels,
+        ranks
+    ));
+    out.line(&header());
+
+    let total_runs = levels.len() * (ranks.len() + 1);
+    let mut count = 0;
+    // (N, dofs, wall) of the successful NNDD runs, for the estimates and the exponents.
+    let mut done: Vec<(usize, usize, f64)> = Vec::new();
+    let mut mono_done: Vec<(usize, f64)> = Vec::new();
+    for &n in &levels {
+        let dofs = dofs_of(n);
+        // The monolithic solve of this mesh, once, on 2 ranks, without estimates.
+        count += 1;
+        progress(
+            count,
+            total_runs,
+            n,
+            dofs,
+            2,
+            "monolithic",
+            guess(&mono_done, dofs, 2, false),
+        );
+        let prefix = dir.join(format!("mono{n}"));
+        let mono = runner::try_run(
+            2,
+            "petsc-options/paper.opts",
+            &[],
+            &prefix,
+            &[
+                "-nndd_n",
+                &n.to_string(),
+                "-nndd_solver",
+                "monolithic",
+                "-nndd_estimate_every",
+                "0",
+                "-nndd_reference_factor",
+                "0",
+            ],
+        );
+        clean(&prefix);
+        match &mono {
+            Ok((_, wall)) => mono_done.push((dofs, *wall)),
+            Err(e) => eprintln!("bench-scaling: monolithic n = {n} failed: {e}"),
+        }
+        for &np in &ranks {
+            count += 1;
+            // Expected time: from the earlier runs on as many ranks, else from any earlier run.
+            let mut earlier: Vec<(usize, f64)> = done
+                .iter()
+                .filter(|r| r.0 == np)
+                .map(|r| (r.1, r.2))
+                .collect();
+            if earlier.is_empty() {
+                earlier = done.iter().map(|r| (r.1, r.2)).collect();
+            }
+            let expect = guess(&earlier, dofs, np, true);
+            progress(
+                count,
+                total_runs,
+                n,
+                dofs,
+                np,
+                "NNDD + final estimate",
+                expect,
+            );
+            let prefix = dir.join(format!("nndd{n}-{np}"));
+            let mpirun_args: &[&str] = if np > 2 { &["--oversubscribe"] } else { &[] };
+            let res: Outcome = runner::try_run(
+                np,
+                "petsc-options/paper.opts",
+                mpirun_args,
+                &prefix,
+                &[
+                    "-nndd_n",
+                    &n.to_string(),
+                    "-nndd_tol",
+                    "1e-8",
+                    // The estimate of the final iterate only, no reference solution.
+                    "-nndd_estimate",
+                    "-nndd_estimate_every",
+                    "0",
+                    "-nndd_reference_factor",
+                    "0",
+                ],
+            );
+            clean(&prefix);
+            match &res {
+                Ok((j, wall)) => {
+                    let dofs = j["dofs"].as_u64().map_or(dofs, |d| d as usize);
+                    done.push((np, dofs, *wall));
+                    let k = j["estimates"].as_array().map_or(0, |e| e.len());
+                    if k != 1 {
+                        eprintln!(
+                            "bench-scaling: n = {n}, N = {np}: {k} estimate records (expected 1)"
+                        );
+                    }
+                }
+                Err(e) => eprintln!("bench-scaling: n = {n}, N = {np} failed: {e}"),
+            }
+            out.line(&row(n, dofs, np, &res, &mono));
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+
+    out.line("");
+    for note in NOTES {
+        out.line(note);
+    }
+    out.line("");
+    out.line("Growth of the NNDD wall time with the dofs, wall ∝ dofs^p (log ratio):");
+    for &np in &ranks {
+        let runs: Vec<(usize, f64)> = done
+            .iter()
+            .filter(|r| r.0 == np)
+            .map(|r| (r.1, r.2))
+            .collect();
+        match (runs.first(), runs.last()) {
+            (Some(a), Some(b)) if b.0 > a.0 => out.line(&format!(
+                "  N = {np}: p = {:.2} between {} and {} dofs",
+                exponent(*a, *b),
+                a.0,
+                b.0
+            )),
+            _ => out.line(&format!(
+                "  N = {np}: -  (fewer than two successful mesh levels)"
+            )),
+        }
+    }
+    let two: Vec<(usize, f64)> = done
+        .iter()
+        .filter(|r| r.0 == 2)
+        .map(|r| (r.1, r.2))
+        .collect();
+    let at = |n: usize| two.iter().find(|r| r.0 == dofs_of(n)).copied();
+    match (at(128), at(1024)) {
+        (Some(a), Some(b)) => out.line(&format!(
+            "  N = 2, n = 128 to 1024: p = {:.2}",
+            exponent(a, b)
+        )),
+        _ => out.line("  N = 2, n = 128 to 1024: -  (needs both levels run on 2 ranks)"),
+    }
+    if let (Some(a), Some(b)) = (mono_done.first(), mono_done.last()) {
+        if b.0 > a.0 {
+            out.line(&format!(
+                "  monolithic (N = 2): p = {:.2} between {} and {} dofs",
+                exponent(*a, *b),
+                a.0,
+                b.0
+            ));
+        }
+    }
+    eprintln!("bench-scaling: table written to {TABLE}");
+}
+
+const NOTES: [&str; 7] = [
+    "wall: mpirun start to end (s); assem … output: seconds per phase, maximum over the ranks (wait: timings.exchange, time a rank waited in exchanges)",
+    "ranks: body ranks [n1, n2] (- when the summary does not say); MiB: peak resident memory, maximum over ranks, and per world rank",
+    "loop/mono: NNDD loop time (dirich + contact + neumann + wait, each a maximum over ranks, so the sum can overcount overlap)",
+    "           over the monolithic QP time (mono_qp) of the same n on 2 ranks; wall/mono: NNDD wall (with its final estimate) over mono_wall",
+    "solve/mono: NNDD wall without the estimation over mono_wall (the same work: setup, solve, output)",
+    "its: NNDD iterations to |dlambda| <= 1e-8 |lambda|; estim: the estimate of the final iterate (eta_glo, eta_FE, eta_NNDD)",
+    "failed: the run ended without a summary (exit status and its last error line on stderr); the others went on",
+];
+
+fn parse_args() -> (Vec<usize>, Vec<usize>) {
+    let mut levels = Vec::new();
+    let mut ranks = vec![1, 2, 4];
+    let mut quick = false;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "-h" | "--help" => {
+                println!("{USAGE}");
+                std::process::exit(0);
+            }
+            "--quick" => quick = true,
+            "--ranks" => {
+                let list = args
+                    .next()
+                    .unwrap_or_else(|| usage("--ranks needs a list, e.g. 1,2,4"));
+                ranks = list
+                    .split(',')
+                    .map(|s| match s.trim().parse::<usize>() {
+                        Ok(v) if v > 0 => v,
+                        _ => usage(&format!("--ranks: '{s}' is not a positive integer")),
+                    })
+                    .collect();
+            }
+            _ => match a.parse::<usize>() {
+                Ok(v) if v > 0 => levels.push(v),
+                _ => usage(&format!("unknown argument '{a}'")),
+            },
+        }
+    }
+    if levels.is_empty() {
+        levels = if quick {
+            vec![64, 128]
+        } else {
+            vec![64, 128, 256, 512, 1024]
+        };
+    }
+    levels.sort_unstable();
+    levels.dedup();
+    ranks.sort_unstable();
+    ranks.dedup();
+    (levels, ranks)
+}
+
+fn usage(msg: &str) -> ! {
+    eprintln!("bench-scaling: {msg}\n{USAGE}");
+    std::process::exit(1);
+}
+
+/// Total dofs of `paper` at level n: two (n+1)² grids of 2-dof nodes.
+fn dofs_of(n: usize) -> usize {
+    2 * 2 * (n + 1) * (n + 1)
+}
+
+fn exponent(a: (usize, f64), b: (usize, f64)) -> f64 {
+    (b.1 / a.1).ln() / (b.0 as f64 / a.0 as f64).ln()
+}
+
+/// Expected wall time: a start-up of ~1 s plus a part ∝ dofs^1.25, scaled from the largest
+/// earlier run of the same kind, else a rough a-priori figure for a 2-core machine (n = 512 on
+/// 2 ranks: ~20 s, the estimate of the final iterate ~2.5 times that; one rank runs the bodies
+/// in turn).
+fn guess(earlier: &[(usize, f64)], dofs: usize, ranks: usize, estimate: bool) -> f64 {
+    const P: f64 = 1.15;
+    const START: f64 = 1.0;
+    if let Some(&(d, w)) = earlier.iter().max_by_key(|r| r.0) {
+        return START + (w - START).max(0.1) * (dofs as f64 / d as f64).powf(P);
+    }
+    let base = 20.0 * (dofs as f64 / dofs_of(512) as f64).powf(P);
+    let est = if estimate { 3.5 } else { 1.0 };
+    let serial = if ranks == 1 { 1.6 } else { 1.0 };
+    START + base * est * serial
+}
+
+fn progress(k: usize, total: usize, n: usize, dofs: usize, np: usize, what: &str, secs: f64) {
+    eprintln!(
+        "bench-scaling [{k}/{total}] {}: n = {n} ({dofs} dofs), {what} on {np} rank(s){}: expect ~{} …",
+        now(),
+        if np > 2 { " (oversubscribed)" } else { "" },
+        human(secs)
+    );
+}
+
+fn human(s: f64) -> String {
+    if s < 1.5 {
+        "1 s".to_string()
+    } else if s < 90.0 {
+        format!("{s:.0} s")
+    } else if s < 5400.0 {
+        format!("{:.0} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
+    }
+}
+
+fn header() -> String {
+    format!(
+        "{:>5} {:>8} {:>3} {:>7} {:>4} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9}  {}",
+        "n",
+        "dofs",
+        "N",
+        "ranks",
+        "its",
+        "wall_s",
+        "assem",
+        "factor",
+        "dirich",
+        "contact",
+        "neumann",
+        "wait",
+        "estim",
+        "output",
+        "MiB",
+        "loop/mono",
+        "wall/mono",
+        "solve/mono",
+        "mono_qp",
+        "mono_wall",
+        "MiB/rank"
+    )
+}
+
+fn row(n: usize, dofs: usize, np: usize, res: &Outcome, mono: &Outcome) -> String {
+    let (j, wall) = match res {
+        Ok(r) => r,
+        Err(e) => return format!("{n:>5} {dofs:>8} {np:>3} failed ({e})"),
+    };
+    let t = &j["timings"];
+    let g = |k: &str| t[k].as_f64();
+    let f = |k: &str| g(k).map_or_else(|| "-".to_string(), |v| format!("{v:.2}"));
+    let its = j["iterations"]
+        .as_u64()
+        .map_or_else(|| "-".to_string(), |v| v.to_string());
+    let body_ranks = match j["body_ranks"].as_array() {
+        Some(a) => a
+            .iter()
+            .map(|v| v.as_u64().map_or_else(|| "?".into(), |x| x.to_string()))
+            .collect::<Vec<_>>()
+            .join(","),
+        None => "-".to_string(),
+    };
+    let peak = j["peak_memory_mib"]
+        .as_f64()
+        .map_or_else(|| "-".to_string(), |v| format!("{v:.0}"));
+    let per_rank = match j["peak_memory_mib_per_rank"].as_array() {
+        Some(a) => a
+            .iter()
+            .map(|v| v.as_f64().map_or_else(|| "?".into(), |x| format!("{x:.0}")))
+            .collect::<Vec<_>>()
+            .join(","),
+        None => "-".to_string(),
+    };
+    let lp = ["dirichlet_step", "contact_step", "neumann_step", "exchange"]
+        .iter()
+        .map(|k| g(k))
+        .sum::<Option<f64>>();
+    let est = g("estimation").unwrap_or(0.0);
+    let (loop_ratio, wall_ratio, solve_ratio, mono_s, mono_wall) = match mono {
+        Ok((m, mwall)) => {
+            let mt = m["timings"]["monolithic"].as_f64();
+            let lr = match (lp, mt) {
+                (Some(a), Some(b)) if b > 0.0 => format!("{:.2}", a / b),
+                _ => "-".into(),
+            };
+            (
+                lr,
+                format!("{:.2}", wall / mwall),
+                format!("{:.2}", (wall - est) / mwall),
+                mt.map_or_else(|| "-".into(), |v| format!("{v:.2}")),
+                format!("{mwall:.2}"),
+            )
+        }
+        Err(_) => (
+            "failed".into(),
+            "failed".into(),
+            "failed".into(),
+            "failed".into(),
+            "failed".into(),
+        ),
+    };
+    format!(
+        "{:>5} {:>8} {:>3} {:>7} {:>4} {:>8.2} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9}  {}",
+        n,
+        j["dofs"].as_u64().map_or(dofs, |d| d as usize),
+        np,
+        body_ranks,
+        its,
+        wall,
+        f("assembly"),
+        f("factorisation"),
+        f("dirichlet_step"),
+        f("contact_step"),
+        f("neumann_step"),
+        f("exchange"),
+        f("estimation"),
+        f("output"),
+        peak,
+        loop_ratio,
+        wall_ratio,
+        solve_ratio,
+        mono_s,
+        mono_wall,
+        per_rank
+    )
+}
+
+/// Remove a run's output files (the HDF5 of n = 1024 is large); the summary has been read.
+fn clean(prefix: &std::path::Path) {
+    for ext in ["h5", "xdmf", "json"] {
+        std::fs::remove_file(format!("{}.{ext}", prefix.display())).ok();
+    }
+}
+
+/// Standard output and the table file, line by line (a partial table survives an interrupt).
+struct Out {
+    file: Option<std::fs::File>,
+}
+
+impl Out {
+    fn new(path: &str) -> Out {
+        let file = std::fs::File::create(path)
+            .map_err(|e| eprintln!("bench-scaling: cannot write {path}: {e}"))
+            .ok();
+        Out { file }
+    }
+
+    fn line(&mut self, s: &str) {
+        println!("{s}");
+        if let Some(f) = self.file.as_mut() {
+            writeln!(f, "{s}").ok();
+            f.flush().ok();
+        }
+    }
+}
+
+fn now() -> String {
+    std::process::Command::new("date")
+        .arg("+%F %T")
+        .output()
+        .ok()
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map_or_else(|| "?".into(), |s| s.trim().to_string())
+}
+
+fn hostname() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map_or_else(|_| "?".into(), |s| s.trim().to_string())
+}

@@ -1,0 +1,203 @@
+//! A body's mesh over the ranks of its group (issue 5).
+//!
+//! METIS (`METIS_PartMeshDual`) splits the elements into one part per rank of the group, and
+//! gives every node an owner. PETSc distributes a matrix by contiguous row ranges, so the nodes
+//! are renumbered: the nodes of rank 0 first, then those of rank 1, …, each rank's in mesh
+//! order. The rest of the code keeps the mesh numbering; this type translates (a dof `2 i + k`
+//! of mesh node i is PETSc row `2 petsc_node[i] + k`). Every rank of the group runs METIS on
+//! the same mesh with the same (default, seeded) options, so all agree on the partition
+//! without communication.
+
+use std::ops::Range;
+
+use crate::mesh::Mesh;
+use crate::petsc::Int;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PartitionError {
+    #[error("METIS could not partition body {alpha} ({elements} elements) into {parts} parts: {message}")]
+    Metis {
+        alpha: usize,
+        elements: usize,
+        parts: usize,
+        message: String,
+    },
+}
+
+/// The distribution of one body over its group of `size` ranks.
+#[derive(Clone, Debug)]
+pub struct Partition {
+    /// This rank's position in the group.
+    pub rank: usize,
+    pub size: usize,
+    /// Group rank owning each element (assembles it, estimates it).
+    pub element_owner: Vec<u32>,
+    /// PETSc node index of each mesh node.
+    pub petsc_node: Vec<u32>,
+    /// First PETSc node of each rank, and the node count at the end (`size + 1` entries).
+    pub node_start: Vec<usize>,
+}
+
+impl Partition {
+    /// METIS partition of `mesh` over `size` ranks, seen from group rank `rank`.
+    pub fn new(mesh: &Mesh, alpha: usize, rank: usize, size: usize) -> Result<Partition, PartitionError> {
+        let (ne, nn) = (mesh.triangles.len(), mesh.num_nodes());
+        if size == 1 {
+            return Ok(Partition {
+                rank,
+                size,
+                element_owner: vec![0; ne],
+                petsc_node: (0..nn as u32).collect(),
+                node_start: vec![0, nn],
+            });
+        }
+        let eptr: Vec<metis::Idx> = (0..=ne).map(|e| (3 * e) as metis::Idx).collect();
+        let eind: Vec<metis::Idx> = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| t.map(|v| v as metis::Idx))
+            .collect();
+        let mut epart = vec![0 as metis::Idx; ne];
+        let mut npart = vec![0 as metis::Idx; nn];
+        let metis_err = |message: String| PartitionError::Metis {
+            alpha,
+            elements: ne,
+            parts: size,
+            message,
+        };
+        metis::Mesh::new(size as metis::Idx, &eptr, &eind)
+            .map_err(|e| metis_err(e.to_string()))?
+            .part_dual(&mut epart, &mut npart)
+            .map_err(|e| metis_err(e.to_string()))?;
+        let mut count = vec![0usize; size];
+        for &p in &npart {
+            count[p as usize] += 1;
+        }
+        if let Some(r) = count.iter().position(|&c| c == 0) {
+            return Err(metis_err(format!("part {r} received no node")));
+        }
+        let mut node_start = vec![0usize; size + 1];
+        for r in 0..size {
+            node_start[r + 1] = node_start[r] + count[r];
+        }
+        let mut next = node_start.clone();
+        let petsc_node = npart
+            .iter()
+            .map(|&p| {
+                let i = next[p as usize];
+                next[p as usize] += 1;
+                i as u32
+            })
+            .collect();
+        Ok(Partition {
+            rank,
+            size,
+            element_owner: epart.iter().map(|&p| p as u32).collect(),
+            petsc_node,
+            node_start,
+        })
+    }
+
+    /// This rank's PETSc nodes.
+    pub fn owned_nodes(&self) -> Range<usize> {
+        self.node_start[self.rank]..self.node_start[self.rank + 1]
+    }
+
+    /// Rows (dofs) of the matrix on this rank.
+    pub fn local_rows(&self) -> usize {
+        2 * self.owned_nodes().len()
+    }
+
+    /// The group rank owning PETSc node `p`.
+    pub fn owner_of_petsc_node(&self, p: usize) -> usize {
+        self.node_start.partition_point(|&s| s <= p) - 1
+    }
+
+    /// PETSc row of mesh dof `dof`.
+    pub fn row(&self, dof: usize) -> Int {
+        (2 * self.petsc_node[dof / 2] as usize + dof % 2) as Int
+    }
+
+    /// Does this rank own mesh dof `dof`?
+    pub fn owns_dof(&self, dof: usize) -> bool {
+        self.owned_nodes()
+            .contains(&(self.petsc_node[dof / 2] as usize))
+    }
+
+    /// Does this rank own element `e`?
+    pub fn owns_element(&self, e: usize) -> bool {
+        self.element_owner[e] as usize == self.rank
+    }
+
+    /// Every PETSc row in mesh dof order (row of dof 0, dof 1, …): gathering these rows gives
+    /// a vector in mesh numbering.
+    pub fn rows_in_mesh_order(&self) -> Vec<Int> {
+        (0..2 * self.petsc_node.len()).map(|d| self.row(d)).collect()
+    }
+
+    /// This rank's entries (PETSc order) of a vector given in mesh numbering.
+    pub fn local_part(&self, full: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.local_rows()];
+        let first = self.owned_nodes().start;
+        for (node, &p) in self.petsc_node.iter().enumerate() {
+            let p = p as usize;
+            if self.owned_nodes().contains(&p) {
+                out[2 * (p - first)] = full[2 * node];
+                out[2 * (p - first) + 1] = full[2 * node + 1];
+            }
+        }
+        out
+    }
+
+    /// Number of elements owned by this rank.
+    pub fn owned_elements(&self) -> usize {
+        self.element_owner
+            .iter()
+            .filter(|&&o| o as usize == self.rank)
+            .count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn metis_parts_cover_the_mesh_and_rows_are_contiguous() {
+        let mesh = Mesh::structured([0.0, 0.0], [1.0, 1.0], 12, 9);
+        for size in [1, 2, 3, 5] {
+            let parts: Vec<Partition> = (0..size)
+                .map(|r| Partition::new(&mesh, 1, r, size).unwrap())
+                .collect();
+            // Every rank computed the same partition.
+            for p in &parts[1..] {
+                assert_eq!(p.element_owner, parts[0].element_owner);
+                assert_eq!(p.petsc_node, parts[0].petsc_node);
+            }
+            // PETSc numbering is a permutation; each rank's nodes are its range.
+            let mut seen = vec![false; mesh.num_nodes()];
+            for &p in &parts[0].petsc_node {
+                assert!(!seen[p as usize]);
+                seen[p as usize] = true;
+            }
+            let owned: usize = parts.iter().map(|p| p.owned_elements()).sum();
+            assert_eq!(owned, mesh.triangles.len());
+            let rows: usize = parts.iter().map(|p| p.local_rows()).sum();
+            assert_eq!(rows, mesh.num_dofs());
+            // Balanced within METIS's default 3 % imbalance (+1 element of rounding).
+            let ideal = mesh.triangles.len() as f64 / size as f64;
+            for p in &parts {
+                assert!(p.owned_elements() as f64 <= 1.03 * ideal + 1.0);
+            }
+            // Local parts of a vector, concatenated by rank, are the vector in PETSc order.
+            let full: Vec<f64> = (0..mesh.num_dofs()).map(|d| d as f64).collect();
+            let concat: Vec<f64> = parts.iter().flat_map(|p| p.local_part(&full)).collect();
+            let rows = parts[0].rows_in_mesh_order();
+            for d in 0..mesh.num_dofs() {
+                assert_eq!(concat[rows[d] as usize], full[d]);
+                let owner = parts[0].owner_of_petsc_node(rows[d] as usize / 2);
+                assert!(parts[owner].owns_dof(d));
+            }
+        }
+    }
+}
