@@ -31,8 +31,6 @@ const FUNCTIONS: &[&str] = &[
     "VecScatter(Create|Begin|End|Destroy)",
     "MatSeqAIJSetPreallocation",
     "MatMPIAIJSetPreallocation",
-    "MatSeqAIJSetPreallocationCSR",
-    "MatMPIAIJSetPreallocationCSR",
     "MatMumpsSetIcntl",
     "KSP(MatSolve|Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|SetReusePreconditioner)",
     "PC(SetType|FactorSetMatSolverType|FactorSetUpMatSolverType|FactorGetMatrix|GetType)",

@@ -959,8 +959,12 @@ fn with_ext(prefix: &Path, ext: &str) -> PathBuf {
 /// `-help` lists `-body1_ksp_type`, `-body2_pc_type`, ….
 fn list_solver_options() -> Result<(), PetscError> {
     for prefix in ["body1_", "body2_"] {
-        let a = Matrix::from_csr(Petsc::comm_world(), 2, &[0, 1, 2], &[0, 1], &[1.0, 1.0])?;
-        let _ksp = Ksp::new(Petsc::comm_world(), a, prefix, None)?;
+        let mut a = Matrix::preallocated(Petsc::comm_self(), 2, &[1, 1], &[0, 0])?;
+        for i in 0..2 {
+            a.add_values(&[i], &[i], &[1.0])?;
+        }
+        a.assemble()?;
+        let _ksp = Ksp::new(Petsc::comm_self(), a, prefix, None)?;
     }
     Ok(())
 }

@@ -50,7 +50,7 @@
 //!   the edges through the vertex. The patch spaces span the whole admissible JM space (Airy
 //!   functions of the Hsieh–Clough–Tocher space are vertex- and edge-local), so the sweeps
 //!   converge to the global minimum (the JM mixed solution). Measured effectivities (tests):
-//!   averaged ≈ 2.0–3.9, star minimum ≈ 1.8–2.75, 3 patch sweeps ≈ 1.0–1.16.
+//!   averaged ≈ 2.8–3.9, star minimum ≈ 2.1–2.75, 3 patch sweeps ≈ 1.01–1.16.
 //!
 //! Locality and sub-meshes ([`Restriction`], `overlap.rs`): the star problems and the
 //! averaged-traction field of an element only depend on the elements around its vertices,
@@ -392,17 +392,35 @@ pub fn equilibrate_restricted(
     let nt = mesh.triangles.len();
     let nn = mesh.num_nodes();
     use EquilibrationError as Error;
-    check_len(u.len(), ndof, |expected, found| Error::DisplacementLength { expected, found })?;
+    check_len(u.len(), ndof, |expected, found| Error::DisplacementLength {
+        expected,
+        found,
+    })?;
     let found = boundary.constrained.len();
-    check_len(found, ndof, |expected, found| Error::ConstrainedLength { expected, found })?;
+    check_len(found, ndof, |expected, found| Error::ConstrainedLength {
+        expected,
+        found,
+    })?;
     if let Some(r) = restriction {
         if matches!(choice, StarChoice::MinimumEnergy { .. }) {
             return Err(Error::RestrictedMinimumEnergy);
         }
         let what = "vertex_key";
-        check_len(r.vertex_key.len(), nn, |expected, found| Error::RestrictionLength { what, expected, found })?;
+        check_len(r.vertex_key.len(), nn, |expected, found| {
+            Error::RestrictionLength {
+                what,
+                expected,
+                found,
+            }
+        })?;
         let what = "owned";
-        check_len(r.owned.len(), nt, |expected, found| Error::RestrictionLength { what, expected, found })?;
+        check_len(r.owned.len(), nt, |expected, found| {
+            Error::RestrictionLength {
+                what,
+                expected,
+                found,
+            }
+        })?;
     }
     let owned = restriction.map(|r| r.owned);
     let vertex_owned = owned_vertices(mesh, owned);
@@ -760,7 +778,11 @@ impl EquilibratedStress {
         owned: Option<&[bool]>,
     ) -> Residuals {
         if let Some(o) = owned {
-            assert_eq!(o.len(), mesh.triangles.len(), "`owned`: one entry per element");
+            assert_eq!(
+                o.len(),
+                mesh.triangles.len(),
+                "`owned`: one entry per element"
+            );
         }
         let own = |e: usize| is_owned(owned, e);
         let vertex_owned = owned_vertices(mesh, owned);
@@ -2852,7 +2874,11 @@ pub(crate) mod tests {
         let (mesh, bd) = block(4);
         let u = fe_solve(&mesh, &bd);
         let colours = vertex_colours(&mesh);
-        let keys: Vec<u64> = colours.iter().enumerate().map(|(i, &c)| sweep_key(c, i)).collect();
+        let keys: Vec<u64> = colours
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| sweep_key(c, i))
+            .collect();
         let owned = vec![true; mesh.triangles.len()];
         let all = Restriction {
             vertex_key: &keys,
@@ -2887,7 +2913,10 @@ pub(crate) mod tests {
                 assert_eq!(a.coefficients(e), b.coefficients(e));
             }
             assert_eq!(a.stats().energy_final, b.stats().energy_final);
-            let (ra, rb) = (a.residuals(&mesh, &bd), b.residuals_restricted(&mesh, &bd, Some(&owned)));
+            let (ra, rb) = (
+                a.residuals(&mesh, &bd),
+                b.residuals_restricted(&mesh, &bd, Some(&owned)),
+            );
             assert_eq!(format!("{ra:?}"), format!("{rb:?}"));
         }
     }
@@ -2898,7 +2927,8 @@ pub(crate) mod tests {
         let n = 4;
         let (mesh, mut bd) = patch(n, [0.0, -1e7, 0.0]);
         let top = mesh.top_nodes();
-        bd.edges.retain(|be| top.contains(&be.nodes[0]) && top.contains(&be.nodes[1]));
+        bd.edges
+            .retain(|be| top.contains(&be.nodes[0]) && top.contains(&be.nodes[1]));
         let u = fe_solve(&mesh, &bd);
         let eq = equilibrate(&mesh, &STEEL, &u, &bd).unwrap();
         let full = eq.residuals(&mesh, &bd);
@@ -2909,10 +2939,18 @@ pub(crate) mod tests {
         // across an edge are therefore exact.
         let pins = [mesh.node(0, 0), mesh.node(n, 0)];
         let mut near_pin = vec![false; mesh.num_nodes()];
-        for t in mesh.triangles.iter().filter(|t| t.iter().any(|v| pins.contains(v))) {
+        for t in mesh
+            .triangles
+            .iter()
+            .filter(|t| t.iter().any(|v| pins.contains(v)))
+        {
             t.iter().for_each(|&v| near_pin[v] = true);
         }
-        let away: Vec<bool> = mesh.triangles.iter().map(|t| !t.iter().any(|&v| near_pin[v])).collect();
+        let away: Vec<bool> = mesh
+            .triangles
+            .iter()
+            .map(|t| !t.iter().any(|&v| near_pin[v]))
+            .collect();
         let r = eq.residuals_restricted(&mesh, &bd, Some(&away));
         assert_eq!(r.point_reaction, 0.0, "{r:?}");
         assert_admissible(&r, 1e-10);
@@ -2936,13 +2974,19 @@ pub(crate) mod tests {
                 1e-4 * ((3.0 * x[0] + (d % 2) as f64).sin() * (2.0 * x[1]).cos() + x[1] * x[1])
             })
             .collect();
-        for choice in [StarChoice::AveragedTraction, StarChoice::PatchRelaxation { sweeps: 3 }] {
+        for choice in [
+            StarChoice::AveragedTraction,
+            StarChoice::PatchRelaxation { sweeps: 3 },
+        ] {
             // CPU time of this thread (the machine may be shared): utime + stime of
             // /proc/thread-self/stat, in clock ticks (assumed 100 Hz).
             let cpu = || -> f64 {
                 let s = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
                 let rest = s.rsplit(')').next().unwrap_or("");
-                let f: Vec<f64> = rest.split_whitespace().map(|v| v.parse().unwrap_or(0.0)).collect();
+                let f: Vec<f64> = rest
+                    .split_whitespace()
+                    .map(|v| v.parse().unwrap_or(0.0))
+                    .collect();
                 (f.get(11).unwrap_or(&0.0) + f.get(12).unwrap_or(&0.0)) / 100.0
             };
             for _ in 0..5 {

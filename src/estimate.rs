@@ -548,7 +548,7 @@ impl Estimator<'_> {
         (part.size > 1).then(|| {
             let mesh = &body.problem.mesh;
             let colours = vertex_colours(mesh);
-            let count = colours.iter().map(|&c| c as usize + 1).max().unwrap_or(1);
+            let count = crate::overlap::colour_count(&colours);
             let own: Vec<bool> = (0..mesh.triangles.len())
                 .map(|e| part.owns_element(e))
                 .collect();

@@ -174,3 +174,35 @@ fn four_ranks_write_the_file_one_rank_writes() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn iterative_options_on_three_ranks_agree_with_mumps() {
+    let dir = scratch("ranks-iter");
+    let run = |opts: &str, name: &str| {
+        let prefix = dir.join(name);
+        let p = prefix.to_str().unwrap().to_string();
+        // The options file first: its own -nndd_output is overridden by ours after it.
+        let out = mpirun(
+            3,
+            &[
+                "-options_file", opts, "-nndd_n", "12", "-nndd_monitor", "0",
+                "-nndd_estimate_every", "0", "-nndd_reference_factor", "0", "-nndd_tol", "1e-10",
+                "-nndd_output", &p,
+            ],
+        );
+        assert!(out.status.success(), "{opts}: {}", String::from_utf8_lossy(&out.stderr));
+        json(&prefix)
+    };
+    let direct = run("petsc-options/paper.opts", "mumps");
+    let cg = run("petsc-options/iterative.opts", "gamg");
+    assert_eq!(cg["body_ranks"], serde_json::json!([2, 1]));
+    assert_eq!(cg["schur_source"], "solves");
+    assert_eq!(cg["dirichlet_step"], "system");
+    assert_eq!(cg["iterations"], direct["iterations"]);
+    let (a, b) = (f(&cg, "potential_energy"), f(&direct, "potential_energy"));
+    assert!(((a - b) / b).abs() < 1e-10, "CG+GAMG {a} vs MUMPS {b}");
+    let ds = "/steps/0/body2/displacement";
+    let d = rel_max_diff(&h5(&dir.join("gamg"), ds), &h5(&dir.join("mumps"), ds));
+    assert!(d < 1e-8, "displacements differ by {d:e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

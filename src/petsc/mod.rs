@@ -112,6 +112,12 @@ impl Petsc {
         Ok(Petsc { _argv: argv_owned })
     }
 
+    /// `MPI_COMM_SELF` (a macro in C, so taken from rsmpi).
+    pub fn comm_self() -> Comm {
+        use mpi::traits::AsRaw;
+        comm_from_rsmpi(mpi::topology::SimpleCommunicator::self_comm().as_raw())
+    }
+
     /// `PETSC_COMM_WORLD`.
     pub fn comm_world() -> Comm {
         // SAFETY: a global set by PetscInitialize.
@@ -433,8 +439,7 @@ impl Gather {
     /// Gather the global `rows` of vectors laid out like `like` (every rank asks for the same
     /// rows, in this order).
     pub fn new(like: &Vector, rows: &[Int]) -> Result<Gather> {
-        use mpi::traits::AsRaw;
-        let self_comm = comm_from_rsmpi(mpi::topology::SimpleCommunicator::self_comm().as_raw());
+        let self_comm = Petsc::comm_self();
         let is = Is::new(self_comm, rows)?;
         let mut v: ffi::Vec = ptr::null_mut();
         call!(VecCreateSeq(self_comm.0, rows.len() as Int, &mut v))?;
@@ -479,39 +484,6 @@ impl Drop for Vector {
 pub struct Matrix(ffi::Mat);
 
 impl Matrix {
-    /// Build from this rank's rows in CSR form (global column indices), block size 2.
-    pub fn from_csr(
-        comm: Comm,
-        local_rows: usize,
-        row_ptr: &[Int],
-        cols: &[Int],
-        vals: &[f64],
-    ) -> Result<Matrix> {
-        let mut m: ffi::Mat = ptr::null_mut();
-        call!(MatCreate(comm.0, &mut m))?;
-        let mat = Matrix(m);
-        let n = local_rows as Int;
-        call!(MatSetSizes(mat.0, n, n, PETSC_DETERMINE, PETSC_DETERMINE))?;
-        call!(MatSetBlockSize(mat.0, 2))?;
-        let aij = cstr("aij");
-        call!(MatSetType(mat.0, aij.as_ptr()))?;
-        call!(MatSeqAIJSetPreallocationCSR(
-            mat.0,
-            row_ptr.as_ptr(),
-            cols.as_ptr(),
-            vals.as_ptr()
-        ))?;
-        call!(MatMPIAIJSetPreallocationCSR(
-            mat.0,
-            row_ptr.as_ptr(),
-            cols.as_ptr(),
-            vals.as_ptr()
-        ))?;
-        call!(MatSetOption(mat.0, ffi::MAT_SYMMETRIC, ffi::PETSC_TRUE))?;
-        call!(MatSetOption(mat.0, ffi::MAT_SPD, ffi::PETSC_TRUE))?;
-        Ok(mat)
-    }
-
     /// An AIJ matrix (block size 2) with `local_rows` rows on this rank, to be filled by
     /// [`Matrix::add_values`]: `d_nnz[i]` / `o_nnz[i]` are the nonzeros of local row i in the
     /// diagonal block (columns owned here) and off it (the exact counts: a missing one is an error).
