@@ -2961,47 +2961,6 @@ pub(crate) mod tests {
         assert_eq!(eq.residuals_restricted(&mesh, &bd, Some(&none)).max(), 0.0);
     }
 
-    /// Timing of the recoveries on a 256 × 256 block (release: `cargo test --release --lib
-    /// -- --ignored --nocapture equilibration_timing`). The displacement is a smooth field,
-    /// not an FE solution: only the cost is measured.
-    #[test]
-    #[ignore]
-    fn equilibration_timing() {
-        let (mesh, bd) = block(256);
-        let u: Vec<f64> = (0..mesh.num_dofs())
-            .map(|d| {
-                let x = mesh.points[d / 2];
-                1e-4 * ((3.0 * x[0] + (d % 2) as f64).sin() * (2.0 * x[1]).cos() + x[1] * x[1])
-            })
-            .collect();
-        for choice in [
-            StarChoice::AveragedTraction,
-            StarChoice::PatchRelaxation { sweeps: 3 },
-        ] {
-            // CPU time of this thread (the machine may be shared): utime + stime of
-            // /proc/thread-self/stat, in clock ticks (assumed 100 Hz).
-            let cpu = || -> f64 {
-                let s = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
-                let rest = s.rsplit(')').next().unwrap_or("");
-                let f: Vec<f64> = rest
-                    .split_whitespace()
-                    .map(|v| v.parse().unwrap_or(0.0))
-                    .collect();
-                (f.get(11).unwrap_or(&0.0) + f.get(12).unwrap_or(&0.0)) / 100.0
-            };
-            for _ in 0..5 {
-                let (t, c) = (std::time::Instant::now(), cpu());
-                let eq = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
-                println!(
-                    "256x256 {choice:?}: {:.3} s wall, {:.3} s cpu (energy {:.6e})",
-                    t.elapsed().as_secs_f64(),
-                    cpu() - c,
-                    eq.stats().energy_final
-                );
-            }
-        }
-    }
-
     #[test]
     fn rejects_bad_input() {
         let (mesh, mut bd) = block(2);
