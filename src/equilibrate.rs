@@ -405,22 +405,16 @@ pub fn equilibrate_restricted(
         if matches!(choice, StarChoice::MinimumEnergy { .. }) {
             return Err(Error::RestrictedMinimumEnergy);
         }
-        let what = "vertex_key";
-        check_len(r.vertex_key.len(), nn, |expected, found| {
-            Error::RestrictionLength {
+        for (what, len, expected) in [
+            ("vertex_key", r.vertex_key.len(), nn),
+            ("owned", r.owned.len(), nt),
+        ] {
+            check_len(len, expected, |expected, found| Error::RestrictionLength {
                 what,
                 expected,
                 found,
-            }
-        })?;
-        let what = "owned";
-        check_len(r.owned.len(), nt, |expected, found| {
-            Error::RestrictionLength {
-                what,
-                expected,
-                found,
-            }
-        })?;
+            })?;
+        }
     }
     let owned = restriction.map(|r| r.owned);
     let vertex_owned = owned_vertices(mesh, owned);
