@@ -11,19 +11,19 @@ use mpi::topology::SimpleCommunicator;
 use crate::body::{Body, BodyError, SchurMode};
 use crate::contact::{ContactError, ContactStep};
 use crate::dirichlet::DirichletStep;
+use crate::equilibrate::StarChoice;
 use crate::estimate::{
     EstimateError, EstimateRecord, Estimator, Interface, NnddVariant, Reference,
 };
 use crate::fem::{self, Material};
-use crate::equilibrate::StarChoice;
 use crate::layout::{Layout, LayoutError};
-use crate::partition::{Partition, PartitionError};
 use crate::log::Stages;
 use crate::monolithic::{self, MonolithicError};
 use crate::nndd::{self, Iterate, IterationRecord, NnddError, Status};
 use crate::output::{
     self, Center, Field, Grid, GridFields, Kind, OutputError, Results, Step, Topology,
 };
+use crate::partition::{Partition, PartitionError};
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::{self, BodyProblem};
 use crate::qp::QpSettings;
@@ -586,9 +586,19 @@ fn output_shares(layout: &Layout, results: &Results) -> Vec<output::Share> {
             let (mine, k, parts) = if alpha == 0 {
                 (layout.is_root(), 0, 1)
             } else {
-                (layout.owns(alpha), layout.group_rank(), layout.group_sizes[alpha - 1])
+                (
+                    layout.owns(alpha),
+                    layout.group_rank(),
+                    layout.group_sizes[alpha - 1],
+                )
             };
-            let block = |len: usize| if mine { len * k / parts..len * (k + 1) / parts } else { 0..0 };
+            let block = |len: usize| {
+                if mine {
+                    len * k / parts..len * (k + 1) / parts
+                } else {
+                    0..0
+                }
+            };
             let cells = match &g.topology {
                 Topology::Triangle(t) => t.len(),
                 Topology::Segment(t) => t.len(),

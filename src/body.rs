@@ -399,7 +399,11 @@ impl Body {
 /// Assemble K^α from this rank's elements (rows of other ranks travel at assembly), with
 /// the exact preallocation of this rank's rows; returns K and its mean diagonal (the value put
 /// on eliminated rows, for conditioning).
-fn assemble(problem: &BodyProblem, comm: Comm, part: &Partition) -> Result<(Matrix, f64), BodyError> {
+fn assemble(
+    problem: &BodyProblem,
+    comm: Comm,
+    part: &Partition,
+) -> Result<(Matrix, f64), BodyError> {
     let mesh = &problem.mesh;
     // Node neighbours (sharing an element) of the owned nodes, split by owner.
     let owned = part.owned_nodes();
@@ -420,7 +424,10 @@ fn assemble(problem: &BodyProblem, comm: Comm, part: &Partition) -> Result<(Matr
     }
     let (mut d_nnz, mut o_nnz) = (Vec::new(), Vec::new());
     for list in &neighbours {
-        let d = 2 * list.iter().filter(|&&p| owned.contains(&(p as usize))).count();
+        let d = 2 * list
+            .iter()
+            .filter(|&&p| owned.contains(&(p as usize)))
+            .count();
         let o = 2 * list.len() - d;
         for _ in 0..2 {
             d_nnz.push(d as petsc::Int);
@@ -448,7 +455,10 @@ fn assemble(problem: &BodyProblem, comm: Comm, part: &Partition) -> Result<(Matr
     let mut partial = Vector::new(comm, 1)?;
     partial.copy_from(&[diag_sum])?;
     let every: Vec<petsc::Int> = (0..part.size as petsc::Int).collect();
-    let total: f64 = Gather::new(&partial, &every)?.gather(&partial)?.iter().sum();
+    let total: f64 = Gather::new(&partial, &every)?
+        .gather(&partial)?
+        .iter()
+        .sum();
     Ok((k, total / mesh.num_dofs() as f64))
 }
 
@@ -465,6 +475,11 @@ fn owned_rows(part: &Partition, dofs: impl Iterator<Item = usize>) -> Vec<petsc:
 
 /// x, y of this rank's nodes in PETSc order (for the rigid-body modes).
 fn local_coordinates(problem: &BodyProblem, part: &Partition) -> Vec<f64> {
-    let flat: Vec<f64> = problem.mesh.points.iter().flat_map(|p| [p[0], p[1]]).collect();
+    let flat: Vec<f64> = problem
+        .mesh
+        .points
+        .iter()
+        .flat_map(|p| [p[0], p[1]])
+        .collect();
     part.local_part(&flat)
 }

@@ -28,9 +28,9 @@ use crate::equilibrate::{
     equilibrate_restricted, equilibrate_with, vertex_colours, Boundary, BoundaryEdge,
     EdgeComponent, EquilibratedStress, EquilibrationError, Residuals, StarChoice,
 };
-use crate::overlap::Overlap;
 use crate::fem::{element_dofs, element_stiffness, element_stress};
 use crate::mesh::Mesh;
+use crate::overlap::Overlap;
 use crate::problem::{interface_mass, BodyProblem};
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
 
@@ -552,7 +552,12 @@ impl Estimator<'_> {
             let own: Vec<bool> = (0..mesh.triangles.len())
                 .map(|e| part.owns_element(e))
                 .collect();
-            Overlap::new(mesh, &own, Overlap::rings_for(self.recovery, count), &colours)
+            Overlap::new(
+                mesh,
+                &own,
+                Overlap::rings_for(self.recovery, count),
+                &colours,
+            )
         })
     }
 

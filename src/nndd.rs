@@ -278,7 +278,15 @@ pub fn solve(
         };
         let mut balanced = false;
         if estimate_every.is_some_and(|k| p % k == 0) {
-            form_fields(layout, &mut it, bodies, dirichlet, contact, stages, &mut timers)?;
+            form_fields(
+                layout,
+                &mut it,
+                bodies,
+                dirichlet,
+                contact,
+                stages,
+                &mut timers,
+            )?;
             balanced = observe(&it)?;
         }
         monitor(&record);
@@ -321,7 +329,15 @@ pub fn solve(
     let iterations = history.len();
     let mut last = last.expect("max_it ≥ 1");
     // The fields of the reported step (the loop needs only the Γc forces).
-    form_fields(layout, &mut last, bodies, dirichlet, contact, stages, &mut timers)?;
+    form_fields(
+        layout,
+        &mut last,
+        bodies,
+        dirichlet,
+        contact,
+        stages,
+        &mut timers,
+    )?;
     Ok(NnddResult {
         status,
         iterations,

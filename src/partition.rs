@@ -40,7 +40,12 @@ pub struct Partition {
 
 impl Partition {
     /// METIS partition of `mesh` over `size` ranks, seen from group rank `rank`.
-    pub fn new(mesh: &Mesh, alpha: usize, rank: usize, size: usize) -> Result<Partition, PartitionError> {
+    pub fn new(
+        mesh: &Mesh,
+        alpha: usize,
+        rank: usize,
+        size: usize,
+    ) -> Result<Partition, PartitionError> {
         let (ne, nn) = (mesh.triangles.len(), mesh.num_nodes());
         if size == 1 {
             return Ok(Partition {
@@ -132,7 +137,9 @@ impl Partition {
     /// Every PETSc row in mesh dof order (row of dof 0, dof 1, …): gathering these rows gives
     /// a vector in mesh numbering.
     pub fn rows_in_mesh_order(&self) -> Vec<Int> {
-        (0..2 * self.petsc_node.len()).map(|d| self.row(d)).collect()
+        (0..2 * self.petsc_node.len())
+            .map(|d| self.row(d))
+            .collect()
     }
 
     /// This rank's entries (PETSc order) of a vector given in mesh numbering.

@@ -54,7 +54,10 @@ fn monolithic_on_two_ranks_agrees_with_one() {
 fn compare(j: &serde_json::Value, base: &serde_json::Value, what: &str) {
     let rel = |a: f64, b: f64| ((a - b) / b).abs();
     assert_eq!(j["iterations"], base["iterations"], "{what}: iterations");
-    assert_eq!(j["contact_zone"], base["contact_zone"], "{what}: contact zone");
+    assert_eq!(
+        j["contact_zone"], base["contact_zone"],
+        "{what}: contact zone"
+    );
     for key in ["potential_energy", "contact_force"] {
         let d = rel(f(j, key), f(base, key));
         assert!(d < 1e-9, "{what}: {key} differs by {d:e}");
@@ -65,7 +68,11 @@ fn compare(j: &serde_json::Value, base: &serde_json::Value, what: &str) {
         for key in ["eta_glo", "eta_fe", "eta_nndd"] {
             // Relative to η^glo: a converged η^NNDD is itself at the solves' round-off.
             let d = ((f(x, key) - f(y, key)) / f(y, "eta_glo")).abs();
-            assert!(d < 1e-9, "{what}: {key} at iteration {} differs by {d:e}", x["iteration"]);
+            assert!(
+                d < 1e-9,
+                "{what}: {key} at iteration {} differs by {d:e}",
+                x["iteration"]
+            );
         }
     }
     let r = &j["equilibrium_residuals"];
@@ -101,7 +108,12 @@ fn one_to_six_ranks_give_the_same_solution_and_estimates() {
         let j = solve(n, &prefix, &args);
         let what = format!("-n {n}");
         assert_eq!(j["ranks"], n);
-        let ranks: Vec<u64> = j["body_ranks"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect();
+        let ranks: Vec<u64> = j["body_ranks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .collect();
         assert_eq!(ranks.iter().sum::<u64>() as usize, n, "{what}: {ranks:?}");
         compare(&j, &base, &what);
         for (k, b) in ["body1", "body2"].iter().enumerate() {
@@ -128,7 +140,12 @@ fn h5_contents(prefix: &std::path::Path) -> Vec<(String, Vec<f64>)> {
                 let d = g.dataset(&name).unwrap();
                 let v: Vec<f64> = match d.read_raw::<f64>() {
                     Ok(v) => v,
-                    Err(_) => d.read_raw::<i64>().unwrap().iter().map(|&x| x as f64).collect(),
+                    Err(_) => d
+                        .read_raw::<i64>()
+                        .unwrap()
+                        .iter()
+                        .map(|&x| x as f64)
+                        .collect(),
                 };
                 out.push((format!("{p} {:?}", d.shape()), v));
             }
@@ -158,7 +175,11 @@ fn four_ranks_write_the_file_one_rank_writes() {
     assert_eq!(j["ranks"], 4);
     let (a, b) = (h5_contents(&dir.join("a")), h5_contents(&dir.join("b")));
     let names = |c: &[(String, Vec<f64>)]| c.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
-    assert_eq!(names(&a), names(&b), "the same datasets, shapes and attributes");
+    assert_eq!(
+        names(&a),
+        names(&b),
+        "the same datasets, shapes and attributes"
+    );
     assert!(a.len() > 20, "{} datasets", a.len());
     for ((name, x), (_, y)) in a.iter().zip(&b) {
         if name.contains('@') || name.contains("/grids/") {
@@ -168,7 +189,11 @@ fn four_ranks_write_the_file_one_rank_writes() {
             let scale_of = name.replace("eta_nndd", "eta_glo");
             let scale_of = &a.iter().find(|c| c.0 == scale_of).unwrap().1;
             let scale = scale_of.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
-            let d = x.iter().zip(y).fold(0.0f64, |m, (p, q)| m.max((p - q).abs())) / scale;
+            let d = x
+                .iter()
+                .zip(y)
+                .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
+                / scale;
             assert!(d < 1e-9, "{name}: differs by {d:e}");
         }
     }
@@ -185,12 +210,27 @@ fn iterative_options_on_three_ranks_agree_with_mumps() {
         let out = mpirun(
             3,
             &[
-                "-options_file", opts, "-nndd_n", "12", "-nndd_monitor", "0",
-                "-nndd_estimate_every", "0", "-nndd_reference_factor", "0", "-nndd_tol", "1e-10",
-                "-nndd_output", &p,
+                "-options_file",
+                opts,
+                "-nndd_n",
+                "12",
+                "-nndd_monitor",
+                "0",
+                "-nndd_estimate_every",
+                "0",
+                "-nndd_reference_factor",
+                "0",
+                "-nndd_tol",
+                "1e-10",
+                "-nndd_output",
+                &p,
             ],
         );
-        assert!(out.status.success(), "{opts}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{opts}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         json(&prefix)
     };
     let direct = run("petsc-options/paper.opts", "mumps");

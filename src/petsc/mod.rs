@@ -445,7 +445,13 @@ impl Gather {
         call!(VecCreateSeq(self_comm.0, rows.len() as Int, &mut v))?;
         let out = Vector(v);
         let mut scatter: ffi::VecScatter = ptr::null_mut();
-        call!(VecScatterCreate(like.0, is.0, out.0, ptr::null_mut(), &mut scatter))?;
+        call!(VecScatterCreate(
+            like.0,
+            is.0,
+            out.0,
+            ptr::null_mut(),
+            &mut scatter
+        ))?;
         Ok(Gather {
             scatter,
             out,
@@ -459,8 +465,20 @@ impl Gather {
     }
 
     fn gather_raw(&mut self, x: ffi::Vec) -> Result<Vec<f64>> {
-        call!(VecScatterBegin(self.scatter, x, self.out.0, ffi::INSERT_VALUES, ffi::SCATTER_FORWARD))?;
-        call!(VecScatterEnd(self.scatter, x, self.out.0, ffi::INSERT_VALUES, ffi::SCATTER_FORWARD))?;
+        call!(VecScatterBegin(
+            self.scatter,
+            x,
+            self.out.0,
+            ffi::INSERT_VALUES,
+            ffi::SCATTER_FORWARD
+        ))?;
+        call!(VecScatterEnd(
+            self.scatter,
+            x,
+            self.out.0,
+            ffi::INSERT_VALUES,
+            ffi::SCATTER_FORWARD
+        ))?;
         self.out.to_vec()
     }
 }
@@ -487,7 +505,12 @@ impl Matrix {
     /// An AIJ matrix (block size 2) with `local_rows` rows on this rank, to be filled by
     /// [`Matrix::add_values`]: `d_nnz[i]` / `o_nnz[i]` are the nonzeros of local row i in the
     /// diagonal block (columns owned here) and off it (the exact counts: a missing one is an error).
-    pub fn preallocated(comm: Comm, local_rows: usize, d_nnz: &[Int], o_nnz: &[Int]) -> Result<Matrix> {
+    pub fn preallocated(
+        comm: Comm,
+        local_rows: usize,
+        d_nnz: &[Int],
+        o_nnz: &[Int],
+    ) -> Result<Matrix> {
         assert!(d_nnz.len() == local_rows && o_nnz.len() == local_rows);
         let mut m: ffi::Mat = ptr::null_mut();
         call!(MatCreate(comm.0, &mut m))?;
@@ -498,7 +521,13 @@ impl Matrix {
         let aij = cstr("aij");
         call!(MatSetType(mat.0, aij.as_ptr()))?;
         call!(MatSeqAIJSetPreallocation(mat.0, 0, d_nnz.as_ptr()))?;
-        call!(MatMPIAIJSetPreallocation(mat.0, 0, d_nnz.as_ptr(), 0, o_nnz.as_ptr()))?;
+        call!(MatMPIAIJSetPreallocation(
+            mat.0,
+            0,
+            d_nnz.as_ptr(),
+            0,
+            o_nnz.as_ptr()
+        ))?;
         Ok(mat)
     }
 
@@ -698,14 +727,30 @@ impl Ksp {
             let nb = batch.max(1).min(m - first);
             let dense = |values: bool| -> Result<Matrix> {
                 let mut b: ffi::Mat = ptr::null_mut();
-                call!(MatCreateDense(comm.0, local, -1, PETSC_DETERMINE, nb as Int, ptr::null_mut(), &mut b))?;
+                call!(MatCreateDense(
+                    comm.0,
+                    local,
+                    -1,
+                    PETSC_DETERMINE,
+                    nb as Int,
+                    ptr::null_mut(),
+                    &mut b
+                ))?;
                 let b = Matrix(b);
                 if values {
                     for c in 0..nb {
                         let row = rows[first + c];
                         if owned.contains(&row) {
                             let col = c as Int;
-                            call!(MatSetValues(b.0, 1, &row, 1, &col, &1.0, ffi::INSERT_VALUES))?;
+                            call!(MatSetValues(
+                                b.0,
+                                1,
+                                &row,
+                                1,
+                                &col,
+                                &1.0,
+                                ffi::INSERT_VALUES
+                            ))?;
                         }
                     }
                 }
