@@ -113,7 +113,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         list_solver_options()?;
         return Ok(Outcome::Help);
     }
-    let layout = Layout::new(world, settings.body1_ranks, body_dofs(&settings))?;
+    let layout = Layout::new(world, settings.body1_ranks, settings.body_dofs())?;
     check_recovery(&settings, &layout)?;
     check_output(&settings, &layout)?;
     let stages = Stages::register()?;
@@ -225,14 +225,6 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         Outcome::Solved
     } else {
         Outcome::NotConverged
-    })
-}
-
-/// Dof counts of the two bodies (they size the rank groups).
-fn body_dofs(settings: &Settings) -> [usize; 2] {
-    [1, 2].map(|alpha| {
-        let (nx, ny) = settings.body_grid(alpha);
-        2 * (nx + 1) * (ny + 1)
     })
 }
 
@@ -475,8 +467,7 @@ fn solve_monolithic(
         .map(|b| b.normal_trace(&res.u[0]))
         .unwrap_or_default();
     layout.share_vec(1, &mut lambda);
-    let mut trace2 = refs[1].map_or(vec![0.0; lambda.len()], |b| b.normal_trace(&res.u[1]));
-    layout.share(2, &mut trace2);
+    let trace2 = nndd::shared_trace2(layout, refs[1], &res.u[1], lambda.len());
     let last = Iterate {
         lambda,
         trace2,

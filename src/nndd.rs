@@ -145,6 +145,14 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
+/// u²_n, the normal Γc trace of body 2's field `u2` (on its ranks), broadcast to every rank
+/// (collective).
+pub fn shared_trace2(layout: &Layout, body2: Option<&Body>, u2: &[f64], m: usize) -> Vec<f64> {
+    let mut trace = body2.map_or(vec![0.0; m], |b| b.normal_trace(u2));
+    layout.share(2, &mut trace);
+    trace
+}
+
 /// Form u¹_p and u²_p on their owners where the steps did not (condensed steps give only the
 /// Γc forces).
 fn form_fields(
@@ -172,9 +180,7 @@ fn form_fields(
                 .time(|| c.field(b2, &it.forces[1], &it.lambda, &it.active))?;
         }
     }
-    let mut trace = bodies[1].map_or(vec![0.0; it.lambda.len()], |b| b.normal_trace(&it.u[1]));
-    layout.share(2, &mut trace);
-    it.trace2 = trace;
+    it.trace2 = shared_trace2(layout, bodies[1], &it.u[1], it.lambda.len());
     Ok(())
 }
 

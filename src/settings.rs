@@ -461,10 +461,12 @@ impl Settings {
 
     /// Total number of dofs of both bodies.
     pub fn dofs(&self) -> usize {
-        self.grids
-            .iter()
-            .map(|(nx, ny)| 2 * (nx + 1) * (ny + 1))
-            .sum()
+        self.body_dofs().iter().sum()
+    }
+
+    /// Dofs of each body (they also size the rank groups).
+    pub fn body_dofs(&self) -> [usize; 2] {
+        self.grids.map(|(nx, ny)| 2 * (nx + 1) * (ny + 1))
     }
 }
 
