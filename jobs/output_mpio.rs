@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 
 use mpi::collective::SystemOperation;
 use mpi::traits::*;
-use nndd::output::{
+use nndd::io::output::{
     write_results, write_results_parallel, Center, Field, Grid, GridFields, Kind, OutputError,
     Results, Share, Step, Topology,
 };

@@ -1,30 +1,29 @@
 //! nndd: two-body frictionless contact by the Neumann–Neumann domain decomposition of
-//! Gallimard, Choi & Sassi (2013), with one home per concept:
-//! `mesh` (structured meshes), `fem` (P1 plane strain), `problem` (the benchmarks),
-//! `body` (a subdomain's PETSc systems), `contact` (the contact step QP), `dirichlet` (the Dirichlet step), `nndd` (the loop),
-//! `monolithic` (the global QP), `equilibrate` + `estimate` (the error estimates), `qp` + `dense` (Clarabel and dense algebra),
-//! `layout` (ranks and exchanges), `output` + `summary` (files), `app` (the run).
+//! Gallimard, Choi & Sassi (2013), with guaranteed error bounds.
+//!
+//! The layers, from the run down to the FFI; a layer uses only the layers below it
+//! (`tests/layers.rs` checks it):
+//!
+//! | layer | what lives there |
+//! | --- | --- |
+//! | [`app`] | the run: options → settings, and `run()` as the algorithm |
+//! | [`io`] | HDF5 + XDMF results, the JSON summary, the monitor |
+//! | [`estimate`] | η^glo, η^FE, η^NNDD: admissible traction, equilibrated stresses, reference |
+//! | [`dd`] | a body's systems, the Dirichlet, contact and Neumann steps, the NNDD loop, the monolithic check |
+//! | [`problem`] | what is solved: bodies, materials, boundary conditions, the contact interface |
+//! | [`parallel`] | rank groups and exchanges, METIS partitions |
+//! | [`qp`] | the contact QP (Clarabel) and dense algebra |
+//! | [`fem`] | meshes and P1 plane-strain elasticity |
+//! | [`petsc`] | the only FFI: safe wrappers of PETSc, `-log_view` stages |
 
 pub mod app;
-pub mod body;
-pub mod contact;
-pub mod dense;
-pub mod dirichlet;
-pub mod equilibrate;
+pub mod dd;
 pub mod estimate;
 pub mod fem;
-pub mod layout;
-pub mod log;
-pub mod mesh;
-pub mod monolithic;
-pub mod nndd;
-pub mod output;
-pub mod overlap;
-pub mod partition;
+pub mod io;
+pub mod parallel;
 pub mod petsc;
 pub mod problem;
 pub mod qp;
-pub mod settings;
-pub mod summary;
 #[cfg(test)]
 mod testutil;

@@ -3,8 +3,8 @@
 
 mod common;
 use common::*;
+use nndd::fem::mesh::Mesh;
 use nndd::fem::{assemble_stiffness, Material};
-use nndd::mesh::Mesh;
 
 #[test]
 fn h5_matches_json() {

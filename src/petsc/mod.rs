@@ -5,6 +5,7 @@
 //! as one line. Nothing outside this module calls FFI.
 
 mod ffi;
+pub mod log;
 
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_int};

@@ -48,7 +48,7 @@
 //! repeated a few times; if that still fails, Clarabel's point is returned
 //! with `polished = false`.
 
-use crate::dense::{DenseError, SymMatrix};
+use crate::qp::dense::{DenseError, SymMatrix};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus,
@@ -138,7 +138,7 @@ pub enum QpError {
     InvalidData(String),
     /// A dense factorisation failed. Not produced by the polish, which falls
     /// back to Clarabel's point instead; lets callers that also use
-    /// [`crate::dense`] propagate both kinds of error with `?`.
+    /// [`crate::qp::dense`] propagate both kinds of error with `?`.
     #[error(transparent)]
     Dense(#[from] DenseError),
 }

@@ -20,18 +20,21 @@
 //!
 //! Norms follow the paper: ‖σ‖²_{K⁻¹} = ∫ σ:K⁻¹:σ, ‖u‖²_E = ∫ Kε(u):ε(u) (no ½).
 
+pub mod equilibrate;
+pub mod overlap;
+
 use std::collections::HashMap;
 
-use crate::body::{Body, BodyError};
-use crate::dense::SymMatrix;
-use crate::equilibrate::{
+use crate::dd::body::{Body, BodyError};
+use crate::estimate::equilibrate::{
     equilibrate_restricted, equilibrate_with, vertex_colours, Boundary, BoundaryEdge,
     EdgeComponent, EquilibratedStress, EquilibrationError, Residuals, StarChoice,
 };
+use crate::estimate::overlap::Overlap;
+use crate::fem::mesh::Mesh;
 use crate::fem::{element_dofs, element_stiffness, element_stress};
-use crate::mesh::Mesh;
-use crate::overlap::Overlap;
 use crate::problem::{interface_mass, BodyProblem};
+use crate::qp::dense::SymMatrix;
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -508,7 +511,7 @@ pub struct EstimateRecord {
     /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (on the body's ranks, empty elsewhere).
     pub maps: [[Vec<f64>; 3]; 2],
     /// The iterate, with u^α_p gathered on rank 0 (for output), and t̂^c.
-    pub iterate: crate::nndd::Iterate,
+    pub iterate: crate::dd::nndd::Iterate,
     pub t_hat: Vec<f64>,
 }
 
@@ -518,7 +521,7 @@ pub struct Estimator<'a> {
     pub qp: QpSettings,
     pub recovery: StarChoice,
     pub nndd_variant: NnddVariant,
-    pub layout: &'a crate::layout::Layout,
+    pub layout: &'a crate::parallel::layout::Layout,
     pub reference: Option<Reference>,
     /// Per body, this rank's overlapping element set (built at the first estimate; `None`:
     /// the body is on one rank and the recovery runs on its whole mesh).
@@ -528,7 +531,7 @@ pub struct Estimator<'a> {
 /// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
 /// set, 0 where body 2 is off the obstacle (any μ̂ ≥ 0 is admissible; this one is exact at the
 /// discrete solution in both terms).
-fn nodal_contact_forces(it: &crate::nndd::Iterate) -> Vec<f64> {
+fn nodal_contact_forces(it: &crate::dd::nndd::Iterate) -> Vec<f64> {
     (0..it.lambda.len())
         .map(|i| {
             if it.active[i] {
@@ -548,7 +551,7 @@ impl Estimator<'_> {
         (part.size > 1).then(|| {
             let mesh = &body.problem.mesh;
             let colours = vertex_colours(mesh);
-            let count = crate::overlap::colour_count(&colours);
+            let count = crate::estimate::overlap::colour_count(&colours);
             let own: Vec<bool> = (0..mesh.triangles.len())
                 .map(|e| part.owns_element(e))
                 .collect();
@@ -568,7 +571,7 @@ impl Estimator<'_> {
     pub fn eta_nndd(
         &self,
         bodies: [Option<&Body>; 2],
-        it: &crate::nndd::Iterate,
+        it: &crate::dd::nndd::Iterate,
     ) -> Result<f64, EstimateError> {
         let mu_hat = nodal_contact_forces(it);
         let mut sum = 0.0;
@@ -598,7 +601,7 @@ impl Estimator<'_> {
     pub fn estimate(
         &self,
         bodies: [Option<&Body>; 2],
-        it: &crate::nndd::Iterate,
+        it: &crate::dd::nndd::Iterate,
     ) -> Result<EstimateRecord, EstimateError> {
         let layout = self.layout;
         // The admissible Γc tractions (the same small QPs on every rank).

@@ -70,8 +70,8 @@
 
 use std::collections::HashMap;
 
+use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
-use crate::mesh::Mesh;
 
 const NONE: usize = usize::MAX;
 /// Number of JM coefficients per element: 3 sub-triangles × 3 components × (1, ξ, η).
@@ -1988,7 +1988,7 @@ impl Relaxation<'_> {
             }
         }
         // Normalised patch Hessian Σ_E (h_E/h_p)² (S_E N)ᵀ Ĥ_E (S_E N).
-        let mut h = crate::dense::SymMatrix::new(d);
+        let mut h = crate::qp::dense::SymMatrix::new(d);
         for (row, &(e, _)) in elems.iter().enumerate() {
             let pts = self.mesh.triangle_points(e);
             let (_, he, q) = local_frame(&pts);
@@ -2061,7 +2061,7 @@ fn norm(a: &[f64]) -> f64 {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::dense::SymMatrix;
+    use crate::qp::dense::SymMatrix;
 
     pub(crate) const STEEL: Material = Material {
         young: 210e9,

@@ -3,44 +3,14 @@
 
 use std::path::PathBuf;
 
+use crate::dd::dirichlet::DirichletChoice;
+use crate::dd::nndd::{NnddSettings, StopRule};
+use crate::estimate::equilibrate::StarChoice;
+use crate::estimate::NnddVariant;
 use crate::fem::Material;
 use crate::petsc::{self, Comm, OptionsBlock};
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ProblemKind {
-    Paper,
-    Uniform,
-}
-
-impl ProblemKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            ProblemKind::Paper => "paper",
-            ProblemKind::Uniform => "uniform",
-        }
-    }
-}
-
-/// When the NNDD stops (besides divergence and -nndd_max_it).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StopRule {
-    /// ‖λ_{p+1} − λ_p‖ ≤ tol ‖λ_{p+1}‖ (method.md §2 step 6).
-    Tol,
-    /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE (the algebra no longer
-    /// matters next to the mesh).
-    Balanced,
-    /// Exactly -nndd_max_it iterations (studies at a fixed iteration count).
-    None,
-}
-
-/// How the Dirichlet step on Ω¹ is solved (see `dirichlet.rs`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DirichletChoice {
-    /// Condensed when the factorisation gives S¹ (MUMPS), else the Dirichlet system.
-    Auto,
-    System,
-    Condensed,
-}
+use crate::problem::{ProblemKind, ProblemSettings};
+use crate::qp::QpSettings;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SolverKind {
@@ -78,45 +48,32 @@ pub enum SettingsError {
     Petsc(#[from] petsc::PetscError),
 }
 
-/// All settings of a run, with the paper's defaults.
+/// All settings of a run, with the paper's defaults: each layer's own settings, and what the
+/// run itself decides (solver, estimates, output, ranks).
 #[derive(Clone, Debug)]
 pub struct Settings {
-    pub problem: ProblemKind,
-    /// Mesh level n: each body is an n × n grid unless overridden.
-    pub n: usize,
-    /// Per-body grids (nx, ny) for Ω¹ and Ω².
-    pub grids: [(usize, usize); 2],
-    pub material: Material,
-    /// Prescribed vertical displacement of the top of Ω² (m).
-    pub u_d: f64,
-    /// Maximum of the linear load on the right edge of Ω² (Pa).
-    pub f_max: f64,
+    pub problem: ProblemSettings,
     pub solver: SolverKind,
-    /// NNDD relaxation θ of the update λ ← λ + θ (w¹ − w²)·n.
-    pub theta: f64,
-    /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
-    pub tol: f64,
-    pub max_it: usize,
+    pub nndd: NnddSettings,
+    pub dirichlet_step: DirichletChoice,
+    /// Clarabel's tolerances for the contact QPs.
+    pub qp: QpSettings,
+    /// Try the previous contact set first in the contact step (certified, else Clarabel).
+    pub qp_warm_start: bool,
     /// Print one line per NNDD iteration.
     pub monitor: bool,
     /// Output prefix: PREFIX.h5, PREFIX.xdmf, PREFIX.json.
     pub output: PathBuf,
-    /// Clarabel's tolerances for the contact QPs.
-    pub qp_tol: f64,
-    /// Try the previous contact set first in the contact step (certified, else Clarabel).
-    pub qp_warm_start: bool,
-    pub dirichlet_step: DirichletChoice,
     /// Estimate the errors of the final iterate.
     pub estimate: bool,
     /// Also estimate every k-th iteration (0: never).
     pub estimate_every: usize,
     /// Reference mesh factor r of (26) (0: no reference solution).
     pub reference_factor: usize,
-    /// How the equilibrated stresses are recovered (see `equilibrate.rs`).
-    pub recovery: crate::equilibrate::StarChoice,
-    /// The reference problem of η^NNDD (see `estimate.rs`).
-    pub eta_nndd: crate::estimate::NnddVariant,
-    pub stop: StopRule,
+    /// How the equilibrated stresses are recovered (see `estimate::equilibrate`).
+    pub recovery: StarChoice,
+    /// The reference problem of η^NNDD (see `estimate`).
+    pub eta_nndd: NnddVariant,
     /// κ of the balanced stopping rule.
     pub stop_ratio: f64,
     /// Ranks of body 1's group (0: by the bodies' dof counts); checked against the world
@@ -362,12 +319,12 @@ impl Settings {
         }
         let (variant, _) = o.string(
             "-nndd_eta_nndd",
-            "eta_NNDD against: discrete (the discrete problem, nodal contact forces) or density (method.md 3.3 as written)",
+            "eta_NNDD against: discrete (the discrete problem, nodal contact forces) or density (docs/method.md 3.3 as written)",
             "discrete",
         )?;
         let eta_nndd = match variant.as_str() {
-            "discrete" => crate::estimate::NnddVariant::Discrete,
-            "density" => crate::estimate::NnddVariant::Density,
+            "discrete" => NnddVariant::Discrete,
+            "density" => NnddVariant::Density,
             _ => {
                 return Err(SettingsError::UnknownValue {
                     option: "-nndd_eta_nndd",
@@ -388,7 +345,6 @@ impl Settings {
                 value: body1_ranks.to_string(),
             });
         }
-        use crate::equilibrate::StarChoice;
         let recovery = match recovery.as_str() {
             "patch" => StarChoice::PatchRelaxation {
                 sweeps: sweeps as usize,
@@ -405,21 +361,29 @@ impl Settings {
         };
         o.end()?;
         Ok(Settings {
-            problem,
-            n,
-            grids,
-            material: Material { young, poisson },
-            u_d,
-            f_max,
+            problem: ProblemSettings {
+                kind: problem,
+                n,
+                grids,
+                material: Material { young, poisson },
+                u_d,
+                f_max,
+            },
             solver,
-            theta,
-            tol,
-            max_it,
+            nndd: NnddSettings {
+                theta,
+                tol,
+                max_it,
+                stop,
+            },
+            dirichlet_step,
+            qp: QpSettings {
+                tol: qp_tol,
+                ..QpSettings::default()
+            },
+            qp_warm_start,
             monitor,
             output: PathBuf::from(output),
-            qp_tol,
-            qp_warm_start,
-            dirichlet_step,
             // A reference solution is only of use with an estimate to compare; balanced
             // stopping estimates every iteration unless told otherwise.
             estimate: estimate_flag || every > 0 || reference > 0 || stop == StopRule::Balanced,
@@ -431,42 +395,23 @@ impl Settings {
             reference_factor: reference as usize,
             recovery,
             eta_nndd,
-            stop,
             stop_ratio,
             body1_ranks: body1_ranks as usize,
         })
-    }
-
-    /// (nx, ny) of body `alpha` (1 or 2).
-    pub fn body_grid(&self, alpha: usize) -> (usize, usize) {
-        self.grids[alpha - 1]
     }
 
     /// The same problem on the nested mesh refined `r` times, solved to tol 1e−8 without
     /// output, monitor or estimates (the reference of (26)).
     pub fn refined(&self, r: usize) -> Settings {
         let mut s = self.clone();
-        s.n *= r;
-        for g in s.grids.iter_mut() {
-            *g = (g.0 * r, g.1 * r);
-        }
-        s.tol = 1e-8;
+        s.problem = self.problem.refined(r);
+        s.nndd.tol = 1e-8;
+        s.nndd.stop = StopRule::Tol;
         s.monitor = false;
         s.estimate = false;
         s.estimate_every = 0;
         s.reference_factor = 0;
-        s.stop = StopRule::Tol;
         s
-    }
-
-    /// Total number of dofs of both bodies.
-    pub fn dofs(&self) -> usize {
-        self.body_dofs().iter().sum()
-    }
-
-    /// Dofs of each body (they also size the rank groups).
-    pub fn body_dofs(&self) -> [usize; 2] {
-        self.grids.map(|(nx, ny)| 2 * (nx + 1) * (ny + 1))
     }
 }
 

@@ -363,6 +363,14 @@ impl Field {
     }
 }
 
+/// `PREFIX` + `.ext` (a prefix may contain dots: never replace an extension).
+pub fn with_ext(prefix: &Path, ext: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    s.into()
+}
+
 /// Check early (before any solve) that PREFIX's directory exists or can be
 /// created and that files can be written there: create and remove a probe
 /// file. The error names the option `-nndd_output` and the path.

@@ -8,9 +8,9 @@
 //!   minimise ½ μᵀ(D¹ + D²)μ + μᵀ(v²* − v¹*)  subject to μ ≥ 0
 //! (KKT: g ≥ 0, μ ≥ 0, μᵀg = 0), solved by Clarabel on world rank 0 and polished.
 
-use crate::body::{Body, BodyError};
-use crate::dense::SymMatrix;
-use crate::layout::Layout;
+use crate::dd::body::{Body, BodyError};
+use crate::parallel::layout::Layout;
+use crate::qp::dense::SymMatrix;
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -22,7 +22,7 @@ pub enum MonolithicError {
     #[error("monolithic: Delassus operator of body {alpha}: {source}")]
     Dense {
         alpha: usize,
-        source: crate::dense::DenseError,
+        source: crate::qp::dense::DenseError,
     },
 }
 

@@ -10,7 +10,7 @@
 
 use std::ops::Range;
 
-use crate::mesh::Mesh;
+use crate::fem::mesh::Mesh;
 use crate::petsc::Int;
 
 #[derive(Debug, thiserror::Error)]

@@ -18,8 +18,8 @@
 //! certify it optimal, which makes later contact steps O(m²) instead of an interior-point
 //! solve. The history records Clarabel's iterations per step (0: certified warm start).
 
-use crate::body::{Body, BodyError};
-use crate::dense::SymMatrix;
+use crate::dd::body::{Body, BodyError};
+use crate::qp::dense::SymMatrix;
 use crate::qp::{solve_nonneg_qp, solve_with_active_set, QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]

@@ -1,6 +1,6 @@
 //! P1 plane-strain finite elements: element matrices, stresses, loads and CSR assembly.
 
-use crate::mesh::Mesh;
+use crate::fem::mesh::Mesh;
 
 /// Isotropic linear elasticity in plane strain.
 #[derive(Clone, Copy, Debug, PartialEq)]

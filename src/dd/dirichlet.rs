@@ -10,7 +10,16 @@
 //!   u¹_p = u¹₀ + K⁻¹BᵀT¹_p (one back-solve, only when the field is wanted). This saves the
 //!   second factorisation and a back-solve per iteration.
 
-use crate::body::{Body, BodyError};
+use crate::dd::body::{Body, BodyError};
+
+/// How the Dirichlet step on Ω¹ is solved (`-nndd_dirichlet_step`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirichletChoice {
+    /// Condensed when the factorisation gives S¹ (MUMPS), else the Dirichlet system.
+    Auto,
+    System,
+    Condensed,
+}
 
 pub enum DirichletStep {
     System,

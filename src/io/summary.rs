@@ -2,7 +2,7 @@
 
 use serde::Serialize;
 
-use crate::nndd::IterationRecord;
+use crate::dd::nndd::IterationRecord;
 
 /// Seconds per phase (maximum over ranks).
 #[derive(Clone, Debug, Default, Serialize)]

@@ -4,12 +4,12 @@
 //! two ranks), the equilibrium defect R_p = T¹_p + T²_p, the two Neumann steps, and the update
 //! λ_{p+1} = λ_p + θ (w¹ − w²)·n.
 
-use crate::body::{Body, BodyError};
-use crate::contact::{ContactError, ContactStep};
-use crate::dirichlet::DirichletStep;
-use crate::layout::Layout;
-use crate::log::{Stages, Timer};
-use crate::settings::{Settings, StopRule};
+use crate::dd::body::{Body, BodyError};
+use crate::dd::contact::{ContactError, ContactStep};
+use crate::dd::dirichlet::DirichletStep;
+use crate::dd::neumann::neumann_step;
+use crate::parallel::layout::Layout;
+use crate::petsc::log::{Stages, Timer};
 
 #[derive(Debug, thiserror::Error)]
 pub enum NnddError {
@@ -17,8 +17,41 @@ pub enum NnddError {
     Body(#[from] BodyError),
     #[error(transparent)]
     Contact(#[from] ContactError),
-    #[error(transparent)]
-    Estimate(#[from] crate::estimate::EstimateError),
+}
+
+/// When the NNDD stops (besides divergence and the iteration limit).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopRule {
+    /// ‖λ_{p+1} − λ_p‖ ≤ tol ‖λ_{p+1}‖ (method.md §2 step 6).
+    Tol,
+    /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE (the algebra no longer
+    /// matters next to the mesh): the observer of [`solve`] says when.
+    Balanced,
+    /// Exactly `max_it` iterations (studies at a fixed iteration count).
+    None,
+}
+
+/// The settings of the NNDD loop (plain data).
+#[derive(Clone, Debug)]
+pub struct NnddSettings {
+    /// Relaxation θ of the update λ ← λ + θ (w¹ − w²)·n.
+    pub theta: f64,
+    /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
+    pub tol: f64,
+    pub max_it: usize,
+    pub stop: StopRule,
+}
+
+impl Default for NnddSettings {
+    /// The paper's θ = 0.25 and tol 1e−8.
+    fn default() -> Self {
+        NnddSettings {
+            theta: 0.25,
+            tol: 1e-8,
+            max_it: 1000,
+            stop: StopRule::Tol,
+        }
+    }
 }
 
 /// How an NNDD run ended.
@@ -133,14 +166,6 @@ pub struct NnddResult {
     pub timers: LoopTimers,
 }
 
-/// Step 4 on body α: the normal trace of w^α, K^α w^α = ±½ R_p on Γc (homogeneous data).
-pub fn neumann_step(body: &Body, residual: &[f64]) -> Result<Vec<f64>, BodyError> {
-    // Body 1 receives −½R, body 2 +½R (method.md §2 step 4).
-    let sign = if body.alpha() == 1 { -0.5 } else { 0.5 };
-    let load: Vec<f64> = residual.iter().map(|r| sign * r).collect();
-    body.neumann_trace(&load, false)
-}
-
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -184,23 +209,24 @@ fn form_fields(
     Ok(())
 }
 
-/// Run the NNDD loop. `bodies[α-1]` is `Some` on the ranks owning body α, with `dirichlet`
-/// on body 1's and `contact` on body 2's. Every `estimate_every` iterations (if set), the
-/// fields of step p are formed and `observe` is called with the iterate (collectively); it
-/// returns whether the balanced stopping criterion holds there.
+/// Run the NNDD loop on `m` Γc node pairs. `bodies[α-1]` is `Some` on the ranks owning body
+/// α, with `dirichlet` on body 1's and `contact` on body 2's. Every `estimate_every`
+/// iterations (if set), the fields of step p are formed and `observe` is called with the
+/// iterate (collectively); it returns whether the balanced stopping criterion holds there.
+/// Its errors (of type `E`, which the loop's own errors convert into) end the loop.
 #[allow(clippy::too_many_arguments)]
-pub fn solve(
-    settings: &Settings,
+pub fn solve<E: From<NnddError>>(
+    settings: &NnddSettings,
+    m: usize,
     layout: &Layout,
     bodies: [Option<&Body>; 2],
     dirichlet: Option<&DirichletStep>,
     contact: Option<&ContactStep>,
     stages: &Stages,
     estimate_every: Option<usize>,
-    mut observe: impl FnMut(&Iterate) -> Result<bool, NnddError>,
+    mut observe: impl FnMut(&Iterate) -> Result<bool, E>,
     mut monitor: impl FnMut(&IterationRecord),
-) -> Result<NnddResult, NnddError> {
-    let m = settings.body_grid(1).0 + 1;
+) -> Result<NnddResult, E> {
     let mut lambda = vec![0.0; m];
     let mut history = Vec::new();
     let mut timers = LoopTimers::default();
@@ -215,7 +241,10 @@ pub fn solve(
         let mut u1 = Vec::new();
         if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
             let _s = stages.dirichlet_step.enter();
-            let (u, t) = timers.dirichlet_step.time(|| d.solve(b1, &lambda))?;
+            let (u, t) = timers
+                .dirichlet_step
+                .time(|| d.solve(b1, &lambda))
+                .map_err(NnddError::from)?;
             u1 = u.unwrap_or_default();
             t1 = t;
         }
@@ -224,7 +253,10 @@ pub fn solve(
         // The contact QP lives on Γc: body 2's root solves it, the broadcast below shares it.
         if let (Some(b2), Some(c)) = (bodies[1].filter(|b| b.is_root()), contact) {
             let _s = stages.contact_step.enter();
-            let sol = timers.contact_step.time(|| c.solve(b2, &lambda))?;
+            let sol = timers
+                .contact_step
+                .time(|| c.solve(b2, &lambda))
+                .map_err(NnddError::from)?;
             t2 = sol.forces;
             act = sol.active.iter().map(|&a| a as u8 as f64).collect();
             act.push(sol.kkt_residual);
@@ -243,10 +275,16 @@ pub fn solve(
         {
             let _s = stages.neumann_step.enter();
             if let Some(b1) = bodies[0] {
-                w1 = timers.neumann_step.time(|| neumann_step(b1, &r))?;
+                w1 = timers
+                    .neumann_step
+                    .time(|| neumann_step(b1, &r))
+                    .map_err(NnddError::from)?;
             }
             if let Some(b2) = bodies[1] {
-                w2 = timers.neumann_step.time(|| neumann_step(b2, &r))?;
+                w2 = timers
+                    .neumann_step
+                    .time(|| neumann_step(b2, &r))
+                    .map_err(NnddError::from)?;
             }
         }
         timers.exchange.time(|| {

@@ -5,8 +5,8 @@
 
 use std::collections::HashSet;
 
-use crate::equilibrate::{sweep_key, Boundary, BoundaryEdge, Restriction, StarChoice};
-use crate::mesh::Mesh;
+use crate::estimate::equilibrate::{sweep_key, Boundary, BoundaryEdge, Restriction, StarChoice};
+use crate::fem::mesh::Mesh;
 
 const NONE: usize = usize::MAX;
 
@@ -198,8 +198,8 @@ impl Overlap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::equilibrate::tests::{block_rect, fe_solve, STEEL};
-    use crate::equilibrate::{
+    use crate::estimate::equilibrate::tests::{block_rect, fe_solve, STEEL};
+    use crate::estimate::equilibrate::{
         equilibrate_restricted, equilibrate_with, vertex_colours, EquilibratedStress,
         EquilibrationError,
     };
@@ -419,7 +419,7 @@ mod tests {
             assert_eq!(ov.mesh.points[k], mesh.points[g]);
             assert_eq!(
                 ov.vertex_key[k],
-                crate::equilibrate::sweep_key(colours[g], g)
+                crate::estimate::equilibrate::sweep_key(colours[g], g)
             );
         }
         let u: Vec<f64> = (0..mesh.num_dofs()).map(|d| d as f64).collect();

@@ -21,11 +21,11 @@
 
 use std::cell::RefCell;
 
-use crate::dense::{DenseError, SymMatrix};
 use crate::fem::{element_dofs, element_stiffness};
-use crate::partition::Partition;
+use crate::parallel::partition::Partition;
 use crate::petsc::{self, Comm, Gather, Ksp, Matrix, Vector};
 use crate::problem::BodyProblem;
+use crate::qp::dense::{DenseError, SymMatrix};
 
 #[derive(Debug, thiserror::Error)]
 pub enum BodyError {
@@ -100,7 +100,7 @@ impl Body {
         comm: Comm,
         partition: Partition,
         schur: SchurMode,
-        stages: &crate::log::Stages,
+        stages: &crate::petsc::log::Stages,
     ) -> Result<Body, BodyError> {
         let alpha = problem.alpha;
         let t0 = std::time::Instant::now();
@@ -163,7 +163,10 @@ impl Body {
     }
 
     /// Assemble and factor the Dirichlet system (Γ_D and the Γc normal dofs prescribed).
-    pub fn add_dirichlet_system(&mut self, stages: &crate::log::Stages) -> Result<(), BodyError> {
+    pub fn add_dirichlet_system(
+        &mut self,
+        stages: &crate::petsc::log::Stages,
+    ) -> Result<(), BodyError> {
         let t0 = std::time::Instant::now();
         let m = {
             let _s = stages.assembly.enter();

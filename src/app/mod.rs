@@ -1,0 +1,282 @@
+//! Layer `app`: the run. [`options`] reads every `-nndd_` option into the plain settings of
+//! each layer; [`run`] reads as the algorithm (deal.II step-42's `run()`): settings, setup
+//! (mesh, assembly, factorisation), the estimator, the solve (NNDD or monolithic) with its
+//! estimates ([`solve`]), post-processing and output ([`report`]).
+//!
+//! May use: every layer below (`io`, `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`,
+//! `petsc`).
+
+pub mod options;
+mod report;
+mod solve;
+
+use std::time::Instant;
+
+use mpi::topology::SimpleCommunicator;
+
+use crate::dd::body::BodyError;
+use crate::dd::contact::ContactError;
+use crate::dd::monolithic::MonolithicError;
+use crate::dd::nndd::NnddError;
+use crate::estimate::equilibrate::StarChoice;
+use crate::estimate::{EstimateError, Estimator, Interface};
+use crate::io::fields;
+use crate::io::output::{self, OutputError, Results};
+use crate::io::summary::Timings;
+use crate::parallel::layout::{Layout, LayoutError};
+use crate::parallel::partition::PartitionError;
+use crate::petsc::log::Stages;
+use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
+use crate::problem;
+use options::{Settings, SettingsError, SolverKind};
+use solve::Solution;
+
+/// Printed by `-help` before the option list.
+pub const HELP: &str =
+    "nndd: two-body frictionless contact in 2D plane-strain elasticity, solved by the\n\
+Neumann-Neumann domain decomposition of Gallimard, Choi & Sassi (2013), with guaranteed\n\
+error bounds (eta_glo) split into discretisation (eta_FE) and algebraic (eta_NNDD) parts.\n\
+Usage: mpirun -n 2 nndd -options_file petsc-options/paper.opts [-nndd_monitor] [-log_view]\n\
+Subdomain solvers take the prefixes body1_ and body2_ (default: MUMPS Cholesky).\n\n";
+
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    #[error(transparent)]
+    Layout(#[from] LayoutError),
+    #[error(transparent)]
+    Partition(#[from] PartitionError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    #[error(transparent)]
+    Petsc(#[from] PetscError),
+    #[error(transparent)]
+    Body(#[from] BodyError),
+    #[error(transparent)]
+    Contact(#[from] ContactError),
+    #[error(transparent)]
+    Nndd(#[from] NnddError),
+    #[error(transparent)]
+    Monolithic(#[from] MonolithicError),
+    #[error(transparent)]
+    Estimate(#[from] EstimateError),
+    #[error("{0}")]
+    Json(String),
+    /// The error was detected and reported by rank 0; this rank only exits.
+    #[error("(reported by rank 0)")]
+    ReportedElsewhere,
+}
+
+impl AppError {
+    /// Errors every rank detects alike (bad input): only rank 0 prints them.
+    pub fn is_collective(&self) -> bool {
+        matches!(
+            self,
+            AppError::Settings(_)
+                | AppError::Layout(_)
+                | AppError::ReportedElsewhere
+                | AppError::Output(_)
+        )
+    }
+}
+
+/// How the run ended, for the process exit code.
+pub enum Outcome {
+    /// Solved (exit 0).
+    Solved,
+    /// The NNDD did not converge; results were written (exit 3).
+    NotConverged,
+    /// Only `-help` was asked (exit 0).
+    Help,
+}
+
+pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
+    let t_start = Instant::now();
+    // Settings: every -nndd_ option, validated.
+    let settings = Settings::from_options(Petsc::comm_world())?;
+    if petsc::option_present("-help") {
+        list_solver_options()?;
+        return Ok(Outcome::Help);
+    }
+    let layout = Layout::new(world, settings.body1_ranks, settings.problem.body_dofs())?;
+    check_recovery(&settings, &layout)?;
+    check_output(&settings, &layout)?;
+    let stages = Stages::register()?;
+    Petsc::track_memory()?;
+    let mut timings = Timings::default();
+
+    // Setup: each rank's bodies (mesh, partition, assembly, factorisation).
+    let bodies = solve::setup_bodies(&settings, &layout, &stages, &mut timings)?;
+    let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
+    if settings.monitor && layout.is_root() {
+        println!(
+            "nndd: {} n = {}, {} dofs, {} rank(s): setup {:.3} s",
+            settings.problem.kind.name(),
+            settings.problem.n,
+            settings.problem.dofs(),
+            layout.size,
+            t_start.elapsed().as_secs_f64()
+        );
+    }
+
+    // Estimate: the estimator (with the reference solution of (26) when asked), used by the
+    // solve at the estimated iterations and on the reported iterate.
+    let reference = match settings.reference_factor {
+        0 => None,
+        r => Some(solve::solve_reference(
+            &settings,
+            &layout,
+            &stages,
+            r,
+            &mut timings,
+        )?),
+    };
+    let estimator = settings.estimate.then(|| Estimator {
+        iface: Interface::new(problem::body(&settings.problem, 1).contact_x()),
+        qp: settings.qp.clone(),
+        recovery: settings.recovery,
+        nndd_variant: settings.eta_nndd,
+        layout: &layout,
+        reference,
+        overlaps: Default::default(),
+    });
+
+    // Solve: the NNDD (paper §3) or the monolithic check.
+    let sol = match settings.solver {
+        SolverKind::Nndd => solve::solve_nndd(
+            &settings,
+            &layout,
+            refs,
+            estimator.as_ref(),
+            &stages,
+            &mut timings,
+        )?,
+        SolverKind::Monolithic => solve::solve_monolithic(
+            &settings,
+            &layout,
+            refs,
+            estimator.as_ref(),
+            &stages,
+            &mut timings,
+        )?,
+    };
+
+    // Post-processing: energy, Schur source, timings and memory over ranks.
+    let energy = {
+        let mut e = 0.0;
+        for (k, b) in refs.iter().enumerate() {
+            if let Some(b) = b {
+                let energy = b.potential_energy(&sol.last.u[k])?;
+                if b.is_root() {
+                    e += energy; // every rank of the group has it: count it once
+                }
+            }
+        }
+        layout.sum(e)
+    };
+    let schur_source = solve::schur_source(&layout, refs);
+    let reference_iterations = estimator
+        .as_ref()
+        .and_then(|e| e.reference.as_ref())
+        .map(|r| r.iterations);
+    drop(estimator);
+    report::max_over_ranks(&layout, &mut timings);
+    let peaks = report::peak_memory_per_rank(&layout);
+    drop(bodies);
+
+    // Output: PREFIX.h5 + PREFIX.xdmf (collective), PREFIX.json (rank 0).
+    let t_out = Instant::now();
+    let results = {
+        let _s = stages.output.enter();
+        let results = results_of(&settings, &sol, [layout.owns(1), layout.owns(2)]);
+        let shares = fields::shares(&layout, &results);
+        output::write_results_parallel(&layout.world, &settings.output, &results, &shares)?;
+        results
+    };
+    timings.output = layout.max(t_out.elapsed().as_secs_f64());
+    timings.total = t_start.elapsed().as_secs_f64();
+    if layout.is_root() {
+        let summary = report::summarise(
+            &settings,
+            &layout,
+            &sol,
+            energy,
+            schur_source,
+            reference_iterations,
+            &results,
+            timings.clone(),
+            &peaks,
+        );
+        let json =
+            serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
+        output::write_atomic(&output::with_ext(&settings.output, "json"), json.as_bytes())?;
+        report::report(&settings, &summary, &sol);
+    }
+    Ok(if sol.requested {
+        Outcome::Solved
+    } else {
+        Outcome::NotConverged
+    })
+}
+
+/// The result files' content: one step per estimated iteration, or the reported iterate.
+fn results_of(settings: &Settings, sol: &Solution, have: [bool; 2]) -> Results {
+    let problems = [1, 2].map(|alpha| problem::body(&settings.problem, alpha));
+    let steps: Vec<_> = if sol.estimates.is_empty() {
+        vec![(&sol.last, None)]
+    } else {
+        sol.estimates
+            .iter()
+            .map(|e| (&e.iterate, Some(e)))
+            .collect()
+    };
+    let attributes = vec![
+        ("n".into(), settings.problem.n as f64),
+        ("dofs".into(), settings.problem.dofs() as f64),
+        ("iterations".into(), sol.iterations as f64),
+    ];
+    fields::results(&problems, &steps, have, attributes)
+}
+
+/// The `star` recovery solves one global problem per body: exact only with the body on one
+/// rank (the others are local and computed on overlapping element sets, see `overlap.rs`).
+fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
+    let spread = layout.group_sizes.iter().any(|&n| n > 1);
+    if spread && matches!(settings.recovery, StarChoice::MinimumEnergy { .. }) && settings.estimate
+    {
+        return Err(LayoutError::GlobalRecovery {
+            ranks: layout.group_sizes,
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// Fail before any work when the output cannot be written (rank 0 checks, all agree).
+fn check_output(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
+    let checked = if layout.is_root() {
+        output::check_writable(&settings.output)
+    } else {
+        Ok(())
+    };
+    if !layout.agree(checked.is_ok()) {
+        checked?;
+        return Err(AppError::ReportedElsewhere);
+    }
+    Ok(())
+}
+
+/// With `-help`: let both bodies' KSPs register their options (on a tiny matrix), so that
+/// `-help` lists `-body1_ksp_type`, `-body2_pc_type`, ….
+fn list_solver_options() -> Result<(), PetscError> {
+    for prefix in ["body1_", "body2_"] {
+        let mut a = Matrix::preallocated(Petsc::comm_self(), 2, &[1, 1], &[0, 0])?;
+        for i in 0..2 {
+            a.add_values(&[i], &[i], &[1.0])?;
+        }
+        a.assemble()?;
+        let _ksp = Ksp::new(Petsc::comm_self(), a, prefix, None)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,192 @@
+//! What a run reports: the JSON summary's content, the closing lines on rank 0, the timings
+//! and memory over ranks.
+
+use super::options::Settings;
+use super::solve::Solution;
+use crate::dd::nndd::{Iterate, IterationRecord};
+use crate::estimate::EstimateRecord;
+use crate::io::monitor::{self, sci};
+use crate::io::output::Results;
+use crate::io::summary::{EquilibriumResiduals, Summary, Timings};
+use crate::io::{fields, output};
+use crate::parallel::layout::Layout;
+use crate::petsc::Petsc;
+use crate::problem::{self, BodyProblem};
+
+#[allow(clippy::too_many_arguments)]
+pub fn summarise(
+    settings: &Settings,
+    layout: &Layout,
+    sol: &Solution,
+    energy: f64,
+    schur_source: &str,
+    reference_iterations: Option<usize>,
+    results: &Results,
+    timings: Timings,
+    peaks: &[f64],
+) -> Summary {
+    let contact = contact_of(&problem::body(&settings.problem, 1), &sol.last);
+    let residuals = (!sol.estimates.is_empty()).then(|| {
+        let mut r = EquilibriumResiduals::default();
+        for e in &sol.estimates {
+            let x = &e.residuals;
+            r.divergence = r.divergence.max(x.divergence);
+            r.internal_jump = r.internal_jump.max(x.internal_jump);
+            r.element_jump = r.element_jump.max(x.element_jump);
+            r.boundary = r.boundary.max(x.boundary);
+            r.point_reaction = r.point_reaction.max(x.point_reaction);
+        }
+        r
+    });
+    Summary {
+        problem: settings.problem.kind.name().into(),
+        n: settings.problem.n,
+        grids: [0, 1].map(|k| [settings.problem.grids[k].0, settings.problem.grids[k].1]),
+        dofs: settings.problem.dofs(),
+        ranks: layout.size,
+        solver: settings.solver.name().into(),
+        theta: settings.nndd.theta,
+        tol: settings.nndd.tol,
+        max_it: settings.nndd.max_it,
+        young: settings.problem.material.young,
+        poisson: settings.problem.material.poisson,
+        u_d: settings.problem.u_d,
+        f_max: settings.problem.f_max,
+        converged: sol.converged,
+        status: sol.status.clone(),
+        stop_reason: sol.stop_reason.into(),
+        iterations: sol.iterations,
+        history: sol.history.clone(),
+        potential_energy: energy,
+        contact_force: contact.force,
+        contact_zone: contact.zone,
+        active_nodes: contact.active,
+        contact_nodes: contact.nodes,
+        schur_source: schur_source.into(),
+        dirichlet_step: sol.dirichlet_step.into(),
+        qp_kkt_residual: sol.last.qp_kkt,
+        estimates: sol.estimates.iter().map(summary_estimate).collect(),
+        equilibrium_residuals: residuals,
+        reference_factor: (settings.reference_factor > 0).then_some(settings.reference_factor),
+        reference_iterations,
+        timings,
+        peak_memory_mib: peaks.iter().cloned().fold(0.0, f64::max),
+        peak_memory_mib_per_rank: peaks.to_vec(),
+        body_ranks: layout.group_sizes,
+        h5: output::with_ext(&settings.output, "h5")
+            .display()
+            .to_string(),
+        xdmf: output::with_ext(&settings.output, "xdmf")
+            .display()
+            .to_string(),
+        fields: fields::describe(results),
+    }
+}
+
+fn summary_estimate(e: &EstimateRecord) -> IterationRecord {
+    IterationRecord {
+        iteration: e.iteration,
+        eta_glo: Some(e.eta_glo),
+        eta_fe: Some(e.eta_fe),
+        eta_nndd: Some(e.eta_nndd),
+        eta_ratio: Some(e.eta_ratio),
+        e_ref: e.e_ref,
+        effectivity: e.effectivity,
+        ..Default::default()
+    }
+}
+
+/// The closing line (and the warning of a run that did not converge), on rank 0.
+pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
+    println!(
+        "nndd: {} n = {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {} J/m, contact force {} N/m, zone {}; {:.2} s; wrote {}.{{h5,xdmf,json}}",
+        summary.problem,
+        summary.n,
+        summary.dofs,
+        summary.ranks,
+        summary.solver,
+        summary.status,
+        summary.iterations,
+        sci(summary.potential_energy, 10),
+        sci(summary.contact_force, 6),
+        summary.contact_zone.map_or("none".to_string(), |z| format!("[{:.4}, {:.4}]", z[0], z[1])),
+        summary.timings.total,
+        settings.output.display()
+    );
+    if let Some(e) = sol.estimates.last() {
+        println!(
+            "nndd: estimates at iteration {}: {}",
+            e.iteration,
+            monitor::estimate_text(e).trim_start()
+        );
+    }
+    if !sol.requested {
+        let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
+        eprintln!(
+            "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); try a smaller -nndd_theta (now {})",
+            match sol.status.as_str() {
+                "diverged" => "diverged",
+                "stagnated" => "stagnated",
+                _ => "reached -nndd_max_it",
+            },
+            sol.iterations,
+            sci(last, 3),
+            sci(settings.nndd.tol, 1),
+            settings.nndd.theta
+        );
+    }
+}
+
+/// Peak memory of every rank (MiB), on every rank.
+pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
+    use mpi::traits::*;
+    let mine = Petsc::peak_memory() / (1024.0 * 1024.0);
+    let mut all = vec![0.0; layout.size as usize];
+    layout.world.all_gather_into(&mine, &mut all[..]);
+    all
+}
+
+/// Each phase's time: the maximum over ranks.
+pub fn max_over_ranks(layout: &Layout, t: &mut Timings) {
+    for x in [
+        &mut t.assembly,
+        &mut t.factorisation,
+        &mut t.dirichlet_step,
+        &mut t.contact_step,
+        &mut t.neumann_step,
+        &mut t.exchange,
+        &mut t.monolithic,
+        &mut t.estimation,
+        &mut t.reference,
+    ] {
+        *x = layout.max(*x);
+    }
+}
+
+/// The quantities of the summary that come from the reported iterate.
+struct Contact {
+    force: f64,
+    zone: Option<[f64; 2]>,
+    active: usize,
+    nodes: usize,
+}
+
+fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
+    let x = p1.contact_x();
+    let xs: Vec<f64> = (0..x.len())
+        .filter(|&i| last.active[i])
+        .map(|i| x[i])
+        .collect();
+    let zone = (!xs.is_empty()).then(|| {
+        [
+            xs.iter().cloned().fold(f64::INFINITY, f64::min),
+            xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        ]
+    });
+    Contact {
+        force: last.forces[1].iter().sum(),
+        zone,
+        active: xs.len(),
+        nodes: x.len(),
+    }
+}

@@ -1,0 +1,295 @@
+//! The solve and its estimates: the bodies' setup, the NNDD loop (estimating where asked,
+//! and the balanced stopping rule) or the monolithic check, and the reference solution of (26).
+
+use std::cell::RefCell;
+use std::time::Instant;
+
+use super::options::{Settings, SolverKind};
+use super::AppError;
+use crate::dd::body::{Body, SchurMode};
+use crate::dd::contact::ContactStep;
+use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
+use crate::dd::monolithic;
+use crate::dd::nndd::{self, Iterate, IterationRecord, Status, StopRule};
+use crate::estimate::{EstimateRecord, Estimator, NnddVariant, Reference};
+use crate::io::monitor;
+use crate::io::summary::Timings;
+use crate::parallel::layout::Layout;
+use crate::parallel::partition::Partition;
+use crate::petsc::log::Stages;
+use crate::problem;
+
+/// What a solver hands to post-processing.
+pub struct Solution {
+    pub status: String,
+    pub stop_reason: &'static str,
+    pub converged: bool,
+    /// The run ended as asked (converged, balanced, or the fixed iteration count).
+    pub requested: bool,
+    pub iterations: usize,
+    pub history: Vec<IterationRecord>,
+    /// The reported iterate (λ = u¹_n, T¹, T², contact set, fields on their owners).
+    pub last: Iterate,
+    /// The estimates, in iteration order (the last one is of `last` when estimating).
+    pub estimates: Vec<EstimateRecord>,
+    pub dirichlet_step: &'static str,
+}
+
+/// Meshes, assembly and factorisation of the bodies this rank owns.
+pub fn setup_bodies(
+    settings: &Settings,
+    layout: &Layout,
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<[Option<Body>; 2], AppError> {
+    let nndd_run = settings.solver == SolverKind::Nndd;
+    let mut bodies: [Option<Body>; 2] = [None, None];
+    for alpha in [1, 2] {
+        if !layout.owns(alpha) {
+            continue;
+        }
+        let schur = match (settings.solver, alpha, settings.dirichlet_step) {
+            (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
+            (_, _, DirichletChoice::Auto) => SchurMode::IfFactored,
+            (_, _, DirichletChoice::Condensed) => SchurMode::Always,
+            (_, _, DirichletChoice::System) => SchurMode::None,
+        };
+        let problem = problem::body(&settings.problem, alpha);
+        let partition = Partition::new(
+            &problem.mesh,
+            alpha,
+            layout.group_rank(),
+            layout.group_sizes[alpha - 1],
+        )?;
+        let mut body = Body::setup(problem, layout.body_comm(), partition, schur, stages)?;
+        if nndd_run && alpha == 1 && body.schur.is_none() {
+            body.add_dirichlet_system(stages)?;
+        }
+        timings.assembly += body.setup_seconds.0;
+        timings.factorisation += body.setup_seconds.1;
+        bodies[alpha - 1] = Some(body);
+    }
+    Ok(bodies)
+}
+
+/// The reference solution of (26): the nested mesh r·n, NNDD to tol 1e−8.
+pub fn solve_reference(
+    settings: &Settings,
+    layout: &Layout,
+    stages: &Stages,
+    r: usize,
+    timings: &mut Timings,
+) -> Result<Reference, AppError> {
+    let t = Instant::now();
+    let fine = settings.refined(r);
+    let mut scratch = Timings::default();
+    let bodies = setup_bodies(&fine, layout, stages, &mut scratch)?;
+    let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
+    let sol = {
+        let _s = stages.reference.enter();
+        solve_nndd(&fine, layout, refs, None, stages, &mut scratch)?
+    };
+    timings.reference = t.elapsed().as_secs_f64();
+    if layout.is_root() && settings.monitor {
+        println!(
+            "nndd: reference solution on mesh {} ({} dofs): {} after {} iterations, {:.2} s",
+            fine.problem.n,
+            fine.problem.dofs(),
+            sol.status,
+            sol.iterations,
+            timings.reference
+        );
+    }
+    Ok(Reference {
+        factor: r,
+        u: sol.last.u,
+        iterations: sol.iterations,
+        bodies,
+    })
+}
+
+/// The NNDD loop (paper §3), estimating where asked.
+pub fn solve_nndd(
+    settings: &Settings,
+    layout: &Layout,
+    refs: [Option<&Body>; 2],
+    estimator: Option<&Estimator>,
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<Solution, AppError> {
+    let dirichlet = refs[0].map(DirichletStep::new).transpose()?;
+    let contact = refs[1]
+        .map(|b2| ContactStep::new(b2, settings.qp.clone(), settings.qp_warm_start))
+        .transpose()?;
+    let estimates: RefCell<Vec<EstimateRecord>> = RefCell::new(Vec::new());
+    // Balanced stopping's cheap checks (iteration, η^NNDD) and the last full η^FE.
+    let checks: RefCell<Vec<(usize, f64)>> = RefCell::new(Vec::new());
+    let last_fe: std::cell::Cell<Option<f64>> = std::cell::Cell::new(None);
+    let mut t_est = 0.0;
+    let every = if estimator.is_some() && settings.estimate_every > 0 {
+        Some(settings.estimate_every)
+    } else {
+        None
+    };
+    let root = layout.is_root();
+    let m = settings.problem.contact_nodes();
+    let res = nndd::solve::<AppError>(
+        &settings.nndd,
+        m,
+        layout,
+        refs,
+        dirichlet.as_ref(),
+        contact.as_ref(),
+        stages,
+        every,
+        |it| {
+            let Some(est) = estimator else {
+                return Ok(false);
+            };
+            let t = Instant::now();
+            let _s = stages.estimation.enter();
+            let balanced_rule = settings.nndd.stop == StopRule::Balanced
+                && settings.eta_nndd == NnddVariant::Discrete;
+            // Balanced stopping: check the cheap η^NNDD against κ η^FE of the last full
+            // estimate; a full estimate only at the first check and when the rule may hold.
+            if let (true, Some(fe)) = (balanced_rule, last_fe.get()) {
+                let nndd = est.eta_nndd(refs, it)?;
+                if nndd > settings.stop_ratio * fe {
+                    checks.borrow_mut().push((it.iteration, nndd));
+                    t_est += t.elapsed().as_secs_f64();
+                    return Ok(false);
+                }
+            }
+            let rec = est.estimate(refs, it)?;
+            t_est += t.elapsed().as_secs_f64();
+            last_fe.set(Some(rec.eta_fe));
+            let balanced = settings.nndd.stop == StopRule::Balanced
+                && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
+            estimates.borrow_mut().push(rec);
+            Ok(balanced)
+        },
+        |r| {
+            if settings.monitor && root {
+                monitor::monitor_line(
+                    r,
+                    m,
+                    estimates
+                        .borrow()
+                        .last()
+                        .filter(|e| e.iteration == r.iteration),
+                );
+            }
+        },
+    )?;
+    let mut estimates = estimates.into_inner();
+    if let Some(est) = estimator {
+        if estimates.last().map(|e| e.iteration) != Some(res.iterations) {
+            let t = Instant::now();
+            let _s = stages.estimation.enter();
+            let rec = est.estimate(refs, &res.last)?;
+            t_est += t.elapsed().as_secs_f64();
+            if settings.monitor && root {
+                println!("{}", monitor::estimate_text(&rec));
+            }
+            estimates.push(rec);
+        }
+    }
+    timings.estimation += t_est;
+    timings.dirichlet_step = res.timers.dirichlet_step.seconds();
+    timings.contact_step = res.timers.contact_step.seconds();
+    timings.neumann_step = res.timers.neumann_step.seconds();
+    timings.exchange = res.timers.exchange.seconds();
+    let mut history = res.history;
+    attach_estimates(&mut history, &estimates);
+    for (iteration, nndd) in checks.into_inner() {
+        if let Some(h) = history.iter_mut().find(|h| h.iteration == iteration) {
+            h.eta_nndd = Some(nndd);
+        }
+    }
+    Ok(Solution {
+        status: res.status.name().to_string(),
+        stop_reason: res.status.stop_reason(),
+        // A fixed iteration count asked for (-nndd_stop none) is a success too.
+        converged: res.status.succeeded(),
+        requested: res.status.succeeded()
+            || (settings.nndd.stop == StopRule::None && res.status == Status::MaxIterations),
+        iterations: res.iterations,
+        history,
+        last: res.last,
+        estimates,
+        dirichlet_step: dirichlet.as_ref().map_or("", |d| d.name()),
+    })
+}
+
+/// The discrete global contact problem at once (the NNDD's check).
+pub fn solve_monolithic(
+    settings: &Settings,
+    layout: &Layout,
+    refs: [Option<&Body>; 2],
+    estimator: Option<&Estimator>,
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<Solution, AppError> {
+    let t = Instant::now();
+    let res = {
+        let _s = stages.monolithic.enter();
+        monolithic::solve(layout, refs, &settings.qp)?
+    };
+    timings.monolithic = t.elapsed().as_secs_f64();
+    let mut lambda = refs[0]
+        .map(|b| b.normal_trace(&res.u[0]))
+        .unwrap_or_default();
+    layout.share_vec(1, &mut lambda);
+    let trace2 = nndd::shared_trace2(layout, refs[1], &res.u[1], lambda.len());
+    let last = Iterate {
+        lambda,
+        trace2,
+        u: res.u,
+        forces: [res.forces.iter().map(|f| -f).collect(), res.forces.clone()],
+        active: res.active,
+        qp_kkt: res.kkt_residual,
+        iteration: 0,
+    };
+    let mut estimates = Vec::new();
+    if let Some(est) = estimator {
+        let t = Instant::now();
+        let _s = stages.estimation.enter();
+        estimates.push(est.estimate(refs, &last)?);
+        timings.estimation = t.elapsed().as_secs_f64();
+    }
+    Ok(Solution {
+        status: "solved".into(),
+        stop_reason: "direct",
+        converged: true,
+        requested: true,
+        iterations: 0,
+        history: Vec::new(),
+        last,
+        estimates,
+        dirichlet_step: "",
+    })
+}
+
+fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord]) {
+    for e in estimates {
+        if let Some(h) = history.iter_mut().find(|h| h.iteration == e.iteration) {
+            h.eta_glo = Some(e.eta_glo);
+            h.eta_fe = Some(e.eta_fe);
+            h.eta_nndd = Some(e.eta_nndd);
+            h.eta_ratio = Some(e.eta_ratio);
+            h.e_ref = e.e_ref;
+            h.effectivity = e.effectivity;
+        }
+    }
+}
+
+/// How body 2's interface Schur complement was formed (known on body 2's root).
+pub fn schur_source(layout: &Layout, refs: [Option<&Body>; 2]) -> &'static str {
+    let mut src = [refs[1].map_or(0.0, |b| (b.schur_source == "mumps") as u8 as f64)];
+    layout.share(2, &mut src);
+    if src[0] > 0.5 {
+        "mumps"
+    } else {
+        "solves"
+    }
+}

@@ -1,0 +1,14 @@
+//! Layer `fem`: the finite-element basics every other layer builds on: triangle meshes
+//! ([`mesh`]) and P1 plane-strain elasticity ([`elasticity`]: element stiffness, stresses,
+//! edge loads, CSR assembly).
+//!
+//! May use: nothing of this crate (it is the bottom layer besides `petsc`).
+
+pub mod elasticity;
+pub mod mesh;
+
+pub use elasticity::{
+    assemble_stiffness, edge_load, element_dofs, element_stiffness, element_stress,
+    strain_displacement, stresses, Csr, Material,
+};
+pub use mesh::Mesh;

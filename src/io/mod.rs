@@ -1,0 +1,9 @@
+//! Layer `io`: what a run writes. [`output`]: `PREFIX.h5` + `PREFIX.xdmf` for ParaView and
+//! atomic writes; [`summary`]: the JSON run summary; [`monitor`]: the PETSc-style monitor lines.
+//!
+//! May use: `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`.
+
+pub mod fields;
+pub mod monitor;
+pub mod output;
+pub mod summary;

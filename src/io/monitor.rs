@@ -1,0 +1,51 @@
+//! The PETSc-style monitor lines of `-nndd_monitor` (`%.12e`-formatted numbers, one line per
+//! NNDD iteration, one more per estimated iteration).
+
+use crate::dd::nndd::IterationRecord;
+use crate::estimate::EstimateRecord;
+
+/// One line per NNDD iteration (`-nndd_monitor`), and the estimates of an estimated one.
+/// `contact_nodes`: the number of Γc node pairs.
+pub fn monitor_line(r: &IterationRecord, contact_nodes: usize, est: Option<&EstimateRecord>) {
+    println!(
+        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}",
+        r.iteration,
+        sci(r.lambda_change, 12),
+        sci(r.residual, 6),
+        r.active,
+        contact_nodes,
+        r.qp_iterations
+    );
+    if let Some(e) = est {
+        println!("{}", estimate_text(e));
+    }
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+}
+
+/// The estimates of one iteration, in the monitor's format.
+pub fn estimate_text(e: &EstimateRecord) -> String {
+    let mut s = format!(
+        "{:4} NNDD eta_glo {} eta_FE {} eta_NNDD {} ratio {:.4}",
+        e.iteration,
+        sci(e.eta_glo, 6),
+        sci(e.eta_fe, 6),
+        sci(e.eta_nndd, 6),
+        e.eta_ratio
+    );
+    if let (Some(r), Some(g)) = (e.e_ref, e.effectivity) {
+        s += &format!(" e_ref {} effectivity {:.4}", sci(r, 6), g);
+    }
+    s
+}
+
+/// C's `%.{digits}e` (PETSc's monitors): `1.234e-03`, not Rust's `1.234e-3`.
+pub fn sci(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    let s = format!("{:.*e}", digits, x);
+    let (mant, exp) = s.split_once('e').expect("scientific format");
+    let e: i32 = exp.parse().expect("exponent");
+    format!("{mant}e{}{:02}", if e < 0 { '-' } else { '+' }, e.abs())
+}
