@@ -1,4 +1,4 @@
-//! Capability: guaranteed error estimates (paper §4, method.md §3): η^glo bounds the error
+//! Capability: guaranteed error estimates (paper §4, docs/method.md §3): η^glo bounds the error
 //! (effectivity ≥ 1 against a reference solution), the recovered stresses are equilibrated to
 //! round-off, η^NNDD vanishes as the NNDD converges, η^FE falls with h, all vanish on the
 //! patch test, and the element maps in the HDF5 file add up to the totals.
@@ -208,7 +208,7 @@ fn estimates_agree_on_one_and_two_ranks() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// method.md §3.3 builds η^NNDD from the P1 density t̂^c of η^glo: at the converged discrete
+/// docs/method.md §3.3 builds η^NNDD from the P1 density t̂^c of η^glo: at the converged discrete
 /// solution it does not vanish (the density of the nodal contact forces changes sign near the
 /// end of the contact zone, and its projection on t̂ ≤ 0 alters the loads). The discrete
 /// variant, with nodal forces, does.

@@ -1,5 +1,5 @@
 //! Capability: the NNDD converges to the solution of the discrete global contact problem
-//! (method.md §2, "Fixed point"), checked against the independent monolithic QP.
+//! (docs/method.md §2, "Fixed point"), checked against the independent monolithic QP.
 
 mod common;
 use common::*;
@@ -31,7 +31,7 @@ fn compare(n: &str) {
     assert!(((fa - fb) / fb).abs() < 1e-7, "contact forces {fa} vs {fb}");
     assert_eq!(ja["contact_zone"], jb["contact_zone"]);
     assert_eq!(ja["active_nodes"], jb["active_nodes"]);
-    // benchmarks.md: partial contact, the blocks open near x = 1.
+    // docs/benchmarks.md: partial contact, the blocks open near x = 1.
     let zone = ja["contact_zone"].as_array().unwrap();
     let x_max = zone[1].as_f64().unwrap();
     assert!(

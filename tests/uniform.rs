@@ -1,5 +1,5 @@
-//! Capability: the `uniform` patch test (benchmarks.md): exact stresses, and the NNDD's
-//! convergence rates on two mirror-image bodies (method.md §2, "Relaxation").
+//! Capability: the `uniform` patch test (docs/benchmarks.md): exact stresses, and the NNDD's
+//! convergence rates on two mirror-image bodies (docs/method.md §2, "Relaxation").
 
 mod common;
 use common::*;

@@ -10,6 +10,7 @@ pub mod options;
 mod report;
 mod solve;
 
+use std::rc::Rc;
 use std::time::Instant;
 
 use mpi::topology::SimpleCommunicator;
@@ -27,7 +28,7 @@ use crate::parallel::layout::{Layout, LayoutError};
 use crate::parallel::partition::PartitionError;
 use crate::petsc::log::Stages;
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
-use crate::problem;
+use crate::problem::{self, BodyProblem};
 use options::{Settings, SettingsError, SolverKind};
 use solve::Solution;
 
@@ -106,8 +107,12 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     Petsc::track_memory()?;
     let mut timings = Timings::default();
 
-    // Setup: each rank's bodies (mesh, partition, assembly, factorisation).
-    let bodies = solve::setup_bodies(&settings, &layout, &stages, &mut timings)?;
+    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
+    // the whole geometry, for the interface and the output).
+    let problems = problem::build(&settings.problem);
+
+    // Setup: each rank's bodies (partition, assembly, factorisation).
+    let bodies = solve::setup_bodies(&settings, &problems, &layout, &stages, &mut timings)?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     if settings.monitor && layout.is_root() {
         println!(
@@ -133,7 +138,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         )?),
     };
     let estimator = settings.estimate.then(|| Estimator {
-        iface: Interface::new(problem::body(&settings.problem, 1).contact_x()),
+        iface: Interface::new(problems[0].contact_x()),
         qp: settings.qp.clone(),
         recovery: settings.recovery,
         nndd_variant: settings.eta_nndd,
@@ -189,7 +194,8 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     let t_out = Instant::now();
     let results = {
         let _s = stages.output.enter();
-        let results = results_of(&settings, &sol, [layout.owns(1), layout.owns(2)]);
+        let have = [layout.owns(1), layout.owns(2)];
+        let results = results_of(&settings, &problems, &sol, have);
         let shares = fields::shares(&layout, &results);
         output::write_results_parallel(&layout.world, &settings.output, &results, &shares)?;
         results
@@ -199,6 +205,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     if layout.is_root() {
         let summary = report::summarise(
             &settings,
+            &problems[0],
             &layout,
             &sol,
             energy,
@@ -221,8 +228,12 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
 }
 
 /// The result files' content: one step per estimated iteration, or the reported iterate.
-fn results_of(settings: &Settings, sol: &Solution, have: [bool; 2]) -> Results {
-    let problems = [1, 2].map(|alpha| problem::body(&settings.problem, alpha));
+fn results_of(
+    settings: &Settings,
+    problems: &[Rc<BodyProblem>; 2],
+    sol: &Solution,
+    have: [bool; 2],
+) -> Results {
     let steps: Vec<_> = if sol.estimates.is_empty() {
         vec![(&sol.last, None)]
     } else {
@@ -236,7 +247,7 @@ fn results_of(settings: &Settings, sol: &Solution, have: [bool; 2]) -> Results {
         ("dofs".into(), settings.problem.dofs() as f64),
         ("iterations".into(), sol.iterations as f64),
     ];
-    fields::results(&problems, &steps, have, attributes)
+    fields::results([&problems[0], &problems[1]], &steps, have, attributes)
 }
 
 /// The `star` recovery solves one global problem per body: exact only with the body on one

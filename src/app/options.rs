@@ -14,7 +14,7 @@ use crate::qp::QpSettings;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SolverKind {
-    /// The Neumann–Neumann iteration (method.md §2).
+    /// The Neumann–Neumann iteration (docs/method.md §2).
     Nndd,
     /// The discrete global contact problem solved at once (the NNDD's check).
     Monolithic,

@@ -11,11 +11,12 @@ use crate::io::summary::{EquilibriumResiduals, Summary, Timings};
 use crate::io::{fields, output};
 use crate::parallel::layout::Layout;
 use crate::petsc::Petsc;
-use crate::problem::{self, BodyProblem};
+use crate::problem::BodyProblem;
 
 #[allow(clippy::too_many_arguments)]
 pub fn summarise(
     settings: &Settings,
+    body1: &BodyProblem,
     layout: &Layout,
     sol: &Solution,
     energy: f64,
@@ -25,7 +26,7 @@ pub fn summarise(
     timings: Timings,
     peaks: &[f64],
 ) -> Summary {
-    let contact = contact_of(&problem::body(&settings.problem, 1), &sol.last);
+    let contact = contact_of(body1, &sol.last);
     let residuals = (!sol.estimates.is_empty()).then(|| {
         let mut r = EquilibriumResiduals::default();
         for e in &sol.estimates {

@@ -2,6 +2,7 @@
 //! and the balanced stopping rule) or the monolithic check, and the reference solution of (26).
 
 use std::cell::RefCell;
+use std::rc::Rc;
 use std::time::Instant;
 
 use super::options::{Settings, SolverKind};
@@ -17,7 +18,7 @@ use crate::io::summary::Timings;
 use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
 use crate::petsc::log::Stages;
-use crate::problem;
+use crate::problem::{self, BodyProblem};
 
 /// What a solver hands to post-processing.
 pub struct Solution {
@@ -38,6 +39,7 @@ pub struct Solution {
 /// Meshes, assembly and factorisation of the bodies this rank owns.
 pub fn setup_bodies(
     settings: &Settings,
+    problems: &[Rc<BodyProblem>; 2],
     layout: &Layout,
     stages: &Stages,
     timings: &mut Timings,
@@ -54,7 +56,7 @@ pub fn setup_bodies(
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::System) => SchurMode::None,
         };
-        let problem = problem::body(&settings.problem, alpha);
+        let problem = Rc::clone(&problems[alpha - 1]);
         let partition = Partition::new(
             &problem.mesh,
             alpha,
@@ -83,7 +85,13 @@ pub fn solve_reference(
     let t = Instant::now();
     let fine = settings.refined(r);
     let mut scratch = Timings::default();
-    let bodies = setup_bodies(&fine, layout, stages, &mut scratch)?;
+    let bodies = setup_bodies(
+        &fine,
+        &problem::build(&fine.problem),
+        layout,
+        stages,
+        &mut scratch,
+    )?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let sol = {
         let _s = stages.reference.enter();

@@ -1,5 +1,5 @@
 //! One body (subdomain) Ω^α on its communicator: the stiffness, its factorised systems and the
-//! solves the NNDD steps are made of (method.md §2).
+//! solves the NNDD steps are made of (docs/method.md §2).
 //!
 //! Two systems exist, both SPD with Dirichlet rows and columns eliminated symmetrically:
 //! - the *Neumann* system: Γ_D^α prescribed; used for the contact step and the Neumann step;
@@ -24,6 +24,8 @@ use std::cell::RefCell;
 use crate::fem::{element_dofs, element_stiffness};
 use crate::parallel::partition::Partition;
 use crate::petsc::{self, Comm, Gather, Ksp, Matrix, Vector};
+use std::rc::Rc;
+
 use crate::problem::BodyProblem;
 use crate::qp::dense::{DenseError, SymMatrix};
 
@@ -62,7 +64,8 @@ pub enum System {
 }
 
 pub struct Body {
-    pub problem: BodyProblem,
+    /// The body's problem, shared with the run (which keeps both bodies' geometry).
+    pub problem: Rc<BodyProblem>,
     /// Assembled stiffness K^α without boundary conditions.
     k: Matrix,
     /// Neumann load f^α.
@@ -96,7 +99,7 @@ impl Body {
     /// Assemble K^α (this rank's elements of `partition`) and factor its Neumann system;
     /// `schur` says whether S^α is wanted.
     pub fn setup(
-        problem: BodyProblem,
+        problem: Rc<BodyProblem>,
         comm: Comm,
         partition: Partition,
         schur: SchurMode,
@@ -339,7 +342,7 @@ impl Body {
     }
 
     /// Interface nodal forces T^α = (K u − f) on the Γc normal dofs: the force the other body
-    /// exerts on this one (method.md §1).
+    /// exerts on this one (docs/method.md §1).
     pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         let ku = self.apply_k(u)?;
         Ok(self.gc.iter().map(|&d| ku[d] - self.load[d]).collect())

@@ -1,4 +1,4 @@
-//! The contact step on Ω² (paper (11)–(14), method.md §2 step 2), condensed on Γc.
+//! The contact step on Ω² (paper (11)–(14), docs/method.md §2 step 2), condensed on Γc.
 //!
 //! With S the interface Schur complement of body 2's Neumann system on the Γc normal dofs and
 //! v* = B u₀ the normal trace of the unconstrained solution u₀ (K u₀ = f, u₀ = u_D on Γ_D),

@@ -1,4 +1,4 @@
-//! The Dirichlet step on Ω¹ (paper (8)–(10), method.md §2 step 1): u¹ = u_D on Γ_D¹,
+//! The Dirichlet step on Ω¹ (paper (8)–(10), docs/method.md §2 step 1): u¹ = u_D on Γ_D¹,
 //! u¹_n = λ_p on Γc (tangential Γc dofs free), and its reaction T¹_p = K u¹ − f¹ on the Γc
 //! normal dofs.
 //!

@@ -1,4 +1,4 @@
-//! The Neumann–Neumann iteration (paper §3, method.md §2).
+//! The Neumann–Neumann iteration (paper §3, docs/method.md §2).
 //!
 //! Each iteration p: the Dirichlet step on Ω¹ and the contact step on Ω² (at the same time on
 //! two ranks), the equilibrium defect R_p = T¹_p + T²_p, the two Neumann steps, and the update
@@ -22,7 +22,7 @@ pub enum NnddError {
 /// When the NNDD stops (besides divergence and the iteration limit).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StopRule {
-    /// ‖λ_{p+1} − λ_p‖ ≤ tol ‖λ_{p+1}‖ (method.md §2 step 6).
+    /// ‖λ_{p+1} − λ_p‖ ≤ tol ‖λ_{p+1}‖ (docs/method.md §2 step 6).
     Tol,
     /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE (the algebra no longer
     /// matters next to the mesh): the observer of [`solve`] says when.

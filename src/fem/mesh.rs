@@ -1,4 +1,4 @@
-//! Structured P1 triangle meshes of the benchmark blocks (benchmarks.md, "Meshes").
+//! Structured P1 triangle meshes of the benchmark blocks (docs/benchmarks.md, "Meshes").
 //!
 //! A body is an `nx × ny` grid of equal rectangles; the rectangle with corners a (lower left),
 //! b (lower right), c (upper left), d (upper right) is split into the triangles (a, b, d) and

@@ -2,7 +2,7 @@
 //! ([`mesh`]) and P1 plane-strain elasticity ([`elasticity`]: element stiffness, stresses,
 //! edge loads, CSR assembly).
 //!
-//! May use: nothing of this crate (it is the bottom layer besides `petsc`).
+//! May use: `petsc` (today it uses nothing of the crate).
 
 pub mod elasticity;
 pub mod mesh;

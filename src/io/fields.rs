@@ -15,7 +15,7 @@ use crate::problem::BodyProblem;
 /// Body α's fields are filled on the ranks of its group (`have`), empty elsewhere; the
 /// geometry and the Γc fields are known everywhere.
 pub fn results(
-    problems: &[BodyProblem; 2],
+    problems: [&BodyProblem; 2],
     steps: &[(&Iterate, Option<&EstimateRecord>)],
     have: [bool; 2],
     attributes: Vec<(String, f64)>,

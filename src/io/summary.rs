@@ -88,7 +88,7 @@ pub struct Summary {
     /// Ranks of each body's group.
     pub body_ranks: [usize; 2],
     /// Largest equilibrium residuals of the recovered stresses over the estimated iterations
-    /// (relative; method.md §3.1's "exact equilibrium" at round-off).
+    /// (relative; docs/method.md §3.1's "exact equilibrium" at round-off).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub equilibrium_residuals: Option<EquilibriumResiduals>,
     /// Reference mesh factor and the reference NNDD's iterations (when solved).

@@ -2,7 +2,7 @@
 //! per body), their communicators and the interface exchanges between them; [`partition`]: a
 //! body's mesh split over its group by METIS, and the PETSc row numbering.
 //!
-//! May use: `fem`, `petsc`.
+//! May use: `qp`, `fem`, `petsc`.
 
 pub mod layout;
 pub mod partition;

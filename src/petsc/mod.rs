@@ -1,8 +1,11 @@
-//! The one home of PETSc: the unsafe FFI (`ffi`) and safe RAII wrappers around it.
+//! Layer `petsc`: the one home of PETSc: the unsafe FFI (`ffi`) and safe RAII wrappers around
+//! it, and the `-log_view` stages of a run ([`log`]).
 //!
 //! Every `PetscErrorCode` becomes a [`PetscError`] carrying PETSc's own message; PETSc's
 //! traceback printer is replaced by a returning error handler, so an error reaches the user
 //! as one line. Nothing outside this module calls FFI.
+//!
+//! May use: nothing of this crate (the bottom layer).
 
 mod ffi;
 pub mod log;

@@ -3,9 +3,11 @@
 //! [`body`] from the plain-data [`ProblemSettings`]. [`benchmarks`]: the built-in problems
 //! `paper` and `uniform` (`docs/benchmarks.md`).
 //!
-//! May use: `fem`.
+//! May use: `parallel`, `qp`, `fem`, `petsc`.
 
 pub mod benchmarks;
+
+use std::rc::Rc;
 
 use crate::fem::mesh::Mesh;
 use crate::fem::{edge_load, Material};
@@ -71,6 +73,11 @@ impl ProblemSettings {
     pub fn contact_nodes(&self) -> usize {
         self.grids[0].0 + 1
     }
+}
+
+/// Build both bodies of the problem (shared by the run and the bodies set up from them).
+pub fn build(settings: &ProblemSettings) -> [Rc<BodyProblem>; 2] {
+    [1, 2].map(|alpha| Rc::new(body(settings, alpha)))
 }
 
 /// Build body `alpha` (1 or 2) of the problem.

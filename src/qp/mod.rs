@@ -4,7 +4,7 @@
 //! contact traction of the estimates); [`dense`]: dense SPD matrices (Schur complements on Γc)
 //! and their Cholesky factorisation.
 //!
-//! May use: nothing of this crate.
+//! May use: `fem`, `petsc` (today it uses nothing of the crate).
 
 pub mod dense;
 pub mod solver;

@@ -1,0 +1,293 @@
+//! The constitutive relation error of one body, element by element (paper (17), (22)–(24)):
+//! the admissible stresses recovered from the FE-equilibrated re-solves on the rank's view of
+//! the mesh, and the element contributions to η^glo, η^FE and η^NNDD.
+
+use std::collections::HashMap;
+
+use super::equilibrate::{
+    equilibrate_restricted, equilibrate_with, Boundary, BoundaryEdge, EdgeComponent,
+    EquilibratedStress, Residuals, StarChoice,
+};
+use super::overlap::Overlap;
+use super::traction::Interface;
+use super::{EstimateError, NnddVariant};
+use crate::dd::body::Body;
+use crate::fem::mesh::Mesh;
+use crate::fem::{element_dofs, element_stiffness, element_stress};
+use crate::problem::BodyProblem;
+
+/// Squared element contributions of one body at one iteration.
+#[derive(Clone, Debug, Default)]
+pub struct BodyEstimate {
+    pub glo: Vec<f64>,
+    pub fe: Vec<f64>,
+    pub nndd: Vec<f64>,
+    /// Equilibrium residuals of the recovered stresses (largest of the two recoveries).
+    pub residuals: Residuals,
+}
+
+impl BodyEstimate {
+    pub fn totals(&self) -> [f64; 3] {
+        [
+            self.glo.iter().sum(),
+            self.fe.iter().sum(),
+            self.nndd.iter().sum(),
+        ]
+    }
+}
+
+/// What the estimates of iteration p need beyond the bodies: λ_p, the Γc densities t̂^c (for
+/// η^glo, η^NNDD) and t̂^c_p (for η^FE), and T¹_p.
+pub struct IterationData<'a> {
+    pub lambda: &'a [f64],
+    pub t_glo: &'a [f64],
+    pub t_fe: &'a [f64],
+    pub reaction1: &'a [f64],
+    /// Nodal contact forces μ̂ ≥ 0 on body 2 (for the discrete η^NNDD).
+    pub mu_hat: &'a [f64],
+    pub nndd_variant: NnddVariant,
+    pub recovery: StarChoice,
+}
+
+/// Where a rank's recovery runs: the whole body mesh (the body on one rank), or the rank's
+/// own elements with enough rings of neighbours that the recovered σ̂ on its own elements is
+/// exactly the whole-mesh one ([`Overlap`]).
+pub enum View<'a> {
+    Whole,
+    Overlap(&'a Overlap),
+}
+
+impl View<'_> {
+    fn equilibrate(
+        &self,
+        p: &BodyProblem,
+        u: &[f64],
+        gc: &[f64],
+        choice: StarChoice,
+    ) -> Result<(EquilibratedStress, Residuals), EstimateError> {
+        let b = boundary(p, gc);
+        let err = |source| EstimateError::Equilibration {
+            alpha: p.alpha,
+            source,
+        };
+        match self {
+            View::Whole => {
+                let s = equilibrate_with(&p.mesh, &p.material, u, &b, choice).map_err(err)?;
+                let r = s.residuals(&p.mesh, &b);
+                Ok((s, r))
+            }
+            View::Overlap(o) => {
+                let b = o.restrict_boundary(&b);
+                let restriction = o.restriction();
+                let s = equilibrate_restricted(
+                    &o.mesh,
+                    &p.material,
+                    &o.restrict_dofs(u),
+                    &b,
+                    choice,
+                    Some(&restriction),
+                )
+                .map_err(err)?;
+                let r = s.residuals_restricted(&o.mesh, &b, Some(&o.owned));
+                Ok((s, r))
+            }
+        }
+    }
+
+    /// The mesh the recovered stress lives on, and the (index there, body element) pairs this
+    /// rank estimates.
+    fn kept<'b>(&'b self, body: &'b Body) -> (&'b Mesh, Vec<(usize, usize)>) {
+        match self {
+            View::Whole => (
+                &body.problem.mesh,
+                (0..body.problem.mesh.triangles.len())
+                    .map(|e| (e, e))
+                    .collect(),
+            ),
+            View::Overlap(o) => (
+                &o.mesh,
+                o.elements
+                    .iter()
+                    .enumerate()
+                    .filter(|&(l, _)| o.owned[l])
+                    .map(|(l, &e)| (l, e))
+                    .collect(),
+            ),
+        }
+    }
+}
+
+/// Element contributions of body α at iteration p on this rank's elements (zero elsewhere);
+/// `u_p` is u^α_p (whole, on every rank of the body's group).
+pub fn estimate_body(
+    body: &Body,
+    u_p: &[f64],
+    iface: &Interface,
+    data: &IterationData,
+    view: &View,
+) -> Result<BodyEstimate, EstimateError> {
+    let p = &body.problem;
+    let alpha = p.alpha;
+    let mesh = &p.mesh;
+    let ne = mesh.triangles.len();
+    let (sub, kept) = view.kept(body);
+    let sigma_p: Vec<[f64; 3]> = kept
+        .iter()
+        .map(|&(_, e)| element_stress(mesh, e, &p.material, u_p))
+        .collect();
+
+    // η^glo and η^NNDD: the Neumann re-solve with Γc data t̂^α, and its equilibration.
+    let sign = if alpha == 1 { 1.0 } else { -1.0 };
+    let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
+    let u_tilde = body.neumann_solve(&iface.forces(&t_alpha), true)?;
+    let (s_glo, mut res) = view.equilibrate(p, &u_tilde, &t_alpha, data.recovery)?;
+    let mut est = BodyEstimate {
+        glo: vec![0.0; ne],
+        fe: vec![0.0; ne],
+        nndd: vec![0.0; ne],
+        ..Default::default()
+    };
+    // η^NNDD: the discretely equilibrated field of the discrete problem (nodal forces ∓μ̂),
+    // or docs/method.md's ũ^α_h of η^glo.
+    let u_d = match data.nndd_variant {
+        NnddVariant::Discrete => {
+            let f: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
+            body.neumann_solve(&f, true)?
+        }
+        NnddVariant::Density => u_tilde.clone(),
+    };
+    for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
+        est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
+        let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
+        let dofs = element_dofs(&mesh.triangles[e]);
+        let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
+        est.nndd[e] = (0..6)
+            .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+            .sum();
+    }
+    drop(s_glo);
+
+    // η^FE: the step-p problem at fixed λ_p.
+    let (s_fe, r_fe) = if alpha == 1 {
+        // Body 1: σ(u¹_p) is FE-equilibrated with its Γc reaction density M⁻¹T¹_p.
+        let t = iface.density(data.reaction1);
+        view.equilibrate(p, u_p, &t, data.recovery)?
+    } else {
+        let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
+        let u_fe = body.neumann_solve(&iface.forces(&t2), true)?;
+        view.equilibrate(p, &u_fe, &t2, data.recovery)?
+    };
+    res = worst(res, r_fe);
+    for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
+        est.fe[e] = s_fe.cre_squared(sub, l, sig, &p.material);
+    }
+
+    // Contact terms 2∫ t̂ (λ_p − u²_n) ≥ 0, on the body-2 elements along Γc (their owners).
+    if alpha == 2 {
+        let u2n: Vec<f64> = p.contact_normal_dofs().iter().map(|&d| u_p[d]).collect();
+        let gap: Vec<f64> = data.lambda.iter().zip(&u2n).map(|(l, u)| l - u).collect();
+        let c_glo = iface.segment_products(data.t_glo, &gap);
+        let c_fe = iface.segment_products(data.t_fe, &gap);
+        let edges = edge_elements(mesh);
+        let m = gap.len();
+        for k in 0..c_glo.len() {
+            let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+            let e = edges[&(a.min(b), a.max(b))];
+            if !body.partition.owns_element(e) {
+                continue;
+            }
+            est.glo[e] += 2.0 * c_glo[k];
+            est.fe[e] += 2.0 * c_fe[k];
+            est.nndd[e] += match data.nndd_variant {
+                NnddVariant::Density => 2.0 * c_glo[k],
+                // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's element.
+                NnddVariant::Discrete => [k, k + 1]
+                    .iter()
+                    .map(|&i| {
+                        let w = if i == 0 || i == m - 1 { 1.0 } else { 0.5 };
+                        -2.0 * w * data.mu_hat[i] * gap[i]
+                    })
+                    .sum::<f64>(),
+            };
+        }
+    }
+    est.residuals = res;
+    Ok(est)
+}
+
+pub(super) fn worst(a: Residuals, b: Residuals) -> Residuals {
+    Residuals {
+        divergence: a.divergence.max(b.divergence),
+        internal_jump: a.internal_jump.max(b.internal_jump),
+        element_jump: a.element_jump.max(b.element_jump),
+        boundary: a.boundary.max(b.boundary),
+        point_reaction: a.point_reaction.max(b.point_reaction),
+    }
+}
+
+/// The element of each boundary edge (sorted node pair).
+fn edge_elements(mesh: &Mesh) -> HashMap<(usize, usize), usize> {
+    let mut map = HashMap::new();
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            map.entry((a.min(b), a.max(b))).or_insert(e);
+        }
+    }
+    map
+}
+
+/// The traction data of body α for the equilibration: Γ_N data, Γc normal density `gc`
+/// (tangential 0, frictionless), traction free elsewhere; components under Dirichlet
+/// conditions on both ends of an edge are free.
+pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
+    let mesh = &p.mesh;
+    let mut constrained = vec![false; mesh.num_dofs()];
+    for &(d, _) in &p.dirichlet {
+        constrained[d] = true;
+    }
+    let mut known: HashMap<(usize, usize), [[f64; 2]; 2]> = HashMap::new();
+    for e in &p.neumann {
+        let [a, b] = e.nodes;
+        // traction[node][component] → per component, values at (a, b)
+        known.insert(
+            (a, b),
+            [
+                [e.traction[0][0], e.traction[1][0]],
+                [e.traction[0][1], e.traction[1][1]],
+            ],
+        );
+    }
+    for k in 0..p.contact_nodes.len().saturating_sub(1) {
+        let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+        known.insert((a, b), [[0.0, 0.0], [gc[k], gc[k + 1]]]);
+    }
+    let (nx, ny) = (mesh.nx, mesh.ny);
+    let mut sides: Vec<[usize; 2]> = Vec::new();
+    for i in 0..nx {
+        sides.push([mesh.node(i, 0), mesh.node(i + 1, 0)]);
+        sides.push([mesh.node(i, ny), mesh.node(i + 1, ny)]);
+    }
+    for j in 0..ny {
+        sides.push([mesh.node(0, j), mesh.node(0, j + 1)]);
+        sides.push([mesh.node(nx, j), mesh.node(nx, j + 1)]);
+    }
+    let edges = sides
+        .into_iter()
+        .map(|[a, b]| {
+            let values = known.get(&(a, b)).copied();
+            let comps = [0, 1].map(|k| {
+                if constrained[2 * a + k] && constrained[2 * b + k] {
+                    EdgeComponent::Free
+                } else {
+                    EdgeComponent::Known(values.map_or([0.0, 0.0], |v| v[k]))
+                }
+            });
+            BoundaryEdge {
+                nodes: [a, b],
+                comps,
+            }
+        })
+        .collect();
+    Boundary { edges, constrained }
+}

@@ -1,0 +1,147 @@
+//! The contact interface Γc as a 1D P1 space (its mass matrix M_Γ, densities and nodal
+//! forces), and the admissible contact traction of docs/method.md §3.2: the P1 density t̂ ≤ 0
+//! closest in L²(Γc) to a target, a small QP solved exactly by Clarabel.
+
+use crate::problem::interface_mass;
+use crate::qp::dense::SymMatrix;
+use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
+
+/// The contact interface Γc seen as a 1D P1 space: its mass matrix M_Γ and integrals.
+pub struct Interface {
+    pub x: Vec<f64>,
+    diag: Vec<f64>,
+    upper: Vec<f64>,
+}
+
+impl Interface {
+    pub fn new(x: Vec<f64>) -> Interface {
+        let (diag, upper) = interface_mass(&x);
+        Interface { x, diag, upper }
+    }
+
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Nodal forces M_Γ t of a P1 density t.
+    pub fn forces(&self, t: &[f64]) -> Vec<f64> {
+        let m = self.len();
+        (0..m)
+            .map(|i| {
+                let mut f = self.diag[i] * t[i];
+                if i > 0 {
+                    f += self.upper[i - 1] * t[i - 1];
+                }
+                if i + 1 < m {
+                    f += self.upper[i] * t[i + 1];
+                }
+                f
+            })
+            .collect()
+    }
+
+    /// The density t = M_Γ⁻¹ T carrying the nodal forces T (tridiagonal solve).
+    pub fn density(&self, forces: &[f64]) -> Vec<f64> {
+        let m = self.len();
+        let mut c = vec![0.0; m];
+        let mut d = forces.to_vec();
+        let mut b = self.diag.clone();
+        for i in 1..m {
+            let w = self.upper[i - 1] / b[i - 1];
+            b[i] -= w * self.upper[i - 1];
+            d[i] -= w * d[i - 1];
+        }
+        for i in (0..m).rev() {
+            let next = if i + 1 < m {
+                self.upper[i] * c[i + 1]
+            } else {
+                0.0
+            };
+            c[i] = (d[i] - next) / b[i];
+        }
+        c
+    }
+
+    fn mass(&self) -> SymMatrix {
+        let m = self.len();
+        let mut a = SymMatrix::new(m);
+        for i in 0..m {
+            a.set(i, i, self.diag[i]);
+            if i + 1 < m {
+                a.set(i, i + 1, self.upper[i]);
+                a.set(i + 1, i, self.upper[i]);
+            }
+        }
+        a
+    }
+
+    /// ∫ a b on each segment [k, k+1] (exact for P1 a, b).
+    pub fn segment_products(&self, a: &[f64], b: &[f64]) -> Vec<f64> {
+        (0..self.len().saturating_sub(1))
+            .map(|k| {
+                let h = (self.x[k + 1] - self.x[k]).abs();
+                h / 6.0
+                    * (2.0 * a[k] * b[k]
+                        + a[k] * b[k + 1]
+                        + a[k + 1] * b[k]
+                        + 2.0 * a[k + 1] * b[k + 1])
+            })
+            .collect()
+    }
+
+    /// The admissible contact traction (docs/method.md §3.2): the P1 density t̂ ≤ 0 at every node
+    /// (hence on every edge) closest in L²(Γc) to the density g = M_Γ⁻¹G of the nodal forces
+    /// G = `target`. ‖t̂ − g‖²_M = t̂ᵀMt̂ − 2t̂ᵀG + const, so with x = −t̂ ≥ 0 the QP is
+    /// min ½ xᵀM_Γx + xᵀG (Clarabel, polished).
+    pub fn admissible_traction(
+        &self,
+        target: &[f64],
+        qp: &QpSettings,
+    ) -> Result<Vec<f64>, QpError> {
+        let sol = solve_nonneg_qp(&self.mass(), target, qp)?;
+        Ok(sol.x.iter().map(|v| -v).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interface_mass_and_density_are_inverse() {
+        let iface = Interface::new(vec![0.0, 0.25, 0.5, 0.75, 1.0]);
+        let t = vec![-1.0, -2.0, 0.5, -3.0, 0.0];
+        let back = iface.density(&iface.forces(&t));
+        for (a, b) in t.iter().zip(&back) {
+            assert!((a - b).abs() < 1e-14);
+        }
+        // ∫ 1 = 1 and ∫ x·1 = 1/2 through the segment products.
+        let ones = vec![1.0; 5];
+        let s: f64 = iface.segment_products(&ones, &ones).iter().sum();
+        assert!((s - 1.0).abs() < 1e-15);
+        let s: f64 = iface.segment_products(&iface.x, &ones).iter().sum();
+        assert!((s - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn admissible_traction_is_the_clipped_projection() {
+        let iface = Interface::new(vec![0.0, 0.5, 1.0]);
+        // A target density that is already ≤ 0 is returned exactly.
+        let t = vec![-3.0, -1.0, -2.0];
+        let got = iface
+            .admissible_traction(&iface.forces(&t), &QpSettings::default())
+            .unwrap();
+        for (a, b) in t.iter().zip(&got) {
+            assert!((a - b).abs() < 1e-12 * 3.0, "{got:?}");
+        }
+        // A positive (tensile) target gives 0.
+        let got = iface
+            .admissible_traction(&[1.0, 1.0, 1.0], &QpSettings::default())
+            .unwrap();
+        assert!(got.iter().all(|&v| v == 0.0), "{got:?}");
+    }
+}
