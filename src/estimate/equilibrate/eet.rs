@@ -1,0 +1,268 @@
+//! EET edge tractions (Ladevèze & Leguillon): boundary codes of the edges, the edge
+//! moments ↔ linear tractions, the element traction vectors, and the operators (pseudo-inverse
+//! and null space) of the star problems.
+
+use std::collections::HashMap;
+
+use super::topology::Topology;
+use super::{Boundary, EdgeComponent, EquilibrationError, NONE, NT};
+use crate::fem::mesh::Mesh;
+
+/// Per edge and component: interior, prescribed (values at the edge's sorted end nodes) or
+/// free.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Bc {
+    Interior,
+    Known([f64; 2]),
+    Free,
+}
+
+pub(super) fn edge_conditions(
+    topo: &Topology,
+    boundary: &Boundary,
+) -> Result<Vec<[Bc; 2]>, EquilibrationError> {
+    let mut bc: Vec<[Bc; 2]> = topo
+        .edge_elems
+        .iter()
+        .map(|ee| {
+            if ee[1] == NONE {
+                [Bc::Known([0.0; 2]); 2]
+            } else {
+                [Bc::Interior; 2]
+            }
+        })
+        .collect();
+    let mut seen = vec![false; bc.len()];
+    for (index, be) in boundary.edges.iter().enumerate() {
+        let [a, b] = be.nodes;
+        let g = match topo.edge_id(a, b) {
+            Some(g) if topo.edge_elems[g][1] == NONE => g,
+            _ => return Err(EquilibrationError::NotABoundaryEdge { index, a, b }),
+        };
+        if seen[g] {
+            return Err(EquilibrationError::DuplicateBoundaryEdge { a, b });
+        }
+        seen[g] = true;
+        let flip = topo.edge_nodes[g][0] != a;
+        for k in 0..2 {
+            bc[g][k] = match be.comps[k] {
+                EdgeComponent::Known(v) => Bc::Known(if flip { [v[1], v[0]] } else { v }),
+                EdgeComponent::Free => Bc::Free,
+            };
+        }
+    }
+    Ok(bc)
+}
+
+/// ∫_Γ g φ_end for the linear g with end values v: |Γ|/6 (2 v_end + v_other).
+pub(super) fn known_moment(len: f64, v: [f64; 2], end: usize) -> f64 {
+    len / 6.0 * (2.0 * v[end] + v[1 - end])
+}
+
+/// End-point values of the linear edge tractions (oriented to the plus element), per edge,
+/// end and component: prescribed data, or the inverse edge mass matrix
+/// (2/|Γ|) [[2, −1], [−1, 2]] applied to the moments.
+pub(super) fn edge_tractions(
+    topo: &Topology,
+    bc: &[[Bc; 2]],
+    moments: &[[[f64; 2]; 2]],
+) -> Vec<[[f64; 2]; 2]> {
+    let mut trac = vec![[[0.0; 2]; 2]; bc.len()];
+    for g in 0..bc.len() {
+        let f = 2.0 / topo.edge_len[g];
+        for k in 0..2 {
+            match bc[g][k] {
+                Bc::Known(v) => {
+                    trac[g][0][k] = v[0];
+                    trac[g][1][k] = v[1];
+                }
+                _ => {
+                    let (m0, m1) = (moments[g][0][k], moments[g][1][k]);
+                    trac[g][0][k] = f * (2.0 * m0 - m1);
+                    trac[g][1][k] = f * (2.0 * m1 - m0);
+                }
+            }
+        }
+    }
+    trac
+}
+
+/// The 12 traction values F̂_E of element e: index 4 l + 2 end + k for local edge l
+/// (vertices l → l+1), end 0 at vertex l and 1 at vertex l + 1, component k.
+pub(super) fn element_tractions(
+    topo: &Topology,
+    trac: &[[[f64; 2]; 2]],
+    mesh: &Mesh,
+    e: usize,
+) -> [f64; NT] {
+    let t = mesh.triangles[e];
+    let mut out = [0.0; NT];
+    for l in 0..3 {
+        let g = topo.elem_edges[e][l];
+        let s = topo.sign(e, g);
+        let first = topo.end_of(g, t[l]);
+        for (pos, end) in [first, 1 - first].into_iter().enumerate() {
+            for k in 0..2 {
+                out[4 * l + 2 * pos + k] = s * trac[g][end][k];
+            }
+        }
+    }
+    out
+}
+
+// ---------------------------------------------------------------------------------------
+// Star problems.
+
+/// Pseudo-inverse and null space of one star matrix pattern.
+pub(super) struct StarOp {
+    /// A⁺, cols × rows, row-major.
+    pub(super) pinv: Vec<f64>,
+    /// Orthonormal null-space basis of A: nnull vectors of length cols.
+    pub(super) null: Vec<f64>,
+    pub(super) nnull: usize,
+}
+
+#[derive(Default)]
+pub(super) struct Stars {
+    map: HashMap<Vec<i16>, usize>,
+    pub(super) ops: Vec<StarOp>,
+    /// Per star (2 i + k): index into `ops`.
+    pub(super) star_op: Vec<usize>,
+    /// Per star: its unknown edges (the columns of A).
+    pub(super) cols_ptr: Vec<usize>,
+    pub(super) cols: Vec<usize>,
+}
+
+impl Stars {
+    /// The operator of the pattern `key` = [rows, cols, entries of A row-major].
+    pub(super) fn op(&mut self, key: &[i16]) -> usize {
+        if let Some(&i) = self.map.get(key) {
+            return i;
+        }
+        let (nr, nc) = (key[0] as usize, key[1] as usize);
+        let a: Vec<f64> = key[2..].iter().map(|&v| v as f64).collect();
+        let op = star_operator(&a, nr, nc);
+        self.ops.push(op);
+        self.map.insert(key.to_vec(), self.ops.len() - 1);
+        self.ops.len() - 1
+    }
+}
+
+/// A⁺ and null(A) of a small matrix from the eigen-decomposition of AᵀA (Jacobi).
+fn star_operator(a: &[f64], nr: usize, nc: usize) -> StarOp {
+    let mut ata = vec![0.0; nc * nc];
+    for i in 0..nc {
+        for j in 0..nc {
+            ata[i * nc + j] = (0..nr).map(|r| a[r * nc + i] * a[r * nc + j]).sum();
+        }
+    }
+    let v = sym_eigen(&mut ata, nc);
+    let lam: Vec<f64> = (0..nc).map(|j| ata[j * nc + j]).collect();
+    let lmax = lam.iter().fold(0.0f64, |m, &x| m.max(x.abs()));
+    let tol = 1e-9 * lmax.max(1.0);
+    let mut pinv = vec![0.0; nc * nr];
+    let mut null = Vec::new();
+    let mut nnull = 0;
+    for j in 0..nc {
+        if lam[j] > tol {
+            // (1/λ_j) v_j (A v_j)ᵀ
+            let av: Vec<f64> = (0..nr)
+                .map(|r| (0..nc).map(|c| a[r * nc + c] * v[c * nc + j]).sum())
+                .collect();
+            for c in 0..nc {
+                for r in 0..nr {
+                    pinv[c * nr + r] += v[c * nc + j] * av[r] / lam[j];
+                }
+            }
+        } else {
+            null.extend((0..nc).map(|c| v[c * nc + j]));
+            nnull += 1;
+        }
+    }
+    StarOp { pinv, null, nnull }
+}
+
+/// Cyclic Jacobi eigen-decomposition of a symmetric n × n matrix (row-major). On return the
+/// diagonal of `a` holds the eigenvalues; the result holds the eigenvectors as columns.
+pub(super) fn sym_eigen(a: &mut [f64], n: usize) -> Vec<f64> {
+    let mut v = vec![0.0; n * n];
+    for i in 0..n {
+        v[i * n + i] = 1.0;
+    }
+    for _sweep in 0..64 {
+        let mut off = 0.0;
+        let mut diag = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                if i == j {
+                    diag += a[i * n + j] * a[i * n + j];
+                } else {
+                    off += a[i * n + j] * a[i * n + j];
+                }
+            }
+        }
+        if off <= 1e-32 * diag || off == 0.0 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p * n + q];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let (akp, akq) = (a[k * n + p], a[k * n + q]);
+                    a[k * n + p] = c * akp - s * akq;
+                    a[k * n + q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (a[p * n + k], a[q * n + k]);
+                    a[p * n + k] = c * apk - s * aqk;
+                    a[q * n + k] = s * apk + c * aqk;
+                }
+                for k in 0..n {
+                    let (vkp, vkq) = (v[k * n + p], v[k * n + q]);
+                    v[k * n + p] = c * vkp - s * vkq;
+                    v[k * n + q] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn star_operator_pseudo_inverse() {
+        // A 6-cycle (interior star): rank 5, null space the constant oriented vector.
+        let n = 6;
+        let mut a = vec![0.0; n * n];
+        for r in 0..n {
+            a[r * n + r] = 1.0;
+            a[r * n + (r + 1) % n] = -1.0;
+        }
+        let op = star_operator(&a, n, n);
+        assert_eq!(op.nnull, 1);
+        for c in 0..n {
+            assert!((op.null[c].abs() - 1.0 / (n as f64).sqrt()).abs() < 1e-14);
+        }
+        // A A⁺ A = A.
+        for r in 0..n {
+            for c in 0..n {
+                let mut s = 0.0;
+                for k in 0..n {
+                    let apa: f64 = (0..n).map(|m| op.pinv[k * n + m] * a[m * n + c]).sum();
+                    s += a[r * n + k] * apa;
+                }
+                assert!((s - a[r * n + c]).abs() < 1e-13);
+            }
+        }
+    }
+}

@@ -1,0 +1,330 @@
+//! The Johnson–Mercier element: triangle geometry in the local frame, the 30 × 27 local
+//! system and its least-squares operator (edge tractions → JM coefficients), the operator cache
+//! per triangle shape, and the JM fields of all elements from the edge tractions.
+
+use std::collections::HashMap;
+
+use super::eet::element_tractions;
+use super::topology::Topology;
+use super::{shape_capacity, NC, NONE, NT, SHAPE_QUANTUM};
+use crate::fem::mesh::Mesh;
+
+pub(super) fn triangle_area(p: &[[f64; 2]; 3]) -> f64 {
+    0.5 * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]))
+}
+
+pub(super) fn barycentric(p: &[[f64; 2]; 3], x: [f64; 2]) -> [f64; 3] {
+    let a2 = 2.0 * triangle_area(p);
+    let mut lam = [0.0; 3];
+    for a in 0..3 {
+        let (j, k) = (p[(a + 1) % 3], p[(a + 2) % 3]);
+        lam[a] = ((j[0] - x[0]) * (k[1] - x[1]) - (k[0] - x[0]) * (j[1] - x[1])) / a2;
+    }
+    lam
+}
+
+/// Barycentre c, diameter h and the normalised vertices q_a = (p_a − c)/h.
+pub(super) fn local_frame(p: &[[f64; 2]; 3]) -> ([f64; 2], f64, [[f64; 2]; 3]) {
+    let c = [
+        (p[0][0] + p[1][0] + p[2][0]) / 3.0,
+        (p[0][1] + p[1][1] + p[2][1]) / 3.0,
+    ];
+    let mut h: f64 = 0.0;
+    for a in 0..3 {
+        let b = (a + 1) % 3;
+        h = h.max((p[b][0] - p[a][0]).hypot(p[b][1] - p[a][1]));
+    }
+    let q = [0, 1, 2].map(|a| [(p[a][0] - c[0]) / h, (p[a][1] - c[1]) / h]);
+    (c, h, q)
+}
+
+pub(super) fn unit(v: [f64; 2]) -> [f64; 2] {
+    let l = v[0].hypot(v[1]);
+    [v[0] / l, v[1] / l]
+}
+
+pub(super) fn traction(s: &[f64; 3], n: [f64; 2]) -> [f64; 2] {
+    [s[0] * n[0] + s[2] * n[1], s[2] * n[0] + s[1] * n[1]]
+}
+
+/// Stress of sub-triangle a at local point ξ.
+pub(super) fn eval(x: &[f64; NC], a: usize, xi: [f64; 2]) -> [f64; 3] {
+    let o = 9 * a;
+    [0, 1, 2].map(|r| x[o + 3 * r] + x[o + 3 * r + 1] * xi[0] + x[o + 3 * r + 2] * xi[1])
+}
+
+/// Edge midpoints of sub-triangle a = (0, q_a, q_{a+1}) (local frame).
+/// σ̂ of the JM coefficients `x` at the 3 edge midpoints of each of the 3 sub-triangles (the
+/// exact quadrature points of a quadratic integrand).
+pub(super) fn midpoint_values(q: &[[f64; 2]; 3], x: &[f64; NC]) -> [[f64; 3]; 9] {
+    let mut out = [[0.0; 3]; 9];
+    for a in 0..3 {
+        for (m, pt) in midpoints(q, a).into_iter().enumerate() {
+            out[3 * a + m] = eval(x, a, pt);
+        }
+    }
+    out
+}
+
+pub(super) fn midpoints(q: &[[f64; 2]; 3], a: usize) -> [[f64; 2]; 3] {
+    let (p, r) = (q[a], q[(a + 1) % 3]);
+    [
+        [0.5 * p[0], 0.5 * p[1]],
+        [0.5 * (p[0] + r[0]), 0.5 * (p[1] + r[1])],
+        [0.5 * r[0], 0.5 * r[1]],
+    ]
+}
+
+/// Row of the traction component k of sub-triangle a at point ξ with normal n.
+fn traction_row(row: &mut [f64], a: usize, xi: [f64; 2], n: [f64; 2], k: usize, sign: f64) {
+    let phi = [1.0, xi[0], xi[1]];
+    let o = 9 * a;
+    // (σn)_x = σxx n_x + σxy n_y; (σn)_y = σxy n_x + σyy n_y.
+    let (ra, rb) = if k == 0 { (0, 2) } else { (2, 1) };
+    for m in 0..3 {
+        row[o + 3 * ra + m] += sign * phi[m] * n[0];
+        row[o + 3 * rb + m] += sign * phi[m] * n[1];
+    }
+}
+
+/// The 30 × 27 JM system of the normalised triangle q (row-major): rows 0..6 divergence,
+/// 6..18 internal traction continuity, 18..30 external tractions (row 18 + 4 l + 2 end + k
+/// equals the traction value of the same index).
+fn jm_system(q: &[[f64; 2]; 3]) -> Vec<f64> {
+    let mut m = vec![0.0; 30 * NC];
+    for a in 0..3 {
+        let o = 9 * a;
+        // ∂σxx/∂ξ + ∂σxy/∂η, ∂σxy/∂ξ + ∂σyy/∂η.
+        m[(2 * a) * NC + o + 1] = 1.0;
+        m[(2 * a) * NC + o + 8] = 1.0;
+        m[(2 * a + 1) * NC + o + 7] = 1.0;
+        m[(2 * a + 1) * NC + o + 5] = 1.0;
+        // Internal edge 0 → q_a between sub-triangles a − 1 and a.
+        let n = unit([q[a][1], -q[a][0]]);
+        for (ip, pt) in [[0.0, 0.0], q[a]].into_iter().enumerate() {
+            for k in 0..2 {
+                let row = 6 + 4 * a + 2 * ip + k;
+                let r = &mut m[row * NC..(row + 1) * NC];
+                traction_row(r, a, pt, n, k, 1.0);
+                traction_row(r, (a + 2) % 3, pt, n, k, -1.0);
+            }
+        }
+        // External edge q_a → q_{a+1}, outward normal.
+        let b = (a + 1) % 3;
+        let n = unit([q[b][1] - q[a][1], q[a][0] - q[b][0]]);
+        for (ip, pt) in [q[a], q[b]].into_iter().enumerate() {
+            for k in 0..2 {
+                let row = 18 + 4 * a + 2 * ip + k;
+                traction_row(&mut m[row * NC..(row + 1) * NC], a, pt, n, k, 1.0);
+            }
+        }
+    }
+    m
+}
+
+/// The 27 × 12 map (row-major) from edge-traction values to JM coefficients of the
+/// normalised triangle q: least-squares solution of [`jm_system`] (exact for
+/// self-equilibrated tractions). None if the system is rank deficient.
+fn jm_operator(q: &[[f64; 2]; 3]) -> Option<[f64; NC * NT]> {
+    let m = jm_system(q);
+    let rhs: Vec<usize> = (18..30).collect();
+    let x = lstsq_operator(m, 30, NC, &rhs)?;
+    let mut out = [0.0; NC * NT];
+    out.copy_from_slice(&x);
+    Some(out)
+}
+
+/// For the m × n matrix `a` (row-major, m ≥ n, full column rank), the n × rhs.len()
+/// matrix whose column c is argmin_x ‖a x − e_{rhs[c]}‖ (Householder QR). None if a is
+/// numerically rank deficient.
+fn lstsq_operator(mut a: Vec<f64>, m: usize, n: usize, rhs: &[usize]) -> Option<Vec<f64>> {
+    let mut vs = vec![0.0; m * n];
+    let mut betas = vec![0.0; n];
+    let mut rdiag_max: f64 = 0.0;
+    for j in 0..n {
+        let norm = (j..m)
+            .map(|i| a[i * n + j] * a[i * n + j])
+            .sum::<f64>()
+            .sqrt();
+        let alpha = if a[j * n + j] > 0.0 { -norm } else { norm };
+        let v = &mut vs[j * m..(j + 1) * m];
+        for i in j..m {
+            v[i] = a[i * n + j];
+        }
+        v[j] -= alpha;
+        let vn2: f64 = (j..m).map(|i| v[i] * v[i]).sum();
+        let beta = if vn2 > 0.0 { 2.0 / vn2 } else { 0.0 };
+        betas[j] = beta;
+        for c in j..n {
+            let d: f64 = (j..m).map(|i| v[i] * a[i * n + c]).sum();
+            for i in j..m {
+                a[i * n + c] -= beta * d * v[i];
+            }
+        }
+        rdiag_max = rdiag_max.max(a[j * n + j].abs());
+    }
+    if !(0..n).all(|j| a[j * n + j].abs() > 1e-10 * rdiag_max) {
+        return None;
+    }
+    let nr = rhs.len();
+    let mut out = vec![0.0; n * nr];
+    let mut y = vec![0.0; m];
+    for (c, &row) in rhs.iter().enumerate() {
+        y.iter_mut().for_each(|v| *v = 0.0);
+        y[row] = 1.0;
+        for j in 0..n {
+            let v = &vs[j * m..(j + 1) * m];
+            let d: f64 = (j..m).map(|i| v[i] * y[i]).sum();
+            for i in j..m {
+                y[i] -= betas[j] * d * v[i];
+            }
+        }
+        for j in (0..n).rev() {
+            let s: f64 = y[j]
+                - (j + 1..n)
+                    .map(|k| a[j * n + k] * out[k * nr + c])
+                    .sum::<f64>();
+            out[j * nr + c] = s / a[j * n + j];
+        }
+    }
+    Some(out)
+}
+
+pub(super) fn apply_operator(g: &[f64; NC * NT], t: &[f64; NT]) -> [f64; NC] {
+    let mut x = [0.0; NC];
+    for (i, xi) in x.iter_mut().enumerate() {
+        let row = &g[i * NT..(i + 1) * NT];
+        *xi = row.iter().zip(t).map(|(a, b)| a * b).sum();
+    }
+    x
+}
+
+/// JM operators per triangle shape (normalised vertices, quantised key).
+#[derive(Default)]
+pub(super) struct ShapeCache {
+    map: HashMap<[i64; 4], usize>,
+    pub(super) ops: Vec<[f64; NC * NT]>,
+    scratch: Option<Box<[f64; NC * NT]>>,
+}
+
+impl ShapeCache {
+    fn key(q: &[[f64; 2]; 3]) -> [i64; 4] {
+        [q[0][0], q[0][1], q[1][0], q[1][1]].map(|v| (v / SHAPE_QUANTUM).round() as i64)
+    }
+
+    /// Index of the cached operator of shape q (NONE past the capacity: no caching), or
+    /// None if the local problem is singular.
+    pub(super) fn index(&mut self, q: &[[f64; 2]; 3]) -> Option<usize> {
+        let key = Self::key(q);
+        if let Some(&i) = self.map.get(&key) {
+            return Some(i);
+        }
+        let op = jm_operator(q)?;
+        if self.ops.len() >= shape_capacity() {
+            return Some(NONE);
+        }
+        self.ops.push(op);
+        self.map.insert(key, self.ops.len() - 1);
+        Some(self.ops.len() - 1)
+    }
+
+    /// The operator of index i (recomputed for shape q if i is NONE).
+    pub(super) fn operator(&mut self, i: usize, q: &[[f64; 2]; 3]) -> &[f64; NC * NT] {
+        if i != NONE {
+            return &self.ops[i];
+        }
+        // Shapes past the capacity were checked non-singular in `index`.
+        let op = jm_operator(q).unwrap_or([0.0; NC * NT]);
+        self.scratch = Some(Box::new(op));
+        self.scratch.as_ref().unwrap()
+    }
+}
+
+/// The JM coefficients of every element from the edge tractions.
+pub(super) fn jm_fields(
+    mesh: &Mesh,
+    topo: &Topology,
+    trac: &[[[f64; 2]; 2]],
+    cache: &mut ShapeCache,
+    shape_of: &[usize],
+    coef: &mut [[f64; NC]],
+) {
+    for (e, c) in coef.iter_mut().enumerate() {
+        let (_, _, qv) = local_frame(&mesh.triangle_points(e));
+        let t = element_tractions(topo, trac, mesh, e);
+        *c = apply_operator(cache.operator(shape_of[e], &qv), &t);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::equilibrate::energy::{dotv, norm};
+    use crate::estimate::equilibrate::relaxation::equilibrium_constraints;
+    use crate::qp::dense::SymMatrix;
+    use crate::testutil::Lcg;
+
+    #[test]
+    fn jm_local_solve_reproduces_equilibrated_tractions() {
+        let p = [[0.1, 0.2], [1.3, 0.5], [0.4, 1.4]];
+        let (_, _, q) = local_frame(&p);
+        let g = jm_operator(&q).expect("rank 27");
+        let cons = equilibrium_constraints(&q);
+        let mut rng = Lcg(2024);
+        for trial in 0..20 {
+            let mut t = [0.0; NT];
+            t.iter_mut().for_each(|v| *v = 1e7 * rng.next());
+            // Project onto the self-equilibrated subspace: t − Cᵀ (C Cᵀ)⁻¹ C t.
+            let mut cct = SymMatrix::new(3);
+            for i in 0..3 {
+                for j in 0..3 {
+                    cct.set(i, j, dotv(&cons[i], &cons[j]));
+                }
+            }
+            let mut y: Vec<f64> = (0..3).map(|i| dotv(&cons[i], &t)).collect();
+            let unbalanced = norm(&y);
+            cct.cholesky().unwrap().solve_in_place(&mut y);
+            if trial % 2 == 0 {
+                for i in 0..NT {
+                    t[i] -= (0..3).map(|r| cons[r][i] * y[r]).sum::<f64>();
+                }
+            }
+            let tmax = t.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let x = apply_operator(&g, &t);
+            let mut worst_t: f64 = 0.0;
+            let (mut worst_div, mut worst_jump): (f64, f64) = (0.0, 0.0);
+            for a in 0..3 {
+                let b = (a + 1) % 3;
+                let n = unit([q[b][1] - q[a][1], q[a][0] - q[b][0]]);
+                for (end, pt) in [q[a], q[b]].into_iter().enumerate() {
+                    let tr = traction(&eval(&x, a, pt), n);
+                    for k in 0..2 {
+                        worst_t = worst_t.max((tr[k] - t[4 * a + 2 * end + k]).abs() / tmax);
+                    }
+                }
+                let o = 9 * a;
+                worst_div = worst_div.max((x[o + 1] + x[o + 8]).abs() / tmax);
+                worst_div = worst_div.max((x[o + 7] + x[o + 5]).abs() / tmax);
+                let n = unit([q[a][1], -q[a][0]]);
+                for pt in [[0.0, 0.0], q[a]] {
+                    let t1 = traction(&eval(&x, a, pt), n);
+                    let t0 = traction(&eval(&x, (a + 2) % 3, pt), n);
+                    worst_jump =
+                        worst_jump.max((t1[0] - t0[0]).abs().max((t1[1] - t0[1]).abs()) / tmax);
+                }
+            }
+            if trial % 2 == 0 {
+                assert!(worst_t < 1e-12, "traction misfit {worst_t:e}");
+                assert!(
+                    worst_div < 1e-12 && worst_jump < 1e-12,
+                    "{worst_div:e} {worst_jump:e}"
+                );
+            } else {
+                // Unbalanced data cannot be matched by a divergence-free field.
+                assert!(unbalanced > 1e5 && worst_t.max(worst_div).max(worst_jump) > 1e-3);
+            }
+        }
+        // Divergence-free JM fields with zero traction vanish (rank 27, 9-dim kernel map).
+        assert!(jm_operator(&q).is_some());
+    }
+}

@@ -1,0 +1,249 @@
+//! Evaluation of an [`EquilibratedStress`] (point values, coefficients, CRE) and its
+//! equilibrium check ([`Residuals`]).
+
+use super::eet::{edge_conditions, Bc};
+use super::johnson_mercier::{
+    barycentric, eval, local_frame, midpoints, traction, triangle_area, unit,
+};
+use super::topology::{is_owned, owned_vertices, Topology};
+use super::{Boundary, EquilibratedStress, EquilibrationStats, Residuals, NC, NONE};
+use crate::fem::mesh::Mesh;
+use crate::fem::{self, Material};
+
+impl EquilibratedStress {
+    /// σ̂ (Voigt xx, yy, xy) at a point of element e (evaluated with the polynomial of the
+    /// sub-triangle containing it; points outside the element use the nearest sub-triangle's
+    /// polynomial).
+    pub fn stress_at(&self, mesh: &Mesh, e: usize, x: [f64; 2]) -> [f64; 3] {
+        let p = mesh.triangle_points(e);
+        let (c, h, _) = local_frame(&p);
+        let lam = barycentric(&p, x);
+        // Sub-triangle a = (barycentre, p_a, p_{a+1}) is where λ_{a+2} is the smallest.
+        let mut a = 0;
+        let mut lmin = lam[2];
+        for b in 1..3 {
+            if lam[(b + 2) % 3] < lmin {
+                lmin = lam[(b + 2) % 3];
+                a = b;
+            }
+        }
+        eval(&self.coef[e], a, [(x[0] - c[0]) / h, (x[1] - c[1]) / h])
+    }
+
+    /// σ̂ in sub-triangle `sub` (0..3, the one on the element's edge `sub`) at point x.
+    pub fn sub_stress_at(&self, mesh: &Mesh, e: usize, sub: usize, x: [f64; 2]) -> [f64; 3] {
+        let (c, h, _) = local_frame(&mesh.triangle_points(e));
+        eval(&self.coef[e], sub, [(x[0] - c[0]) / h, (x[1] - c[1]) / h])
+    }
+
+    /// The 27 JM coefficients of element e (sub-triangle a, component r, monomial m at
+    /// 9a + 3r + m; monomials 1, ξ, η with ξ = (x − barycentre)/diameter).
+    pub fn coefficients(&self, e: usize) -> &[f64; NC] {
+        &self.coef[e]
+    }
+
+    /// ∫_E (σ̂ − τ) : K⁻¹ : (σ̂ − τ) for a constant stress τ (Voigt), plane-strain compliance:
+    /// exact quadrature (quadratic integrand per sub-triangle, edge-midpoint rule).
+    pub fn cre_squared(&self, mesh: &Mesh, e: usize, tau: [f64; 3], material: &Material) -> f64 {
+        let p = mesh.triangle_points(e);
+        let (_, _, qv) = local_frame(&p);
+        let area = triangle_area(&p);
+        let mut sum = 0.0;
+        for a in 0..3 {
+            for pt in midpoints(&qv, a) {
+                let s = eval(&self.coef[e], a, pt);
+                let dlt = [s[0] - tau[0], s[1] - tau[1], s[2] - tau[2]];
+                sum += 2.0 * material.compliance_energy(&dlt);
+            }
+        }
+        sum * area / 9.0
+    }
+
+    /// Per element ∫_E (σ̂ − Kε(u)) : K⁻¹ : (σ̂ − Kε(u)): the CRE map of the pair (u, σ̂).
+    pub fn cre_map(&self, mesh: &Mesh, material: &Material, u: &[f64]) -> Vec<f64> {
+        (0..mesh.triangles.len())
+            .map(|e| self.cre_squared(mesh, e, fem::element_stress(mesh, e, material, u), material))
+            .collect()
+    }
+
+    /// Figures of the construction (star parameters, shapes, energies).
+    pub fn stats(&self) -> EquilibrationStats {
+        self.stats
+    }
+
+    /// Equilibrium check, relative to max |σ̂| (boundary terms to max(|σ̂|, |g|)).
+    /// Every term is evaluated at the end points of the edges concerned, which is exact for
+    /// the linear tractions (and the divergence is constant per sub-triangle).
+    pub fn residuals(&self, mesh: &Mesh, boundary: &Boundary) -> Residuals {
+        self.residuals_restricted(mesh, boundary, None)
+    }
+
+    /// [`Self::residuals`] restricted to the owned elements of a sub-mesh (see
+    /// [`Restriction`](super::Restriction); None: every element): divergence, internal
+    /// jumps and max |σ̂| over the owned elements; inter-element jumps over the edges with
+    /// both elements in the mesh and at least one owned; boundary data over the boundary
+    /// edges of owned elements (with at least one ring of overlap these are real boundary
+    /// edges, never the artificial boundary of the sub-mesh); point reactions of the
+    /// constrained stars at vertices of owned elements. The maximum over the ranks bounds
+    /// the full-mesh check (each rank's scale is at most the full-mesh one).
+    ///
+    /// Panics if `owned` does not have one entry per element.
+    pub fn residuals_restricted(
+        &self,
+        mesh: &Mesh,
+        boundary: &Boundary,
+        owned: Option<&[bool]>,
+    ) -> Residuals {
+        if let Some(o) = owned {
+            assert_eq!(
+                o.len(),
+                mesh.triangles.len(),
+                "`owned`: one entry per element"
+            );
+        }
+        let own = |e: usize| is_owned(owned, e);
+        let vertex_owned = owned_vertices(mesh, owned);
+        let point_reaction = self
+            .reactions
+            .iter()
+            .filter(|&&(i, _)| vertex_owned.as_ref().is_none_or(|v| v[i]))
+            .fold(0.0f64, |m, &(_, r)| m.max(r));
+        let mut res = Residuals {
+            point_reaction,
+            ..Residuals::default()
+        };
+        let Ok(topo) = Topology::new(mesh) else {
+            return Residuals {
+                divergence: f64::INFINITY,
+                ..res
+            };
+        };
+        let nt = mesh.triangles.len();
+        let mut smax: f64 = 0.0;
+        let (mut div, mut jin): (f64, f64) = (0.0, 0.0);
+        for e in (0..nt).filter(|&e| own(e)) {
+            let (_, _, qv) = local_frame(&mesh.triangle_points(e));
+            let x = &self.coef[e];
+            for a in 0..3 {
+                for pt in [[0.0, 0.0], qv[a], qv[(a + 1) % 3]] {
+                    for v in eval(x, a, pt) {
+                        smax = smax.max(v.abs());
+                    }
+                }
+                let o = 9 * a;
+                div = div.max((x[o + 1] + x[o + 8]).abs());
+                div = div.max((x[o + 7] + x[o + 5]).abs());
+                // Internal edge from the barycentre to q_a, between sub-triangles a−1 and a.
+                let n = unit([qv[a][1], -qv[a][0]]);
+                for pt in [[0.0, 0.0], qv[a]] {
+                    let t1 = traction(&eval(x, a, pt), n);
+                    let t0 = traction(&eval(x, (a + 2) % 3, pt), n);
+                    jin = jin.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
+                }
+            }
+        }
+        let smax = if smax > 0.0 { smax } else { 1.0 };
+        res.divergence = div / smax;
+        res.internal_jump = jin / smax;
+        // Inter-element jumps.
+        let mut jel: f64 = 0.0;
+        for g in 0..topo.edge_nodes.len() {
+            let [e0, e1] = topo.edge_elems[g];
+            if e1 == NONE || !(own(e0) || own(e1)) {
+                continue;
+            }
+            let n = topo.edge_normal[g];
+            for node in topo.edge_nodes[g] {
+                let x = mesh.points[node];
+                let t0 = traction(&self.edge_stress(mesh, &topo, e0, g, x), n);
+                let t1 = traction(&self.edge_stress(mesh, &topo, e1, g, x), n);
+                jel = jel.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
+            }
+        }
+        res.element_jump = jel / smax;
+        // Boundary data.
+        let Ok(bc) = edge_conditions(&topo, boundary) else {
+            res.boundary = f64::INFINITY;
+            return res;
+        };
+        let mut gmax = smax;
+        let mut jb: f64 = 0.0;
+        for g in 0..topo.edge_nodes.len() {
+            let e0 = topo.edge_elems[g][0];
+            if topo.edge_elems[g][1] != NONE || !own(e0) {
+                continue;
+            }
+            let n = topo.edge_normal[g];
+            for (end, node) in topo.edge_nodes[g].into_iter().enumerate() {
+                let t = traction(&self.edge_stress(mesh, &topo, e0, g, mesh.points[node]), n);
+                for k in 0..2 {
+                    if let Bc::Known(v) = bc[g][k] {
+                        gmax = gmax.max(v[end].abs());
+                        jb = jb.max((t[k] - v[end]).abs());
+                    }
+                }
+            }
+        }
+        res.boundary = jb / gmax;
+        res
+    }
+
+    /// σ̂ of element e at point x of its edge g (the sub-triangle on that edge).
+    fn edge_stress(
+        &self,
+        mesh: &Mesh,
+        topo: &Topology,
+        e: usize,
+        g: usize,
+        x: [f64; 2],
+    ) -> [f64; 3] {
+        let l = topo.local_edge(e, g);
+        self.sub_stress_at(mesh, e, l, x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::estimate::equilibrate::equilibrate;
+    use crate::estimate::equilibrate::testutil::*;
+
+    #[test]
+    fn restricted_residuals_only_see_owned_elements() {
+        // A load on top only, reacted by the three pinned dofs: large point reactions.
+        let n = 4;
+        let (mesh, mut bd) = patch(n, [0.0, -1e7, 0.0]);
+        let top = mesh.top_nodes();
+        bd.edges
+            .retain(|be| top.contains(&be.nodes[0]) && top.contains(&be.nodes[1]));
+        let u = fe_solve(&mesh, &bd);
+        let eq = equilibrate(&mesh, &STEEL, &u, &bd).unwrap();
+        let full = eq.residuals(&mesh, &bd);
+        println!("unbalanced: {full:?}");
+        assert!(full.point_reaction > 1e-3);
+        // The elements touching a pin are not self-equilibrated (the point reaction is spread
+        // over them); "away": the elements sharing no vertex with them, whose neighbours
+        // across an edge are therefore exact.
+        let pins = [mesh.node(0, 0), mesh.node(n, 0)];
+        let mut near_pin = vec![false; mesh.num_nodes()];
+        for t in mesh
+            .triangles
+            .iter()
+            .filter(|t| t.iter().any(|v| pins.contains(v)))
+        {
+            t.iter().for_each(|&v| near_pin[v] = true);
+        }
+        let away: Vec<bool> = mesh
+            .triangles
+            .iter()
+            .map(|t| !t.iter().any(|&v| near_pin[v]))
+            .collect();
+        let r = eq.residuals_restricted(&mesh, &bd, Some(&away));
+        assert_eq!(r.point_reaction, 0.0, "{r:?}");
+        assert_admissible(&r, 1e-10);
+        let near: Vec<bool> = away.iter().map(|a| !a).collect();
+        let r = eq.residuals_restricted(&mesh, &bd, Some(&near));
+        assert!(r.point_reaction > 1e-3, "{r:?}");
+        let none = vec![false; mesh.triangles.len()];
+        assert_eq!(eq.residuals_restricted(&mesh, &bd, Some(&none)).max(), 0.0);
+    }
+}

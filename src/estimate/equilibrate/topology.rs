@@ -1,0 +1,215 @@
+//! Mesh topology: edges (sorted node pairs) with their elements and geometry, vertex stars,
+//! the vertex colouring and sweep keys of the multicolour order, and the owned elements and
+//! vertices of a restriction.
+
+use super::johnson_mercier::triangle_area;
+use super::{EquilibrationError, NONE};
+use crate::fem::mesh::Mesh;
+
+/// Sweep-order key of a vertex for `PatchRelaxation`: colour in the high 32 bits, global
+/// vertex index in the low ones.
+pub fn sweep_key(colour: u8, global_index: usize) -> u64 {
+    ((colour as u64) << 32) | global_index as u64
+}
+
+/// Greedy vertex colouring in vertex index order: every vertex gets the smallest colour not
+/// used by a lower-indexed vertex sharing an element with it, so two vertices of one element
+/// never share a colour (at most max degree + 1 colours). The structured meshes
+/// ([`Mesh::structured`], six neighbours per interior vertex) get 4 colours (for nx ≥ 2,
+/// ny ≥ 2).
+///
+/// Panics if a triangle refers to a missing node or if more than 256 colours are needed
+/// (a vertex with more than 255 neighbours).
+pub fn vertex_colours(mesh: &Mesh) -> Vec<u8> {
+    let nn = mesh.num_nodes();
+    let (ptr, around) = vertex_stars(mesh);
+    let mut colour = vec![0u8; nn];
+    for i in 0..nn {
+        let mut used = [0u64; 4];
+        for &(e, _) in &around[ptr[i]..ptr[i + 1]] {
+            for &v in &mesh.triangles[e] {
+                if v < i {
+                    let c = colour[v] as usize;
+                    used[c / 64] |= 1 << (c % 64);
+                }
+            }
+        }
+        let c = (0..256)
+            .find(|&c| used[c / 64] & (1 << (c % 64)) == 0)
+            .expect("vertex colouring: more than 256 colours");
+        colour[i] = c as u8;
+    }
+    colour
+}
+
+/// The elements around every vertex, (element, local vertex) in increasing element order,
+/// as a compressed list: vertex i has `around[ptr[i]..ptr[i + 1]]`.
+fn vertex_stars(mesh: &Mesh) -> (Vec<usize>, Vec<(usize, usize)>) {
+    let nn = mesh.num_nodes();
+    let mut ptr = vec![0usize; nn + 1];
+    for t in &mesh.triangles {
+        for &v in t {
+            ptr[v + 1] += 1;
+        }
+    }
+    for i in 0..nn {
+        ptr[i + 1] += ptr[i];
+    }
+    let mut fill = ptr.clone();
+    let mut around = vec![(0, 0); 3 * mesh.triangles.len()];
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        for (a, &v) in t.iter().enumerate() {
+            around[fill[v]] = (e, a);
+            fill[v] += 1;
+        }
+    }
+    (ptr, around)
+}
+
+/// Element e is owned (no restriction: every element is).
+pub(super) fn is_owned(owned: Option<&[bool]>, e: usize) -> bool {
+    owned.is_none_or(|o| o[e])
+}
+
+/// Per vertex: it is a vertex of an owned element (None without restriction: all are).
+pub(super) fn owned_vertices(mesh: &Mesh, owned: Option<&[bool]>) -> Option<Vec<bool>> {
+    owned.map(|o| {
+        let mut v = vec![false; mesh.num_nodes()];
+        for (t, _) in mesh.triangles.iter().zip(o).filter(|(_, &own)| own) {
+            for &a in t {
+                v[a] = true;
+            }
+        }
+        v
+    })
+}
+
+/// Edges of the mesh (sorted node pairs), their elements and geometry, and vertex stars.
+pub(super) struct Topology {
+    /// Nodes of each edge, n0 < n1.
+    pub(super) edge_nodes: Vec<[usize; 2]>,
+    /// The plus element (the one the edge traction F̂_Γ acts on) and the minus element
+    /// (NONE on the boundary).
+    pub(super) edge_elems: Vec<[usize; 2]>,
+    pub(super) edge_len: Vec<f64>,
+    /// Unit normal, outward of the plus element.
+    pub(super) edge_normal: Vec<[f64; 2]>,
+    /// Edge l of element e joins its local vertices l and l + 1.
+    pub(super) elem_edges: Vec<[usize; 3]>,
+    pub(super) vert_ptr: Vec<usize>,
+    /// (element, local vertex) for every vertex.
+    pub(super) vert_elems: Vec<(usize, usize)>,
+}
+
+fn edge_key(a: usize, b: usize) -> u64 {
+    let (a, b) = if a < b { (a, b) } else { (b, a) };
+    ((a as u64) << 32) | b as u64
+}
+
+impl Topology {
+    pub(super) fn new(mesh: &Mesh) -> Result<Topology, EquilibrationError> {
+        let nt = mesh.triangles.len();
+        let nn = mesh.num_nodes();
+        let mut keys = Vec::with_capacity(3 * nt);
+        for (e, t) in mesh.triangles.iter().enumerate() {
+            if t.iter().any(|&v| v >= nn) || triangle_area(&mesh.triangle_points(e)) <= 0.0 {
+                return Err(EquilibrationError::BadTriangle { element: e });
+            }
+            for l in 0..3 {
+                keys.push(edge_key(t[l], t[(l + 1) % 3]));
+            }
+        }
+        keys.sort_unstable();
+        keys.dedup();
+        let ne = keys.len();
+        let edge_nodes: Vec<[usize; 2]> = keys
+            .iter()
+            .map(|&k| [(k >> 32) as usize, (k & 0xffff_ffff) as usize])
+            .collect();
+        let mut edge_elems = vec![[NONE; 2]; ne];
+        let mut edge_len = vec![0.0; ne];
+        let mut edge_normal = vec![[0.0; 2]; ne];
+        let mut elem_edges = vec![[0; 3]; nt];
+        for (e, t) in mesh.triangles.iter().enumerate() {
+            for l in 0..3 {
+                let (a, b) = (t[l], t[(l + 1) % 3]);
+                let g = keys.binary_search(&edge_key(a, b)).unwrap();
+                elem_edges[e][l] = g;
+                if edge_elems[g][0] == NONE {
+                    edge_elems[g][0] = e;
+                    let (pa, pb) = (mesh.points[a], mesh.points[b]);
+                    let tv = [pb[0] - pa[0], pb[1] - pa[1]];
+                    let len = tv[0].hypot(tv[1]);
+                    edge_len[g] = len;
+                    edge_normal[g] = [tv[1] / len, -tv[0] / len];
+                } else if edge_elems[g][1] == NONE {
+                    edge_elems[g][1] = e;
+                } else {
+                    return Err(EquilibrationError::NonManifoldEdge { a, b });
+                }
+            }
+        }
+        let (vert_ptr, vert_elems) = vertex_stars(mesh);
+        Ok(Topology {
+            edge_nodes,
+            edge_elems,
+            edge_len,
+            edge_normal,
+            elem_edges,
+            vert_ptr,
+            vert_elems,
+        })
+    }
+
+    pub(super) fn vertex_elements(&self, i: usize) -> &[(usize, usize)] {
+        &self.vert_elems[self.vert_ptr[i]..self.vert_ptr[i + 1]]
+    }
+
+    pub(super) fn edge_id(&self, a: usize, b: usize) -> Option<usize> {
+        let (a, b) = if a < b { (a, b) } else { (b, a) };
+        let k = [a, b];
+        self.edge_nodes.binary_search(&k).ok()
+    }
+
+    /// +1 if F̂_Γ acts on e (the plus element), −1 otherwise.
+    pub(super) fn sign(&self, e: usize, g: usize) -> f64 {
+        if self.edge_elems[g][0] == e {
+            1.0
+        } else {
+            -1.0
+        }
+    }
+
+    /// Position (0 or 1) of node i in edge g.
+    pub(super) fn end_of(&self, g: usize, i: usize) -> usize {
+        if self.edge_nodes[g][0] == i {
+            0
+        } else {
+            1
+        }
+    }
+
+    pub(super) fn local_edge(&self, e: usize, g: usize) -> usize {
+        self.elem_edges[e].iter().position(|&x| x == g).unwrap()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vertex_colouring_is_proper() {
+        for (nx, ny) in [(1, 1), (2, 2), (5, 3), (16, 12), (64, 48)] {
+            let mesh = Mesh::structured([0.0, 0.0], [1.0, 1.0], nx, ny);
+            let colours = vertex_colours(&mesh);
+            for t in &mesh.triangles {
+                let c = t.map(|v| colours[v]);
+                assert!(c[0] != c[1] && c[1] != c[2] && c[2] != c[0], "{t:?}: {c:?}");
+            }
+            let count = colours.iter().map(|&c| c as usize + 1).max().unwrap();
+            println!("{nx} x {ny}: {count} colours");
+            assert_eq!(count, if nx >= 2 && ny >= 2 { 4 } else { 3 });
+        }
+    }
+}

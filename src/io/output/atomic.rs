@@ -1,0 +1,232 @@
+//! Atomic writes: temporaries next to their targets, synced, renamed into
+//! place, removed on any error.
+
+use std::ffi::OsString;
+use std::fs;
+use std::io::{self, Write as _};
+use std::os::unix::ffi::{OsStrExt, OsStringExt};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use super::team::{agree, Writers};
+use super::OutputError;
+
+/// Atomic write of a small text file (temporary + rename), used for
+/// PREFIX.json.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let tmp = TempFile::for_target(path)?;
+    write_synced(&tmp.path, bytes, path)?;
+    tmp.commit(path)?;
+    sync_dir(&parent_dir(path));
+    Ok(())
+}
+
+/// Writes the `.h5` through `write_h5` (on every rank) and the `.xdmf` bytes
+/// (rank 0) to temporaries, then rank 0 renames both into place (`.h5`
+/// first). Temporaries are removed on any error.
+pub(super) fn commit_pair<W: Writers>(
+    w: &W,
+    h5_path: &Path,
+    write_h5: impl FnOnce(&Path) -> Result<(), OutputError>,
+    xdmf_path: &Path,
+    xdmf: &[u8],
+) -> Result<(), OutputError> {
+    // Rank 0 checks the targets and picks the temporary name; all learn it.
+    let picked = if w.rank() == 0 {
+        h5_temporary(h5_path, xdmf_path).map(Some)
+    } else {
+        Ok(None)
+    };
+    let h5_tmp = agree(w, picked)?;
+    let name = h5_tmp
+        .as_ref()
+        .map(|t| t.path.as_os_str().as_bytes().to_vec())
+        .unwrap_or_default();
+    let tmp_path = PathBuf::from(OsString::from_vec(w.broadcast(0, name)));
+    agree(w, write_h5(&tmp_path))?;
+    let renamed = match h5_tmp {
+        Some(tmp) => rename_pair(tmp, h5_path, xdmf_path, xdmf),
+        None => Ok(()),
+    };
+    agree(w, renamed)
+}
+
+/// The temporary for `h5_path`, once neither target is a directory.
+fn h5_temporary(h5_path: &Path, xdmf_path: &Path) -> Result<TempFile, OutputError> {
+    for target in [h5_path, xdmf_path] {
+        if target.is_dir() {
+            return Err(OutputError::Io {
+                path: target.to_path_buf(),
+                action: "replace a directory with a file",
+                source: io::Error::other("it is a directory"),
+            });
+        }
+    }
+    TempFile::for_target(h5_path)
+}
+
+/// Syncs the written `.h5` temporary, writes the `.xdmf` one, renames both.
+fn rename_pair(
+    h5_tmp: TempFile,
+    h5_path: &Path,
+    xdmf_path: &Path,
+    xdmf: &[u8],
+) -> Result<(), OutputError> {
+    fs::File::open(&h5_tmp.path)
+        .and_then(|f| f.sync_all())
+        .map_err(|e| OutputError::Io {
+            path: h5_path.to_path_buf(),
+            action: "sync the temporary HDF5 file",
+            source: e,
+        })?;
+    let xdmf_tmp = TempFile::for_target(xdmf_path)?;
+    write_synced(&xdmf_tmp.path, xdmf, xdmf_path)?;
+    h5_tmp.commit(h5_path)?;
+    xdmf_tmp.commit(xdmf_path)?;
+    sync_dir(&parent_dir(h5_path));
+    Ok(())
+}
+
+/// A temporary file next to its target, removed on drop unless committed.
+struct TempFile {
+    path: PathBuf,
+}
+
+impl TempFile {
+    fn for_target(target: &Path) -> Result<TempFile, OutputError> {
+        let name = target.file_name().ok_or_else(|| OutputError::BadPrefix {
+            path: target.to_path_buf(),
+            reason: "no file name".into(),
+        })?;
+        let mut tmp_name = OsString::from(".");
+        tmp_name.push(name);
+        tmp_name.push(format!(".tmp.{}", unique_suffix()));
+        Ok(TempFile {
+            path: parent_dir(target).join(tmp_name),
+        })
+    }
+
+    fn commit(self, target: &Path) -> Result<(), OutputError> {
+        fs::rename(&self.path, target).map_err(|e| OutputError::Io {
+            path: target.to_path_buf(),
+            action: "rename the temporary file into place",
+            source: e,
+        })?;
+        std::mem::forget(self);
+        Ok(())
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = fs::remove_file(&self.path);
+    }
+}
+
+/// Creates `tmp` (which must not exist), writes `bytes`, syncs. Errors name
+/// `target`.
+fn write_synced(tmp: &Path, bytes: &[u8], target: &Path) -> Result<(), OutputError> {
+    fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(tmp)
+        .and_then(|mut f| {
+            f.write_all(bytes)?;
+            f.sync_all()
+        })
+        .map_err(|e| OutputError::Io {
+            path: target.to_path_buf(),
+            action: "write a temporary file next to it",
+            source: e,
+        })
+}
+
+/// Best effort: make the renames durable.
+fn sync_dir(dir: &Path) {
+    if let Ok(d) = fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+pub(super) fn unique_suffix() -> String {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let nanos = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.subsec_nanos())
+        .unwrap_or(0);
+    format!("{}.{n}.{nanos}", std::process::id())
+}
+
+/// The directory of `path` (`.` for a bare file name).
+pub(super) fn parent_dir(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// `PREFIX.ext`, appending (a dot in PREFIX is kept).
+pub(super) fn with_suffix(prefix: &Path, ext: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_os_string();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::team::Alone;
+    use super::super::testutil::{sample, TestDir};
+    use super::super::write_results;
+    use super::*;
+
+    #[test]
+    fn failed_write_keeps_previous_results() {
+        let dir = TestDir::new("keep");
+        let prefix = dir.0.join("run");
+        write_results(&prefix, &sample()).expect("write");
+        let h5 = fs::read(dir.0.join("run.h5")).unwrap();
+        let xdmf = fs::read(dir.0.join("run.xdmf")).unwrap();
+        let mut bad = sample();
+        bad.steps[0].grids[0].fields[0].values.clear();
+        assert!(write_results(&prefix, &bad).is_err());
+        assert_eq!(dir.entries(), vec!["run.h5", "run.xdmf"]);
+        assert_eq!(fs::read(dir.0.join("run.h5")).unwrap(), h5);
+        assert_eq!(fs::read(dir.0.join("run.xdmf")).unwrap(), xdmf);
+    }
+
+    #[test]
+    fn error_after_temporary_is_written_removes_it() {
+        let dir = TestDir::new("midway");
+        let h5 = dir.0.join("run.h5");
+        let xdmf = dir.0.join("run.xdmf");
+        let result = commit_pair(
+            &Alone,
+            &h5,
+            |tmp| {
+                fs::write(tmp, b"half an HDF5 file").unwrap();
+                Err(OutputError::Io {
+                    path: h5.clone(),
+                    action: "simulate a failure",
+                    source: io::Error::other("simulated"),
+                })
+            },
+            &xdmf,
+            b"<Xdmf/>",
+        );
+        assert!(result.is_err());
+        assert!(dir.entries().is_empty(), "{:?}", dir.entries());
+    }
+
+    #[test]
+    fn write_atomic_replaces_whole_file() {
+        let dir = TestDir::new("atomic");
+        let path = dir.0.join("run.json");
+        write_atomic(&path, b"{\"a\": 1}").expect("write");
+        write_atomic(&path, b"{\"b\": 2}").expect("rewrite");
+        assert_eq!(fs::read(&path).unwrap(), b"{\"b\": 2}");
+        assert_eq!(dir.entries(), vec!["run.json"]);
+    }
+}

@@ -1,0 +1,318 @@
+//! The HDF5 file: every rank creates every group, attribute and dataset and
+//! writes its rows of each dataset in one (collective) transfer.
+
+use std::ops::Range;
+use std::path::Path;
+
+use super::team::{agree, Writers};
+use super::{entries, grid_index, OutputError, Results, Share};
+
+fn h5err(target: &Path, action: String) -> impl FnOnce(hdf5::Error) -> OutputError {
+    let path = target.to_path_buf();
+    move |source| OutputError::Hdf5 {
+        path,
+        action,
+        source,
+    }
+}
+
+/// Writes the HDF5 file at `tmp` (created, must not exist; on every rank of
+/// `w`). Errors name `target`.
+pub(super) fn write_h5<W: Writers>(
+    w: &W,
+    tmp: &Path,
+    target: &Path,
+    results: &Results,
+    shares: &[Share],
+) -> Result<(), OutputError> {
+    let xfer = agree(
+        w,
+        w.transfer().map_err(h5err(
+            target,
+            "creating the data transfer property list".into(),
+        )),
+    )?;
+    let created = hdf5::File::with_options()
+        .with_fapl(|p| w.file_access(p.fclose_degree(hdf5::file::FileCloseDegree::Strong)))
+        .create_excl(tmp)
+        .map_err(h5err(target, "creating the file".into()));
+    let file = agree(w, created)?;
+    let out = H5Out {
+        w,
+        target,
+        xfer: xfer.as_ref().map_or(ffi::H5P_DEFAULT, |p| p.id()),
+    };
+    // All object handles of `fill_h5` are dropped when it returns; `close`
+    // then reports flush errors. On an error every rank returns at the same
+    // point and drops (closes) the file.
+    fill_h5(&out, &file, results, shares)?;
+    agree(
+        w,
+        file.close()
+            .map_err(h5err(target, "closing the file".into())),
+    )
+}
+
+/// Writing an HDF5 file on the ranks of `w`: every step that can fail is
+/// agreed on.
+struct H5Out<'a, W> {
+    w: &'a W,
+    target: &'a Path,
+    /// Data transfer property list.
+    xfer: ffi::Hid,
+}
+
+impl<W: Writers> H5Out<'_, W> {
+    fn agreed<T>(
+        &self,
+        r: hdf5::Result<T>,
+        action: impl FnOnce() -> String,
+    ) -> Result<T, OutputError> {
+        agree(
+            self.w,
+            r.map_err(|source| OutputError::Hdf5 {
+                path: self.target.to_path_buf(),
+                action: action(),
+                source,
+            }),
+        )
+    }
+
+    fn group(&self, parent: &hdf5::Group, name: &str) -> Result<hdf5::Group, OutputError> {
+        self.agreed(parent.create_group(name), || {
+            format!(
+                "creating group {}/{name}",
+                parent.name().trim_end_matches('/')
+            )
+        })
+    }
+
+    /// A scalar `f64` attribute of `loc` (called `at` in messages).
+    fn attribute(
+        &self,
+        loc: &hdf5::Location,
+        at: &str,
+        name: &str,
+        value: f64,
+    ) -> Result<(), OutputError> {
+        let attr = self.agreed(loc.new_attr::<f64>().create(name), || {
+            format!("creating attribute {name:?} of {at}")
+        })?;
+        self.agreed(attr.write_scalar(&value), || {
+            format!("writing attribute {name:?} of {at}")
+        })
+    }
+
+    /// Creates dataset `name` of `shape` (contiguous) and writes `data`, its
+    /// rows `rows` (first dimension) from this rank.
+    fn dataset<T: hdf5::H5Type>(
+        &self,
+        parent: &hdf5::Group,
+        name: &str,
+        shape: &[usize],
+        rows: Range<usize>,
+        data: &[T],
+    ) -> Result<(), OutputError> {
+        let path = format!("{}/{name}", parent.name().trim_end_matches('/'));
+        let created = parent
+            .new_dataset::<T>()
+            .no_chunk()
+            .shape(shape.to_vec())
+            .create(name);
+        let ds = self.agreed(created, || format!("creating dataset {path}"))?;
+        if shape.iter().product::<usize>() == 0 {
+            return Ok(()); // nothing to write on any rank
+        }
+        let selected = self.agreed(RowSelection::new(&ds, rows, data.len()), || {
+            format!("selecting rows of dataset {path}")
+        })?;
+        self.agreed(selected.write(&ds, data, self.xfer), || {
+            format!("writing dataset {path}")
+        })
+    }
+}
+
+fn fill_h5<W: Writers>(
+    out: &H5Out<W>,
+    file: &hdf5::File,
+    results: &Results,
+    shares: &[Share],
+) -> Result<(), OutputError> {
+    for (name, value) in &results.attributes {
+        out.attribute(file, "/", name, *value)?;
+    }
+    let grids = out.group(file, "grids")?;
+    for (g, share) in results.grids.iter().zip(shares) {
+        let group = out.group(&grids, &g.name)?;
+        let rows = share.points.clone();
+        let points: Vec<f64> = g.points[rows.clone()].iter().flatten().copied().collect();
+        out.dataset(&group, "points", &[g.points.len(), 2], rows, &points)?;
+        let rows = share.cells.clone();
+        let cells = g.topology.flat_rows(rows.clone());
+        let shape = [g.topology.cell_count(), g.topology.nodes_per_cell()];
+        out.dataset(&group, "cells", &shape, rows, &cells)?;
+    }
+    let steps = out.group(file, "steps")?;
+    for (k, step) in results.steps.iter().enumerate() {
+        let sg = out.group(&steps, &k.to_string())?;
+        out.attribute(&sg, &format!("/steps/{k}"), "time", step.time)?;
+        for gf in &step.grids {
+            // Validated: the grid exists.
+            let gi = grid_index(results, &gf.grid);
+            let grid = gi.map(|i| &results.grids[i]);
+            let share = gi.map(|i| shares[i].clone()).unwrap_or_default();
+            let gg = out.group(&sg, &gf.grid)?;
+            for field in &gf.fields {
+                let shape = field.stored_shape(entries(grid, field.center));
+                let rows = share.rows(field.center);
+                let data = field.stored_rows(rows.clone());
+                out.dataset(&gg, &field.name, &shape, rows, &data)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The few HDF5 C functions used directly: the `hdf5` crate writes with the
+/// default transfer property list (independent I/O in parallel) and skips
+/// empty selections, while a collective write needs a collective transfer
+/// list and every rank in `H5Dwrite`. They come from the libhdf5 the crate
+/// links (HDF5 1.10 or later: `hid_t` is 64-bit).
+mod ffi {
+    use std::ffi::{c_int, c_void};
+
+    pub type Hid = i64;
+    pub type Herr = c_int;
+    pub type Hsize = u64;
+
+    pub const H5P_DEFAULT: Hid = 0;
+    /// `H5S_SELECT_SET` of `H5S_seloper_t`.
+    pub const H5S_SELECT_SET: c_int = 0;
+    /// `H5FD_MPIO_COLLECTIVE` of `H5FD_mpio_xfer_t`.
+    pub const H5FD_MPIO_COLLECTIVE: c_int = 1;
+
+    extern "C" {
+        pub fn H5Pcreate(cls_id: Hid) -> Hid;
+        pub fn H5Pset_dxpl_mpio(dxpl_id: Hid, xfer_mode: c_int) -> Herr;
+        pub fn H5Sselect_none(space_id: Hid) -> Herr;
+        pub fn H5Sselect_hyperslab(
+            space_id: Hid,
+            op: c_int,
+            start: *const Hsize,
+            stride: *const Hsize,
+            count: *const Hsize,
+            block: *const Hsize,
+        ) -> Herr;
+        pub fn H5Dwrite(
+            dset_id: Hid,
+            mem_type_id: Hid,
+            mem_space_id: Hid,
+            file_space_id: Hid,
+            dxpl_id: Hid,
+            buf: *const c_void,
+        ) -> Herr;
+    }
+}
+
+/// The error of a failed HDF5 C call: the library's error stack.
+fn h5_error() -> hdf5::Error {
+    hdf5::Error::query().unwrap_or_else(|e| e)
+}
+
+fn h5check(code: ffi::Herr) -> hdf5::Result<()> {
+    if code < 0 {
+        Err(h5_error())
+    } else {
+        Ok(())
+    }
+}
+
+/// A data transfer property list asking for collective MPI-IO.
+pub(super) fn collective_transfer() -> hdf5::Result<hdf5::PropertyList> {
+    hdf5::sync::sync(|| {
+        // SAFETY: plain HDF5 calls on a property list this function owns.
+        unsafe {
+            let id = ffi::H5Pcreate(*hdf5::globals::H5P_DATASET_XFER);
+            if id < 0 {
+                return Err(h5_error());
+            }
+            let plist: hdf5::PropertyList = hdf5::from_id(id)?;
+            h5check(ffi::H5Pset_dxpl_mpio(plist.id(), ffi::H5FD_MPIO_COLLECTIVE))?;
+            Ok(plist)
+        }
+    })
+}
+
+/// This rank's rows of a dataset: the file selection and the memory space
+/// (none for no rows: the empty file selection serves as both).
+struct RowSelection {
+    file: hdf5::Dataspace,
+    memory: Option<hdf5::Dataspace>,
+}
+
+impl RowSelection {
+    /// Rows `rows` (first dimension, all of the others) of `ds`, to be
+    /// written from `len` values.
+    fn new(ds: &hdf5::Dataset, rows: Range<usize>, len: usize) -> hdf5::Result<RowSelection> {
+        let file = ds.space()?;
+        let mut count: Vec<usize> = file.shape();
+        if count.is_empty() || rows.end > count[0] {
+            return Err(format!("rows {rows:?} outside shape {count:?}").into());
+        }
+        count[0] = rows.len();
+        if count.iter().product::<usize>() != len {
+            return Err(format!("{len} values for {count:?} entries").into());
+        }
+        if rows.is_empty() {
+            // SAFETY: `file` is a dataspace this function owns.
+            h5check(hdf5::sync::sync(|| unsafe {
+                ffi::H5Sselect_none(file.id())
+            }))?;
+            return Ok(RowSelection { file, memory: None });
+        }
+        let memory = hdf5::Dataspace::try_new(count.clone())?;
+        let mut start = vec![0 as ffi::Hsize; count.len()];
+        start[0] = rows.start as ffi::Hsize;
+        let count: Vec<ffi::Hsize> = count.iter().map(|&c| c as ffi::Hsize).collect();
+        // SAFETY: `start` and `count` have the rank of `file`; null stride
+        // and block mean 1.
+        h5check(hdf5::sync::sync(|| unsafe {
+            ffi::H5Sselect_hyperslab(
+                file.id(),
+                ffi::H5S_SELECT_SET,
+                start.as_ptr(),
+                std::ptr::null(),
+                count.as_ptr(),
+                std::ptr::null(),
+            )
+        }))?;
+        Ok(RowSelection {
+            file,
+            memory: Some(memory),
+        })
+    }
+
+    /// `H5Dwrite` of `data` (as many values as selected) with transfer list
+    /// `xfer`: collective when `xfer` says so, so every rank calls it.
+    fn write<T: hdf5::H5Type>(
+        &self,
+        ds: &hdf5::Dataset,
+        data: &[T],
+        xfer: ffi::Hid,
+    ) -> hdf5::Result<()> {
+        let dtype = hdf5::Datatype::from_type::<T>()?;
+        let memory = self.memory.as_ref().unwrap_or(&self.file);
+        // SAFETY: `data` holds exactly the selected number of `T`s (checked
+        // in `new`), laid out as the memory space says; the ids are alive.
+        h5check(hdf5::sync::sync(|| unsafe {
+            ffi::H5Dwrite(
+                ds.id(),
+                dtype.id(),
+                memory.id(),
+                self.file.id(),
+                xfer,
+                data.as_ptr().cast(),
+            )
+        }))
+    }
+}

@@ -1,0 +1,640 @@
+//! Result files: `PREFIX.h5` (HDF5, the data) + `PREFIX.xdmf` (XDMF 3, the
+//! description ParaView reads), written whole or not at all, and
+//! [`write_atomic`] for small text files such as `PREFIX.json`.
+//!
+//! # Processes
+//!
+//! [`write_results_parallel`] is collective over an MPI communicator and
+//! writes one `PREFIX.h5` whatever the number of ranks. Every rank passes
+//! [`Results`] of the same structure (the same grids with their full
+//! geometry, the same steps, field names, kinds and centers, the same
+//! attributes; checked with a hash) and, per grid, a [`Share`]: the
+//! contiguous rows of points and of cells it writes. The ranks' shares tile
+//! each grid (checked); a rank's field values may be empty where its share is.
+//! All ranks open the file with the MPI-IO driver (`H5Pset_fapl_mpio`),
+//! create every group, attribute and dataset together in the same order
+//! (creation is collective in parallel HDF5; datasets are contiguous), and
+//! write their hyperslab of every dataset (points, cells, each field at each
+//! step) in one collective transfer (`H5FD_MPIO_COLLECTIVE`) per dataset,
+//! ranks without rows taking part with an empty selection. Rank 0 alone
+//! writes `PREFIX.xdmf` and renames the files. The result is the same, dataset
+//! by dataset and attribute by attribute, as the one-process file.
+//!
+//! [`write_results`] is the same code on one process: each grid is one share,
+//! the file uses HDF5's default (serial) driver, and no MPI call is made (MPI
+//! need not be initialised).
+//!
+//! # Atomicity
+//!
+//! [`write_results`] first validates the whole [`Results`] (nothing is
+//! created when that fails), then writes both files to hidden temporaries in
+//! the destination directory (`.NAME.h5.tmp.*`, `.NAME.xdmf.tmp.*`),
+//! syncs them, and renames the `.h5` into place and then the `.xdmf`. On any
+//! error the temporaries are removed, so no partial file remains and
+//! previously written results are untouched. The `.xdmf` is renamed last, so
+//! an `.xdmf` that names `PREFIX.h5` never appears before that file is
+//! complete (when a pair is overwritten, the old `.xdmf` sits beside the new
+//! `.h5` between the two renames). The destination directory is not created by the writers: call
+//! [`check_writable`] first (it creates it).
+//!
+//! [`write_results_parallel`] keeps the same contract. Every rank validates
+//! its `Results` and shares before anything is created; rank 0 picks the
+//! temporary name and broadcasts it; the temporary is closed collectively,
+//! then rank 0 syncs it, writes the `.xdmf` temporary and renames both. The
+//! ranks agree on success after every step that can fail (validation, the
+//! temporary name, file creation, each group, attribute and dataset, the
+//! close, the renames): an all-reduce of a failure flag, then the message of
+//! the first failing rank is broadcast. So either every rank goes on or every
+//! rank returns an error (its own, or [`OutputError::OtherRank`]), and no rank
+//! waits in a collective call the others have left.
+//!
+//! # Names
+//!
+//! Grid and field names are used as HDF5 link names and inside XDMF paths, so
+//! they must be non-empty, made of ASCII letters, digits, `_`, `-`, `.`, and
+//! must not start with `.`. The file name of PREFIX must be valid UTF-8 and
+//! must not contain `:` (XDMF separates file and dataset with `:`).
+//!
+//! # HDF5 layout (the contract for users and tests)
+//!
+//! All floating-point data are little-endian `f64`; connectivity is `i64`
+//! (0-based point indices).
+//!
+//! | path | shape | content |
+//! | --- | --- | --- |
+//! | `/` attributes | scalar `f64` each | [`Results::attributes`], by name |
+//! | `/grids/<grid>/points` | N×2 `f64` | x, y of each point |
+//! | `/grids/<grid>/cells` | M×3 `i64` (triangles) or M×2 `i64` (segments) | point indices of each cell |
+//! | `/steps/<k>` | group | k = 0, 1, … is the index in [`Results::steps`] |
+//! | `/steps/<k>` attribute `time` | scalar `f64` | [`Step::time`] (the NNDD iteration number) |
+//! | `/steps/<k>/<grid>/<field>` | see below | one field of one grid at step k |
+//!
+//! Field datasets, with n = N (points, [`Center::Node`]) or M (cells,
+//! [`Center::Cell`]):
+//!
+//! | [`Kind`] | values given | dataset shape |
+//! | --- | --- | --- |
+//! | `Scalar` | n | n (one-dimensional) |
+//! | `Vector` | n×2 (x, y per entry) | n×3, z column = 0 |
+//! | `Tensor` | n×6 (xx yy zz xy yz xz per entry) | n×9, the full symmetric 3×3 tensor row by row: xx xy xz, xy yy yz, xz yz zz |
+//!
+//! Tensors are written with 9 components (XDMF `Tensor`) rather than 6
+//! (`Tensor6`) because ParaView 5.11's readers disagree on `Tensor6`: the
+//! "XDMF Reader" expands it as xx xy xz yy yz zz, the Xdmf3 readers pass the
+//! 6 values through to VTK, which labels them xx yy zz xy yz xz. A 9-component
+//! tensor is read identically, and correctly, by all three.
+//!
+//! A `/steps/<k>/<grid>` group exists only for the grids that step lists.
+//! Times must be finite and strictly increasing (so that every step is a
+//! distinct time step in ParaView).
+//!
+//! # XDMF
+//!
+//! `PREFIX.xdmf` (XDMF `Version="3.0"`) holds one `Domain` with a temporal
+//! collection; each step is a spatial collection (with its `Time`) of *all*
+//! grids, in the order of [`Results::grids`], so the block structure is the
+//! same at every time. Each grid's `Topology` (`Triangle`, or `Polyline` with
+//! `NodesPerElement="2"`) and `Geometry` (`XY`) refer to `/grids/<grid>/…`, its
+//! `Attribute`s to `/steps/<k>/<grid>/<field>` (`Scalar`, `Vector`, `Tensor`;
+//! `Center` `Node` or `Cell`). Datasets are named `NAME.h5:/path` with the bare
+//! file name, i.e. relative to the `.xdmf`, so the pair can be moved
+//! together. Without steps the file is a single spatial collection of the
+//! meshes. ParaView 5.11 opens it with the "XDMF Reader" and with
+//! "Xdmf3ReaderS"/"Xdmf3ReaderT" (checked with pvpython: same time steps,
+//! arrays, components and values); `OpenDataFile` picks Xdmf3ReaderS, which
+//! does not keep the block names, the other two do.
+//!
+//! # Files
+//!
+//! - `validate`: the checks of the results, shares and PREFIX made before
+//!   anything is created.
+//! - `team`: the processes writing together (one, or the ranks of a
+//!   communicator), their agreement on success and the check of their shares.
+//! - `atomic`: writing to temporaries and renaming them into place.
+//! - `h5`: the HDF5 file (collective datasets through a few HDF5 C calls).
+//! - `xdmf`: the XDMF text.
+
+mod atomic;
+mod h5;
+mod team;
+#[cfg(test)]
+mod testutil;
+mod validate;
+mod xdmf;
+
+use std::fs;
+use std::io::{self, Write as _};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+pub use atomic::write_atomic;
+use atomic::{commit_pair, parent_dir, unique_suffix, with_suffix};
+use h5::write_h5;
+use team::{agree, check_team, Alone, Team, Writers};
+use validate::{prefix_name, validate};
+use xdmf::xdmf_text;
+
+/// Cells of a grid: point indices (0-based) of linear triangles or of 2-node
+/// segments.
+#[derive(Debug, Clone, PartialEq, Hash)]
+pub enum Topology {
+    Triangle(Vec<[u32; 3]>),
+    Segment(Vec<[u32; 2]>),
+}
+
+/// Where a field lives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Center {
+    /// One entry per point.
+    Node,
+    /// One entry per cell.
+    Cell,
+}
+
+/// What one entry of a field is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Kind {
+    /// 1 value per entry.
+    Scalar,
+    /// 2 values per entry (x, y); written with 3 components, z = 0, for
+    /// ParaView.
+    Vector,
+    /// 6 values per entry: xx yy zz xy yz xz (a symmetric tensor); written
+    /// with 9 components (see the module documentation).
+    Tensor,
+}
+
+/// One field: `values` holds the entries one after the other, each with the
+/// number of values of its [`Kind`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    pub name: String,
+    pub center: Center,
+    pub kind: Kind,
+    pub values: Vec<f64>,
+}
+
+/// A mesh: 2D points and cells.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    pub name: String,
+    pub points: Vec<[f64; 2]>,
+    pub topology: Topology,
+}
+
+/// Fields of one grid at one time step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridFields {
+    pub grid: String,
+    pub fields: Vec<Field>,
+}
+
+/// One time step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step {
+    /// The NNDD iteration number.
+    pub time: f64,
+    pub grids: Vec<GridFields>,
+}
+
+/// Everything [`write_results`] writes.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Results {
+    pub grids: Vec<Grid>,
+    pub steps: Vec<Step>,
+    /// File-level scalar attributes (attributes of the HDF5 root group).
+    pub attributes: Vec<(String, f64)>,
+}
+
+/// The rows of one grid this rank writes: a contiguous range of the grid's
+/// points and one of its cells (in the grid's own numbering). Ranges of
+/// different ranks must not overlap; together they cover the grid (ranks with
+/// nothing to write for a grid give empty ranges).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Share {
+    pub points: Range<usize>,
+    pub cells: Range<usize>,
+}
+
+impl Share {
+    /// All of `grid` (what one process writing everything holds).
+    pub fn whole(grid: &Grid) -> Share {
+        Share {
+            points: 0..grid.points.len(),
+            cells: 0..grid.topology.cell_count(),
+        }
+    }
+
+    /// The rows of a field with this center.
+    fn rows(&self, center: Center) -> Range<usize> {
+        match center {
+            Center::Node => self.points.clone(),
+            Center::Cell => self.cells.clone(),
+        }
+    }
+}
+
+/// Errors of this module; every variant but [`OutputError::OtherRank`] names
+/// the path concerned.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The output location given with `-nndd_output` cannot be written.
+    #[error("-nndd_output {}: cannot {action} {}: {source}", .prefix.display(), .path.display())]
+    NotWritable {
+        prefix: PathBuf,
+        path: PathBuf,
+        action: &'static str,
+        source: io::Error,
+    },
+    /// The output prefix cannot name files (no file name, `:` in it, not UTF-8).
+    #[error("-nndd_output {}: not a usable output prefix: {reason}", .path.display())]
+    BadPrefix { path: PathBuf, reason: String },
+    /// The results are inconsistent; nothing was written.
+    #[error("{}: invalid results, nothing written: {reason}", .path.display())]
+    Invalid { path: PathBuf, reason: String },
+    /// A file-system operation failed.
+    #[error("{}: cannot {action}: {source}", .path.display())]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        source: io::Error,
+    },
+    /// The HDF5 library reported an error.
+    #[error("{}: HDF5 error while {action}: {source}", .path.display())]
+    Hdf5 {
+        path: PathBuf,
+        action: String,
+        source: hdf5::Error,
+    },
+    /// Another rank of a collective write failed with this message (which
+    /// names the path); this rank stopped at the same point.
+    #[error("{message} (reported by rank {rank})")]
+    OtherRank { rank: usize, message: String },
+}
+
+impl Topology {
+    fn cell_count(&self) -> usize {
+        match self {
+            Topology::Triangle(c) => c.len(),
+            Topology::Segment(c) => c.len(),
+        }
+    }
+
+    fn nodes_per_cell(&self) -> usize {
+        match self {
+            Topology::Triangle(_) => 3,
+            Topology::Segment(_) => 2,
+        }
+    }
+
+    fn xdmf_type(&self) -> &'static str {
+        match self {
+            Topology::Triangle(_) => "Triangle",
+            Topology::Segment(_) => "Polyline",
+        }
+    }
+
+    /// Point indices of cells `rows`, cell after cell.
+    fn flat_rows(&self, rows: Range<usize>) -> Vec<i64> {
+        match self {
+            Topology::Triangle(c) => c[rows].iter().flatten().map(|&i| i64::from(i)).collect(),
+            Topology::Segment(c) => c[rows].iter().flatten().map(|&i| i64::from(i)).collect(),
+        }
+    }
+
+    fn max_index(&self) -> Option<u32> {
+        match self {
+            Topology::Triangle(c) => c.iter().flatten().copied().max(),
+            Topology::Segment(c) => c.iter().flatten().copied().max(),
+        }
+    }
+}
+
+impl Kind {
+    /// Values per entry in [`Field::values`].
+    fn given(self) -> usize {
+        match self {
+            Kind::Scalar => 1,
+            Kind::Vector => 2,
+            Kind::Tensor => 6,
+        }
+    }
+
+    /// Components per entry in the file.
+    fn stored(self) -> usize {
+        match self {
+            Kind::Scalar => 1,
+            Kind::Vector => 3,
+            Kind::Tensor => 9,
+        }
+    }
+
+    fn xdmf_type(self) -> &'static str {
+        match self {
+            Kind::Scalar => "Scalar",
+            Kind::Vector => "Vector",
+            Kind::Tensor => "Tensor",
+        }
+    }
+}
+
+impl Center {
+    fn xdmf_name(self) -> &'static str {
+        match self {
+            Center::Node => "Node",
+            Center::Cell => "Cell",
+        }
+    }
+}
+
+impl Field {
+    /// Entries `rows` as stored in the file (vectors padded with z = 0,
+    /// tensors expanded to 3×3 row by row); nothing for no rows (the values
+    /// may then be empty).
+    fn stored_rows(&self, rows: Range<usize>) -> Vec<f64> {
+        if rows.is_empty() {
+            return Vec::new();
+        }
+        let given = self.kind.given();
+        let values = &self.values[rows.start * given..rows.end * given];
+        match self.kind {
+            Kind::Vector => values
+                .chunks_exact(2)
+                .flat_map(|v| [v[0], v[1], 0.0])
+                .collect(),
+            Kind::Tensor => values
+                .chunks_exact(6)
+                .flat_map(|t| [t[0], t[3], t[5], t[3], t[1], t[4], t[5], t[4], t[2]])
+                .collect(),
+            Kind::Scalar => values.to_vec(),
+        }
+    }
+
+    /// Dataset shape in the file for `entries` entries.
+    fn stored_shape(&self, entries: usize) -> Vec<usize> {
+        match self.kind {
+            Kind::Scalar => vec![entries],
+            k => vec![entries, k.stored()],
+        }
+    }
+}
+
+/// Index of the grid called `name` (validated grids: it exists).
+fn grid_index(results: &Results, name: &str) -> Option<usize> {
+    results.grids.iter().position(|g| g.name == name)
+}
+
+fn entries(grid: Option<&Grid>, center: Center) -> usize {
+    match (grid, center) {
+        (Some(g), Center::Node) => g.points.len(),
+        (Some(g), Center::Cell) => g.topology.cell_count(),
+        (None, _) => 0,
+    }
+}
+
+/// `PREFIX` + `.ext` (a prefix may contain dots: never replace an extension).
+pub fn with_ext(prefix: &Path, ext: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    s.into()
+}
+
+/// Check early (before any solve) that PREFIX's directory exists or can be
+/// created and that files can be written there: create and remove a probe
+/// file. The error names the option `-nndd_output` and the path.
+pub fn check_writable(prefix: &Path) -> Result<(), OutputError> {
+    let name = prefix_name(prefix)?;
+    let dir = parent_dir(prefix);
+    let not_writable = |path: &Path, action, source| OutputError::NotWritable {
+        prefix: prefix.to_path_buf(),
+        path: path.to_path_buf(),
+        action,
+        source,
+    };
+    fs::create_dir_all(&dir).map_err(|e| not_writable(&dir, "create directory", e))?;
+    for ext in ["h5", "xdmf", "json"] {
+        let target = with_suffix(prefix, ext);
+        if target.is_dir() {
+            let e = io::Error::other("it is a directory");
+            return Err(not_writable(&target, "replace", e));
+        }
+    }
+    let probe = dir.join(format!(".{name}.probe.{}", unique_suffix()));
+    let result = fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .and_then(|mut f| f.write_all(b"nndd probe\n"));
+    if let Err(e) = result {
+        let _ = fs::remove_file(&probe);
+        return Err(not_writable(&probe, "create a file", e));
+    }
+    fs::remove_file(&probe).map_err(|e| not_writable(&probe, "remove probe file", e))
+}
+
+/// Write PREFIX.h5 and PREFIX.xdmf (atomically: write to temporaries in the
+/// same directory, rename at the end; on any error remove the temporaries so
+/// no partial file remains). One process, no MPI.
+pub fn write_results(prefix: &Path, results: &Results) -> Result<(), OutputError> {
+    let shares: Vec<Share> = results.grids.iter().map(Share::whole).collect();
+    write_on(&Alone, prefix, results, &shares)
+}
+
+/// Collective over `comm` (every rank calls it with Results of identical
+/// structure: same grids with the same full geometry — points and topology
+/// are known on every rank —, same steps, same field names/kinds/centers in
+/// the same order, same attributes). Field `values` are either full length
+/// (all entries of the grid, in the grid's numbering) on ranks whose share of
+/// that grid is non-empty, or may be empty on ranks whose share is empty
+/// (precisely: where this rank's rows of the field's center are empty).
+/// `shares[g]` is this rank's share of `results.grids[g]`. Each rank writes
+/// its hyperslabs (points, cells and every field dataset of that grid at
+/// every step) with collective transfer (H5FD_MPIO_COLLECTIVE); rank 0 writes
+/// the XDMF. Same file layout, atomicity and error contract as
+/// [`write_results`]: if any rank finds an error, every rank returns an error
+/// and no file is created (see the module documentation).
+pub fn write_results_parallel<C: mpi::traits::Communicator>(
+    comm: &C,
+    prefix: &Path,
+    results: &Results,
+    shares: &[Share],
+) -> Result<(), OutputError> {
+    write_on(&Team(comm), prefix, results, shares)
+}
+
+/// [`write_results`] and [`write_results_parallel`]: validate (and agree),
+/// then write.
+fn write_on<W: Writers>(
+    w: &W,
+    prefix: &Path,
+    results: &Results,
+    shares: &[Share],
+) -> Result<(), OutputError> {
+    let h5_path = with_suffix(prefix, "h5");
+    let xdmf_path = with_suffix(prefix, "xdmf");
+    let checked =
+        prefix_name(prefix).and_then(|name| validate(results, shares, &h5_path).map(|()| name));
+    let name = agree(w, checked)?;
+    check_team(w, results, shares).map_err(|reason| OutputError::Invalid {
+        path: h5_path.clone(),
+        reason,
+    })?;
+    let xdmf = if w.rank() == 0 {
+        xdmf_text(results, &format!("{name}.h5"))
+    } else {
+        String::new()
+    };
+    commit_pair(
+        w,
+        &h5_path,
+        |tmp| write_h5(w, tmp, &h5_path, results, shares),
+        &xdmf_path,
+        xdmf.as_bytes(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testutil::{data_items, read, sample, TestDir};
+    use super::*;
+
+    #[test]
+    fn writes_and_reads_back() {
+        let dir = TestDir::new("roundtrip");
+        let prefix = dir.0.join("run.1");
+        let results = sample();
+        check_writable(&prefix).expect("writable");
+        write_results(&prefix, &results).expect("write");
+        // Overwriting an existing pair works too.
+        write_results(&prefix, &results).expect("rewrite");
+        assert_eq!(dir.entries(), vec!["run.1.h5", "run.1.xdmf"]);
+
+        let file = hdf5::File::open(dir.0.join("run.1.h5")).expect("open h5");
+        let mut names = file.attr_names().expect("attr names");
+        names.sort();
+        assert_eq!(names, vec!["error_bound", "nranks"]);
+        for (name, value) in &results.attributes {
+            let got: f64 = file.attr(name).unwrap().read_scalar().unwrap();
+            assert_eq!(got, *value, "attribute {name}");
+        }
+        for g in &results.grids {
+            let (shape, points) = read(&file, &format!("grids/{}/points", g.name));
+            assert_eq!(shape, vec![g.points.len(), 2]);
+            assert_eq!(
+                points,
+                g.points.iter().flatten().copied().collect::<Vec<_>>()
+            );
+            let ds = file.dataset(&format!("grids/{}/cells", g.name)).unwrap();
+            let cells: Vec<i64> = ds.read_raw().unwrap();
+            let (expected, npc): (Vec<i64>, usize) = match &g.topology {
+                Topology::Triangle(c) => (c.iter().flatten().map(|&i| i as i64).collect(), 3),
+                Topology::Segment(c) => (c.iter().flatten().map(|&i| i as i64).collect(), 2),
+            };
+            assert_eq!(ds.shape(), vec![expected.len() / npc, npc]);
+            assert_eq!(cells, expected);
+        }
+        let mut step_names = file.group("steps").unwrap().member_names().unwrap();
+        step_names.sort();
+        assert_eq!(step_names, vec!["0", "1"]);
+        for (k, step) in results.steps.iter().enumerate() {
+            let group = file.group(&format!("steps/{k}")).unwrap();
+            let time: f64 = group.attr("time").unwrap().read_scalar().unwrap();
+            assert_eq!(time, step.time);
+            for gf in &step.grids {
+                let grid = results.grids.iter().find(|g| g.name == gf.grid).unwrap();
+                for f in &gf.fields {
+                    let (shape, data) = read(&file, &format!("steps/{k}/{}/{}", gf.grid, f.name));
+                    let n = match f.center {
+                        Center::Node => grid.points.len(),
+                        Center::Cell => grid.topology.cell_count(),
+                    };
+                    match f.kind {
+                        Kind::Scalar => {
+                            assert_eq!(shape, vec![n]);
+                            assert_eq!(data, f.values);
+                        }
+                        Kind::Tensor => {
+                            assert_eq!(shape, vec![n, 9]);
+                            for i in 0..n {
+                                let g = &f.values[6 * i..6 * i + 6];
+                                let (xx, yy, zz, xy, yz, xz) = (g[0], g[1], g[2], g[3], g[4], g[5]);
+                                let full = [xx, xy, xz, xy, yy, yz, xz, yz, zz];
+                                assert_eq!(&data[9 * i..9 * i + 9], &full[..], "entry {i}");
+                            }
+                        }
+                        Kind::Vector => {
+                            assert_eq!(shape, vec![n, 3]);
+                            for i in 0..n {
+                                assert_eq!(data[3 * i], f.values[2 * i]);
+                                assert_eq!(data[3 * i + 1], f.values[2 * i + 1]);
+                                assert_eq!(data[3 * i + 2], 0.0);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+
+        let xdmf = fs::read_to_string(dir.0.join("run.1.xdmf")).expect("read xdmf");
+        let items = data_items(&xdmf);
+        // Per step and grid: cells + points; plus 8 fields per step.
+        assert_eq!(items.len(), 2 * (3 * 2 + 8));
+        for (file_part, path, dims) in &items {
+            assert_eq!(file_part, "run.1.h5", "relative file name");
+            let ds = file
+                .dataset(path)
+                .unwrap_or_else(|e| panic!("XDMF refers to {path}, not in h5: {e}"));
+            assert_eq!(&ds.shape(), dims, "dims of {path}");
+        }
+        assert_eq!(xdmf.matches("<Time Value=\"1\"/>").count(), 1);
+        assert_eq!(xdmf.matches("<Time Value=\"2\"/>").count(), 1);
+        assert_eq!(xdmf.matches("TopologyType=\"Triangle\"").count(), 4);
+        assert_eq!(xdmf.matches("TopologyType=\"Polyline\"").count(), 2);
+        assert_eq!(xdmf.matches("AttributeType=\"Tensor\"").count(), 4);
+        assert_eq!(xdmf.matches("AttributeType=\"Vector\"").count(), 4);
+        assert_eq!(xdmf.matches("AttributeType=\"Scalar\"").count(), 8);
+        assert_eq!(xdmf.matches("Center=\"Cell\"").count(), 10);
+    }
+
+    #[test]
+    fn unwritable_location_fails_and_leaves_nothing() {
+        let dir = TestDir::new("unwritable");
+        let blocker = dir.0.join("blocker");
+        fs::write(&blocker, b"a regular file").unwrap();
+        let prefix = blocker.join("sub").join("run");
+
+        let err = check_writable(&prefix).expect_err("parent is a regular file");
+        let msg = err.to_string();
+        assert!(msg.contains("-nndd_output"), "{msg}");
+        assert!(msg.contains(&prefix.display().to_string()), "{msg}");
+
+        let err = write_results(&prefix, &sample()).expect_err("write under a file");
+        assert!(
+            err.to_string().contains(&blocker.display().to_string()),
+            "{err}"
+        );
+        let err = write_atomic(&blocker.join("run.json"), b"{}").expect_err("json under a file");
+        assert!(err.to_string().contains("run.json"), "{err}");
+
+        assert_eq!(dir.entries(), vec!["blocker"]);
+        assert_eq!(fs::read(&blocker).unwrap(), b"a regular file");
+    }
+
+    #[test]
+    fn check_writable_creates_directory_and_leaves_no_probe() {
+        let dir = TestDir::new("checkdir");
+        let prefix = dir.0.join("a").join("b").join("run");
+        check_writable(&prefix).expect("writable");
+        assert!(dir.0.join("a/b").is_dir());
+        assert_eq!(fs::read_dir(dir.0.join("a/b")).unwrap().count(), 0);
+        // A directory where PREFIX.h5 should go is reported early.
+        fs::create_dir(dir.0.join("a/b/run.h5")).unwrap();
+        let err = check_writable(&prefix).expect_err("run.h5 is a directory");
+        assert!(err.to_string().contains("run.h5"), "{err}");
+        assert!(matches!(
+            check_writable(Path::new("/")),
+            Err(OutputError::BadPrefix { .. })
+        ));
+    }
+}

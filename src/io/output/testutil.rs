@@ -1,0 +1,136 @@
+//! Helpers of the tests of `output`: a scratch directory and sample results.
+
+use std::fs;
+use std::path::PathBuf;
+
+use super::{Center, Field, Grid, GridFields, Kind, Results, Step, Topology};
+
+/// A fresh, empty directory unique to this process and test.
+pub(super) struct TestDir(pub(super) PathBuf);
+
+impl TestDir {
+    pub(super) fn new(test: &str) -> TestDir {
+        let dir = std::env::temp_dir().join(format!("nndd-output-{}-{test}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).expect("create test dir");
+        TestDir(dir)
+    }
+
+    pub(super) fn entries(&self) -> Vec<String> {
+        let mut v: Vec<String> = fs::read_dir(&self.0)
+            .expect("read test dir")
+            .map(|e| {
+                e.expect("dir entry")
+                    .file_name()
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect();
+        v.sort();
+        v
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Distinct, non-round values: value `i` of a field tagged `tag`.
+fn vals(tag: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|i| tag + 0.1 * i as f64 + 1.0 / 3.0).collect()
+}
+
+fn field(name: &str, center: Center, kind: Kind, tag: f64, entries: usize) -> Field {
+    Field {
+        name: name.into(),
+        center,
+        kind,
+        values: vals(tag, entries * kind.given()),
+    }
+}
+
+pub(super) fn sample() -> Results {
+    let lower = Grid {
+        name: "body1".into(),
+        points: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+        topology: Topology::Triangle(vec![[0, 1, 2], [0, 2, 3]]),
+    };
+    let upper = Grid {
+        name: "body2".into(),
+        points: vec![[0.0, 1.0], [1.0, 1.0], [2.0, 1.0], [0.5, 2.0], [1.5, 2.0]],
+        topology: Topology::Triangle(vec![[0, 1, 3], [1, 4, 3], [1, 2, 4]]),
+    };
+    let contact = Grid {
+        name: "contact".into(),
+        points: vec![[0.0, 1.0], [0.5, 1.0], [1.0, 1.0]],
+        topology: Topology::Segment(vec![[0, 1], [1, 2]]),
+    };
+    let steps = (0..2)
+        .map(|k| {
+            let t = 10.0 * (k as f64 + 1.0);
+            Step {
+                time: k as f64 + 1.0,
+                grids: vec![
+                    GridFields {
+                        grid: "body1".into(),
+                        fields: vec![
+                            field("u", Center::Node, Kind::Vector, t + 1.0, 4),
+                            field("sigma", Center::Cell, Kind::Tensor, t + 2.0, 2),
+                            field("eta", Center::Cell, Kind::Scalar, t + 3.0, 2),
+                        ],
+                    },
+                    GridFields {
+                        grid: "body2".into(),
+                        fields: vec![
+                            field("u", Center::Node, Kind::Vector, t + 4.0, 5),
+                            field("sigma", Center::Cell, Kind::Tensor, t + 5.0, 3),
+                            field("eta", Center::Cell, Kind::Scalar, t + 6.0, 3),
+                        ],
+                    },
+                    GridFields {
+                        grid: "contact".into(),
+                        fields: vec![
+                            field("lambda", Center::Node, Kind::Scalar, t + 7.0, 3),
+                            field("gap", Center::Cell, Kind::Scalar, t + 8.0, 2),
+                        ],
+                    },
+                ],
+            }
+        })
+        .collect();
+    Results {
+        grids: vec![lower, upper, contact],
+        steps,
+        attributes: vec![("nranks".into(), 2.0), ("error_bound".into(), 0.125)],
+    }
+}
+
+pub(super) fn read(file: &hdf5::File, path: &str) -> (Vec<usize>, Vec<f64>) {
+    let ds = file.dataset(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    (ds.shape(), ds.read_raw::<f64>().expect("read f64"))
+}
+
+/// (file part, dataset path, dims) of every DataItem in the XDMF text.
+pub(super) fn data_items(xdmf: &str) -> Vec<(String, String, Vec<usize>)> {
+    let mut items = Vec::new();
+    let mut rest = xdmf;
+    while let Some(start) = rest.find("<DataItem ") {
+        let after = &rest[start..];
+        let tag_end = after.find('>').expect("DataItem tag end");
+        let tag = &after[..tag_end];
+        let dims_at = tag.find("Dimensions=\"").expect("Dimensions") + 12;
+        let dims_len = tag[dims_at..].find('"').expect("Dimensions end");
+        let dims = tag[dims_at..dims_at + dims_len]
+            .split_whitespace()
+            .map(|d| d.parse().expect("dimension"))
+            .collect();
+        let body_end = after.find("</DataItem>").expect("DataItem end");
+        let body = after[tag_end + 1..body_end].trim();
+        let (file, path) = body.split_once(':').expect("file:path");
+        items.push((file.to_string(), path.to_string(), dims));
+        rest = &after[body_end..];
+    }
+    items
+}

@@ -1,0 +1,206 @@
+//! The checks made before anything is created: PREFIX, names, and one
+//! rank's results and shares.
+
+use std::path::Path;
+
+use super::{grid_index, Center, OutputError, Results, Share};
+
+/// The file-name part of PREFIX, checked usable in XDMF references.
+pub(super) fn prefix_name(prefix: &Path) -> Result<String, OutputError> {
+    let bad = |reason: &str| OutputError::BadPrefix {
+        path: prefix.to_path_buf(),
+        reason: reason.to_string(),
+    };
+    let raw = prefix.as_os_str().to_string_lossy();
+    if raw.ends_with('/') {
+        return Err(bad(
+            "it names a directory; give a directory and a file-name prefix, e.g. results/run1",
+        ));
+    }
+    let name = prefix
+        .file_name()
+        .ok_or_else(|| bad("no file name; give e.g. results/run1"))?;
+    let name = name
+        .to_str()
+        .ok_or_else(|| bad("the file name is not valid UTF-8"))?;
+    if name.contains(':') {
+        return Err(bad(
+            "the file name contains ':', which XDMF cannot reference",
+        ));
+    }
+    Ok(name.to_string())
+}
+
+fn valid_name(name: &str) -> bool {
+    !name.is_empty()
+        && !name.starts_with('.')
+        && name
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'_' | b'-' | b'.'))
+}
+
+/// All checks of one rank's results and shares, before anything is created.
+pub(super) fn validate(
+    results: &Results,
+    shares: &[Share],
+    path: &Path,
+) -> Result<(), OutputError> {
+    let invalid = |reason: String| OutputError::Invalid {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let name_rule = "non-empty, ASCII letters, digits, '_', '-', '.', not starting with '.'";
+    if shares.len() != results.grids.len() {
+        return Err(invalid(format!(
+            "{} shares for {} grids",
+            shares.len(),
+            results.grids.len()
+        )));
+    }
+    for (i, (g, share)) in results.grids.iter().zip(shares).enumerate() {
+        if !valid_name(&g.name) {
+            return Err(invalid(format!(
+                "grid name {:?}: must be {name_rule}",
+                g.name
+            )));
+        }
+        if results.grids[..i].iter().any(|o| o.name == g.name) {
+            return Err(invalid(format!("grid name {:?} is used twice", g.name)));
+        }
+        if let Some(max) = g.topology.max_index() {
+            if max as usize >= g.points.len() {
+                return Err(invalid(format!(
+                    "grid {:?}: cell refers to point {max}, but it has {} points",
+                    g.name,
+                    g.points.len()
+                )));
+            }
+        }
+        let totals = [
+            (&share.points, g.points.len(), "points"),
+            (&share.cells, g.topology.cell_count(), "cells"),
+        ];
+        for (rows, total, what) in totals {
+            if rows.start > rows.end || rows.end > total {
+                return Err(invalid(format!(
+                    "grid {:?}: share of {what} {rows:?} is not within 0..{total}",
+                    g.name
+                )));
+            }
+        }
+    }
+    for (i, (name, _)) in results.attributes.iter().enumerate() {
+        if name.is_empty() || name.contains('\0') {
+            return Err(invalid(format!(
+                "attribute name {name:?}: empty or contains NUL"
+            )));
+        }
+        if results.attributes[..i].iter().any(|(o, _)| o == name) {
+            return Err(invalid(format!("attribute name {name:?} is used twice")));
+        }
+    }
+    let mut previous: Option<f64> = None;
+    for (k, step) in results.steps.iter().enumerate() {
+        if !step.time.is_finite() {
+            return Err(invalid(format!(
+                "step {k}: time {} is not finite",
+                step.time
+            )));
+        }
+        if let Some(p) = previous {
+            if step.time <= p {
+                return Err(invalid(format!(
+                    "step {k}: time {} does not increase (previous step: {p})",
+                    step.time
+                )));
+            }
+        }
+        previous = Some(step.time);
+        for (j, gf) in step.grids.iter().enumerate() {
+            let gi = grid_index(results, &gf.grid)
+                .ok_or_else(|| invalid(format!("step {k}: unknown grid {:?}", gf.grid)))?;
+            let grid = &results.grids[gi];
+            if step.grids[..j].iter().any(|o| o.grid == gf.grid) {
+                return Err(invalid(format!(
+                    "step {k}: grid {:?} listed twice",
+                    gf.grid
+                )));
+            }
+            for (f, field) in gf.fields.iter().enumerate() {
+                let at = format!("step {k}, grid {:?}, field {:?}", gf.grid, field.name);
+                if !valid_name(&field.name) {
+                    return Err(invalid(format!("{at}: name must be {name_rule}")));
+                }
+                if gf.fields[..f].iter().any(|o| o.name == field.name) {
+                    return Err(invalid(format!("{at}: name used twice")));
+                }
+                let (entries, what) = match field.center {
+                    Center::Node => (grid.points.len(), "points"),
+                    Center::Cell => (grid.topology.cell_count(), "cells"),
+                };
+                let expected = entries.checked_mul(field.kind.given());
+                let absent = field.values.is_empty() && shares[gi].rows(field.center).is_empty();
+                if expected != Some(field.values.len()) && !absent {
+                    return Err(invalid(format!(
+                        "{at}: {} values, expected {entries} {what} x {} ({:?})",
+                        field.values.len(),
+                        field.kind.given(),
+                        field.kind
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::{sample, TestDir};
+    use super::super::{write_results, Topology};
+    use super::*;
+
+    fn assert_invalid(results: &Results, needle: &str) {
+        let dir = TestDir::new(&format!("invalid-{}", needle.replace(' ', "_")));
+        let prefix = dir.0.join("run");
+        match write_results(&prefix, results) {
+            Err(OutputError::Invalid { path, reason }) => {
+                assert_eq!(path, dir.0.join("run.h5"));
+                assert!(reason.contains(needle), "{reason:?} lacks {needle:?}");
+            }
+            other => panic!("expected Invalid({needle}), got {other:?}"),
+        }
+        assert!(dir.entries().is_empty(), "{:?}", dir.entries());
+    }
+
+    #[test]
+    fn invalid_results_fail_and_leave_nothing() {
+        let mut r = sample();
+        r.steps[1].grids[0].fields[1].values.pop();
+        assert_invalid(&r, "11 values, expected 2 cells x 6");
+
+        let mut r = sample();
+        r.steps[0].grids[2].fields[0].values.push(1.0);
+        assert_invalid(&r, "4 values, expected 3 points x 1");
+
+        let mut r = sample();
+        r.steps[1].grids[1].grid = "body3".into();
+        assert_invalid(&r, "unknown grid");
+
+        let mut r = sample();
+        r.grids[0].topology = Topology::Triangle(vec![[0, 1, 4]]);
+        assert_invalid(&r, "refers to point 4");
+
+        let mut r = sample();
+        r.steps[1].time = 1.0;
+        assert_invalid(&r, "does not increase");
+
+        let mut r = sample();
+        r.steps[0].grids[0].fields[0].name = "u/x".into();
+        assert_invalid(&r, "name must be");
+
+        let mut r = sample();
+        r.grids[2].name = "body1".into();
+        assert_invalid(&r, "used twice");
+    }
+}
