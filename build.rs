@@ -23,6 +23,7 @@ const FUNCTIONS: &[&str] = &[
     "PetscMemoryGetMaximumUsage",
     "PetscMemorySetGetMaximumUsage",
     "PetscObjectSetName",
+    "PetscOptionsGetAll",
     "ISCreateGeneral",
     "ISDestroy",
     "Vec(Create|CreateMPI|CreateSeq|Destroy|Duplicate|Set|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|GetArray|RestoreArray|GetArrayRead|RestoreArrayRead|Norm|AXPY|Copy|SetUp)",

@@ -4,58 +4,6 @@
 mod common;
 use common::*;
 
-fn refused(np: usize, args: &[&str], option: &str) {
-    let dir = scratch(&format!("bad{}", option.replace(['-', ' '], "")));
-    let prefix = dir.join("out/run");
-    let p = prefix.to_str().unwrap();
-    let mut all = vec!["-nndd_n", "4", "-nndd_output", p];
-    all.extend_from_slice(args);
-    let out = mpirun(np, &all);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(!out.status.success(), "{args:?} was accepted:\n{stdout}");
-    let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
-    assert_eq!(
-        ours.len(),
-        1,
-        "{args:?}: expected one error line, got:\n{stderr}"
-    );
-    assert!(ours[0].starts_with("nndd: error: "), "{}", ours[0]);
-    assert!(
-        ours[0].contains(option),
-        "{args:?}: '{}' does not name {option}",
-        ours[0]
-    );
-    for bad in [
-        "panicked",
-        "backtrace",
-        "RUST_BACKTRACE",
-        "PETSC ERROR",
-        "internal error",
-    ] {
-        assert!(
-            !stderr.contains(bad) && !stdout.contains(bad),
-            "{args:?}: '{bad}' in\n{stderr}"
-        );
-    }
-    let left: Vec<_> = walk(&dir);
-    assert!(left.is_empty(), "{args:?} left files behind: {left:?}");
-    std::fs::remove_dir_all(&dir).ok();
-}
-
-fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            out.extend(walk(&p));
-        } else {
-            out.push(p);
-        }
-    }
-    out
-}
-
 #[test]
 fn theta_must_be_positive() {
     refused(1, &["-nndd_theta", "0"], "-nndd_theta");

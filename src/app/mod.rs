@@ -28,6 +28,7 @@ use crate::parallel::layout::{Layout, LayoutError};
 use crate::parallel::partition::PartitionError;
 use crate::petsc::log::Stages;
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
+use crate::problem::meshed::MeshedError;
 use crate::problem::{self, BodyProblem};
 use options::{Settings, SettingsError, SolverKind};
 use solve::Solution;
@@ -44,6 +45,8 @@ Subdomain solvers take the prefixes body1_ and body2_ (default: MUMPS Cholesky).
 pub enum AppError {
     #[error(transparent)]
     Settings(#[from] SettingsError),
+    #[error(transparent)]
+    Problem(#[from] MeshedError),
     #[error(transparent)]
     Layout(#[from] LayoutError),
     #[error(transparent)]
@@ -75,6 +78,7 @@ impl AppError {
         matches!(
             self,
             AppError::Settings(_)
+                | AppError::Problem(_)
                 | AppError::Layout(_)
                 | AppError::ReportedElsewhere
                 | AppError::Output(_)
@@ -100,16 +104,16 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         list_solver_options()?;
         return Ok(Outcome::Help);
     }
-    let layout = Layout::new(world, settings.body1_ranks, settings.problem.body_dofs())?;
+    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
+    // the whole geometry, for the interface and the output).
+    let problems = problem::build(&settings.problem)?;
+    let dofs = [problems[0].mesh.num_dofs(), problems[1].mesh.num_dofs()];
+    let layout = Layout::new(world, settings.body1_ranks, dofs)?;
     check_recovery(&settings, &layout)?;
     check_output(&settings, &layout)?;
     let stages = Stages::register()?;
     Petsc::track_memory()?;
     let mut timings = Timings::default();
-
-    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
-    // the whole geometry, for the interface and the output).
-    let problems = problem::build(&settings.problem);
 
     // Setup: each rank's bodies (partition, assembly, factorisation).
     let bodies = solve::setup_bodies(&settings, &problems, &layout, &stages, &mut timings)?;
@@ -119,7 +123,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
             "nndd: {} n = {}, {} dofs, {} rank(s): setup {:.3} s",
             settings.problem.kind.name(),
             settings.problem.n,
-            settings.problem.dofs(),
+            dofs[0] + dofs[1],
             layout.size,
             t_start.elapsed().as_secs_f64()
         );

@@ -7,8 +7,10 @@ use crate::dd::dirichlet::DirichletChoice;
 use crate::dd::nndd::{NnddSettings, StopRule};
 use crate::estimate::equilibrate::StarChoice;
 use crate::estimate::NnddVariant;
+use crate::fem::gmsh;
 use crate::fem::Material;
 use crate::petsc::{self, Comm, OptionsBlock};
+use crate::problem::meshed::{CurveCondition, MeshSpec};
 use crate::problem::{ProblemKind, ProblemSettings};
 use crate::qp::QpSettings;
 
@@ -44,6 +46,9 @@ pub enum SettingsError {
         value: String,
         accepted: &'static str,
     },
+    /// An option whose name depends on the mesh (`-nndd_bc_NAME_…`), or a bad mesh file.
+    #[error("{option}: {message}")]
+    Named { option: String, message: String },
     #[error(transparent)]
     Petsc(#[from] petsc::PetscError),
 }
@@ -94,14 +99,32 @@ impl Settings {
             "Benchmark problem: paper, uniform",
             "paper",
         )?;
+        let (mesh_file, mesh_given) = o.string(
+            "-nndd_mesh",
+            "Gmsh MSH 4.1 file of the two bodies (physical surfaces body1, body2); sets -nndd_problem mesh",
+            "",
+        )?;
+        let (contact, _) = o.string(
+            "-nndd_contact",
+            "With -nndd_mesh: Gamma_c as body 1's curve,body 2's curve (physical curve names)",
+            "",
+        )?;
         let problem = match problem.as_str() {
+            _ if mesh_given => ProblemKind::Mesh,
             "paper" => ProblemKind::Paper,
             "uniform" => ProblemKind::Uniform,
+            "mesh" => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_problem",
+                    value: problem,
+                    accepted: "paper, uniform; mesh needs -nndd_mesh FILE.msh",
+                })
+            }
             _ => {
                 return Err(SettingsError::UnknownValue {
                     option: "-nndd_problem",
                     value: problem,
-                    accepted: "paper, uniform",
+                    accepted: "paper, uniform, mesh (with -nndd_mesh)",
                 })
             }
         };
@@ -147,6 +170,39 @@ impl Settings {
         if !(poisson > -1.0 && poisson < 0.5) {
             return Err(range("-nndd_nu", "in (-1, 0.5)", poisson));
         }
+        // Per body: -nndd_body{1,2}_{E,nu} override -nndd_E / -nndd_nu.
+        let mut materials = [Material { young, poisson }; 2];
+        for (b, m) in materials.iter_mut().enumerate() {
+            let (e_opt, nu_opt) = OPTS_MATERIAL[b];
+            let (e, _) = o.real(
+                e_opt,
+                &format!("Young's modulus of body {} (Pa; default -nndd_E)", b + 1),
+                young,
+            )?;
+            if !(e > 0.0 && e.is_finite()) {
+                return Err(range(e_opt, "> 0", e));
+            }
+            let (nu, _) = o.real(
+                nu_opt,
+                &format!(
+                    "Poisson's ratio of body {}, in (-1, 0.5) (default -nndd_nu)",
+                    b + 1
+                ),
+                poisson,
+            )?;
+            if !(nu > -1.0 && nu < 0.5) {
+                return Err(range(nu_opt, "in (-1, 0.5)", nu));
+            }
+            *m = Material {
+                young: e,
+                poisson: nu,
+            };
+        }
+        let mesh = if mesh_given {
+            Some(mesh_spec(&mut o, &mesh_file, &contact)?)
+        } else {
+            None
+        };
         let (u_d, _) = o.real(
             "-nndd_u_D",
             "Prescribed vertical displacement of the top of body 2 (m)",
@@ -359,13 +415,21 @@ impl Settings {
                 })
             }
         };
+        if mesh.is_some() && reference > 0 {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_reference_factor",
+                accepted: "0 with -nndd_mesh (the nested refinement of Gmsh meshes is not implemented yet)",
+                value: reference.to_string(),
+            });
+        }
         o.end()?;
         Ok(Settings {
             problem: ProblemSettings {
                 kind: problem,
                 n,
                 grids,
-                material: Material { young, poisson },
+                materials,
+                mesh,
                 u_d,
                 f_max,
             },
@@ -414,6 +478,126 @@ impl Settings {
         s
     }
 }
+
+/// The meshed problem of `-nndd_mesh`: the file, the contact curves, and for every physical
+/// curve of the mesh its `-nndd_bc_NAME_{ux,uy,traction,traction_end}` options.
+fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec, SettingsError> {
+    let named = |option: &str, message: String| SettingsError::Named {
+        option: option.to_string(),
+        message,
+    };
+    let gmsh =
+        gmsh::read(std::path::Path::new(file)).map_err(|e| named("-nndd_mesh", e.to_string()))?;
+    let curves: Vec<String> = gmsh
+        .names
+        .iter()
+        .filter(|((d, _), _)| *d == 1)
+        .map(|(_, n)| n.clone())
+        .collect();
+    let pair: Vec<&str> = contact.split(',').map(str::trim).collect();
+    if pair.len() != 2 || pair.iter().any(|c| c.is_empty()) {
+        return Err(named(
+            "-nndd_contact",
+            format!(
+                "give body 1's and body 2's contact curves as NAME1,NAME2 (got '{contact}'; physical curves: {})",
+                gmsh.group_names(1)
+            ),
+        ));
+    }
+    let vector = |option: &str, text: &str| -> Result<[f64; 2], SettingsError> {
+        let v: Vec<f64> = text
+            .split(',')
+            .map(|t| t.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| named(option, format!("expects two numbers tx,ty (got '{text}')")))?;
+        match v[..] {
+            [a, b] if a.is_finite() && b.is_finite() => Ok([a, b]),
+            _ => Err(named(
+                option,
+                format!("expects two finite numbers tx,ty (got '{text}')"),
+            )),
+        }
+    };
+    let mut conditions = Vec::new();
+    let mut known = std::collections::BTreeSet::new();
+    for c in &curves {
+        let mut cond = CurveCondition {
+            curve: c.clone(),
+            ..Default::default()
+        };
+        for (k, comp) in ["ux", "uy"].iter().enumerate() {
+            let opt = format!("-nndd_bc_{c}_{comp}");
+            let (v, set) = o.real(
+                &opt,
+                &format!("Prescribed {comp} on the curve {c} (m)"),
+                0.0,
+            )?;
+            if set {
+                if !v.is_finite() {
+                    return Err(named(&opt, format!("must be a finite number (got {v})")));
+                }
+                cond.u[k] = Some(v);
+            }
+            known.insert(opt);
+        }
+        let opt = format!("-nndd_bc_{c}_traction");
+        let opt_end = format!("-nndd_bc_{c}_traction_end");
+        let (t0, set0) = o.string(
+            &opt,
+            &format!("Traction tx,ty on the curve {c} (Pa), at its first point"),
+            "",
+        )?;
+        let (t1, set1) = o.string(
+            &opt_end,
+            &format!("Traction tx,ty at the last point of {c} (Pa; linear in between; default: as -nndd_bc_{c}_traction)"),
+            "",
+        )?;
+        if set1 && !set0 {
+            return Err(named(
+                &opt_end,
+                format!("needs {opt} (the traction at the curve's first point)"),
+            ));
+        }
+        if set0 {
+            let a = vector(&opt, &t0)?;
+            let b = if set1 { vector(&opt_end, &t1)? } else { a };
+            if cond.u.iter().any(Option::is_some) {
+                return Err(named(
+                    &opt,
+                    format!("conflicts with the prescribed displacement of the curve {c} (give one or the other)"),
+                ));
+            }
+            cond.traction = Some([a, b]);
+        }
+        known.insert(opt);
+        known.insert(opt_end);
+        if cond.traction.is_some() || cond.u.iter().any(Option::is_some) {
+            conditions.push(cond);
+        }
+    }
+    // A -nndd_bc_ option that names no curve of the mesh is a typo: refuse it.
+    for name in petsc::option_names()? {
+        if name.starts_with("-nndd_bc_") && !known.contains(&name) {
+            return Err(named(
+                &name,
+                format!(
+                    "names no physical curve of {file} or no condition (accepted: -nndd_bc_NAME_ux, _uy, _traction, _traction_end with NAME in: {})",
+                    gmsh.group_names(1)
+                ),
+            ));
+        }
+    }
+    Ok(MeshSpec {
+        gmsh: std::rc::Rc::new(gmsh),
+        conditions,
+        contact: [pair[0].to_string(), pair[1].to_string()],
+    })
+}
+
+const OPTS_MATERIAL: [(&str, &str); 2] = [
+    ("-nndd_body1_E", "-nndd_body1_nu"),
+    ("-nndd_body2_E", "-nndd_body2_nu"),
+];
 
 const OPTS_GRID: [&str; 4] = [
     "-nndd_body1_nx",

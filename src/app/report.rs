@@ -49,8 +49,8 @@ pub fn summarise(
         theta: settings.nndd.theta,
         tol: settings.nndd.tol,
         max_it: settings.nndd.max_it,
-        young: settings.problem.material.young,
-        poisson: settings.problem.material.poisson,
+        young: settings.problem.materials.map(|m| m.young),
+        poisson: settings.problem.materials.map(|m| m.poisson),
         u_d: settings.problem.u_d,
         f_max: settings.problem.f_max,
         converged: sol.converged,
@@ -100,9 +100,11 @@ fn summary_estimate(e: &EstimateRecord) -> IterationRecord {
 /// The closing line (and the warning of a run that did not converge), on rank 0.
 pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
     println!(
-        "nndd: {} n = {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {} J/m, contact force {} N/m, zone {}; {:.2} s; wrote {}.{{h5,xdmf,json}}",
-        summary.problem,
-        summary.n,
+        "nndd: {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {} J/m, contact force {} N/m, zone {}; {:.2} s; wrote {}.{{h5,xdmf,json}}",
+        match &settings.problem.mesh {
+            Some(spec) => format!("mesh {}", spec.gmsh.path),
+            None => format!("{} n = {}", summary.problem, summary.n),
+        },
         summary.dofs,
         summary.ranks,
         summary.solver,

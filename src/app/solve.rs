@@ -87,7 +87,7 @@ pub fn solve_reference(
     let mut scratch = Timings::default();
     let bodies = setup_bodies(
         &fine,
-        &problem::build(&fine.problem),
+        &problem::build(&fine.problem)?,
         layout,
         stages,
         &mut scratch,
@@ -140,7 +140,8 @@ pub fn solve_nndd(
         None
     };
     let root = layout.is_root();
-    let m = settings.problem.contact_nodes();
+    // The number of Γc pairs (every rank holds at least one body).
+    let m = refs.iter().flatten().next().map_or(0, |b| b.gc.len());
     let res = nndd::solve::<AppError>(
         &settings.nndd,
         m,

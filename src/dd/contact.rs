@@ -4,8 +4,9 @@
 //! v* = B u₀ the normal trace of the unconstrained solution u₀ (K u₀ = f, u₀ = u_D on Γ_D),
 //! body 2's potential energy as a function of its Γc normal displacements v is
 //! ½ (v − v*)ᵀ S (v − v*) + const. The contact step is
-//!   minimise ½ (v − v*)ᵀ S (v − v*)  subject to  v ≥ λ_p,
-//! a small dense QP. With z = v − λ_p ≥ 0 it reads min ½ zᵀS z + zᵀS(λ_p − v*), z ≥ 0; its
+//!   minimise ½ (v − v*)ᵀ S (v − v*)  subject to  v ≥ λ_p − g₀
+//! (g₀ the initial gap of each Γc pair, 0 on the benchmarks), a small dense QP. With the
+//! obstacle o = λ_p − g₀ and z = v − o ≥ 0 it reads min ½ zᵀS z + zᵀS(o − v*), z ≥ 0; its
 //! multiplier μ = S(v − v*) ≥ 0 is exactly the Γc nodal force T² on body 2, and the body's
 //! field is u² = u₀ + K⁻¹Bᵀμ (one back-solve, [`ContactStep::field`]). The iteration itself
 //! needs only T² and the contact set, so the field is formed only where it is used (the
@@ -70,8 +71,8 @@ impl ContactStep {
     }
 
     /// Body 2's displacement u² = u₀ + K⁻¹Bᵀ T² for the Γc forces `forces` of a contact step
-    /// at the obstacle `lambda`. On the contact set the QP gives u²_n = λ exactly; the
-    /// back-solve reproduces it to round-off only, so the trace is set to λ there (else the
+    /// at the interface position `lambda`. On the contact set the QP gives u²_n = λ − g₀
+    /// exactly; the back-solve reproduces it to round-off only, so the trace is set there (else the
     /// contact terms of the estimates, |t̂| ≈ 1e7 times a round-off gap, would not vanish).
     pub fn field(
         &self,
@@ -82,9 +83,10 @@ impl ContactStep {
     ) -> Result<Vec<f64>, ContactError> {
         let w = body.neumann_solve(forces, false)?;
         let mut u: Vec<f64> = self.u0.iter().zip(&w).map(|(a, b)| a + b).collect();
+        let obstacle = body.problem.obstacle(lambda);
         for (i, &d) in body.gc.iter().enumerate() {
             if active[i] {
-                u[d] = lambda[i];
+                u[d] = obstacle[i];
             }
         }
         Ok(u)
@@ -95,14 +97,16 @@ impl ContactStep {
         (&self.u0, &self.v_star)
     }
 
-    /// Solve the contact step for the obstacle λ_p.
+    /// Solve the contact step for the interface position λ_p (obstacle λ_p − g₀).
     pub fn solve(&self, body: &Body, lambda: &[f64]) -> Result<ContactSolution, ContactError> {
         let s: &SymMatrix = body
             .schur
             .as_ref()
             .ok_or(ContactError::NoSchur(body.alpha()))?;
         let m = lambda.len();
-        let diff: Vec<f64> = lambda
+        let diff: Vec<f64> = body
+            .problem
+            .obstacle(lambda)
             .iter()
             .zip(&self.v_star)
             .map(|(l, v)| l - v)

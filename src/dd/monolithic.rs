@@ -1,11 +1,12 @@
 //! The discrete global contact problem solved at once (issue 2 item 6): both bodies,
-//! u²_n − u¹_n ≥ 0 at every Γc node pair. The check of the NNDD, and later the reference
+//! u²_n − u¹_n ≥ −g₀ at every Γc node pair (g₀ the initial gap). The check of the NNDD, and later the reference
 //! problem of η^NNDD.
 //!
 //! Condensed exactly on Γc with the contact force μ ≥ 0 (body 2 receives +μ, body 1 −μ):
 //! u^α = u^α₀ ± K^α⁻¹Bᵀμ, so the gap is g(μ) = (v²* − v¹*) + (D¹ + D²) μ with the Delassus
-//! operators D^α = B K^α⁻¹ Bᵀ = (S^α)⁻¹. The problem is the QP
-//!   minimise ½ μᵀ(D¹ + D²)μ + μᵀ(v²* − v¹*)  subject to μ ≥ 0
+//! operators D^α = B K^α⁻¹ Bᵀ = (S^α)⁻¹ (with the initial gap, g(μ) = g₀ + (v²* − v¹*) +
+//! (D¹ + D²) μ). The problem is the QP
+//!   minimise ½ μᵀ(D¹ + D²)μ + μᵀ(g₀ + v²* − v¹*)  subject to μ ≥ 0
 //! (KKT: g ≥ 0, μ ≥ 0, μᵀg = 0), solved by Clarabel on world rank 0 and polished.
 
 use crate::dd::body::{Body, BodyError};
@@ -44,6 +45,13 @@ pub fn solve(
     // Each body: u₀ (own data, free Γc), v* = B u₀, D = S⁻¹; shared with rank 0.
     let mut free = [Vec::new(), Vec::new()];
     let mut v_star = [Vec::new(), Vec::new()];
+    // g₀ is part of the geometry every rank holds.
+    let gap = bodies
+        .iter()
+        .flatten()
+        .next()
+        .map(|b| b.problem.gap.clone())
+        .unwrap_or_default();
     let mut delassus = [Vec::new(), Vec::new()];
     for (k, body) in bodies.iter().enumerate() {
         if let Some(b) = body {
@@ -71,10 +79,8 @@ pub fn solve(
             .map(|(a, b)| a + b)
             .collect();
         let d = SymMatrix::from_rows(m, d);
-        let q: Vec<f64> = v_star[1]
-            .iter()
-            .zip(&v_star[0])
-            .map(|(a, b)| a - b)
+        let q: Vec<f64> = (0..m)
+            .map(|i| gap[i] + v_star[1][i] - v_star[0][i])
             .collect();
         let sol = solve_nonneg_qp(&d, &q, qp)?;
         mu = sol.x;

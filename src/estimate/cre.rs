@@ -182,10 +182,12 @@ pub fn estimate_body(
         est.fe[e] = s_fe.cre_squared(sub, l, sig, &p.material);
     }
 
-    // Contact terms 2∫ t̂ (λ_p − u²_n) ≥ 0, on the body-2 elements along Γc (their owners).
+    // Contact terms 2∫ t̂ (λ_p − g₀ − u²_n) ≥ 0, on the body-2 elements along Γc (their
+    // owners).
     if alpha == 2 {
         let u2n: Vec<f64> = p.contact_normal_dofs().iter().map(|&d| u_p[d]).collect();
-        let gap: Vec<f64> = data.lambda.iter().zip(&u2n).map(|(l, u)| l - u).collect();
+        let obstacle = p.obstacle(data.lambda);
+        let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
         let c_glo = iface.segment_products(data.t_glo, &gap);
         let c_fe = iface.segment_products(data.t_fe, &gap);
         let edges = edge_elements(mesh);
@@ -264,6 +266,19 @@ pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
     }
     let (nx, ny) = (mesh.nx, mesh.ny);
     let mut sides: Vec<[usize; 2]> = Vec::new();
+    if !mesh.is_structured() {
+        // Unstructured: every edge of one triangle, oriented as in it; the data may be
+        // listed the other way round.
+        sides = mesh.boundary_edges();
+        for s in &sides {
+            let (a, b) = (s[0], s[1]);
+            if !known.contains_key(&(a, b)) {
+                if let Some(v) = known.get(&(b, a)).copied() {
+                    known.insert((a, b), [[v[0][1], v[0][0]], [v[1][1], v[1][0]]]);
+                }
+            }
+        }
+    }
     for i in 0..nx {
         sides.push([mesh.node(i, 0), mesh.node(i + 1, 0)]);
         sides.push([mesh.node(i, ny), mesh.node(i + 1, ny)]);

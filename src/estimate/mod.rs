@@ -160,8 +160,9 @@ impl Estimator<'_> {
                 sum += d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
                 if k == 1 {
                     let u2n = b.normal_trace(&it.u[1]);
+                    let obstacle = b.problem.obstacle(&it.lambda);
                     sum += (0..mu_hat.len())
-                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - it.lambda[i]))
+                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]))
                         .sum::<f64>();
                 }
             }

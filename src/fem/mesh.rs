@@ -1,11 +1,13 @@
-//! Structured P1 triangle meshes of the benchmark blocks (docs/benchmarks.md, "Meshes").
+//! P1 triangle meshes: structured ones of the benchmark blocks (docs/benchmarks.md,
+//! "Meshes") and unstructured ones (Gmsh input, sub-meshes), `nx = ny = 0`.
 //!
-//! A body is an `nx × ny` grid of equal rectangles; the rectangle with corners a (lower left),
+//! A structured body is an `nx × ny` grid of equal rectangles; the rectangle with corners a (lower left),
 //! b (lower right), c (upper left), d (upper right) is split into the triangles (a, b, d) and
 //! (a, d, c). Node (i, j) has index `j (nx + 1) + i`; its dofs are `2 node` (x) and
 //! `2 node + 1` (y).
 
-/// A structured triangle mesh of the rectangle `origin + [0, size.0] × [0, size.1]`.
+/// A triangle mesh: structured (`nx × ny` grid of the rectangle `origin + [0, size.0] ×
+/// [0, size.1]`) or unstructured (`nx = ny = 0`, `origin` and `size` its bounding box).
 #[derive(Clone, Debug)]
 pub struct Mesh {
     pub nx: usize,
@@ -47,6 +49,53 @@ impl Mesh {
             points,
             triangles,
         }
+    }
+
+    /// An unstructured mesh (triangles counter-clockwise).
+    pub fn unstructured(points: Vec<[f64; 2]>, triangles: Vec<[usize; 3]>) -> Mesh {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for p in &points {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        Mesh {
+            nx: 0,
+            ny: 0,
+            origin: lo,
+            size: [hi[0] - lo[0], hi[1] - lo[1]],
+            points,
+            triangles,
+        }
+    }
+
+    /// Whether the mesh is a structured grid (`node(i, j)` and the side lists apply).
+    pub fn is_structured(&self) -> bool {
+        self.nx > 0 && self.ny > 0
+    }
+
+    /// The boundary edges (edges of exactly one triangle), oriented as in their triangle
+    /// (counter-clockwise: the body is on the left), in triangle order.
+    pub fn boundary_edges(&self) -> Vec<[usize; 2]> {
+        let mut count: std::collections::HashMap<(usize, usize), u32> = Default::default();
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *count.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let mut out = Vec::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if count[&(a.min(b), a.max(b))] == 1 {
+                    out.push([a, b]);
+                }
+            }
+        }
+        out
     }
 
     pub fn node(&self, i: usize, j: usize) -> usize {

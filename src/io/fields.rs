@@ -64,7 +64,8 @@ pub fn results(
                 fields,
             });
         }
-        // u²_n − u¹_n = u²_n − λ (step 1 puts u¹_n at λ exactly); u²_n is shared by body 2.
+        // The gap g₀ + u²_n − u¹_n = g₀ + u²_n − λ (step 1 puts u¹_n at λ exactly); u²_n is
+        // shared by body 2.
         let u2n = &it.trace2;
         let lumped = iface.forces(&vec![1.0; m]);
         let scalar = |name: &str, values: Vec<f64>| Field {
@@ -80,7 +81,12 @@ pub fn results(
                 "pressure",
                 (0..m).map(|i| it.forces[1][i] / lumped[i]).collect(),
             ),
-            scalar("gap", (0..m).map(|i| u2n[i] - it.lambda[i]).collect()),
+            scalar(
+                "gap",
+                (0..m)
+                    .map(|i| problems[0].gap[i] + u2n[i] - it.lambda[i])
+                    .collect(),
+            ),
             scalar(
                 "active",
                 it.active.iter().map(|&a| a as u8 as f64).collect(),

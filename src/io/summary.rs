@@ -52,8 +52,10 @@ pub struct Summary {
     pub theta: f64,
     pub tol: f64,
     pub max_it: usize,
-    pub young: f64,
-    pub poisson: f64,
+    /// Young's modulus of body 1 and body 2 (Pa).
+    pub young: [f64; 2],
+    /// Poisson's ratio of body 1 and body 2.
+    pub poisson: [f64; 2],
     pub u_d: f64,
     pub f_max: f64,
     pub converged: bool,

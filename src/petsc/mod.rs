@@ -173,6 +173,26 @@ pub fn option_present(name: &str) -> bool {
         && set == ffi::PETSC_TRUE
 }
 
+/// The names of every option in the database (`PetscOptionsGetAll`), e.g. to find the
+/// `-nndd_bc_…` options that name no boundary. The string PETSc allocates is left to it (a
+/// few bytes, once per run: `PetscFree` is a macro).
+pub fn option_names() -> Result<Vec<String>> {
+    let mut all: *mut std::os::raw::c_char = ptr::null_mut();
+    call!(PetscOptionsGetAll(ptr::null_mut(), &mut all))?;
+    if all.is_null() {
+        return Ok(Vec::new());
+    }
+    // SAFETY: PETSc returns a NUL-terminated string it owns.
+    let text = unsafe { std::ffi::CStr::from_ptr(all) }
+        .to_string_lossy()
+        .into_owned();
+    Ok(text
+        .split_whitespace()
+        .filter(|t| t.starts_with('-') && t[1..].starts_with(|c: char| c.is_ascii_alphabetic()))
+        .map(str::to_string)
+        .collect())
+}
+
 /// Set an option unless the user gave it (`PetscOptionsSetValue` when absent).
 pub fn option_default(name: &str, value: &str) -> Result<()> {
     if option_present(name) {

@@ -9,10 +9,11 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
     let (nx, ny) = settings.body_grid(alpha);
     let y0 = if alpha == 1 { 0.0 } else { 1.0 };
     let mesh = Mesh::structured([0.0, y0], [1.0, 1.0], nx, ny);
-    let material = settings.material;
+    let material = settings.materials[alpha - 1];
     let mut dirichlet = Vec::new();
     let mut neumann = Vec::new();
     match (settings.kind, alpha) {
+        (ProblemKind::Mesh, _) => unreachable!("problem::build builds meshed problems"),
         (ProblemKind::Paper, 1) => {
             // Γ_D¹: the bottom edge is clamped.
             for n in mesh.bottom_nodes() {
@@ -58,6 +59,7 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
     } else {
         mesh.bottom_nodes()
     };
+    let gap = vec![0.0; contact_nodes.len()];
     BodyProblem {
         alpha,
         mesh,
@@ -65,5 +67,6 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
         dirichlet,
         neumann,
         contact_nodes,
+        gap,
     }
 }

@@ -1,11 +1,13 @@
 //! Layer `problem`: what the user asks to solve: each body's mesh, material, boundary
 //! conditions (Γ_D, Γ_N) and its side of the contact interface Γc ([`BodyProblem`]), built by
-//! [`body`] from the plain-data [`ProblemSettings`]. [`benchmarks`]: the built-in problems
-//! `paper` and `uniform` (`docs/benchmarks.md`).
+//! [`build`] from the plain-data [`ProblemSettings`]. [`benchmarks`]: the built-in problems
+//! `paper` and `uniform` (`docs/benchmarks.md`); [`meshed`]: a problem the user meshed in
+//! Gmsh, with named boundary conditions and an initial gap.
 //!
 //! May use: `parallel`, `qp`, `fem`, `petsc`.
 
 pub mod benchmarks;
+pub mod meshed;
 
 use std::rc::Rc;
 
@@ -17,6 +19,8 @@ use crate::fem::{edge_load, Material};
 pub enum ProblemKind {
     Paper,
     Uniform,
+    /// A Gmsh mesh of the user's (`-nndd_mesh`).
+    Mesh,
 }
 
 impl ProblemKind {
@@ -24,6 +28,7 @@ impl ProblemKind {
         match self {
             ProblemKind::Paper => "paper",
             ProblemKind::Uniform => "uniform",
+            ProblemKind::Mesh => "mesh",
         }
     }
 }
@@ -36,11 +41,14 @@ pub struct ProblemSettings {
     pub n: usize,
     /// Per-body grids (nx, ny) for Ω¹ and Ω².
     pub grids: [(usize, usize); 2],
-    pub material: Material,
+    /// The material of body 1 and of body 2.
+    pub materials: [Material; 2],
     /// Prescribed vertical displacement of the top of Ω² (m).
     pub u_d: f64,
     /// Maximum of the linear load on the right edge of Ω² (Pa).
     pub f_max: f64,
+    /// The user's meshed problem (`ProblemKind::Mesh`).
+    pub mesh: Option<meshed::MeshSpec>,
 }
 
 impl ProblemSettings {
@@ -66,23 +74,19 @@ impl ProblemSettings {
 
     /// Dofs of each body (they also size the rank groups).
     pub fn body_dofs(&self) -> [usize; 2] {
-        self.grids.map(|(nx, ny)| 2 * (nx + 1) * (ny + 1))
-    }
-
-    /// The number of Γc node pairs.
-    pub fn contact_nodes(&self) -> usize {
-        self.grids[0].0 + 1
+        match &self.mesh {
+            Some(spec) => meshed::BODY_NAMES.map(|n| 2 * spec.gmsh.surface_node_count(n)),
+            None => self.grids.map(|(nx, ny)| 2 * (nx + 1) * (ny + 1)),
+        }
     }
 }
 
 /// Build both bodies of the problem (shared by the run and the bodies set up from them).
-pub fn build(settings: &ProblemSettings) -> [Rc<BodyProblem>; 2] {
-    [1, 2].map(|alpha| Rc::new(body(settings, alpha)))
-}
-
-/// Build body `alpha` (1 or 2) of the problem.
-pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
-    benchmarks::body(settings, alpha)
+pub fn build(settings: &ProblemSettings) -> Result<[Rc<BodyProblem>; 2], meshed::MeshedError> {
+    match &settings.mesh {
+        Some(spec) => Ok(meshed::build(spec, settings.materials)?.map(Rc::new)),
+        None => Ok([1, 2].map(|alpha| Rc::new(benchmarks::body(settings, alpha)))),
+    }
 }
 
 /// A linear traction on a boundary edge: the two end nodes and the traction at each.
@@ -105,6 +109,9 @@ pub struct BodyProblem {
     pub neumann: Vec<NeumannEdge>,
     /// Γc nodes of this body, ordered by x (pair k of Γc is `contact_nodes[k]` of both bodies).
     pub contact_nodes: Vec<usize>,
+    /// Initial gap g₀ ≥ 0 of each Γc pair (the same on both bodies): non-penetration reads
+    /// u²_n − u¹_n ≥ −g₀.
+    pub gap: Vec<f64>,
 }
 
 impl BodyProblem {
@@ -125,6 +132,11 @@ impl BodyProblem {
             }
         }
         f
+    }
+
+    /// The obstacle of body 2's contact step for the interface position λ: u²_n ≥ λ − g₀.
+    pub fn obstacle(&self, lambda: &[f64]) -> Vec<f64> {
+        lambda.iter().zip(&self.gap).map(|(l, g)| l - g).collect()
     }
 
     /// The Γc normal dofs (u_y of the contact nodes), in pair order.

@@ -78,3 +78,57 @@ pub fn f(v: &serde_json::Value, key: &str) -> f64 {
         .as_f64()
         .unwrap_or_else(|| panic!("{key} missing in summary"))
 }
+
+/// Run with bad input and require: a non-zero exit, exactly one line `nndd: error: …` naming
+/// `option`, no panic or PETSc traceback, and no file left under the output directory.
+pub fn refused(np: usize, args: &[&str], option: &str) {
+    let dir = scratch(&format!("bad{}", option.replace(['-', ' '], "")));
+    let prefix = dir.join("out/run");
+    let p = prefix.to_str().unwrap();
+    let mut all = vec!["-nndd_n", "4", "-nndd_output", p];
+    all.extend_from_slice(args);
+    let out = mpirun(np, &all);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success(), "{args:?} was accepted:\n{stdout}");
+    let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
+    assert_eq!(
+        ours.len(),
+        1,
+        "{args:?}: expected one error line, got:\n{stderr}"
+    );
+    assert!(ours[0].starts_with("nndd: error: "), "{}", ours[0]);
+    assert!(
+        ours[0].contains(option),
+        "{args:?}: '{}' does not name {option}",
+        ours[0]
+    );
+    for bad in [
+        "panicked",
+        "backtrace",
+        "RUST_BACKTRACE",
+        "PETSC ERROR",
+        "internal error",
+    ] {
+        assert!(
+            !stderr.contains(bad) && !stdout.contains(bad),
+            "{args:?}: '{bad}' in\n{stderr}"
+        );
+    }
+    let left: Vec<_> = walk(&dir);
+    assert!(left.is_empty(), "{args:?} left files behind: {left:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+pub fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}

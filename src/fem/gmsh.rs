@@ -1,0 +1,408 @@
+//! Gmsh input: MSH 4.1 files (ASCII or binary, parsed by the `mshio` crate) of a 2D mesh of
+//! linear triangles, with physical groups naming its parts.
+//!
+//! [`read`] returns a [`GmshMesh`]: every node (x, y), every 3-node triangle with the physical
+//! surfaces it belongs to, every 2-node line with its physical curves, and the physical names.
+//! [`GmshMesh::body`] cuts out one named surface as a [`Mesh`] (its own node numbering,
+//! counter-clockwise triangles) with its named curves as edge lists.
+//!
+//! MSH 4.1 stores only the elements of entities that belong to a physical group (unless the
+//! file was saved with `Mesh.SaveAll`), and `mshio` skips the `$PhysicalNames` section, which
+//! is read here (it is ASCII in binary files too).
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+use mshio::mshfile::ElementType;
+
+use crate::fem::mesh::Mesh;
+
+/// What is wrong with a mesh file, in the words the user needs (the caller names the option).
+#[derive(Debug, thiserror::Error)]
+pub enum GmshError {
+    #[error("cannot read {path}: {reason}")]
+    Io { path: String, reason: String },
+    #[error("{path} is not a Gmsh MSH 4.1 file ({reason}); write it with `gmsh -2 -format msh41`")]
+    NotMsh { path: String, reason: String },
+    #[error("{path}: {reason}")]
+    Unsupported { path: String, reason: String },
+    #[error("{path} has no physical surface named '{name}' (physical surfaces: {known})")]
+    NoSurface {
+        path: String,
+        name: String,
+        known: String,
+    },
+    #[error("{path}: {reason}")]
+    Invalid { path: String, reason: String },
+}
+
+/// A 2D triangle mesh as Gmsh wrote it (nodes numbered 0.. in the file's order).
+#[derive(Clone, Debug, Default)]
+pub struct GmshMesh {
+    /// The file, for messages.
+    pub path: String,
+    pub points: Vec<[f64; 2]>,
+    /// 3-node triangles and the physical surface tags of their entity.
+    pub triangles: Vec<([usize; 3], Vec<i32>)>,
+    /// 2-node lines and the physical curve tags of their entity.
+    pub lines: Vec<([usize; 2], Vec<i32>)>,
+    /// Physical names by (dimension, tag).
+    pub names: BTreeMap<(i32, i32), String>,
+}
+
+/// One body cut out of a [`GmshMesh`]: its mesh and its named boundary curves.
+#[derive(Clone, Debug)]
+pub struct GmshBody {
+    pub mesh: Mesh,
+    /// Physical curve name → the body's edges on it (body node numbers).
+    pub curves: BTreeMap<String, Vec<[usize; 2]>>,
+}
+
+/// Read a Gmsh MSH 4.1 file.
+pub fn read(path: &Path) -> Result<GmshMesh, GmshError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| GmshError::Io {
+        path: name.clone(),
+        reason: e.to_string(),
+    })?;
+    parse(&bytes, &name)
+}
+
+/// Parse the bytes of an MSH 4.1 file (`path` only names it in messages).
+pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
+    let not_msh = |reason: String| GmshError::NotMsh {
+        path: path.to_string(),
+        reason,
+    };
+    let unsupported = |reason: String| GmshError::Unsupported {
+        path: path.to_string(),
+        reason,
+    };
+    if !bytes.starts_with(b"$MeshFormat") {
+        return Err(not_msh("no $MeshFormat header".into()));
+    }
+    let version = std::str::from_utf8(&bytes[..bytes.len().min(64)])
+        .ok()
+        .or_else(|| {
+            let end = bytes.iter().take(64).position(|&b| b == 0).unwrap_or(24);
+            std::str::from_utf8(&bytes[..end.min(bytes.len())]).ok()
+        })
+        .and_then(|s| s.lines().nth(1))
+        .and_then(|l| l.split_whitespace().next())
+        .unwrap_or("?")
+        .to_string();
+    if version != "4.1" {
+        return Err(not_msh(format!("format version {version}, not 4.1")));
+    }
+    let msh = mshio::parse_msh_bytes(bytes).map_err(|e| {
+        let text = e.to_string();
+        not_msh(text.lines().next().unwrap_or("parse error").to_string())
+    })?;
+    let entities = msh
+        .data
+        .entities
+        .as_ref()
+        .ok_or_else(|| not_msh("no $Entities section".into()))?;
+    if !entities.volumes.is_empty() {
+        return Err(unsupported(
+            "a 3D mesh (it has volumes); nndd reads 2D meshes in the plane z = 0".into(),
+        ));
+    }
+    let surface_tags: HashMap<i32, Vec<i32>> = entities
+        .surfaces
+        .iter()
+        .map(|s| (s.tag, s.physical_tags.clone()))
+        .collect();
+    let curve_tags: HashMap<i32, Vec<i32>> = entities
+        .curves
+        .iter()
+        .map(|c| (c.tag, c.physical_tags.clone()))
+        .collect();
+
+    // Nodes: compact numbering in the file's order.
+    let nodes = msh
+        .data
+        .nodes
+        .as_ref()
+        .ok_or_else(|| not_msh("no $Nodes section".into()))?;
+    // With dense tags (min..=max over the file) mshio keeps no tag map: the tags then run
+    // consecutively from the smallest one, block after block.
+    let mut index: HashMap<u64, usize> = HashMap::new();
+    let mut points = Vec::new();
+    let mut next_tag = nodes.min_node_tag;
+    for block in &nodes.node_blocks {
+        if block.entity_dim == 3 {
+            return Err(unsupported("a 3D mesh (nodes on volumes)".into()));
+        }
+        let mut tags = vec![0u64; block.nodes.len()];
+        match &block.node_tags {
+            Some(map) => {
+                for (&t, &k) in map {
+                    tags[k] = t;
+                }
+            }
+            None => {
+                for t in tags.iter_mut() {
+                    *t = next_tag;
+                    next_tag += 1;
+                }
+            }
+        }
+        for (node, &tag) in block.nodes.iter().zip(&tags) {
+            if node.z.abs() > 1e-12 * (1.0 + node.x.abs().max(node.y.abs())) {
+                return Err(unsupported(format!(
+                    "node {tag} has z = {:e}: nndd reads 2D meshes in the plane z = 0",
+                    node.z
+                )));
+            }
+            index.insert(tag, points.len());
+            points.push([node.x, node.y]);
+        }
+    }
+
+    // Elements: 3-node triangles on surfaces, 2-node lines on curves; points are ignored.
+    let elements = msh
+        .data
+        .elements
+        .as_ref()
+        .ok_or_else(|| not_msh("no $Elements section".into()))?;
+    let mut triangles = Vec::new();
+    let mut lines = Vec::new();
+    let lookup = |tag: &u64| {
+        index.get(tag).copied().ok_or_else(|| GmshError::Invalid {
+            path: path.to_string(),
+            reason: format!("an element refers to node {tag}, which is not in $Nodes"),
+        })
+    };
+    for block in &elements.element_blocks {
+        match block.element_type {
+            ElementType::Tri3 => {
+                let phys = surface_tags
+                    .get(&block.entity_tag)
+                    .cloned()
+                    .unwrap_or_default();
+                for e in &block.elements {
+                    let t = [
+                        lookup(&e.nodes[0])?,
+                        lookup(&e.nodes[1])?,
+                        lookup(&e.nodes[2])?,
+                    ];
+                    triangles.push((t, phys.clone()));
+                }
+            }
+            ElementType::Lin2 => {
+                let phys = curve_tags
+                    .get(&block.entity_tag)
+                    .cloned()
+                    .unwrap_or_default();
+                for e in &block.elements {
+                    lines.push(([lookup(&e.nodes[0])?, lookup(&e.nodes[1])?], phys.clone()));
+                }
+            }
+            ElementType::Pnt => {}
+            other => {
+                let what = match other {
+                    ElementType::Lin3 | ElementType::Tri6 | ElementType::Tri9 | ElementType::Tri10 => {
+                        "quadratic or higher-order elements (nndd uses linear triangles: mesh with `Mesh.ElementOrder = 1`)"
+                    }
+                    ElementType::Qua4 | ElementType::Qua8 | ElementType::Qua9 => {
+                        "quadrilaterals (nndd uses linear triangles: remove `Recombine`)"
+                    }
+                    _ => "3D or higher-order elements (nndd reads 2D meshes of linear triangles)",
+                };
+                return Err(unsupported(format!("{what}; found {other:?}")));
+            }
+        }
+    }
+    if triangles.is_empty() {
+        return Err(unsupported(
+            "no linear triangles (is the mesh 2D and in a physical surface?)".into(),
+        ));
+    }
+    Ok(GmshMesh {
+        path: path.to_string(),
+        points,
+        triangles,
+        lines,
+        names: physical_names(bytes),
+    })
+}
+
+/// The `$PhysicalNames` section: (dimension, tag) → name.
+fn physical_names(bytes: &[u8]) -> BTreeMap<(i32, i32), String> {
+    let mut names = BTreeMap::new();
+    let start = match find(bytes, b"$PhysicalNames") {
+        Some(s) => s,
+        None => return names,
+    };
+    let end = find(&bytes[start..], b"$EndPhysicalNames").map_or(bytes.len(), |e| start + e);
+    let text = String::from_utf8_lossy(&bytes[start..end]);
+    for line in text.lines().skip(2) {
+        let mut it = line.splitn(3, char::is_whitespace);
+        let (Some(dim), Some(tag), Some(name)) = (it.next(), it.next(), it.next()) else {
+            continue;
+        };
+        if let (Ok(dim), Ok(tag)) = (dim.parse(), tag.parse()) {
+            names.insert((dim, tag), name.trim().trim_matches('"').to_string());
+        }
+    }
+    names
+}
+
+fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
+    hay.windows(needle.len()).position(|w| w == needle)
+}
+
+impl GmshMesh {
+    /// The physical tag of the group named `name` of dimension `dim`, if any.
+    pub fn tag(&self, dim: i32, name: &str) -> Option<i32> {
+        self.names
+            .iter()
+            .find(|((d, _), n)| *d == dim && n.as_str() == name)
+            .map(|((_, t), _)| *t)
+    }
+
+    /// The names of the physical groups of dimension `dim`, comma separated.
+    pub fn group_names(&self, dim: i32) -> String {
+        let v: Vec<&str> = self
+            .names
+            .iter()
+            .filter(|((d, _), _)| *d == dim)
+            .map(|(_, n)| n.as_str())
+            .collect();
+        if v.is_empty() {
+            "none".into()
+        } else {
+            v.join(", ")
+        }
+    }
+
+    /// The number of nodes of the triangles of the physical surface `name` (0 if none).
+    pub fn surface_node_count(&self, name: &str) -> usize {
+        let Some(tag) = self.tag(2, name) else {
+            return 0;
+        };
+        let mut seen = vec![false; self.points.len()];
+        for (t, phys) in &self.triangles {
+            if phys.contains(&tag) {
+                t.iter().for_each(|&a| seen[a] = true);
+            }
+        }
+        seen.iter().filter(|&&s| s).count()
+    }
+
+    /// Cut out the physical surface `name` as a mesh of its own (nodes renumbered in the
+    /// file's order, triangles counter-clockwise), with the physical curves whose lines lie
+    /// on it.
+    pub fn body(&self, name: &str) -> Result<GmshBody, GmshError> {
+        let tag = self.tag(2, name).ok_or_else(|| GmshError::NoSurface {
+            path: self.path.clone(),
+            name: name.to_string(),
+            known: self.group_names(2),
+        })?;
+        const NONE: usize = usize::MAX;
+        let mut local = vec![NONE; self.points.len()];
+        let mut used: Vec<usize> = Vec::new();
+        let mut tris = Vec::new();
+        for (t, phys) in &self.triangles {
+            if phys.contains(&tag) {
+                for &a in t {
+                    if local[a] == NONE {
+                        local[a] = 0;
+                        used.push(a);
+                    }
+                }
+                tris.push(*t);
+            }
+        }
+        if tris.is_empty() {
+            return Err(GmshError::Invalid {
+                path: self.path.clone(),
+                reason: format!("the physical surface '{name}' has no triangles"),
+            });
+        }
+        used.sort_unstable();
+        for (i, &a) in used.iter().enumerate() {
+            local[a] = i;
+        }
+        let points: Vec<[f64; 2]> = used.iter().map(|&a| self.points[a]).collect();
+        let mut triangles = Vec::with_capacity(tris.len());
+        for t in tris {
+            let mut l = t.map(|a| local[a]);
+            let (p, q, r) = (points[l[0]], points[l[1]], points[l[2]]);
+            let area2 = (q[0] - p[0]) * (r[1] - p[1]) - (r[0] - p[0]) * (q[1] - p[1]);
+            if area2 == 0.0 {
+                return Err(GmshError::Invalid {
+                    path: self.path.clone(),
+                    reason: format!("a triangle of '{name}' has zero area (nodes {t:?})"),
+                });
+            }
+            if area2 < 0.0 {
+                l.swap(1, 2);
+            }
+            triangles.push(l);
+        }
+        let mut curves: BTreeMap<String, Vec<[usize; 2]>> = BTreeMap::new();
+        for (l, phys) in &self.lines {
+            if local[l[0]] == NONE || local[l[1]] == NONE {
+                continue;
+            }
+            for p in phys {
+                if let Some(n) = self.names.get(&(1, *p)) {
+                    curves
+                        .entry(n.clone())
+                        .or_default()
+                        .push([local[l[0]], local[l[1]]]);
+                }
+            }
+        }
+        Ok(GmshBody {
+            mesh: Mesh::unstructured(points, triangles),
+            curves,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles of the unit square (surface `body1`), its bottom edge (curve `base`), with
+    /// sparse node tags and clockwise triangles.
+    const SQUARE: &str = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n1 7 \"base\"\n2 3 \"body1\"\n$EndPhysicalNames\n$Entities\n0 1 1 0\n1 0 0 0 1 0 0 1 7 0\n1 0 0 0 1 1 0 1 3 0\n$EndEntities\n$Nodes\n1 4 10 40\n2 1 0 4\n10\n20\n30\n40\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n$EndNodes\n$Elements\n2 3 1 3\n1 1 1 1\n1 10 20\n2 1 2 2\n2 10 30 20\n3 10 40 30\n$EndElements\n";
+
+    #[test]
+    fn reads_nodes_triangles_curves_and_names() {
+        let m = parse(SQUARE.as_bytes(), "square.msh").unwrap();
+        assert_eq!(
+            m.points,
+            vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+        );
+        assert_eq!(m.triangles.len(), 2);
+        assert_eq!(m.lines, vec![([0, 1], vec![7])]);
+        assert_eq!(m.tag(2, "body1"), Some(3));
+        assert_eq!(m.surface_node_count("body1"), 4);
+        let b = m.body("body1").unwrap();
+        // Clockwise triangles are turned counter-clockwise.
+        for e in 0..b.mesh.triangles.len() {
+            let p = b.mesh.triangle_points(e);
+            let a2 = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+            assert!((a2 - 1.0).abs() < 1e-15, "triangle {e}: 2 area {a2}");
+        }
+        assert_eq!(b.curves["base"], vec![[0, 1]]);
+        assert_eq!(b.mesh.boundary_edges().len(), 4);
+    }
+
+    #[test]
+    fn refuses_what_it_cannot_read() {
+        let err = |bytes: &[u8]| parse(bytes, "x.msh").unwrap_err().to_string();
+        assert!(err(b"hello").contains("not a Gmsh MSH 4.1 file"));
+        let v2 = SQUARE.replace("4.1 0 8", "2.2 0 8");
+        assert!(err(v2.as_bytes()).contains("version 2.2"));
+        let z = SQUARE.replace("1 1 0\n0 1 0\n$EndNodes", "1 1 0.5\n0 1 0\n$EndNodes");
+        assert!(err(z.as_bytes()).contains("z = "));
+        let m = parse(SQUARE.as_bytes(), "x.msh").unwrap();
+        assert!(m.body("body2").unwrap_err().to_string().contains("body1"));
+    }
+}
