@@ -81,16 +81,18 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
     if !bytes.starts_with(b"$MeshFormat") {
         return Err(not_msh("no $MeshFormat header".into()));
     }
-    let version = std::str::from_utf8(&bytes[..bytes.len().min(64)])
-        .ok()
-        .or_else(|| {
-            let end = bytes.iter().take(64).position(|&b| b == 0).unwrap_or(24);
-            std::str::from_utf8(&bytes[..end.min(bytes.len())]).ok()
+    // The second line is "version file-type data-size" (ASCII in binary files too).
+    let version = bytes
+        .split(|&b| b == b'\n')
+        .nth(1)
+        .map(|l| {
+            String::from_utf8_lossy(l)
+                .split_whitespace()
+                .next()
+                .unwrap_or("?")
+                .to_string()
         })
-        .and_then(|s| s.lines().nth(1))
-        .and_then(|l| l.split_whitespace().next())
-        .unwrap_or("?")
-        .to_string();
+        .unwrap_or_else(|| "?".into());
     if version != "4.1" {
         return Err(not_msh(format!("format version {version}, not 4.1")));
     }

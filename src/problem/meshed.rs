@@ -113,30 +113,22 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
             ));
         }
     }
-    let (pairs1, pairs2, gap) = pair_interface(spec, &bodies)?;
-    let mut out = Vec::new();
-    for (k, b) in bodies.into_iter().enumerate() {
+    let (sides, gap) = pair_interface(spec, &bodies)?;
+    let body = |k: usize| -> Result<BodyProblem, MeshedError> {
         let alpha = k + 1;
-        let (dirichlet, neumann) = conditions(spec, &b, alpha)?;
-        let contact_nodes = if alpha == 1 {
-            pairs1.clone()
-        } else {
-            pairs2.clone()
-        };
-        check_rigid_motions(&b, &dirichlet, alpha)?;
-        out.push(BodyProblem {
+        let (dirichlet, neumann) = conditions(spec, &bodies[k], alpha)?;
+        check_rigid_motions(&bodies[k], &dirichlet, alpha)?;
+        Ok(BodyProblem {
             alpha,
-            mesh: b.mesh,
+            mesh: bodies[k].mesh.clone(),
             material: materials[k],
             dirichlet,
             neumann,
-            contact_nodes,
+            contact_nodes: sides[k].clone(),
             gap: gap.clone(),
-        });
-    }
-    let b2 = out.pop().expect("two bodies");
-    let b1 = out.pop().expect("two bodies");
-    Ok([b1, b2])
+        })
+    };
+    Ok([body(0)?, body(1)?])
 }
 
 /// Dirichlet dofs and Neumann edges of body `alpha` from the curve conditions.
@@ -237,7 +229,8 @@ fn check_rigid_motions(
         - g[0][1] * (g[1][0] * g[2][2] - g[1][2] * g[2][0])
         + g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0]);
     let trace = g[0][0] + g[1][1] + g[2][2];
-    if !(det > 1e-10 * trace.powi(3)) {
+    // (No prescribed dof at all gives trace = det = 0: refused too.)
+    if det.is_nan() || det <= 1e-10 * trace.powi(3) {
         return Err(opt_err(
             "-nndd_bc_*",
             format!(
@@ -249,12 +242,12 @@ fn check_rigid_motions(
 }
 
 /// Pair the contact curves: every node of body 1's side with the node of body 2's side
-/// straight above it. Returns both node lists in pair order (by x) and g₀ of each pair.
-#[allow(clippy::type_complexity)]
+/// straight above it. Returns both bodies' node lists in pair order (by x) and g₀ of each
+/// pair.
 fn pair_interface(
     spec: &MeshSpec,
     bodies: &[GmshBody],
-) -> Result<(Vec<usize>, Vec<usize>, Vec<f64>), MeshedError> {
+) -> Result<([Vec<usize>; 2], Vec<f64>), MeshedError> {
     const OPT: &str = "-nndd_contact";
     let mut sides = Vec::new();
     for (k, name) in spec.contact.iter().enumerate() {
@@ -349,7 +342,7 @@ fn pair_interface(
         }
         gap.push(g.max(0.0));
     }
-    Ok((s1.clone(), s2.clone(), gap))
+    Ok(([s1.clone(), s2.clone()], gap))
 }
 
 #[cfg(test)]
