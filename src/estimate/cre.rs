@@ -260,9 +260,16 @@ pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
             ],
         );
     }
+    // The Γc densities are per unit length of body 1's (straight, horizontal) side: the
+    // interface mass matrix M_Γ integrates in x. On an edge of a curved body-2 side the same
+    // force is spread over the edge's length |Γ|, so its density there is g·|Δx|/|Γ| (1 on a
+    // straight side).
     for k in 0..p.contact_nodes.len().saturating_sub(1) {
         let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
-        known.insert((a, b), [[0.0, 0.0], [gc[k], gc[k + 1]]]);
+        let (pa, pb) = (mesh.points[a], mesh.points[b]);
+        let dx = (pb[0] - pa[0]).abs();
+        let scale = dx / dx.hypot(pb[1] - pa[1]);
+        known.insert((a, b), [[0.0, 0.0], [gc[k] * scale, gc[k + 1] * scale]]);
     }
     let sides = if mesh.is_structured() {
         // The four sides, in the orientation of the benchmarks' data.
