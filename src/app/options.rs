@@ -240,14 +240,25 @@ impl Settings {
                 })
             }
         };
-        let (theta, _) = o.real(
+        let (theta_text, _) = o.string(
             "-nndd_theta",
-            "NNDD relaxation theta of the lambda update, > 0",
-            0.25,
+            "NNDD relaxation theta of the lambda update: a number > 0, or auto (Aitken's delta^2 from a probe step 1e-3)",
+            "0.25",
         )?;
-        if !(theta > 0.0 && theta.is_finite()) {
-            return Err(range("-nndd_theta", "> 0", theta));
-        }
+        let (theta, aitken) = match theta_text.trim() {
+            // A small probe step first: Aitken then sets θ from its effect.
+            "auto" => (AUTO_THETA_PROBE, true),
+            t => match t.parse::<f64>() {
+                Ok(v) if v > 0.0 && v.is_finite() => (v, false),
+                _ => {
+                    return Err(SettingsError::OutOfRange {
+                        option: "-nndd_theta",
+                        accepted: "a number > 0, or auto",
+                        value: theta_text,
+                    })
+                }
+            },
+        };
         let (tol, _) = o.real(
             "-nndd_tol",
             "NNDD stopping tolerance on |dlambda|/|lambda|",
@@ -436,6 +447,7 @@ impl Settings {
             solver,
             nndd: NnddSettings {
                 theta,
+                aitken,
                 tol,
                 max_it,
                 stop,
@@ -593,6 +605,9 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
         contact: [pair[0].to_string(), pair[1].to_string()],
     })
 }
+
+/// The first θ of `-nndd_theta auto` (safe for stiffness ratios up to about 1e3).
+const AUTO_THETA_PROBE: f64 = 1e-3;
 
 const OPTS_MATERIAL: [(&str, &str); 2] = [
     ("-nndd_body1_E", "-nndd_body1_nu"),

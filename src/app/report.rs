@@ -47,6 +47,7 @@ pub fn summarise(
         ranks: layout.size,
         solver: settings.solver.name().into(),
         theta: settings.nndd.theta,
+        theta_auto: settings.nndd.aitken,
         tol: settings.nndd.tol,
         max_it: settings.nndd.max_it,
         young: settings.problem.materials.map(|m| m.young),

@@ -34,8 +34,11 @@ pub enum StopRule {
 /// The settings of the NNDD loop (plain data).
 #[derive(Clone, Debug)]
 pub struct NnddSettings {
-    /// Relaxation θ of the update λ ← λ + θ (w¹ − w²)·n.
+    /// Relaxation θ of the update λ ← λ + θ (w¹ − w²)·n (with `aitken`, its first value).
     pub theta: f64,
+    /// `-nndd_theta auto`: adapt θ at every iteration by Aitken's Δ² (see [`aitken_theta`]),
+    /// from the small probe θ = `theta`.
+    pub aitken: bool,
     /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
     pub tol: f64,
     pub max_it: usize,
@@ -47,6 +50,7 @@ impl Default for NnddSettings {
     fn default() -> Self {
         NnddSettings {
             theta: 0.25,
+            aitken: false,
             tol: 1e-8,
             max_it: 1000,
             stop: StopRule::Tol,
@@ -116,6 +120,8 @@ pub struct IterationRecord {
     /// Clarabel's iterations in the contact step (0: the previous contact set was certified
     /// optimal by the KKT conditions).
     pub qp_iterations: u32,
+    /// The relaxation θ of this iteration's update.
+    pub theta: f64,
     /// The estimates, at estimated iterations (paper (22)–(26)).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub eta_glo: Option<f64>,
@@ -235,6 +241,10 @@ pub fn solve<E: From<NnddError>>(
     let mut best_at = 0usize;
     let mut growth = 0usize;
     let mut last: Option<Iterate> = None;
+    let mut theta = settings.theta;
+    let mut previous_d: Option<Vec<f64>> = None;
+    let mut previous_active: Option<Vec<bool>> = None;
+    let mut theta_min = f64::INFINITY;
     for p in 1..=settings.max_it {
         // Step 1: Dirichlet problem on Ω¹ and contact problem on Ω², concurrently.
         let mut t1 = vec![0.0; m];
@@ -291,10 +301,29 @@ pub fn solve<E: From<NnddError>>(
             layout.share(1, &mut w1);
             layout.share(2, &mut w2);
         });
-        // Step 5: update.
-        let new: Vec<f64> = (0..m)
-            .map(|i| lambda[i] + settings.theta * (w1[i] - w2[i]))
-            .collect();
+        // Step 5: update, with θ adapted by Aitken's Δ² when asked.
+        let d: Vec<f64> = (0..m).map(|i| w1[i] - w2[i]).collect();
+        let active_now: Vec<bool> = act[..m].iter().map(|&a| a > 0.5).collect();
+        if settings.aitken {
+            if let Some(prev) = previous_d.as_deref() {
+                // Aitken models one linear map: across a change of the contact set the map
+                // changed, so θ falls back to the smallest value seen (the stiffest regime);
+                // within one set θ may grow at most twofold per iteration, except after the
+                // first (probe) step, whose θ is only a small safe start.
+                let same_set = previous_active.as_deref() == Some(&active_now[..]);
+                theta = match (same_set, theta_min.is_finite()) {
+                    (true, false) => aitken_theta(theta, prev, &d),
+                    (true, true) => aitken_theta(theta, prev, &d).min(2.0 * theta),
+                    (false, _) => theta.min(theta_min),
+                };
+                if same_set {
+                    theta_min = theta_min.min(theta);
+                }
+            }
+        }
+        previous_active = Some(active_now);
+        let new: Vec<f64> = (0..m).map(|i| lambda[i] + theta * d[i]).collect();
+        previous_d = Some(d);
         let dl: Vec<f64> = new.iter().zip(&lambda).map(|(a, b)| a - b).collect();
         let nl = norm(&new);
         let change = if nl > 0.0 { norm(&dl) / nl } else { norm(&dl) };
@@ -304,6 +333,7 @@ pub fn solve<E: From<NnddError>>(
             residual: norm(&r),
             active: act[..m].iter().filter(|&&a| a > 0.5).count(),
             qp_iterations: act[m + 1] as u32,
+            theta,
             eta_glo: None,
             eta_fe: None,
             eta_nndd: None,
@@ -389,4 +419,61 @@ pub fn solve<E: From<NnddError>>(
         last,
         timers,
     })
+}
+
+/// Aitken's Δ² relaxation of a fixed-point iteration λ ← λ + θ d(λ) (Irons & Tuck; Küttler &
+/// Wall 2008): θ_p = −θ_{p−1} d_{p−1}ᵀ(d_p − d_{p−1}) / ‖d_p − d_{p−1}‖². For a linear
+/// d = b − Aλ this is θ_p = d_{p−1}ᵀA d_{p−1} / ‖A d_{p−1}‖², the minimal-residual step along
+/// the last direction, so θ follows the interface operators' spectrum (docs/method.md §2:
+/// bodies of different stiffness need a smaller θ) without the user searching for it. Kept in
+/// [1e−6, 1] (θ < 2/μ_max ≤ 1 for μ ≥ 2); unchanged when d did not change or when the
+/// estimate is not positive (the map is not locally linear there, e.g. the contact set moved).
+pub fn aitken_theta(theta: f64, previous: &[f64], d: &[f64]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (a, b) in previous.iter().zip(d) {
+        let delta = b - a;
+        num += a * delta;
+        den += delta * delta;
+    }
+    let next = -theta * num / den;
+    if den > 0.0 && next > 0.0 && next.is_finite() {
+        next.clamp(1e-6, 1.0)
+    } else {
+        theta // no change in d, or a step that would not reduce it: keep θ
+    }
+}
+
+#[cfg(test)]
+mod aitken_tests {
+    use super::aitken_theta;
+
+    /// On a linear 2 × 2 iteration d = b − Aλ, Aitken's θ is the minimal-residual step
+    /// dᵀAd / ‖Ad‖² of the previous direction.
+    #[test]
+    fn aitken_is_the_minimal_residual_step_on_a_linear_map() {
+        let a = [[4.0, 1.0], [1.0, 30.0]];
+        let b = [1.0, 2.0];
+        let d_of = |l: [f64; 2]| {
+            [
+                b[0] - a[0][0] * l[0] - a[0][1] * l[1],
+                b[1] - a[1][0] * l[0] - a[1][1] * l[1],
+            ]
+        };
+        let l0 = [0.0, 0.0];
+        let d0 = d_of(l0);
+        let theta0 = 0.01;
+        let l1 = [l0[0] + theta0 * d0[0], l0[1] + theta0 * d0[1]];
+        let d1 = d_of(l1);
+        let ad = [
+            a[0][0] * d0[0] + a[0][1] * d0[1],
+            a[1][0] * d0[0] + a[1][1] * d0[1],
+        ];
+        let expected = (d0[0] * ad[0] + d0[1] * ad[1]) / (ad[0] * ad[0] + ad[1] * ad[1]);
+        let got = aitken_theta(theta0, &d0, &d1);
+        assert!(
+            (got - expected).abs() < 1e-14 * expected,
+            "{got} vs {expected}"
+        );
+        assert_eq!(aitken_theta(0.3, &d0, &d0), 0.3, "no change in d: θ kept");
+    }
 }

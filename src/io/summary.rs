@@ -49,7 +49,10 @@ pub struct Summary {
     pub dofs: usize,
     pub ranks: i32,
     pub solver: String,
+    /// θ (with `theta_auto`, its first value; the history gives θ per iteration).
     pub theta: f64,
+    /// `-nndd_theta auto`: θ adapted by Aitken's Δ².
+    pub theta_auto: bool,
     pub tol: f64,
     pub max_it: usize,
     /// Young's modulus of body 1 and body 2 (Pa).
