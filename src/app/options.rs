@@ -332,7 +332,7 @@ impl Settings {
         }
         let (reference, _) = o.int(
             "-nndd_reference_factor",
-            "Solve the reference problem on the nested mesh r*n and report e_ref and the effectivity (0: off; paper: 8)",
+            "Solve the reference problem on the nested mesh r*n (a Gmsh mesh: each triangle split into r^2) and report e_ref and the effectivity (0: off; paper: 8)",
             0,
         )?;
         if reference < 0 || reference == 1 || reference > 64 {
@@ -426,13 +426,6 @@ impl Settings {
                 })
             }
         };
-        if mesh.is_some() && reference > 0 {
-            return Err(SettingsError::OutOfRange {
-                option: "-nndd_reference_factor",
-                accepted: "0 with -nndd_mesh (the nested refinement of Gmsh meshes is not implemented yet)",
-                value: reference.to_string(),
-            });
-        }
         o.end()?;
         Ok(Settings {
             problem: ProblemSettings {

@@ -15,13 +15,18 @@ pub struct Reference {
     pub iterations: usize,
 }
 
-/// P1 interpolation of a field on `coarse` onto the nested mesh `fine` (same rectangle, grid
-/// refined by an integer factor, diagonals alike): exact for nested P1 spaces.
+/// P1 interpolation of a field on `coarse` onto the nested mesh `fine`: exact for nested P1
+/// spaces. Structured meshes: the same rectangle, the grid refined by an integer factor,
+/// diagonals alike. Unstructured meshes (Gmsh, refined by `GmshMesh::refined`): the r²
+/// triangles of coarse triangle t are fine triangles r² t … r² (t + 1) − 1.
 pub fn interpolate_nested(
     coarse: &Mesh,
     fine: &Mesh,
     u: &[f64],
 ) -> Result<Vec<f64>, EstimateError> {
+    if !(coarse.is_structured() && fine.is_structured()) {
+        return interpolate_split(coarse, fine, u);
+    }
     let nested = fine.nx.is_multiple_of(coarse.nx)
         && fine.ny.is_multiple_of(coarse.ny)
         && fine.nx / coarse.nx == fine.ny / coarse.ny
@@ -55,6 +60,42 @@ pub fn interpolate_nested(
             let n = fine.node(if_, jf);
             for k in 0..2 {
                 out[2 * n + k] = w.iter().map(|&(node, wt)| wt * u[2 * node + k]).sum();
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// [`interpolate_nested`] for a mesh whose triangles were each split into r² (in order):
+/// every fine node is evaluated by its barycentric coordinates in its coarse triangle, which
+/// must contain it.
+fn interpolate_split(coarse: &Mesh, fine: &Mesh, u: &[f64]) -> Result<Vec<f64>, EstimateError> {
+    let not_nested = || EstimateError::NotNested {
+        coarse: format!("of {} triangles", coarse.triangles.len()),
+        fine: format!("of {} triangles", fine.triangles.len()),
+    };
+    let (nc, nf) = (coarse.triangles.len(), fine.triangles.len());
+    let r2 = nf / nc.max(1);
+    let r = (r2 as f64).sqrt().round() as usize;
+    if nc == 0 || r * r != r2 || r2 * nc != nf {
+        return Err(not_nested());
+    }
+    let mut out = vec![0.0; fine.num_dofs()];
+    for (f, t) in fine.triangles.iter().enumerate() {
+        let c = f / r2;
+        let q = coarse.triangle_points(c);
+        let nodes = coarse.triangles[c];
+        let det = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (q[1][1] - q[0][1]);
+        for &n in t {
+            let p = fine.points[n];
+            let l1 = ((p[0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (p[1] - q[0][1])) / det;
+            let l2 = ((q[1][0] - q[0][0]) * (p[1] - q[0][1]) - (p[0] - q[0][0]) * (q[1][1] - q[0][1])) / det;
+            let l = [1.0 - l1 - l2, l1, l2];
+            if l.iter().any(|&w| !(-1e-9..=1.0 + 1e-9).contains(&w)) {
+                return Err(not_nested());
+            }
+            for k in 0..2 {
+                out[2 * n + k] = (0..3).map(|v| l[v] * u[2 * nodes[v] + k]).sum();
             }
         }
     }
@@ -106,5 +147,38 @@ mod tests {
             interpolate_nested(&coarse, &Mesh::structured([0.0, 1.0], [1.0, 1.0], 5, 4), &u)
                 .is_err()
         );
+    }
+
+    #[test]
+    fn split_interpolation_is_exact_for_p1_on_unstructured_meshes() {
+        // A quadrilateral in two triangles (one clockwise), refined 4x through the Gmsh path.
+        let points = vec![[0.0, 0.0], [1.0, 0.1], [1.2, 0.9], [0.1, 1.0]];
+        let gm = crate::fem::gmsh::GmshMesh {
+            path: "quad".into(),
+            points,
+            triangles: vec![([0, 1, 2], vec![1]), ([0, 3, 2], vec![1])],
+            lines: vec![],
+            names: [((2, 1), "body1".to_string())].into_iter().collect(),
+        };
+        let coarse = gm.body("body1").unwrap().mesh;
+        let fine = gm.refined(4).body("body1").unwrap().mesh;
+        // A linear field is reproduced at every fine node; the coarse nodes keep their values.
+        let lin = |p: [f64; 2]| [2.0 * p[0] - 3.0 * p[1] + 0.5, p[0] + 4.0 * p[1]];
+        let u: Vec<f64> = coarse.points.iter().flat_map(|&p| lin(p)).collect();
+        let v = interpolate_nested(&coarse, &fine, &u).unwrap();
+        for (n, &p) in fine.points.iter().enumerate() {
+            let want = lin(p);
+            for k in 0..2 {
+                assert!((v[2 * n + k] - want[k]).abs() < 1e-13, "node {n}");
+            }
+        }
+        let w: Vec<f64> = (0..8).map(|i| (i * i) as f64).collect();
+        let vw = interpolate_nested(&coarse, &fine, &w).unwrap();
+        assert_eq!(&vw[..8], &w[..]);
+        // A mesh that is not the split of the coarse one is refused.
+        let other = gm.refined(3).body("body1").unwrap().mesh;
+        let mut moved = other.clone();
+        moved.points.iter_mut().for_each(|p| p[0] += 0.5);
+        assert!(interpolate_nested(&coarse, &moved, &u).is_err());
     }
 }

@@ -64,6 +64,9 @@ impl ProblemSettings {
         for g in s.grids.iter_mut() {
             *g = (g.0 * r, g.1 * r);
         }
+        if let Some(spec) = s.mesh.as_mut() {
+            spec.gmsh = Rc::new(spec.gmsh.refined(r));
+        }
         s
     }
 

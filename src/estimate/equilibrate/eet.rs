@@ -201,7 +201,7 @@ pub(super) fn sym_eigen(a: &mut [f64], n: usize) -> Vec<f64> {
                 }
             }
         }
-        if off <= 1e-32 * diag || off == 0.0 {
+        if off <= 1e-28 * diag || off == 0.0 {
             break;
         }
         for p in 0..n {
