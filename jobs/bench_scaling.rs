@@ -2,8 +2,9 @@
 //! mesh levels n and rank counts N, next to the monolithic solve (N = 2) of the same mesh.
 //! One row per (n, N) with the phase split, the peak memory per rank and the NNDD/monolithic
 //! time ratios, then the growth exponents of the NNDD wall time with the dofs. The table also
-//! goes to `results/bench-scaling.txt`. Run through
-//! `jobs/bench-scaling [--quick] [--ranks 1,2,4] [n …]`.
+//! goes to `results/bench-scaling.txt`. `--hertz`: the same for the Gmsh path, the Hertz
+//! benchmark (examples/hertz) at mesh levels L, meshed by Gmsh (`results/bench-scaling-hertz.txt`).
+//! Run through `jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [n or L …]`.
 
 #[path = "runner.rs"]
 mod runner;
@@ -12,26 +13,75 @@ use std::io::Write;
 
 use serde_json::Value;
 
-const USAGE: &str = "usage: jobs/bench-scaling [--quick] [--ranks 1,2,4] [n …]
+const USAGE: &str = "usage: jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [n …]
   n …           mesh levels (default 64 128 256 512 1024; --quick: 64 128)
+  --hertz       the Hertz benchmark meshed by Gmsh instead, at levels L (default 2 3 4 5 6,
+                52404 dofs at L = 4, x4 per level; --quick: 2 3)
   --ranks LIST  MPI rank counts of the NNDD runs (default 1,2,4; mpirun --oversubscribe above 2)
   The monolithic solve runs once per n on 2 ranks. NNDD=path picks the binary.";
 
-const TABLE: &str = "results/bench-scaling.txt";
+/// One mesh level of the benchmark: its options and its expected dofs.
+struct Case {
+    opts: &'static str,
+    args: Vec<String>,
+    dofs: usize,
+}
+
+impl Case {
+    /// `paper` at level n, or the Hertz mesh of level L (meshed into `dir` by Gmsh).
+    fn new(hertz: bool, level: usize, dir: &std::path::Path) -> Case {
+        if !hertz {
+            return Case {
+                opts: "petsc-options/paper.opts",
+                args: vec!["-nndd_n".into(), level.to_string()],
+                dofs: dofs_of(level),
+            };
+        }
+        let msh = dir.join(format!("hertz-{level}.msh"));
+        let st = std::process::Command::new("gmsh")
+            .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
+            .arg(level.to_string())
+            .arg("examples/hertz/hertz.geo")
+            .arg("-o")
+            .arg(&msh)
+            .status()
+            .expect("gmsh runs (jobs/setup installs it)");
+        assert!(st.success(), "gmsh failed on Hertz level {level}");
+        Case {
+            opts: "examples/hertz/hertz.opts",
+            args: vec!["-nndd_mesh".into(), msh.display().to_string()],
+            dofs: (52404.0 * 4f64.powi(level as i32 - 4)) as usize,
+        }
+    }
+
+    fn with(&self, extra: &[&str]) -> Vec<String> {
+        let mut a = self.args.clone();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    }
+}
 
 /// A finished run: its summary and wall time (mpirun start to end), or why it failed.
 type Outcome = Result<(Value, f64), String>;
 
 fn main() {
-    let (levels, ranks) = parse_args();
+    let (levels, ranks, hertz) = parse_args();
     let dir = runner::scratch("scaling");
+    std::fs::create_dir_all(&dir).expect("scratch directory");
     std::fs::create_dir_all("results").expect("results/ directory");
-    let mut out = Out::new(TABLE);
+    let table = if hertz {
+        "results/bench-scaling-hertz.txt"
+    } else {
+        "results/bench-scaling.txt"
+    };
+    let mut out = Out::new(table);
     out.line(&format!(
-        "# jobs/bench-scaling: paper, tol 1e-8, final estimate (no reference); {} on {} ({} cores); n = {:?}, N = {:?}",
+        "# jobs/bench-scaling: {}, tol 1e-8, final estimate (no reference); {} on {} ({} cores); {} = {:?}, N = {:?}",
+        if hertz { "Hertz (Gmsh meshes)" } else { "paper" },
         now(),
         hostname(),
         std::thread::available_parallelism().map_or(0, |c| c.get()),
+        if hertz { "L" } else { "n" },
         levels,
         ranks
     ));
@@ -43,7 +93,8 @@ fn main() {
     let mut done: Vec<(usize, usize, f64)> = Vec::new();
     let mut mono_done: Vec<(usize, f64)> = Vec::new();
     for &n in &levels {
-        let dofs = dofs_of(n);
+        let case = Case::new(hertz, n, &dir);
+        let dofs = case.dofs;
         // The monolithic solve of this mesh, once, on 2 ranks, without estimates.
         count += 1;
         progress(
@@ -56,22 +107,16 @@ fn main() {
             guess(&mono_done, dofs, 2, false),
         );
         let prefix = dir.join(format!("mono{n}"));
-        let mono = runner::try_run(
-            2,
-            "petsc-options/paper.opts",
-            &[],
-            &prefix,
-            &[
-                "-nndd_n",
-                &n.to_string(),
-                "-nndd_solver",
-                "monolithic",
-                "-nndd_estimate_every",
-                "0",
-                "-nndd_reference_factor",
-                "0",
-            ],
-        );
+        let mono_args = case.with(&[
+            "-nndd_solver",
+            "monolithic",
+            "-nndd_estimate_every",
+            "0",
+            "-nndd_reference_factor",
+            "0",
+        ]);
+        let mono_args: Vec<&str> = mono_args.iter().map(String::as_str).collect();
+        let mono = runner::try_run(2, case.opts, &[], &prefix, &mono_args);
         clean(&prefix);
         match &mono {
             Ok((_, wall)) => mono_done.push((dofs, *wall)),
@@ -100,24 +145,18 @@ fn main() {
             );
             let prefix = dir.join(format!("nndd{n}-{np}"));
             let mpirun_args: &[&str] = if np > 2 { &["--oversubscribe"] } else { &[] };
-            let res: Outcome = runner::try_run(
-                np,
-                "petsc-options/paper.opts",
-                mpirun_args,
-                &prefix,
-                &[
-                    "-nndd_n",
-                    &n.to_string(),
-                    "-nndd_tol",
-                    "1e-8",
-                    // The estimate of the final iterate only, no reference solution.
-                    "-nndd_estimate",
-                    "-nndd_estimate_every",
-                    "0",
-                    "-nndd_reference_factor",
-                    "0",
-                ],
-            );
+            // The estimate of the final iterate only, no reference solution.
+            let args = case.with(&[
+                "-nndd_tol",
+                "1e-8",
+                "-nndd_estimate",
+                "-nndd_estimate_every",
+                "0",
+                "-nndd_reference_factor",
+                "0",
+            ]);
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            let res: Outcome = runner::try_run(np, case.opts, mpirun_args, &prefix, &args);
             clean(&prefix);
             match &res {
                 Ok((j, wall)) => {
@@ -167,12 +206,14 @@ fn main() {
         .map(|r| (r.1, r.2))
         .collect();
     let at = |n: usize| two.iter().find(|r| r.0 == dofs_of(n)).copied();
-    match (at(128), at(1024)) {
-        (Some(a), Some(b)) => out.line(&format!(
-            "  N = 2, n = 128 to 1024: p = {:.2}",
-            exponent(a, b)
-        )),
-        _ => out.line("  N = 2, n = 128 to 1024: -  (needs both levels run on 2 ranks)"),
+    if !hertz {
+        match (at(128), at(1024)) {
+            (Some(a), Some(b)) => out.line(&format!(
+                "  N = 2, n = 128 to 1024: p = {:.2}",
+                exponent(a, b)
+            )),
+            _ => out.line("  N = 2, n = 128 to 1024: -  (needs both levels run on 2 ranks)"),
+        }
     }
     if let (Some(a), Some(b)) = (mono_done.first(), mono_done.last()) {
         if b.0 > a.0 {
@@ -184,10 +225,11 @@ fn main() {
             ));
         }
     }
-    eprintln!("bench-scaling: table written to {TABLE}");
+    eprintln!("bench-scaling: table written to {table}");
 }
 
-const NOTES: [&str; 7] = [
+const NOTES: [&str; 8] = [
+    "n: the mesh level (paper: n x n per body; --hertz: the Hertz level L); input: options, mesh file and problem with the pairing of Gamma_c (s)",
     "wall: mpirun start to end (s); assem … output: seconds per phase, maximum over the ranks (wait: timings.exchange, time a rank waited in exchanges)",
     "ranks: body ranks [n1, n2] (- when the summary does not say); MiB: peak resident memory, maximum over ranks, and per world rank",
     "loop/mono: NNDD loop time (dirich + contact + neumann + wait, each a maximum over ranks, so the sum can overcount overlap)",
@@ -197,10 +239,11 @@ const NOTES: [&str; 7] = [
     "failed: the run ended without a summary (exit status and its last error line on stderr); the others went on",
 ];
 
-fn parse_args() -> (Vec<usize>, Vec<usize>) {
+fn parse_args() -> (Vec<usize>, Vec<usize>, bool) {
     let mut levels = Vec::new();
     let mut ranks = vec![1, 2, 4];
     let mut quick = false;
+    let mut hertz = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -209,6 +252,7 @@ fn parse_args() -> (Vec<usize>, Vec<usize>) {
                 std::process::exit(0);
             }
             "--quick" => quick = true,
+            "--hertz" => hertz = true,
             "--ranks" => {
                 let list = args
                     .next()
@@ -228,17 +272,18 @@ fn parse_args() -> (Vec<usize>, Vec<usize>) {
         }
     }
     if levels.is_empty() {
-        levels = if quick {
-            vec![64, 128]
-        } else {
-            vec![64, 128, 256, 512, 1024]
+        levels = match (hertz, quick) {
+            (false, true) => vec![64, 128],
+            (false, false) => vec![64, 128, 256, 512, 1024],
+            (true, true) => vec![2, 3],
+            (true, false) => vec![2, 3, 4, 5, 6],
         };
     }
     levels.sort_unstable();
     levels.dedup();
     ranks.sort_unstable();
     ranks.dedup();
-    (levels, ranks)
+    (levels, ranks, hertz)
 }
 
 fn usage(msg: &str) -> ! {
@@ -294,13 +339,14 @@ fn human(s: f64) -> String {
 
 fn header() -> String {
     format!(
-        "{:>5} {:>8} {:>3} {:>7} {:>4} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9}  {}",
+        "{:>5} {:>8} {:>3} {:>7} {:>4} {:>8} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9}  {}",
         "n",
         "dofs",
         "N",
         "ranks",
         "its",
         "wall_s",
+        "input",
         "assem",
         "factor",
         "dirich",
@@ -378,13 +424,14 @@ fn row(n: usize, dofs: usize, np: usize, res: &Outcome, mono: &Outcome) -> Strin
         ),
     };
     format!(
-        "{:>5} {:>8} {:>3} {:>7} {:>4} {:>8.2} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9}  {}",
+        "{:>5} {:>8} {:>3} {:>7} {:>4} {:>8.2} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8} {:>9}  {}",
         n,
         j["dofs"].as_u64().map_or(dofs, |d| d as usize),
         np,
         body_ranks,
         its,
         wall,
+        f("input"),
         f("assembly"),
         f("factorisation"),
         f("dirichlet_step"),

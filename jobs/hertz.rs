@@ -1,10 +1,11 @@
 //! The Hertz benchmark (examples/hertz): meshes the four levels with Gmsh, solves each on 2
 //! ranks (NNDD to tol 1e−8, and the monolithic check), and compares the contact half-width,
-//! the peak pressure and the pressure profile with Hertz's, with the estimate η^glo of the
-//! final iterate on the levels up to `--estimate-up-to L` (default 3: the estimate of
-//! level 4 takes minutes on unstructured meshes, issue 11).
+//! the peak pressure and the pressure profile with Hertz's, with the estimates of the final
+//! iterate on the levels up to `--estimate-up-to L` (default: all) and e_ref and the
+//! effectivity against the reference solution on the mesh refined r times (`--reference-factor
+//! r`, default 4: each triangle split into r²; 0: none).
 //!
-//! Run: `jobs/hertz [--levels 1,2,3,4] [--estimate-up-to L]` → a table on stdout,
+//! Run: `jobs/hertz [--levels 1,2,3,4] [--estimate-up-to L] [--reference-factor r]` → a table on stdout,
 //! `results/hertz/table.txt` and the pressure profile of the finest level against Hertz's
 //! in `docs/img/hertz-pressure.png`.
 
@@ -30,7 +31,8 @@ fn read(prefix: &Path, dataset: &str) -> Vec<f64> {
 
 fn main() {
     let mut levels = vec![1u32, 2, 3, 4];
-    let mut estimate_up_to = 3u32;
+    let mut estimate_up_to = u32::MAX;
+    let mut reference_factor = 4u32;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -46,6 +48,9 @@ fn main() {
             "--estimate-up-to" => {
                 estimate_up_to = it.next().and_then(|s| s.parse().ok()).expect("a level")
             }
+            "--reference-factor" => {
+                reference_factor = it.next().and_then(|s| s.parse().ok()).expect("r")
+            }
             other => {
                 eprintln!("hertz: unknown argument {other}");
                 std::process::exit(1);
@@ -55,7 +60,7 @@ fn main() {
     let dir = Path::new("results/hertz");
     std::fs::create_dir_all(dir).expect("results/hertz");
     let mut table = String::from(
-        "level     dofs   iter   a_h        a          a_err    p0_h        p0          p0_err   L2_err   eta_glo      eta_nndd     mono_dE     wall_s\n",
+        "level     dofs   iter   a_h        a          a_err    p0_h        p0          p0_err   L2_err   eta_glo      e_ref        effect   eta_nndd     mono_dE     input_s  solve_s  estim_s  wall_s\n",
     );
     let mut finest = None;
     for &level in &levels {
@@ -71,9 +76,13 @@ fn main() {
         assert!(st.success(), "gmsh failed on level {level}");
         let prefix = dir.join(format!("level{level}"));
         let m = msh.to_str().unwrap();
+        let r = reference_factor.to_string();
         let mut extra = vec!["-nndd_mesh", m];
         if level <= estimate_up_to {
             extra.push("-nndd_estimate");
+            if reference_factor > 1 {
+                extra.extend(["-nndd_reference_factor", &r]);
+            }
         }
         eprintln!("hertz: level {level} …");
         let (j, wall) = runner::try_run(2, "examples/hertz/hertz.opts", &[], &prefix, &extra)
@@ -105,10 +114,11 @@ fn main() {
             MATERIALS,
         );
         let est = &j["estimates"][0];
+        let t = |k: &str| runner::num(&j["timings"], k);
         let e = runner::num(&j, "potential_energy");
         let em = runner::num(&mono, "potential_energy");
         table.push_str(&format!(
-            "{level:>5} {:>8} {:>6}   {:.6}   {:.6}   {:6.2} %  {:.4e}  {:.4e}  {:6.2} %  {:6.4}   {:.4e}   {:.4e}   {:.2e}   {:.1}\n",
+            "{level:>5} {:>8} {:>6}   {:.6}   {:.6}   {:6.2} %  {:.4e}  {:.4e}  {:6.2} %  {:6.4}   {:.4e}   {:.4e}   {:6.4}   {:.4e}   {:.2e}   {:7.2}  {:7.2}  {:7.2}  {:.1}\n",
             j["dofs"].as_u64().unwrap_or(0),
             j["iterations"].as_u64().unwrap_or(0),
             h.a_h,
@@ -119,13 +129,21 @@ fn main() {
             100.0 * h.p0_err(),
             h.l2,
             runner::num(est, "eta_glo"),
+            runner::num(est, "e_ref"),
+            runner::num(est, "effectivity"),
             runner::num(est, "eta_nndd"),
             (e - em).abs() / em.abs(),
+            t("input"),
+            ["assembly", "factorisation", "dirichlet_step", "contact_step", "neumann_step", "exchange"]
+                .iter()
+                .map(|k| t(k))
+                .sum::<f64>(),
+            t("estimation"),
             wall,
         ));
         finest = Some((x, pressure, h));
     }
-    table.push_str("(2 ranks; a_h: half the extent of the contact set, ends half-way to the first open node; p0_h: the largest lumped nodal pressure; L2_err: ‖p_h − p‖/‖p‖ on the paired interface; mono_dE: relative energy difference NNDD − monolithic; eta: the final iterate's estimates, NaN where not estimated; e_ref and the effectivity need -nndd_reference_factor, not yet available on Gmsh meshes)\n");
+    table.push_str(&format!("(2 ranks; a_h: half the extent of the contact set, ends half-way to the first open node; p0_h: the largest lumped nodal pressure; L2_err: ‖p_h − p‖/‖p‖ on the paired interface; eta_glo, eta_nndd: the final iterate's estimates, NaN where not estimated; e_ref: energy norm of u_ref − u_h, u_ref on the mesh refined {reference_factor}x (each triangle into {}), effect = eta_glo/e_ref; mono_dE: relative energy difference NNDD − monolithic; input_s: options + mesh file + problem with the Γc pairing; solve_s: assembly + factorisation + NNDD loop; estim_s: the estimate; wall_s: mpirun start to end, with the reference solve)\n", reference_factor * reference_factor));
     print!("{table}");
     std::fs::write(dir.join("table.txt"), &table).expect("table");
     if let Some((x, p, h)) = finest {

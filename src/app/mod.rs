@@ -107,13 +107,17 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
     // the whole geometry, for the interface and the output).
     let problems = problem::build(&settings.problem)?;
+    let input_seconds = t_start.elapsed().as_secs_f64();
     let dofs = [problems[0].mesh.num_dofs(), problems[1].mesh.num_dofs()];
     let layout = Layout::new(world, settings.body1_ranks, dofs)?;
     check_recovery(&settings, &layout)?;
     check_output(&settings, &layout)?;
     let stages = Stages::register()?;
     Petsc::track_memory()?;
-    let mut timings = Timings::default();
+    let mut timings = Timings {
+        input: input_seconds,
+        ..Timings::default()
+    };
 
     // Setup: each rank's bodies (partition, assembly, factorisation).
     let bodies = solve::setup_bodies(&settings, &problems, &layout, &stages, &mut timings)?;

@@ -153,6 +153,7 @@ pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
 /// Each phase's time: the maximum over ranks.
 pub fn max_over_ranks(layout: &Layout, t: &mut Timings) {
     for x in [
+        &mut t.input,
         &mut t.assembly,
         &mut t.factorisation,
         &mut t.dirichlet_step,

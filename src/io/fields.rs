@@ -38,7 +38,12 @@ pub fn results(
         .collect();
     grids.push(Grid {
         name: "contact".into(),
-        points: iface.x.iter().map(|&xi| [xi, 1.0]).collect(),
+        // Γc at body 1's side (its nodes, in pair order).
+        points: problems[0]
+            .contact_nodes
+            .iter()
+            .map(|&n| problems[0].mesh.points[n])
+            .collect(),
         topology: Topology::Segment(
             (0..m.saturating_sub(1) as u32)
                 .map(|i| [i, i + 1])

@@ -7,6 +7,9 @@ use crate::dd::nndd::IterationRecord;
 /// Seconds per phase (maximum over ranks).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Timings {
+    /// Reading the options and the mesh file, and building both bodies' problems (with the
+    /// pairing of Γc).
+    pub input: f64,
     pub assembly: f64,
     pub factorisation: f64,
     pub dirichlet_step: f64,

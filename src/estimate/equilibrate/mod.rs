@@ -62,9 +62,11 @@
 //! global conjugate-gradient solve) has no such locality and is refused on a sub-mesh.
 //!
 //! Costs (2-core machine, release, 256 × 256 mesh, 131k triangles): averaged 0.2 s, minimum
-//! energy 0.7 s, 3 patch sweeps 1.2 s. The local operators are cached per triangle shape (up
-//! to 4096 shapes) and per vertex-patch pattern (up to 8192); meshes with more distinct
-//! shapes (unstructured) recompute them and are much slower, especially `PatchRelaxation`.
+//! energy 0.7 s, 3 patch sweeps 1.2 s. The local operators are cached per triangle shape and
+//! per vertex-patch pattern (up to 65536 each, ≈ 170 MB and ≈ 500 MB at most): a structured
+//! mesh has a handful of each, an unstructured one about one per element and per vertex,
+//! so its first estimate builds them all (the Hertz level-2 mesh, 4024 dofs: 5 s on 2 ranks)
+//! and beyond the capacities they are rebuilt at every use.
 //!
 //! Files, one concept each:
 //! - `topology`: mesh edges, vertex stars, vertex colouring and sweep keys, owned elements.
@@ -100,12 +102,12 @@ const NC: usize = 27;
 /// Number of edge-traction values per element: 3 edges × 2 end points × 2 components.
 const NT: usize = 12;
 /// Shape-cache capacity; beyond it the local operator is recomputed per element.
-const MAX_SHAPES: usize = 4096;
+const MAX_SHAPES: usize = 1 << 16;
 /// Quantum of the shape key (normalised coordinates), 2⁻⁴⁴ ≈ 5.7e-14.
 const SHAPE_QUANTUM: f64 = 1.0 / 17_592_186_044_416.0;
 
 /// Capacity of the patch-operator cache; beyond it patch operators are recomputed.
-const MAX_PATCHES: usize = 8192;
+const MAX_PATCHES: usize = 1 << 16;
 
 #[cfg(test)]
 thread_local! {
