@@ -51,38 +51,40 @@ fn too_large_theta_is_reported_not_converged() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// `-nndd_theta auto` (Aitken's Δ²) converges to the monolithic solution for bodies of very
-/// different stiffness, where the paper's fixed θ = 0.25 does not; θ adapts (recorded per
-/// iteration in the history).
+/// `-nndd_theta auto` (the default: a secant update restarted at contact-set changes,
+/// src/dd/secant.rs) converges to the monolithic solution for bodies of very different stiffness,
+/// E¹/E² = 1000 … 0.001, where no fixed θ suits them all (θ = 0.25 diverges at 1000 and at 0.001,
+/// and every fixed θ needs hundreds of iterations at 0.01, docs/results.md). The default is
+/// `auto`: the runs below do not name θ.
 #[test]
-fn theta_auto_converges_for_stiffness_ratios_1000_1_and_0_001() {
+fn theta_auto_converges_for_stiffness_ratios_1000_to_0_001() {
     let dir = scratch("conv-auto");
-    for ratio in ["1000", "1", "0.001"] {
+    for ratio in ["1000", "100", "10", "1", "0.1", "0.01", "0.001"] {
         let e1 = format!("{:e}", ratio.parse::<f64>().unwrap() * 2.1e11);
-        let base = ["-nndd_n", "8", "-nndd_body1_E", &e1];
+        let base = ["-nndd_n", "16", "-nndd_body1_E", &e1];
         let mut m = base.to_vec();
         m.extend(["-nndd_solver", "monolithic"]);
         let mono = solve(1, &dir.join("mono"), &m);
-        let mut a = base.to_vec();
-        a.extend(["-nndd_theta", "auto"]);
-        let j = solve(2, &dir.join("auto"), &a);
+        let j = solve(2, &dir.join("auto"), &base);
         assert_eq!(j["converged"], true, "E1/E2 = {ratio}");
-        assert_eq!(j["theta_auto"], true);
+        assert_eq!(j["theta_auto"], true, "auto is the default");
         let it = j["iterations"].as_u64().unwrap();
-        assert!((2..=60).contains(&it), "E1/E2 = {ratio}: {it} iterations");
+        assert!((3..=25).contains(&it), "E1/E2 = {ratio}: {it} iterations");
         let (e, em) = (f(&j, "potential_energy"), f(&mono, "potential_energy"));
         assert!(
-            (e - em).abs() < 1e-8 * em.abs(),
+            (e - em).abs() < 1e-10 * em.abs(),
             "E1/E2 = {ratio}: {e} vs {em}"
         );
-        let thetas: Vec<f64> = j["history"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|h| h["theta"].as_f64().unwrap())
-            .collect();
-        assert_eq!(thetas[0], 1e-3, "the probe step");
-        assert!(thetas.iter().any(|&t| t != 1e-3), "θ never adapted");
+        // The secant model is used (columns from the second iteration on).
+        let h = j["history"].as_array().unwrap();
+        assert_eq!(
+            h[0]["secant_columns"], 0,
+            "E1/E2 = {ratio}: a plain first step"
+        );
+        assert!(
+            h.iter().any(|r| r["secant_columns"].as_u64().unwrap() >= 2),
+            "E1/E2 = {ratio}: no secant step"
+        );
     }
     // The fixed θ = 0.25 with body 1 a thousand times softer is reported, exit 3.
     let p = dir.join("fixed");
@@ -99,11 +101,16 @@ fn theta_auto_converges_for_stiffness_ratios_1000_1_and_0_001() {
             p.to_str().unwrap(),
         ],
     );
-    assert_eq!(
-        out.status.code(),
-        Some(3),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("try a smaller -nndd_theta (now 0.25)"),
+        "{stderr}"
+    );
+    let status = json(&p)["status"].as_str().unwrap().to_string();
+    assert!(
+        status == "diverged" || status == "stagnated",
+        "status {status}"
     );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -18,6 +18,8 @@ fn g(e: &serde_json::Value, k: &str) -> f64 {
         .unwrap_or_else(|| panic!("{k} missing in {e}"))
 }
 
+/// With a fixed θ = 0.25, so that several unconverged iterates are estimated (θ auto solves this
+/// patch test of two equal bodies in one update: its first θ is 1/2).
 #[test]
 fn uniform_patch_test_has_zero_estimates() {
     let dir = scratch("est-uniform");
@@ -29,6 +31,8 @@ fn uniform_patch_test_has_zero_estimates() {
             "uniform",
             "-nndd_n",
             "4",
+            "-nndd_theta",
+            "0.25",
             "-nndd_tol",
             "1e-13",
             "-nndd_estimate_every",
@@ -83,19 +87,29 @@ fn recovered_stresses_are_equilibrated() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The bound holds: γ = η^glo / e_ref ≥ 1 at iterations 2, 6 and converged, n = 4, 8, 16, and
-/// is sharp: γ ≤ 1.2 converged.
+/// The bound holds: γ = η^glo / e_ref ≥ 1 at every estimated iterate (every 2 iterations) and
+/// converged, n = 4, 8, 16, with the default θ auto and with the paper's θ = 0.25 (whose
+/// iterates 2 and 6 are far from converged), and is sharp: γ ≤ 1.2 converged.
 #[test]
 fn the_bound_holds() {
     let dir = scratch("est-bound");
-    for n in ["4", "8", "16"] {
-        let p = dir.join(format!("b{n}"));
+    for (n, theta) in [
+        ("4", "auto"),
+        ("8", "auto"),
+        ("16", "auto"),
+        ("4", "0.25"),
+        ("8", "0.25"),
+        ("16", "0.25"),
+    ] {
+        let p = dir.join(format!("b{n}-{theta}"));
         let j = solve(
             2,
             &p,
             &[
                 "-nndd_n",
                 n,
+                "-nndd_theta",
+                theta,
                 "-nndd_estimate_every",
                 "2",
                 "-nndd_reference_factor",
@@ -107,13 +121,16 @@ fn the_bound_holds() {
             .iter()
             .map(|e| e["iteration"].as_u64().unwrap())
             .collect();
-        assert!(iters.contains(&2) && iters.contains(&6), "{iters:?}");
+        assert!(iters.contains(&2), "{iters:?}");
+        if theta == "0.25" {
+            assert!(iters.contains(&6), "{iters:?}");
+        }
         assert_eq!(*iters.last().unwrap(), j["iterations"].as_u64().unwrap());
         for e in &est {
             let gamma = g(e, "effectivity");
             assert!(
                 gamma >= 1.0,
-                "n = {n}, iteration {}: effectivity {gamma}",
+                "n = {n}, θ {theta}, iteration {}: effectivity {gamma}",
                 e["iteration"]
             );
             assert!(
@@ -124,7 +141,10 @@ fn the_bound_holds() {
         }
         // The target of issue 3: a sharp bound with the NNDD converged.
         let gamma = g(est.last().unwrap(), "effectivity");
-        assert!(gamma <= 1.2, "n = {n}: converged effectivity {gamma} > 1.2");
+        assert!(
+            gamma <= 1.2,
+            "n = {n}, θ {theta}: converged effectivity {gamma} > 1.2"
+        );
         // The element maps of the last step add up to the totals.
         let last = est.last().unwrap();
         let k = est.len() - 1;

@@ -12,7 +12,7 @@ fn help_lists_options() {
     for opt in [
         "-nndd_problem <now paper",
         "-nndd_n <now 8",
-        "-nndd_theta <now 0.25",
+        "-nndd_theta <now auto",
         "-nndd_tol <1e-08",
         "-nndd_max_it",
         "-nndd_solver <now nndd",

@@ -130,7 +130,8 @@ fn hertz_on_one_two_four_ranks_equals_the_monolithic_solve() {
             "{np} ranks: {e} vs monolithic {em}"
         );
         let it = f(&j, "iterations");
-        assert!((40.0..=200.0).contains(&it), "{np} ranks: {it} iterations");
+        // θ auto (hertz.opts names none): 17 iterations to 1e-11 on level 1 (θ = 0.25: 108).
+        assert!((5.0..=40.0).contains(&it), "{np} ranks: {it} iterations");
         assert_eq!(j["contact_zone"], mono["contact_zone"], "{np} ranks");
     }
     std::fs::remove_dir_all(&dir).ok();

@@ -16,7 +16,8 @@ fn compare(n: &str) {
     );
     assert_eq!(ja["status"], "converged");
     let its = ja["iterations"].as_u64().unwrap();
-    assert!((20..=120).contains(&its), "NNDD iterations to 1e-10: {its}");
+    // θ auto (the default): 6 (n = 8) and 7 (n = 16) iterations; θ = 0.25 needs 40–50.
+    assert!((3..=20).contains(&its), "NNDD iterations to 1e-10: {its}");
     let (ea, eb) = (f(&ja, "potential_energy"), f(&jb, "potential_energy"));
     assert!(((ea - eb) / eb).abs() < 1e-9, "energies {ea} vs {eb}");
     for body in ["body1", "body2"] {

@@ -242,11 +242,10 @@ impl Settings {
         };
         let (theta_text, _) = o.string(
             "-nndd_theta",
-            "NNDD relaxation theta of the lambda update: a number > 0, or auto (Aitken's delta^2 from a probe step 1e-3)",
-            "0.25",
+            "NNDD relaxation theta of the lambda update: auto (a secant update fitted to the iterates, restarted when the contact set changes) or a fixed number > 0 (the paper: 0.25)",
+            "auto",
         )?;
-        let (theta, aitken) = match theta_text.trim() {
-            // A small probe step first: Aitken then sets θ from its effect.
+        let (theta, auto) = match theta_text.trim() {
             "auto" => (AUTO_THETA_PROBE, true),
             t => match t.parse::<f64>() {
                 Ok(v) if v > 0.0 && v.is_finite() => (v, false),
@@ -440,7 +439,7 @@ impl Settings {
             solver,
             nndd: NnddSettings {
                 theta,
-                aitken,
+                auto,
                 tol,
                 max_it,
                 stop,
@@ -599,7 +598,9 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
     })
 }
 
-/// The first θ of `-nndd_theta auto` (safe for stiffness ratios up to about 1e3).
+/// `-nndd_theta auto`'s θ for a step before anything is known of the interface map. The first
+/// step normally takes θ = 1/μ₀ from the first Neumann corrections instead (src/dd/secant.rs);
+/// this value is used only when they are zero.
 const AUTO_THETA_PROBE: f64 = 1e-3;
 
 const OPTS_MATERIAL: [(&str, &str); 2] = [

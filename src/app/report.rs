@@ -47,7 +47,7 @@ pub fn summarise(
         ranks: layout.size,
         solver: settings.solver.name().into(),
         theta: settings.nndd.theta,
-        theta_auto: settings.nndd.aitken,
+        theta_auto: settings.nndd.auto,
         tol: settings.nndd.tol,
         max_it: settings.nndd.max_it,
         young: settings.problem.materials.map(|m| m.young),
@@ -127,7 +127,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
     if !sol.requested {
         let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
         eprintln!(
-            "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); try a smaller -nndd_theta (now {})",
+            "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); {}",
             match sol.status.as_str() {
                 "diverged" => "diverged",
                 "stagnated" => "stagnated",
@@ -136,7 +136,11 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             sol.iterations,
             sci(last, 3),
             sci(settings.nndd.tol, 1),
-            settings.nndd.theta
+            if settings.nndd.auto {
+                "try a small fixed -nndd_theta (now auto; e.g. 0.01)".to_string()
+            } else {
+                format!("try a smaller -nndd_theta (now {})", settings.nndd.theta)
+            }
         );
     }
 }

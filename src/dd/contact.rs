@@ -39,6 +39,8 @@ pub struct ContactSolution {
     pub forces: Vec<f64>,
     /// Nodes in contact (v = λ_p).
     pub active: Vec<bool>,
+    /// The gaps v − (λ_p − g₀) ≥ 0 (0 on the contact set).
+    pub gaps: Vec<f64>,
     /// Clarabel's iterations (0 when the previous contact set was certified optimal).
     pub qp_iterations: u32,
     pub kkt_residual: f64,
@@ -125,6 +127,7 @@ impl ContactStep {
         Ok(ContactSolution {
             forces: sol.y,
             active: sol.active,
+            gaps: sol.x,
             qp_iterations: sol.iterations,
             kkt_residual: sol.kkt_residual,
         })

@@ -1,7 +1,8 @@
 //! Layer `dd`: the Neumann–Neumann domain decomposition (paper §3, `docs/method.md` §2).
 //! [`body`]: one subdomain's PETSc systems and solves; the steps of an iteration:
 //! [`dirichlet`] (step 1 on Ω¹, (8)–(10)), [`contact`] (step 1 on Ω², (11)–(14)), [`neumann`]
-//! (step 2, (15)–(16)); [`nndd`]: the loop and its update of λ; [`monolithic`]: the discrete
+//! (step 2, (15)–(16)); [`nndd`]: the loop and its update of λ; [`secant`]: the self-tuning
+//! update of `-nndd_theta auto`; [`monolithic`]: the discrete
 //! global contact problem solved at once, the check of the NNDD.
 //!
 //! May use: `problem`, `parallel`, `qp`, `fem`, `petsc`.
@@ -12,3 +13,4 @@ pub mod dirichlet;
 pub mod monolithic;
 pub mod neumann;
 pub mod nndd;
+pub mod secant;

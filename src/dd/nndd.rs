@@ -2,12 +2,14 @@
 //!
 //! Each iteration p: the Dirichlet step on Ω¹ and the contact step on Ω² (at the same time on
 //! two ranks), the equilibrium defect R_p = T¹_p + T²_p, the two Neumann steps, and the update
-//! λ_{p+1} = λ_p + θ (w¹ − w²)·n.
+//! λ_{p+1} = λ_p + θ (w¹ − w²)·n with a fixed θ, or (`-nndd_theta auto`, the default) the
+//! secant update of [`crate::dd::secant`].
 
 use crate::dd::body::{Body, BodyError};
 use crate::dd::contact::{ContactError, ContactStep};
 use crate::dd::dirichlet::DirichletStep;
 use crate::dd::neumann::neumann_step;
+use crate::dd::secant::SecantUpdate;
 use crate::parallel::layout::Layout;
 use crate::petsc::log::{Stages, Timer};
 
@@ -18,6 +20,9 @@ pub enum NnddError {
     #[error(transparent)]
     Contact(#[from] ContactError),
 }
+
+/// The most secant columns `-nndd_theta auto` keeps (at most one per Γc pair is useful).
+const SECANT_MEMORY: usize = 50;
 
 /// When the NNDD stops (besides divergence and the iteration limit).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,11 +39,12 @@ pub enum StopRule {
 /// The settings of the NNDD loop (plain data).
 #[derive(Clone, Debug)]
 pub struct NnddSettings {
-    /// Relaxation θ of the update λ ← λ + θ (w¹ − w²)·n (with `aitken`, its first value).
+    /// Relaxation θ of the update λ ← λ + θ (w¹ − w²)·n (with `auto`, only the θ of a first
+    /// step without a stiffness estimate, see [`crate::dd::secant::SecantUpdate::new`]).
     pub theta: f64,
-    /// `-nndd_theta auto`: adapt θ at every iteration by Aitken's Δ² (see [`aitken_theta`]),
-    /// from the small probe θ = `theta`.
-    pub aitken: bool,
+    /// `-nndd_theta auto`: the secant update of [`crate::dd::secant`] (Anderson acceleration
+    /// restarted at contact-set changes) instead of the fixed θ.
+    pub auto: bool,
     /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
     pub tol: f64,
     pub max_it: usize,
@@ -46,11 +52,11 @@ pub struct NnddSettings {
 }
 
 impl Default for NnddSettings {
-    /// The paper's θ = 0.25 and tol 1e−8.
+    /// The paper's fixed θ = 0.25 and tol 1e−8 (the command line's default is `auto`).
     fn default() -> Self {
         NnddSettings {
             theta: 0.25,
-            aitken: false,
+            auto: false,
             tol: 1e-8,
             max_it: 1000,
             stop: StopRule::Tol,
@@ -120,8 +126,17 @@ pub struct IterationRecord {
     /// Clarabel's iterations in the contact step (0: the previous contact set was certified
     /// optimal by the KKT conditions).
     pub qp_iterations: u32,
-    /// The relaxation θ of this iteration's update.
+    /// The relaxation θ of this iteration's update (with `-nndd_theta auto`, of its new
+    /// direction).
     pub theta: f64,
+    /// `-nndd_theta auto`: the secant columns (differences of earlier iterates in the same
+    /// contact set) of this update; 0 for a plain step λ + θ d.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub secant_columns: Option<usize>,
+    /// `-nndd_theta auto`: the fraction of the secant correction taken (< 1 when the model
+    /// predicts a change of the contact set before its end).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub secant_fraction: Option<f64>,
     /// The estimates, at estimated iterations (paper (22)–(26)).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub eta_glo: Option<f64>,
@@ -241,10 +256,9 @@ pub fn solve<E: From<NnddError>>(
     let mut best_at = 0usize;
     let mut growth = 0usize;
     let mut last: Option<Iterate> = None;
-    let mut theta = settings.theta;
-    let mut previous_d: Option<Vec<f64>> = None;
-    let mut previous_active: Option<Vec<bool>> = None;
-    let mut theta_min = f64::INFINITY;
+    let mut secant = settings
+        .auto
+        .then(|| SecantUpdate::new(settings.theta, SECANT_MEMORY.min(m.max(1))));
     for p in 1..=settings.max_it {
         // Step 1: Dirichlet problem on Ω¹ and contact problem on Ω², concurrently.
         let mut t1 = vec![0.0; m];
@@ -259,7 +273,8 @@ pub fn solve<E: From<NnddError>>(
             t1 = t;
         }
         let mut t2 = vec![0.0; m];
-        let mut act = vec![0.0; m + 2];
+        // Body 2's contact set, the QP's KKT residual and iterations, and the gaps.
+        let mut act = vec![0.0; 2 * m + 2];
         // The contact QP lives on Γc: body 2's root solves it, the broadcast below shares it.
         if let (Some(b2), Some(c)) = (bodies[1].filter(|b| b.is_root()), contact) {
             let _s = stages.contact_step.enter();
@@ -271,6 +286,7 @@ pub fn solve<E: From<NnddError>>(
             act = sol.active.iter().map(|&a| a as u8 as f64).collect();
             act.push(sol.kkt_residual);
             act.push(sol.qp_iterations as f64);
+            act.extend(&sol.gaps);
         }
         timers.exchange.time(|| {
             layout.share(1, &mut t1);
@@ -301,29 +317,34 @@ pub fn solve<E: From<NnddError>>(
             layout.share(1, &mut w1);
             layout.share(2, &mut w2);
         });
-        // Step 5: update, with θ adapted by Aitken's Δ² when asked.
+        // Step 5: update, λ + θ d or the secant update of `-nndd_theta auto`.
         let d: Vec<f64> = (0..m).map(|i| w1[i] - w2[i]).collect();
         let active_now: Vec<bool> = act[..m].iter().map(|&a| a > 0.5).collect();
-        if settings.aitken {
-            if let Some(prev) = previous_d.as_deref() {
-                // Aitken models one linear map: across a change of the contact set the map
-                // changed, so θ falls back to the smallest value seen (the stiffest regime);
-                // within one set θ may grow at most twofold per iteration, except after the
-                // first (probe) step, whose θ is only a small safe start.
-                let same_set = previous_active.as_deref() == Some(&active_now[..]);
-                theta = match (same_set, theta_min.is_finite()) {
-                    (true, false) => aitken_theta(theta, prev, &d),
-                    (true, true) => aitken_theta(theta, prev, &d).min(2.0 * theta),
-                    (false, _) => theta.min(theta_min),
-                };
-                if same_set {
-                    theta_min = theta_min.min(theta);
+        let (new, theta, columns, fraction) = match secant.as_mut() {
+            Some(s) => {
+                if p == 1 {
+                    s.estimate_spectrum(&w1, &w2);
                 }
+                // The sign conditions of the contact step: T² ≥ 0 on the contact set, gap ≥ 0
+                // off it (each affine in λ while the set stays).
+                let signs: Vec<f64> = (0..m)
+                    .map(|i| if active_now[i] { t2[i] } else { act[m + 2 + i] })
+                    .collect();
+                let step = s.step(&lambda, &d, &active_now, &signs);
+                (
+                    step.lambda,
+                    step.theta,
+                    Some(step.columns),
+                    Some(step.fraction),
+                )
             }
-        }
-        previous_active = Some(active_now);
-        let new: Vec<f64> = (0..m).map(|i| lambda[i] + theta * d[i]).collect();
-        previous_d = Some(d);
+            None => (
+                (0..m).map(|i| lambda[i] + settings.theta * d[i]).collect(),
+                settings.theta,
+                None,
+                None,
+            ),
+        };
         let dl: Vec<f64> = new.iter().zip(&lambda).map(|(a, b)| a - b).collect();
         let nl = norm(&new);
         let change = if nl > 0.0 { norm(&dl) / nl } else { norm(&dl) };
@@ -334,6 +355,8 @@ pub fn solve<E: From<NnddError>>(
             active: act[..m].iter().filter(|&&a| a > 0.5).count(),
             qp_iterations: act[m + 1] as u32,
             theta,
+            secant_columns: columns,
+            secant_fraction: fraction,
             eta_glo: None,
             eta_fe: None,
             eta_nndd: None,
@@ -346,7 +369,7 @@ pub fn solve<E: From<NnddError>>(
             u: [u1, Vec::new()],
             forces: [t1, t2],
             trace2: Vec::new(),
-            active: act[..m].iter().map(|&a| a > 0.5).collect(),
+            active: active_now,
             qp_kkt: act[m],
             iteration: p,
         };
@@ -419,61 +442,4 @@ pub fn solve<E: From<NnddError>>(
         last,
         timers,
     })
-}
-
-/// Aitken's Δ² relaxation of a fixed-point iteration λ ← λ + θ d(λ) (Irons & Tuck; Küttler &
-/// Wall 2008): θ_p = −θ_{p−1} d_{p−1}ᵀ(d_p − d_{p−1}) / ‖d_p − d_{p−1}‖². For a linear
-/// d = b − Aλ this is θ_p = d_{p−1}ᵀA d_{p−1} / ‖A d_{p−1}‖², the minimal-residual step along
-/// the last direction, so θ follows the interface operators' spectrum (docs/method.md §2:
-/// bodies of different stiffness need a smaller θ) without the user searching for it. Kept in
-/// [1e−6, 1] (θ < 2/μ_max ≤ 1 for μ ≥ 2); unchanged when d did not change or when the
-/// estimate is not positive (the map is not locally linear there, e.g. the contact set moved).
-pub fn aitken_theta(theta: f64, previous: &[f64], d: &[f64]) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
-    for (a, b) in previous.iter().zip(d) {
-        let delta = b - a;
-        num += a * delta;
-        den += delta * delta;
-    }
-    let next = -theta * num / den;
-    if den > 0.0 && next > 0.0 && next.is_finite() {
-        next.clamp(1e-6, 1.0)
-    } else {
-        theta // no change in d, or a step that would not reduce it: keep θ
-    }
-}
-
-#[cfg(test)]
-mod aitken_tests {
-    use super::aitken_theta;
-
-    /// On a linear 2 × 2 iteration d = b − Aλ, Aitken's θ is the minimal-residual step
-    /// dᵀAd / ‖Ad‖² of the previous direction.
-    #[test]
-    fn aitken_is_the_minimal_residual_step_on_a_linear_map() {
-        let a = [[4.0, 1.0], [1.0, 30.0]];
-        let b = [1.0, 2.0];
-        let d_of = |l: [f64; 2]| {
-            [
-                b[0] - a[0][0] * l[0] - a[0][1] * l[1],
-                b[1] - a[1][0] * l[0] - a[1][1] * l[1],
-            ]
-        };
-        let l0 = [0.0, 0.0];
-        let d0 = d_of(l0);
-        let theta0 = 0.01;
-        let l1 = [l0[0] + theta0 * d0[0], l0[1] + theta0 * d0[1]];
-        let d1 = d_of(l1);
-        let ad = [
-            a[0][0] * d0[0] + a[0][1] * d0[1],
-            a[1][0] * d0[0] + a[1][1] * d0[1],
-        ];
-        let expected = (d0[0] * ad[0] + d0[1] * ad[1]) / (ad[0] * ad[0] + ad[1] * ad[1]);
-        let got = aitken_theta(theta0, &d0, &d1);
-        assert!(
-            (got - expected).abs() < 1e-14 * expected,
-            "{got} vs {expected}"
-        );
-        assert_eq!(aitken_theta(0.3, &d0, &d0), 0.3, "no change in d: θ kept");
-    }
 }

@@ -7,8 +7,16 @@ use crate::estimate::EstimateRecord;
 /// One line per NNDD iteration (`-nndd_monitor`), and the estimates of an estimated one.
 /// `contact_nodes`: the number of Γc node pairs.
 pub fn monitor_line(r: &IterationRecord, contact_nodes: usize, est: Option<&EstimateRecord>) {
+    // `-nndd_theta auto` adds the θ of the update's new direction and its secant columns.
+    let secant = r.secant_columns.map_or(String::new(), |k| {
+        format!(
+            " theta {} secant {k} fraction {:.3}",
+            sci(r.theta, 3),
+            r.secant_fraction.unwrap_or(1.0)
+        )
+    });
     println!(
-        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}",
+        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}{secant}",
         r.iteration,
         sci(r.lambda_change, 12),
         sci(r.residual, 6),

@@ -52,9 +52,10 @@ pub struct Summary {
     pub dofs: usize,
     pub ranks: i32,
     pub solver: String,
-    /// θ (with `theta_auto`, its first value; the history gives θ per iteration).
+    /// θ (with `theta_auto`, only the fallback of a first step without a stiffness estimate;
+    /// the history gives θ per iteration).
     pub theta: f64,
-    /// `-nndd_theta auto`: θ adapted by Aitken's Δ².
+    /// `-nndd_theta auto`: the secant update (src/dd/secant.rs).
     pub theta_auto: bool,
     pub tol: f64,
     pub max_it: usize,
