@@ -85,11 +85,16 @@ fn interpolate_split(coarse: &Mesh, fine: &Mesh, u: &[f64]) -> Result<Vec<f64>, 
         let c = f / r2;
         let q = coarse.triangle_points(c);
         let nodes = coarse.triangles[c];
-        let det = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (q[1][1] - q[0][1]);
+        let det =
+            (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (q[1][1] - q[0][1]);
         for &n in t {
             let p = fine.points[n];
-            let l1 = ((p[0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (p[1] - q[0][1])) / det;
-            let l2 = ((q[1][0] - q[0][0]) * (p[1] - q[0][1]) - (p[0] - q[0][0]) * (q[1][1] - q[0][1])) / det;
+            let l1 = ((p[0] - q[0][0]) * (q[2][1] - q[0][1])
+                - (q[2][0] - q[0][0]) * (p[1] - q[0][1]))
+                / det;
+            let l2 = ((q[1][0] - q[0][0]) * (p[1] - q[0][1])
+                - (p[0] - q[0][0]) * (q[1][1] - q[0][1]))
+                / det;
             let l = [1.0 - l1 - l2, l1, l2];
             if l.iter().any(|&w| !(-1e-9..=1.0 + 1e-9).contains(&w)) {
                 return Err(not_nested());

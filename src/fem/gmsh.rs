@@ -359,10 +359,8 @@ impl GmshMesh {
                 for i in 0..r - j {
                     triangles.push(([at(i, j), at(i + 1, j), at(i, j + 1)], phys.clone()));
                     if i + j + 1 < r {
-                        triangles.push((
-                            [at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)],
-                            phys.clone(),
-                        ));
+                        triangles
+                            .push(([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], phys.clone()));
                     }
                 }
             }
