@@ -38,15 +38,7 @@ impl Case {
             };
         }
         let msh = dir.join(format!("hertz-{level}.msh"));
-        let st = std::process::Command::new("gmsh")
-            .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
-            .arg(level.to_string())
-            .arg("examples/hertz/hertz.geo")
-            .arg("-o")
-            .arg(&msh)
-            .status()
-            .expect("gmsh runs (jobs/setup installs it)");
-        assert!(st.success(), "gmsh failed on Hertz level {level}");
+        runner::gmsh_level("examples/hertz/hertz.geo", level, &msh);
         Case {
             opts: "examples/hertz/hertz.opts",
             args: vec!["-nndd_mesh".into(), msh.display().to_string()],

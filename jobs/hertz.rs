@@ -17,7 +17,6 @@ mod plot;
 mod runner;
 
 use std::path::Path;
-use std::process::Command;
 
 const MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
@@ -65,15 +64,7 @@ fn main() {
     let mut finest = None;
     for &level in &levels {
         let msh = dir.join(format!("hertz-{level}.msh"));
-        let st = Command::new("gmsh")
-            .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
-            .arg(level.to_string())
-            .arg("examples/hertz/hertz.geo")
-            .arg("-o")
-            .arg(&msh)
-            .status()
-            .expect("gmsh runs");
-        assert!(st.success(), "gmsh failed on level {level}");
+        runner::gmsh_level("examples/hertz/hertz.geo", level as usize, &msh);
         let prefix = dir.join(format!("level{level}"));
         let m = msh.to_str().unwrap();
         let r = reference_factor.to_string();

@@ -104,3 +104,17 @@ pub fn try_run(
     let summary = serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?;
     Ok((summary, wall))
 }
+
+/// `gmsh -2 -format msh41 -setnumber level LEVEL GEO -o OUT` (Gmsh is installed by jobs/setup).
+#[allow(dead_code)]
+pub fn gmsh_level(geo: &str, level: usize, out: &Path) {
+    let st = Command::new("gmsh")
+        .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
+        .arg(level.to_string())
+        .arg(geo)
+        .arg("-o")
+        .arg(out)
+        .status()
+        .expect("gmsh runs (jobs/setup installs it)");
+    assert!(st.success(), "gmsh failed on {geo}, level {level}");
+}

@@ -12,28 +12,13 @@ use common::*;
 mod hertz_fit;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hertz/hertz.geo");
 const OPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hertz/hertz.opts");
 const MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
 fn mesh(dir: &Path, level: u32) -> PathBuf {
-    let out = dir.join(format!("hertz-{level}.msh"));
-    let st = Command::new("gmsh")
-        .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
-        .arg(level.to_string())
-        .arg(GEO)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .expect("gmsh runs (jobs/setup installs it)");
-    assert!(
-        st.status.success(),
-        "gmsh: {}",
-        String::from_utf8_lossy(&st.stderr)
-    );
-    out
+    gmsh_level(GEO, dir, "hertz", level)
 }
 
 /// Solve examples/hertz/hertz.opts on `msh` (options after the file override it).

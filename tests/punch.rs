@@ -11,7 +11,6 @@ use common::*;
 use nndd::fem::{assemble_stiffness, Material, Mesh};
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/punch/punch.geo");
 const OPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/punch/punch.opts");
@@ -22,21 +21,7 @@ const SIDE_LENGTH: f64 = 0.3;
 
 /// `gmsh … -setnumber level LEVEL punch.geo -o DIR/punch-LEVEL.msh`.
 fn mesh(dir: &Path, level: u32) -> PathBuf {
-    let out = dir.join(format!("punch-{level}.msh"));
-    let st = Command::new("gmsh")
-        .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
-        .arg(level.to_string())
-        .arg(GEO)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .expect("gmsh runs (jobs/setup installs it)");
-    assert!(
-        st.status.success(),
-        "gmsh: {}",
-        String::from_utf8_lossy(&st.stderr)
-    );
-    out
+    gmsh_level(GEO, dir, "punch", level)
 }
 
 /// Solve examples/punch/punch.opts on `msh` (options after the file override it, the

@@ -132,3 +132,23 @@ pub fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     }
     out
 }
+
+/// `gmsh -2 -format msh41 -setnumber level LEVEL GEO -o DIR/STEM-LEVEL.msh` (Gmsh is installed
+/// by jobs/setup); the mesh file's path.
+pub fn gmsh_level(geo: &str, dir: &Path, stem: &str, level: u32) -> PathBuf {
+    let out = dir.join(format!("{stem}-{level}.msh"));
+    let st = Command::new("gmsh")
+        .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
+        .arg(level.to_string())
+        .arg(geo)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .expect("gmsh runs (jobs/setup installs it)");
+    assert!(
+        st.status.success(),
+        "gmsh: {}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    out
+}
