@@ -23,22 +23,7 @@ fn mesh(dir: &Path, level: u32) -> PathBuf {
 
 /// Solve examples/hertz/hertz.opts on `msh` (options after the file override it).
 fn hertz(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Value {
-    let mut args = vec![
-        "-options_file",
-        OPTS,
-        "-nndd_mesh",
-        msh.to_str().unwrap(),
-        "-nndd_output",
-        prefix.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    let out = mpirun(np, &args);
-    assert!(
-        out.status.success(),
-        "nndd {args:?}:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    json(prefix)
+    solve_meshed(np, OPTS, msh, prefix, extra)
 }
 
 fn fit(prefix: &Path) -> hertz_fit::HertzFit {

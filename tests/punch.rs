@@ -27,24 +27,7 @@ fn mesh(dir: &Path, level: u32) -> PathBuf {
 /// Solve examples/punch/punch.opts on `msh` (options after the file override it, the
 /// output prefix too).
 fn punch(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Value {
-    let mut args = vec![
-        "-options_file",
-        OPTS,
-        "-nndd_mesh",
-        msh.to_str().unwrap(),
-        "-nndd_output",
-        prefix.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    let out = mpirun(np, &args);
-    assert!(
-        out.status.success(),
-        "nndd {args:?} ({}):\n{}\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    json(prefix)
+    solve_meshed(np, OPTS, msh, prefix, extra)
 }
 
 fn converged(j: &serde_json::Value, what: &str, range: std::ops::RangeInclusive<f64>) {

@@ -152,3 +152,32 @@ pub fn gmsh_level(geo: &str, dir: &Path, stem: &str, level: u32) -> PathBuf {
     );
     out
 }
+
+/// Solve the options file `opts` on the Gmsh mesh `msh`, output at `prefix` (options after the
+/// file override it); the run must succeed. Its summary.
+pub fn solve_meshed(
+    np: usize,
+    opts: &str,
+    msh: &Path,
+    prefix: &Path,
+    extra: &[&str],
+) -> serde_json::Value {
+    let mut args = vec![
+        "-options_file",
+        opts,
+        "-nndd_mesh",
+        msh.to_str().unwrap(),
+        "-nndd_output",
+        prefix.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let out = mpirun(np, &args);
+    assert!(
+        out.status.success(),
+        "nndd {args:?} ({}):\n{}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    json(prefix)
+}
