@@ -146,7 +146,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         )?),
     };
     let estimator = settings.estimate.then(|| Estimator {
-        iface: Interface::new(problems[0].contact_x()),
+        iface: Interface::new(problems[0].contact_lengths.clone()),
         qp: settings.qp.clone(),
         recovery: settings.recovery,
         nndd_variant: settings.eta_nndd,

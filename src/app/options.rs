@@ -595,6 +595,7 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
         gmsh: std::rc::Rc::new(gmsh),
         conditions,
         contact: [pair[0].to_string(), pair[1].to_string()],
+        nested: false,
     })
 }
 

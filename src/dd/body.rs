@@ -26,7 +26,7 @@ use crate::parallel::partition::Partition;
 use crate::petsc::{self, Comm, Gather, Ksp, Matrix, Vector};
 use std::rc::Rc;
 
-use crate::problem::BodyProblem;
+use crate::problem::{BodyProblem, Frames};
 use crate::qp::dense::{DenseError, SymMatrix};
 
 #[derive(Debug, thiserror::Error)]
@@ -66,10 +66,14 @@ pub enum System {
 pub struct Body {
     /// The body's problem, shared with the run (which keeps both bodies' geometry).
     pub problem: Rc<BodyProblem>,
-    /// Assembled stiffness K^α without boundary conditions.
+    /// Assembled stiffness K^α without boundary conditions, in the nodal frames.
     k: Matrix,
-    /// Neumann load f^α.
-    pub load: Vec<f64>,
+    /// The rotated nodal frames of the Γc nodes whose normal is not (0, 1): the systems are
+    /// assembled in them; every vector crossing this module's boundary is in global (x, y)
+    /// components except the Γc normal entries (u_n, T_n).
+    frames: Frames,
+    /// Neumann load f^α, in the nodal frames.
+    load: Vec<f64>,
     /// Value on the diagonal of eliminated rows (mean diagonal of K, for conditioning).
     diag: f64,
     comm: Comm,
@@ -107,9 +111,10 @@ impl Body {
     ) -> Result<Body, BodyError> {
         let alpha = problem.alpha;
         let t0 = std::time::Instant::now();
+        let frames = problem.frames();
         let (k, diag, k_neu) = {
             let _s = stages.assembly.enter();
-            let (k, diag) = assemble(&problem, comm, &partition)?;
+            let (k, diag) = assemble(&problem, &frames, comm, &partition)?;
             let rows = owned_rows(&partition, problem.dirichlet.iter().map(|d| d.0));
             let mut k_neu = k.duplicate()?;
             k_neu.zero_rows_columns(&rows, diag)?;
@@ -129,11 +134,13 @@ impl Body {
         let trace = Gather::new(&x, &gc_rows)?;
         let b = x.duplicate()?;
         let kx = x.duplicate()?;
-        let load = problem.load();
+        let mut load = problem.load();
+        frames.to_local(&mut load);
         let mut body = Body {
             problem,
             comm,
             k,
+            frames,
             load,
             diag,
             neumann,
@@ -259,9 +266,10 @@ impl Body {
             .map_err(|source| BodyError::Schur { alpha, source })
     }
 
-    /// Solve `system` with right-hand side `load` and prescribed values: Γ_D data (or zero when
-    /// `homogeneous`) and, for the Dirichlet system, `gc_values` on the Γc normal dofs. The
-    /// solution stays in the PETSc vector `x`; returns the prescribed (dof, value) pairs.
+    /// Solve `system` with right-hand side `load` (in the nodal frames) and prescribed values:
+    /// Γ_D data (or zero when `homogeneous`) and, for the Dirichlet system, `gc_values` on the
+    /// Γc normal dofs. The solution stays in the PETSc vector `x`; returns the prescribed
+    /// (dof, value) pairs (frame dofs).
     fn solve(
         &self,
         system: System,
@@ -288,7 +296,7 @@ impl Body {
         }
         let mut rhs = load.to_vec();
         if fixed.iter().any(|f| f.1 != 0.0) {
-            let kg = self.apply_k(&g)?;
+            let kg = self.apply_k_local(&g)?;
             for i in 0..ndof {
                 rhs[i] -= kg[i];
             }
@@ -322,18 +330,19 @@ impl Body {
         Ok(fixed)
     }
 
-    /// The last solution, whole (mesh order), with the exact prescribed values (the solve
-    /// returns them to round-off).
+    /// The last solution, whole (mesh order, global components), with the exact prescribed
+    /// values (the solve returns them to round-off).
     fn solution(&self, fixed: &[(usize, f64)]) -> Result<Vec<f64>, BodyError> {
         let mut u = self.whole.borrow_mut().gather(&self.x.borrow())?;
         for &(dof, v) in fixed {
             u[dof] = v;
         }
+        self.frames.to_global(&mut u);
         Ok(u)
     }
 
-    /// K u (K without boundary conditions).
-    pub fn apply_k(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
+    /// K u in the nodal frames (u and the result in frame components).
+    fn apply_k_local(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         let mut x = self.x.borrow_mut();
         let mut kx = self.kx.borrow_mut();
         x.copy_from(&self.partition.local_part(u))?;
@@ -341,10 +350,24 @@ impl Body {
         Ok(self.whole.borrow_mut().gather(&kx)?)
     }
 
-    /// Interface nodal forces T^α = (K u − f) on the Γc normal dofs: the force the other body
-    /// exerts on this one (docs/method.md §1).
+    /// `u` (global components) in the nodal frames.
+    fn local(&self, u: &[f64]) -> Vec<f64> {
+        let mut v = u.to_vec();
+        self.frames.to_local(&mut v);
+        v
+    }
+
+    /// K u (K without boundary conditions; u and the result in global components).
+    pub fn apply_k(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
+        let mut ku = self.apply_k_local(&self.local(u))?;
+        self.frames.to_global(&mut ku);
+        Ok(ku)
+    }
+
+    /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs: the force the other
+    /// body exerts on this one (docs/method.md §1).
     pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
-        let ku = self.apply_k(u)?;
+        let ku = self.apply_k_local(&self.local(u))?;
         Ok(self.gc.iter().map(|&d| ku[d] - self.load[d]).collect())
     }
 
@@ -357,8 +380,8 @@ impl Body {
         Ok((u, t))
     }
 
-    /// The Neumann load: nodal forces `gc_forces` on the Γc normal dofs, plus the body's f^α
-    /// when `with_data`.
+    /// The Neumann load (in the nodal frames): nodal forces `gc_forces` on the Γc normal dofs,
+    /// plus the body's f^α when `with_data`.
     fn neumann_load(&self, gc_forces: &[f64], with_data: bool) -> Vec<f64> {
         let mut load = if with_data {
             self.load.clone()
@@ -388,12 +411,13 @@ impl Body {
 
     /// Normal Γc displacements B u.
     pub fn normal_trace(&self, u: &[f64]) -> Vec<f64> {
-        self.gc.iter().map(|&d| u[d]).collect()
+        self.problem.normal_trace(u)
     }
 
     /// Potential energy ½ uᵀK u − fᵀu.
     pub fn potential_energy(&self, u: &[f64]) -> Result<f64, BodyError> {
-        let ku = self.apply_k(u)?;
+        let u = self.local(u);
+        let ku = self.apply_k_local(&u)?;
         Ok(u.iter()
             .zip(&ku)
             .zip(&self.load)
@@ -407,6 +431,7 @@ impl Body {
 /// on eliminated rows, for conditioning).
 fn assemble(
     problem: &BodyProblem,
+    frames: &Frames,
     comm: Comm,
     part: &Partition,
 ) -> Result<(Matrix, f64), BodyError> {
@@ -448,7 +473,8 @@ fn assemble(
         if !part.owns_element(e) {
             continue;
         }
-        let ke = element_stiffness(&mesh.triangle_points(e), &problem.material);
+        let mut ke = element_stiffness(&mesh.triangle_points(e), &problem.material);
+        frames.rotate_element(t, &mut ke);
         let rows = element_dofs(t).map(|d| part.row(d));
         for r in 0..6 {
             vals[6 * r..6 * r + 6].copy_from_slice(&ke[r]);

@@ -86,9 +86,9 @@ impl ContactStep {
         let w = body.neumann_solve(forces, false)?;
         let mut u: Vec<f64> = self.u0.iter().zip(&w).map(|(a, b)| a + b).collect();
         let obstacle = body.problem.obstacle(lambda);
-        for (i, &d) in body.gc.iter().enumerate() {
+        for (i, &o) in obstacle.iter().enumerate() {
             if active[i] {
-                u[d] = obstacle[i];
+                body.problem.set_normal_trace(&mut u, i, o);
             }
         }
         Ok(u)

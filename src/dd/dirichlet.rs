@@ -82,8 +82,9 @@ impl DirichletStep {
             DirichletStep::Condensed { u0, .. } => {
                 let w = body.neumann_solve(forces, false)?;
                 let mut u: Vec<f64> = u0.iter().zip(&w).map(|(a, b)| a + b).collect();
-                for (&d, &l) in body.gc.iter().zip(lambda) {
-                    u[d] = l; // equal to round-off; make the prescribed trace exact
+                for (k, &l) in lambda.iter().enumerate() {
+                    // equal to round-off; make the prescribed trace exact
+                    body.problem.set_normal_trace(&mut u, k, l);
                 }
                 Ok(u)
             }

@@ -185,7 +185,7 @@ pub fn estimate_body(
     // Contact terms 2∫ t̂ (λ_p − g₀ − u²_n) ≥ 0, on the body-2 elements along Γc (their
     // owners).
     if alpha == 2 {
-        let u2n: Vec<f64> = p.contact_normal_dofs().iter().map(|&d| u_p[d]).collect();
+        let u2n = p.normal_trace(u_p);
         let obstacle = p.obstacle(data.lambda);
         let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
         let c_glo = iface.segment_products(data.t_glo, &gap);
@@ -239,6 +239,39 @@ fn edge_elements(mesh: &Mesh) -> HashMap<(usize, usize), usize> {
     map
 }
 
+/// The Γc traction vector of body α (nodal values of a P1 density per unit length of body 1's
+/// side) that carries exactly the FE nodal forces F_k = (M_Γ g)_k n_k of the normal density
+/// `gc` = g: c = M_Γ⁻¹F component by component, i.e. c_k = g_k n_k + (M_Γ⁻¹ d)_k with
+/// d_k = Σ_l (M_Γ)_kl g_l (n_k − n_l). Where the normal is the same at every pair (a straight
+/// side) d = 0 and c = g n exactly (frictionless); on a curved side c has a tangential part of
+/// order h²κ (docs/method.md §5).
+pub fn contact_traction(p: &BodyProblem, gc: &[f64]) -> Vec<[f64; 2]> {
+    traction_carrying(&p.contact_normals, &p.contact_lengths, gc)
+}
+
+/// [`contact_traction`] for the normals `n` and segment lengths of Γc.
+fn traction_carrying(n: &[[f64; 2]], lengths: &[f64], gc: &[f64]) -> Vec<[f64; 2]> {
+    let mut c: Vec<[f64; 2]> = gc
+        .iter()
+        .zip(n)
+        .map(|(g, n)| [g * n[0], g * n[1]])
+        .collect();
+    if n.windows(2).all(|w| w[0] == w[1]) {
+        return c;
+    }
+    let iface = super::traction::Interface::new(lengths.to_vec());
+    for comp in 0..2 {
+        // d = M (g n_comp) at node k with n_k factored out: (M g)_k n_k − (M (g n))_k.
+        let gn: Vec<f64> = gc.iter().zip(n).map(|(g, n)| g * n[comp]).collect();
+        let (mg, mgn) = (iface.forces(gc), iface.forces(&gn));
+        let d: Vec<f64> = (0..gc.len()).map(|k| mg[k] * n[k][comp] - mgn[k]).collect();
+        for (ck, dk) in c.iter_mut().zip(iface.density(&d)) {
+            ck[comp] += dk;
+        }
+    }
+    c
+}
+
 /// The traction data of body α for the equilibration: Γ_N data, Γc normal density `gc`
 /// (tangential 0, frictionless), traction free elsewhere; components under Dirichlet
 /// conditions on both ends of an edge are free.
@@ -260,16 +293,21 @@ pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
             ],
         );
     }
-    // The Γc densities are per unit length of body 1's (straight, horizontal) side: the
-    // interface mass matrix M_Γ integrates in x. On an edge of a curved body-2 side the same
-    // force is spread over the edge's length |Γ|, so its density there is g·|Δx|/|Γ| (1 on a
-    // straight side).
+    // The Γc densities are per unit length of body 1's side (M_Γ integrates along it). On an
+    // edge of the other side, of another length |Γ|, the same force is spread over |Γ|, so its
+    // density there is c·|Γ¹|/|Γ| (1 on body 1's side and where both sides are parallel).
+    let c = contact_traction(p, gc);
     for k in 0..p.contact_nodes.len().saturating_sub(1) {
         let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
         let (pa, pb) = (mesh.points[a], mesh.points[b]);
-        let dx = (pb[0] - pa[0]).abs();
-        let scale = dx / dx.hypot(pb[1] - pa[1]);
-        known.insert((a, b), [[0.0, 0.0], [gc[k] * scale, gc[k + 1] * scale]]);
+        let scale = p.contact_lengths[k] / (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
+        known.insert(
+            (a, b),
+            [
+                [c[k][0] * scale, c[k + 1][0] * scale],
+                [c[k][1] * scale, c[k + 1][1] * scale],
+            ],
+        );
     }
     let sides = if mesh.is_structured() {
         // The four sides, in the orientation of the benchmarks' data.
@@ -314,4 +352,72 @@ pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
         })
         .collect();
     Boundary { edges, constrained }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Γc on a circular arc of radius 1 and half-angle 1 in m segments, its radial normals,
+    /// and the traction carrying the normal density g(θ) = −cos(θ)².
+    fn arc_traction(m: usize) -> (Vec<[f64; 2]>, Vec<[f64; 2]>, Vec<f64>) {
+        let th: Vec<f64> = (0..=m).map(|i| -1.0 + 2.0 * i as f64 / m as f64).collect();
+        let n: Vec<[f64; 2]> = th.iter().map(|t| [-t.sin(), t.cos()]).collect();
+        let pts: Vec<[f64; 2]> = th.iter().map(|t| [t.sin(), 1.0 - t.cos()]).collect();
+        let lengths = crate::problem::segment_lengths(&pts);
+        let g: Vec<f64> = th.iter().map(|t| -t.cos().powi(2)).collect();
+        (traction_carrying(&n, &lengths, &g), n, lengths)
+    }
+
+    #[test]
+    fn the_curved_traction_carries_the_nodal_forces_and_is_nearly_normal() {
+        let mut tangential = Vec::new();
+        for m in [16, 32, 64] {
+            let (c, n, lengths) = arc_traction(m);
+            let iface = super::super::traction::Interface::new(lengths);
+            let g: Vec<f64> = (0..=m)
+                .map(|i| -(-1.0 + 2.0 * i as f64 / m as f64).cos().powi(2))
+                .collect();
+            let mg = iface.forces(&g);
+            // Its nodal forces are (M g)_k n_k, exactly.
+            for comp in 0..2 {
+                let ck: Vec<f64> = c.iter().map(|v| v[comp]).collect();
+                let f = iface.forces(&ck);
+                for k in 0..=m {
+                    assert!((f[k] - mg[k] * n[k][comp]).abs() < 1e-14, "m {m}, node {k}");
+                }
+            }
+            // Its tangential part (relative to max |g| = 1): inside Γc and at its ends.
+            let tang = |v: &[f64; 2], n: &[f64; 2]| (v[0] * n[1] - v[1] * n[0]).abs();
+            let inside = (m / 4..=3 * m / 4)
+                .map(|k| tang(&c[k], &n[k]))
+                .fold(0.0f64, f64::max);
+            let all = c
+                .iter()
+                .zip(&n)
+                .map(|(v, n)| tang(v, n))
+                .fold(0.0f64, f64::max);
+            tangential.push((inside, all));
+        }
+        // O(h²) on the middle half (0.5 % at m = 16, h = 1/8), O(h) at the two end nodes
+        // (2.6 %), decaying geometrically inward (M_Γ⁻¹).
+        assert!(
+            tangential[0].0 < 6e-3 && tangential[0].1 < 3e-2,
+            "{tangential:?}"
+        );
+        for w in tangential.windows(2) {
+            assert!(w[1].0 < 0.3 * w[0].0, "inside: {tangential:?}");
+            assert!(w[1].1 < 0.55 * w[0].1, "ends: {tangential:?}");
+        }
+    }
+
+    #[test]
+    fn a_straight_side_gets_exactly_the_normal_traction() {
+        let n = vec![[0.6, 0.8]; 5];
+        let g = [-1.0, -2.0, 0.5, -3.0, 0.0];
+        let c = traction_carrying(&n, &[0.25; 4], &g);
+        for (v, g) in c.iter().zip(g) {
+            assert_eq!(*v, [g * 0.6, g * 0.8]);
+        }
+    }
 }

@@ -6,25 +6,32 @@ use crate::problem::interface_mass;
 use crate::qp::dense::SymMatrix;
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
 
-/// The contact interface Γc seen as a 1D P1 space: its mass matrix M_Γ and integrals.
+/// The contact interface Γc seen as a 1D P1 space on body 1's side (parametrised by its arc
+/// length): its mass matrix M_Γ and integrals.
 pub struct Interface {
-    pub x: Vec<f64>,
+    /// The lengths of the segments [k, k+1].
+    pub lengths: Vec<f64>,
     diag: Vec<f64>,
     upper: Vec<f64>,
 }
 
 impl Interface {
-    pub fn new(x: Vec<f64>) -> Interface {
-        let (diag, upper) = interface_mass(&x);
-        Interface { x, diag, upper }
+    /// Γc from the lengths of its segments (body 1's, `BodyProblem::contact_lengths`).
+    pub fn new(lengths: Vec<f64>) -> Interface {
+        let (diag, upper) = interface_mass(&lengths);
+        Interface {
+            lengths,
+            diag,
+            upper,
+        }
     }
 
     pub fn len(&self) -> usize {
-        self.x.len()
+        self.diag.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
+        self.diag.is_empty()
     }
 
     /// Nodal forces M_Γ t of a P1 density t.
@@ -83,7 +90,7 @@ impl Interface {
     pub fn segment_products(&self, a: &[f64], b: &[f64]) -> Vec<f64> {
         (0..self.len().saturating_sub(1))
             .map(|k| {
-                let h = (self.x[k + 1] - self.x[k]).abs();
+                let h = self.lengths[k];
                 h / 6.0
                     * (2.0 * a[k] * b[k]
                         + a[k] * b[k + 1]
@@ -113,7 +120,7 @@ mod tests {
 
     #[test]
     fn interface_mass_and_density_are_inverse() {
-        let iface = Interface::new(vec![0.0, 0.25, 0.5, 0.75, 1.0]);
+        let iface = Interface::new(vec![0.25; 4]);
         let t = vec![-1.0, -2.0, 0.5, -3.0, 0.0];
         let back = iface.density(&iface.forces(&t));
         for (a, b) in t.iter().zip(&back) {
@@ -123,13 +130,14 @@ mod tests {
         let ones = vec![1.0; 5];
         let s: f64 = iface.segment_products(&ones, &ones).iter().sum();
         assert!((s - 1.0).abs() < 1e-15);
-        let s: f64 = iface.segment_products(&iface.x, &ones).iter().sum();
+        let x = [0.0, 0.25, 0.5, 0.75, 1.0];
+        let s: f64 = iface.segment_products(&x, &ones).iter().sum();
         assert!((s - 0.5).abs() < 1e-15);
     }
 
     #[test]
     fn admissible_traction_is_the_clipped_projection() {
-        let iface = Interface::new(vec![0.0, 0.5, 1.0]);
+        let iface = Interface::new(vec![0.5, 0.5]);
         // A target density that is already ≤ 0 is returned exactly.
         let t = vec![-3.0, -1.0, -2.0];
         let got = iface

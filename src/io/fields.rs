@@ -20,7 +20,7 @@ pub fn results(
     have: [bool; 2],
     attributes: Vec<(String, f64)>,
 ) -> Results {
-    let iface = Interface::new(problems[0].contact_x());
+    let iface = Interface::new(problems[0].contact_lengths.clone());
     let m = iface.len();
     let mut grids: Vec<Grid> = problems
         .iter()
@@ -96,6 +96,13 @@ pub fn results(
                 "active",
                 it.active.iter().map(|&a| a as u8 as f64).collect(),
             ),
+            // The contact direction of each pair (body 1's outward normal).
+            Field {
+                name: "normal".into(),
+                center: Center::Node,
+                kind: Kind::Vector,
+                values: problems[0].contact_normals.concat(),
+            },
         ];
         if let Some(e) = est {
             fields.push(scalar("t_hat", e.t_hat.clone()));

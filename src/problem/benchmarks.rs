@@ -1,7 +1,7 @@
 //! The built-in benchmarks of `docs/benchmarks.md` on structured grids: `paper` (the
 //! two-block problem of Gallimard, Choi & Sassi (2013)) and `uniform` (the patch test).
 
-use super::{BodyProblem, NeumannEdge, ProblemKind, ProblemSettings};
+use super::{segment_lengths, BodyProblem, NeumannEdge, ProblemKind, ProblemSettings, UP};
 use crate::fem::mesh::Mesh;
 
 /// Build body `alpha` of the chosen benchmark.
@@ -60,6 +60,10 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
         mesh.bottom_nodes()
     };
     let gap = vec![0.0; contact_nodes.len()];
+    // Both sides of Γc have the same nodes' x: body 2's segments are body 1's.
+    let points: Vec<[f64; 2]> = contact_nodes.iter().map(|&n| mesh.points[n]).collect();
+    let contact_lengths = segment_lengths(&points);
+    let contact_normals = vec![UP; contact_nodes.len()];
     BodyProblem {
         alpha,
         mesh,
@@ -68,5 +72,7 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
         neumann,
         contact_nodes,
         gap,
+        contact_normals,
+        contact_lengths,
     }
 }

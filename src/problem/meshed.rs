@@ -3,10 +3,12 @@
 //! contact interface Γc from two named curves, one per body, whose nodes are paired along the
 //! normal of body 1's side; each pair's initial gap g₀ ≥ 0 comes from the geometry.
 //!
-//! Today body 1's contact side must be straight with outward normal (0, 1) (body 1 below,
-//! as in `docs/method.md`): the normal dof of a Γc node is its u_y and Γc is ordered by x.
-//! Body 2's side may have any shape (e.g. Hertz's cylinder) as long as each of its nodes lies
-//! straight above one node of body 1's side.
+//! Both sides may be curved. The contact direction of a pair is body 1's outward normal at its
+//! node (the mean of its two segments' normals); body 2's partner must lie on that normal line,
+//! and g₀ is its distance along it. Where body 1's side is horizontal with body 1 below (as in
+//! `docs/method.md`) the normal is (0, 1) and nothing is rotated; elsewhere the pair's nodes
+//! get rotated nodal frames ([`super::Frames`]). On a curved side the Γc traction that carries
+//! the nodal forces T_k n_k is normal only up to O(h²κ) (docs/method.md §5).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::rc::Rc;
@@ -36,6 +38,9 @@ pub struct MeshSpec {
     pub conditions: Vec<CurveCondition>,
     /// Γc: body 1's curve and body 2's curve.
     pub contact: [String; 2],
+    /// The mesh is a uniform refinement of the user's (the reference solution): its Γc
+    /// keeps the user's pairing, each coarse pair's children paired in order.
+    pub nested: bool,
 }
 
 /// What is wrong with a meshed problem: one line, naming the option.
@@ -113,19 +118,45 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
             ));
         }
     }
-    let (sides, gap) = pair_interface(spec, &bodies)?;
+    let pairing = pair_interface(spec, &bodies)?;
     let body = |k: usize| -> Result<BodyProblem, MeshedError> {
         let alpha = k + 1;
         let (dirichlet, neumann) = conditions(spec, &bodies[k], alpha)?;
         check_rigid_motions(&bodies[k], &dirichlet, alpha)?;
+        // A rotated frame's dofs are not x and y: no prescribed component there.
+        for (&node, n) in pairing.sides[k].iter().zip(&pairing.normals) {
+            if *n != super::UP && dirichlet.iter().any(|&(d, _)| d / 2 == node) {
+                let p = bodies[k].mesh.points[node];
+                // The option that prescribes it.
+                let option = spec
+                    .conditions
+                    .iter()
+                    .find_map(|c| {
+                        let edges = bodies[k].curves.get(&c.curve)?;
+                        let on = edges.iter().any(|e| e.contains(&node));
+                        let comp = c.u.iter().position(|u| u.is_some())?;
+                        on.then(|| format!("-nndd_bc_{}_{}", c.curve, ["ux", "uy"][comp]))
+                    })
+                    .unwrap_or_else(|| "-nndd_bc_*".into());
+                return Err(opt_err(
+                    &option,
+                    format!(
+                        "a displacement is prescribed at the contact node ({:.6e}, {:.6e}) of body {alpha}, where the contact normal ({:.4}, {:.4}) is not (0, 1); prescribe none on Γc there",
+                        p[0], p[1], n[0], n[1]
+                    ),
+                ));
+            }
+        }
         Ok(BodyProblem {
             alpha,
             mesh: bodies[k].mesh.clone(),
             material: materials[k],
             dirichlet,
             neumann,
-            contact_nodes: sides[k].clone(),
-            gap: gap.clone(),
+            contact_nodes: pairing.sides[k].clone(),
+            gap: pairing.gap.clone(),
+            contact_normals: pairing.normals.clone(),
+            contact_lengths: pairing.lengths.clone(),
         })
     };
     Ok([body(0)?, body(1)?])
@@ -241,13 +272,106 @@ fn check_rigid_motions(
     Ok(())
 }
 
-/// Pair the contact curves: every node of body 1's side with the node of body 2's side
-/// straight above it. Returns both bodies' node lists in pair order (by x) and g₀ of each
-/// pair.
-fn pair_interface(
-    spec: &MeshSpec,
-    bodies: &[GmshBody],
-) -> Result<([Vec<usize>; 2], Vec<f64>), MeshedError> {
+/// Γc as paired by [`pair_interface`]: both sides' nodes in pair order, and per pair g₀, the
+/// contact direction n (body 1's normal) and body 1's segment lengths.
+struct Pairing {
+    sides: [Vec<usize>; 2],
+    gap: Vec<f64>,
+    normals: Vec<[f64; 2]>,
+    lengths: Vec<f64>,
+}
+
+/// Body 1's contact side in the orientation with body 1 on its right (so by increasing x on
+/// a horizontal side with body 1 below), with the outward unit normal of each of its
+/// segments.
+fn oriented_side(
+    body: &GmshBody,
+    mut nodes: Vec<usize>,
+    curve: &str,
+) -> Result<(Vec<usize>, Vec<[f64; 2]>), MeshedError> {
+    const OPT: &str = "-nndd_contact";
+    let pts = &body.mesh.points;
+    // The third vertex of the triangles on each segment.
+    let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = nodes
+        .windows(2)
+        .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
+        .collect();
+    for t in &body.mesh.triangles {
+        for i in 0..3 {
+            let (a, b, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
+            if let Some(list) = opposite.get_mut(&(a.min(b), a.max(b))) {
+                list.push(c);
+            }
+        }
+    }
+    // Left normal of a→b; body 1 must be on the other side of every segment.
+    let left = |a: usize, b: usize| {
+        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
+        let h = t0.hypot(t1);
+        [-t1 / h, t0 / h]
+    };
+    let inside = |a: usize, b: usize| -> Result<f64, MeshedError> {
+        match opposite[&(a.min(b), a.max(b))][..] {
+            [c] => {
+                let n = left(a, b);
+                Ok(n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]))
+            }
+            _ => Err(opt_err(
+                OPT,
+                format!(
+                    "body 1's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
+                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
+                ),
+            )),
+        }
+    };
+    if inside(nodes[0], nodes[1])? > 0.0 {
+        nodes.reverse();
+    }
+    let mut normals = Vec::with_capacity(nodes.len() - 1);
+    for w in nodes.windows(2) {
+        if inside(w[0], w[1])? > 0.0 {
+            return Err(opt_err(
+                OPT,
+                format!("body 1 lies on both sides of its contact curve '{curve}'"),
+            ));
+        }
+        normals.push(left(w[0], w[1]));
+    }
+    Ok((nodes, normals))
+}
+
+/// The contact direction at each node of body 1's side: the mean of its segments' outward
+/// normals, normalised; (0, 1) exactly where that is (0, 1) to 1e−12 (no rotated frame).
+fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let m = segments.len() + 1;
+    (0..m)
+        .map(|k| {
+            let mut n = [0.0; 2];
+            for s in [k.checked_sub(1), (k < m - 1).then_some(k)]
+                .into_iter()
+                .flatten()
+            {
+                n[0] += segments[s][0];
+                n[1] += segments[s][1];
+            }
+            let h = n[0].hypot(n[1]);
+            let n = [n[0] / h, n[1] / h];
+            if n[0].abs() <= 1e-12 && n[1] > 0.0 {
+                super::UP
+            } else {
+                n
+            }
+        })
+        .collect()
+}
+
+/// Pair the contact curves: every node of body 1's side with the node of body 2's side on
+/// its normal line (within 1e−8 of Γc's length), the nearer one if several; every node of
+/// body 2's side must be paired once. g₀ is the distance along the normal (≥ 0). A refined
+/// mesh (`spec.nested`) keeps the pairing of the mesh it refines: the curves are paired in
+/// their order, as the coarse pairs' children.
+fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, MeshedError> {
     const OPT: &str = "-nndd_contact";
     let mut sides = Vec::new();
     for (k, name) in spec.contact.iter().enumerate() {
@@ -266,58 +390,87 @@ fn pair_interface(
                 ),
             )
         })?;
-        let mut nodes = chain(edges, name, OPT)?;
-        let pts = &bodies[k].mesh.points;
-        nodes.sort_by(|&a, &b| pts[a][0].total_cmp(&pts[b][0]));
-        sides.push(nodes);
+        sides.push(chain(edges, name, OPT)?);
     }
+    let (s1, segments) = oriented_side(&bodies[0], sides[0].clone(), &spec.contact[0])?;
+    let normals = node_normals(&segments);
     let (p1, p2) = (&bodies[0].mesh.points, &bodies[1].mesh.points);
-    let (s1, s2) = (&sides[0], &sides[1]);
-    let x_len = p1[s1[s1.len() - 1]][0] - p1[s1[0]][0];
-    let tol = 1e-8 * x_len.abs().max(f64::MIN_POSITIVE);
-    // Body 1's side: straight, horizontal, body 1 below it.
-    let y0 = p1[s1[0]][1];
-    for &n in s1 {
-        if (p1[n][1] - y0).abs() > tol {
-            return Err(opt_err(
-                OPT,
-                format!(
-                    "body 1's contact curve '{}' must be a straight horizontal segment (normal (0, 1)); its node ({:.6e}, {:.6e}) is off y = {y0:e}",
-                    spec.contact[0], p1[n][0], p1[n][1]
-                ),
-            ));
+    let side1: Vec<[f64; 2]> = s1.iter().map(|&n| p1[n]).collect();
+    let lengths = super::segment_lengths(&side1);
+    let tol = 1e-8 * lengths.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    // Offset of body 2's node b from body 1's pair k: (along τ, along n).
+    let offset = |k: usize, b: usize| {
+        let (a, n) = (p1[s1[k]], normals[k]);
+        let d = [p2[b][0] - a[0], p2[b][1] - a[1]];
+        if n == super::UP {
+            (d[0], d[1])
+        } else {
+            (n[1] * d[0] - n[0] * d[1], n[0] * d[0] + n[1] * d[1])
         }
-    }
-    if bodies[0].mesh.points.iter().any(|p| p[1] > y0 + tol) {
-        return Err(opt_err(
-            OPT,
-            format!(
-                "body 1 must lie below its contact curve '{}' (outward normal (0, 1))",
-                spec.contact[0]
-            ),
-        ));
-    }
-    // Pair by x: nearest node of the other side, both ways.
-    let nearest = |x: f64, side: &[usize], pts: &[[f64; 2]]| {
-        side.iter()
-            .map(|&n| (n, (pts[n][0] - x).abs()))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .expect("non-empty side")
     };
-    for (side, pts, other, opts, k) in [(s1, p1, s2, p2, 1), (s2, p2, s1, p1, 2)] {
-        for &n in side.iter() {
-            let (m, d) = nearest(pts[n][0], other, opts);
-            if d > tol {
+    let s2: Vec<usize> = if spec.nested {
+        let mut s2 = sides[1].clone();
+        let dist = |b: usize| (p2[b][0] - side1[0][0]).hypot(p2[b][1] - side1[0][1]);
+        if dist(s2[s2.len() - 1]) < dist(s2[0]) {
+            s2.reverse();
+        }
+        s2
+    } else {
+        // Each normal line's partner: the nearest node on the line, else (for the error) the
+        // node nearest to the line.
+        let nearest_to_line = |k: usize| {
+            let key = |(t, g): (f64, f64)| {
+                if t.abs() <= tol {
+                    (false, g.abs())
+                } else {
+                    (true, t.abs())
+                }
+            };
+            sides[1]
+                .iter()
+                .map(|&b| (b, offset(k, b)))
+                .min_by(|x, y| {
+                    let (kx, ky) = (key(x.1), key(y.1));
+                    kx.0.cmp(&ky.0).then(kx.1.total_cmp(&ky.1))
+                })
+                .expect("non-empty side")
+        };
+        let mut s2 = Vec::with_capacity(s1.len());
+        for k in 0..s1.len() {
+            let (b, (t, _)) = nearest_to_line(k);
+            if t.abs() > tol {
                 return Err(opt_err(
                     OPT,
                     format!(
-                        "the node ({:.6e}, {:.6e}) of body {k}'s contact curve has no partner on the other body's curve; the nearest, ({:.6e}, {:.6e}), is {d:.3e} away in x",
-                        pts[n][0], pts[n][1], opts[m][0], opts[m][1]
+                        "the node ({:.6e}, {:.6e}) of body 1's contact curve has no partner on its normal ({:.4}, {:.4}); the nearest node of body 2's curve, ({:.6e}, {:.6e}), is {:.3e} off that line",
+                        side1[k][0], side1[k][1], normals[k][0], normals[k][1], p2[b][0], p2[b][1], t.abs()
                     ),
                 ));
             }
+            s2.push(b);
         }
-    }
+        let paired: BTreeSet<usize> = s2.iter().copied().collect();
+        if let Some(&b) = sides[1].iter().find(|b| !paired.contains(b)) {
+            let (k, (t, _)) = (0..s1.len())
+                .map(|k| (k, offset(k, b)))
+                .min_by(|x, y| x.1 .0.abs().total_cmp(&y.1 .0.abs()))
+                .expect("non-empty side");
+            return Err(opt_err(
+                OPT,
+                format!(
+                    "the node ({:.6e}, {:.6e}) of body 2's contact curve has no partner on body 1's curve; the nearest normal line, of ({:.6e}, {:.6e}), is {:.3e} away",
+                    p2[b][0], p2[b][1], side1[k][0], side1[k][1], t.abs()
+                ),
+            ));
+        }
+        if paired.len() != s2.len() {
+            return Err(opt_err(
+                OPT,
+                "two nodes of body 1's contact curve share one partner on body 2's curve".into(),
+            ));
+        }
+        s2
+    };
     if s1.len() != s2.len() {
         return Err(opt_err(
             OPT,
@@ -329,20 +482,25 @@ fn pair_interface(
         ));
     }
     let mut gap = Vec::with_capacity(s1.len());
-    for (&a, &b) in s1.iter().zip(s2) {
-        let g = p2[b][1] - p1[a][1];
+    for (k, &b) in s2.iter().enumerate() {
+        let g = offset(k, b).1;
         if g < -tol {
             return Err(opt_err(
                 OPT,
                 format!(
-                    "the bodies overlap at x = {:.6e}: body 2's node is {:.3e} below body 1's (initial gap must be >= 0)",
-                    p1[a][0], -g
+                    "the bodies overlap at ({:.6e}, {:.6e}): body 2's node is {:.3e} inside body 1 along the normal (initial gap must be >= 0)",
+                    side1[k][0], side1[k][1], -g
                 ),
             ));
         }
         gap.push(g.max(0.0));
     }
-    Ok(([s1.clone(), s2.clone()], gap))
+    Ok(Pairing {
+        sides: [s1, s2],
+        gap,
+        normals,
+        lengths,
+    })
 }
 
 #[cfg(test)]

@@ -66,6 +66,7 @@ impl ProblemSettings {
         }
         if let Some(spec) = s.mesh.as_mut() {
             spec.gmsh = Rc::new(spec.gmsh.refined(r));
+            spec.nested = true;
         }
         s
     }
@@ -110,12 +111,24 @@ pub struct BodyProblem {
     pub dirichlet: Vec<(usize, f64)>,
     /// Non-zero tractions on Γ_N (edges not listed are traction free).
     pub neumann: Vec<NeumannEdge>,
-    /// Γc nodes of this body, ordered by x (pair k of Γc is `contact_nodes[k]` of both bodies).
+    /// Γc nodes of this body in pair order: along body 1's side with body 1 on the right
+    /// (by increasing x on a horizontal side with body 1 below); pair k of Γc is
+    /// `contact_nodes[k]` of both bodies.
     pub contact_nodes: Vec<usize>,
     /// Initial gap g₀ ≥ 0 of each Γc pair (the same on both bodies): non-penetration reads
     /// u²_n − u¹_n ≥ −g₀.
     pub gap: Vec<f64>,
+    /// The contact direction n_k of each pair: body 1's outward unit normal at its node (the
+    /// mean of its sides' normals), the same on both bodies; (0, 1) on a horizontal side.
+    /// u^α_n = n_k · u^α at the pair's node.
+    pub contact_normals: Vec<[f64; 2]>,
+    /// The lengths of body 1's Γc segments [k, k+1]: Γc's measure, on both bodies.
+    pub contact_lengths: Vec<f64>,
 }
+
+/// The Γc normal of a horizontal side with the body below: its contact node needs no
+/// rotated frame.
+pub const UP: [f64; 2] = [0.0, 1.0];
 
 impl BodyProblem {
     /// The Neumann load vector f^α (exact for the linear tractions).
@@ -142,9 +155,50 @@ impl BodyProblem {
         lambda.iter().zip(&self.gap).map(|(l, g)| l - g).collect()
     }
 
-    /// The Γc normal dofs (u_y of the contact nodes), in pair order.
+    /// The Γc normal dofs in pair order: the second dof of each contact node, in its nodal
+    /// frame ([`Frames`]: u_y where n = (0, 1), else u · n).
     pub fn contact_normal_dofs(&self) -> Vec<usize> {
         self.contact_nodes.iter().map(|&n| 2 * n + 1).collect()
+    }
+
+    /// The rotated nodal frames of the Γc nodes whose normal is not (0, 1).
+    pub fn frames(&self) -> Frames {
+        Frames {
+            normal: self
+                .contact_nodes
+                .iter()
+                .zip(&self.contact_normals)
+                .filter(|(_, n)| **n != UP)
+                .map(|(&node, &n)| (node, n))
+                .collect(),
+        }
+    }
+
+    /// Normal Γc displacements u_n = n_k · u (global components) in pair order.
+    pub fn normal_trace(&self, u: &[f64]) -> Vec<f64> {
+        self.contact_nodes
+            .iter()
+            .zip(&self.contact_normals)
+            .map(|(&node, n)| {
+                if *n == UP {
+                    u[2 * node + 1]
+                } else {
+                    n[0] * u[2 * node] + n[1] * u[2 * node + 1]
+                }
+            })
+            .collect()
+    }
+
+    /// Set the normal component of pair k's node to `value`, keeping its tangential one.
+    pub fn set_normal_trace(&self, u: &mut [f64], k: usize, value: f64) {
+        let (node, n) = (self.contact_nodes[k], self.contact_normals[k]);
+        if n == UP {
+            u[2 * node + 1] = value;
+        } else {
+            let c = value - (n[0] * u[2 * node] + n[1] * u[2 * node + 1]);
+            u[2 * node] += c * n[0];
+            u[2 * node + 1] += c * n[1];
+        }
     }
 
     /// The x coordinates of the Γc nodes.
@@ -156,16 +210,151 @@ impl BodyProblem {
     }
 }
 
-/// The interface mass matrix M_Γ of P1 densities on Γc (tridiagonal: diagonal, upper).
-pub fn interface_mass(x: &[f64]) -> (Vec<f64>, Vec<f64>) {
-    let m = x.len();
+/// The lengths of the segments [k, k+1] of a polyline.
+pub fn segment_lengths(points: &[[f64; 2]]) -> Vec<f64> {
+    points
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .collect()
+}
+
+/// The interface mass matrix M_Γ of P1 densities on Γc from its segment lengths
+/// (tridiagonal: diagonal, upper).
+pub fn interface_mass(lengths: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let m = lengths.len() + 1;
     let mut diag = vec![0.0; m];
-    let mut upper = vec![0.0; m.saturating_sub(1)];
-    for k in 0..m.saturating_sub(1) {
-        let h = (x[k + 1] - x[k]).abs();
+    let mut upper = vec![0.0; m - 1];
+    for k in 0..m - 1 {
+        let h = lengths[k];
         diag[k] += h / 3.0;
         diag[k + 1] += h / 3.0;
         upper[k] = h / 6.0;
     }
     (diag, upper)
+}
+
+/// Rotated nodal frames: at a Γc node of normal n ≠ (0, 1) the node's two dofs are its
+/// displacement along τ = (n_y, −n_x) and along n (so the Γc normal dof is still the node's
+/// second dof, and the contact steps need no change); every other node keeps (x, y). The
+/// bodies' systems are assembled in these frames (K_l = Rᵀ K R node by node, R = [τ n]);
+/// vectors leave the body layer in global components.
+#[derive(Clone, Debug, Default)]
+pub struct Frames {
+    normal: std::collections::HashMap<usize, [f64; 2]>,
+}
+
+impl Frames {
+    pub fn is_empty(&self) -> bool {
+        self.normal.is_empty()
+    }
+
+    /// The normal of `node`'s rotated frame, if it has one.
+    pub fn normal(&self, node: usize) -> Option<[f64; 2]> {
+        self.normal.get(&node).copied()
+    }
+
+    /// Global components to frame components (Rᵀ v), in place: displacements and forces alike.
+    pub fn to_local(&self, v: &mut [f64]) {
+        for (&node, n) in &self.normal {
+            let (x, y) = (v[2 * node], v[2 * node + 1]);
+            v[2 * node] = n[1] * x - n[0] * y;
+            v[2 * node + 1] = n[0] * x + n[1] * y;
+        }
+    }
+
+    /// Frame components to global ones (R v), in place.
+    pub fn to_global(&self, v: &mut [f64]) {
+        for (&node, n) in &self.normal {
+            let (t, m) = (v[2 * node], v[2 * node + 1]);
+            v[2 * node] = n[1] * t + n[0] * m;
+            v[2 * node + 1] = -n[0] * t + n[1] * m;
+        }
+    }
+
+    /// An element stiffness (dofs x, y of the triangle's nodes) in the nodal frames: Tᵀ K T.
+    pub fn rotate_element(&self, nodes: &[usize; 3], ke: &mut [[f64; 6]; 6]) {
+        for (i, node) in nodes.iter().enumerate() {
+            let Some(n) = self.normal(*node) else {
+                continue;
+            };
+            // R = [[n_y, n_x], [−n_x, n_y]] on the block of node i.
+            let r = [[n[1], n[0]], [-n[0], n[1]]];
+            let (a, b) = (2 * i, 2 * i + 1);
+            for row in ke.iter_mut() {
+                let (x, y) = (row[a], row[b]);
+                row[a] = x * r[0][0] + y * r[1][0];
+                row[b] = x * r[0][1] + y * r[1][1];
+            }
+            let (ra, rb) = (ke[a], ke[b]);
+            for (c, (x, y)) in ra.iter().zip(&rb).enumerate() {
+                ke[a][c] = r[0][0] * x + r[1][0] * y;
+                ke[b][c] = r[0][1] * x + r[1][1] * y;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_rotate_and_back() {
+        let s = 0.6f64;
+        let c = 0.8f64;
+        let f = Frames {
+            normal: [(1, [-s, c])].into_iter().collect(),
+        };
+        let mut v = vec![1.0, 2.0, 3.0, 4.0];
+        f.to_local(&mut v);
+        // Node 1: u_t = τ·u with τ = (c, s), u_n = n·u.
+        assert_eq!(&v[..2], &[1.0, 2.0]);
+        assert!((v[2] - (c * 3.0 + s * 4.0)).abs() < 1e-15);
+        assert!((v[3] - (-s * 3.0 + c * 4.0)).abs() < 1e-15);
+        f.to_global(&mut v);
+        for (a, b) in v.iter().zip([1.0, 2.0, 3.0, 4.0]) {
+            assert!((a - b).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn rotated_element_stiffness_is_the_same_energy() {
+        use crate::fem::element_stiffness;
+        let pts = [[0.0, 0.0], [1.0, 0.2], [0.3, 0.9]];
+        let mat = Material {
+            young: 2.0,
+            poisson: 0.3,
+        };
+        let ke = element_stiffness(&pts, &mat);
+        let f = Frames {
+            normal: [(5, [0.6, 0.8]), (9, [-1.0, 0.0])].into_iter().collect(),
+        };
+        let mut kl = ke;
+        f.rotate_element(&[5, 7, 9], &mut kl);
+        // uᵀ K u = u_lᵀ K_l u_l for u_l the frame components of u.
+        let u = [0.3, -0.1, 0.7, 0.2, -0.4, 0.5];
+        let mut ul = vec![0.0; 20];
+        for (i, node) in [5usize, 7, 9].iter().enumerate() {
+            ul[2 * node] = u[2 * i];
+            ul[2 * node + 1] = u[2 * i + 1];
+        }
+        f.to_local(&mut ul);
+        let loc: Vec<f64> = [5usize, 7, 9]
+            .iter()
+            .flat_map(|&n| [ul[2 * n], ul[2 * n + 1]])
+            .collect();
+        let quad = |k: &[[f64; 6]; 6], v: &[f64]| -> f64 {
+            (0..6)
+                .map(|r| v[r] * (0..6).map(|c| k[r][c] * v[c]).sum::<f64>())
+                .sum()
+        };
+        let (a, b) = (quad(&ke, &u), quad(&kl, &loc));
+        assert!((a - b).abs() < 1e-14 * a.abs(), "{a} {b}");
+        // Symmetry kept.
+        for (r, row) in kl.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                assert!((v - kl[c][r]).abs() < 1e-14);
+            }
+        }
+    }
 }
