@@ -28,7 +28,7 @@ const FUNCTIONS: &[&str] = &[
     "ISDestroy",
     "Vec(Create|CreateMPI|CreateSeq|Destroy|Duplicate|Set|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|GetArray|RestoreArray|GetArrayRead|RestoreArrayRead|Norm|AXPY|Copy|SetUp)",
     "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|ZeroRowsColumns|SetOption|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo|SetValues|SetNearNullSpace|CreateDense|DenseGetColumnVecRead|DenseRestoreColumnVecRead)",
-    "MatNullSpace(CreateRigidBody|Destroy)",
+    "MatNullSpace(Create|Destroy)",
     "VecScatter(Create|Begin|End|Destroy)",
     "MatSeqAIJSetPreallocation",
     "MatMPIAIJSetPreallocation",

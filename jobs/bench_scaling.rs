@@ -4,7 +4,9 @@
 //! time ratios, then the growth exponents of the NNDD wall time with the dofs. The table also
 //! goes to `results/bench-scaling.txt`. `--hertz`: the same for the Gmsh path, the Hertz
 //! benchmark (examples/hertz) at mesh levels L, meshed by Gmsh (`results/bench-scaling-hertz.txt`).
-//! Run through `jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [n or L …]`.
+//! `--estimate-up-to L`: the levels above L run without the estimate (the growth of the solve
+//! alone is printed too).
+//! Run through `jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [--estimate-up-to L] [n or L …]`.
 
 #[path = "runner.rs"]
 mod runner;
@@ -13,11 +15,13 @@ use std::io::Write;
 
 use serde_json::Value;
 
-const USAGE: &str = "usage: jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [n …]
+const USAGE: &str =
+    "usage: jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [--estimate-up-to L] [n …]
   n …           mesh levels (default 64 128 256 512 1024; --quick: 64 128)
   --hertz       the Hertz benchmark meshed by Gmsh instead, at levels L (default 2 3 4 5 6,
                 52404 dofs at L = 4, x4 per level; --quick: 2 3)
   --ranks LIST  MPI rank counts of the NNDD runs (default 1,2,4; mpirun --oversubscribe above 2)
+  --estimate-up-to L  no estimate on the levels above L (default: the estimate on every level)
   The monolithic solve runs once per n on 2 ranks. NNDD=path picks the binary.";
 
 /// One mesh level of the benchmark: its options and its expected dofs.
@@ -57,7 +61,7 @@ impl Case {
 type Outcome = Result<(Value, f64), String>;
 
 fn main() {
-    let (levels, ranks, hertz) = parse_args();
+    let (levels, ranks, hertz, estimate_up_to) = parse_args();
     let dir = runner::scratch("scaling");
     std::fs::create_dir_all(&dir).expect("scratch directory");
     std::fs::create_dir_all("results").expect("results/ directory");
@@ -68,8 +72,9 @@ fn main() {
     };
     let mut out = Out::new(table);
     out.line(&format!(
-        "# jobs/bench-scaling: {}, tol 1e-8, final estimate (no reference); {} on {} ({} cores); {} = {:?}, N = {:?}",
+        "# jobs/bench-scaling: {}, tol 1e-8, final estimate (no reference){}; {} on {} ({} cores); {} = {:?}, N = {:?}",
         if hertz { "Hertz (Gmsh meshes)" } else { "paper" },
+        estimate_up_to.map_or(String::new(), |l| format!(" up to level {l}")),
         now(),
         hostname(),
         std::thread::available_parallelism().map_or(0, |c| c.get()),
@@ -81,8 +86,9 @@ fn main() {
 
     let total_runs = levels.len() * (ranks.len() + 1);
     let mut count = 0;
-    // (N, dofs, wall) of the successful NNDD runs, for the estimates and the exponents.
-    let mut done: Vec<(usize, usize, f64)> = Vec::new();
+    // (N, dofs, wall, wall without the estimate, estimated) of the successful NNDD runs, for
+    // the expected times and the exponents.
+    let mut done: Vec<(usize, usize, f64, f64, bool)> = Vec::new();
     let mut mono_done: Vec<(usize, f64)> = Vec::new();
     for &n in &levels {
         let case = Case::new(hertz, n, &dir);
@@ -114,50 +120,48 @@ fn main() {
             Ok((_, wall)) => mono_done.push((dofs, *wall)),
             Err(e) => eprintln!("bench-scaling: monolithic n = {n} failed: {e}"),
         }
+        let estimate = estimate_up_to.is_none_or(|l| n <= l);
         for &np in &ranks {
             count += 1;
             // Expected time: from the earlier runs on as many ranks, else from any earlier run.
+            let time = |r: &(usize, usize, f64, f64, bool)| (r.1, if estimate { r.2 } else { r.3 });
             let mut earlier: Vec<(usize, f64)> = done
                 .iter()
-                .filter(|r| r.0 == np)
-                .map(|r| (r.1, r.2))
+                .filter(|r| r.0 == np && (r.4 || !estimate))
+                .map(time)
                 .collect();
             if earlier.is_empty() {
-                earlier = done.iter().map(|r| (r.1, r.2)).collect();
+                earlier = done.iter().map(time).collect();
             }
-            let expect = guess(&earlier, dofs, np, true);
-            progress(
-                count,
-                total_runs,
-                n,
-                dofs,
-                np,
-                "NNDD + final estimate",
-                expect,
-            );
+            let expect = guess(&earlier, dofs, np, estimate);
+            let what = if estimate {
+                "NNDD + final estimate"
+            } else {
+                "NNDD (no estimate)"
+            };
+            progress(count, total_runs, n, dofs, np, what, expect);
             let prefix = dir.join(format!("nndd{n}-{np}"));
             let mpirun_args: &[&str] = if np > 2 { &["--oversubscribe"] } else { &[] };
             // The estimate of the final iterate only, no reference solution.
-            let args = case.with(&[
-                "-nndd_tol",
-                "1e-8",
-                "-nndd_estimate",
-                "-nndd_estimate_every",
-                "0",
-                "-nndd_reference_factor",
-                "0",
-            ]);
+            let mut extra = vec!["-nndd_tol", "1e-8"];
+            if estimate {
+                extra.push("-nndd_estimate");
+            }
+            extra.extend(["-nndd_estimate_every", "0", "-nndd_reference_factor", "0"]);
+            let args = case.with(&extra);
             let args: Vec<&str> = args.iter().map(String::as_str).collect();
             let res: Outcome = runner::try_run(np, case.opts, mpirun_args, &prefix, &args);
             clean(&prefix);
             match &res {
                 Ok((j, wall)) => {
                     let dofs = j["dofs"].as_u64().map_or(dofs, |d| d as usize);
-                    done.push((np, dofs, *wall));
+                    let estim = j["timings"]["estimation"].as_f64().unwrap_or(0.0);
+                    done.push((np, dofs, *wall, wall - estim, estimate));
                     let k = j["estimates"].as_array().map_or(0, |e| e.len());
-                    if k != 1 {
+                    if k != estimate as usize {
                         eprintln!(
-                            "bench-scaling: n = {n}, N = {np}: {k} estimate records (expected 1)"
+                            "bench-scaling: n = {n}, N = {np}: {k} estimate records (expected {})",
+                            estimate as usize
                         );
                     }
                 }
@@ -175,26 +179,29 @@ fn main() {
     out.line("");
     out.line("Growth of the NNDD wall time with the dofs, wall ∝ dofs^p (log ratio):");
     for &np in &ranks {
-        let runs: Vec<(usize, f64)> = done
-            .iter()
-            .filter(|r| r.0 == np)
-            .map(|r| (r.1, r.2))
-            .collect();
-        match (runs.first(), runs.last()) {
-            (Some(a), Some(b)) if b.0 > a.0 => out.line(&format!(
-                "  N = {np}: p = {:.2} between {} and {} dofs",
-                exponent(*a, *b),
-                a.0,
-                b.0
-            )),
-            _ => out.line(&format!(
-                "  N = {np}: -  (fewer than two successful mesh levels)"
-            )),
+        // With the estimate (the runs that had it), and without it (wall − estimation).
+        for (label, with) in [("with the estimate", true), ("without it", false)] {
+            let runs: Vec<(usize, f64)> = done
+                .iter()
+                .filter(|r| r.0 == np && (r.4 || !with))
+                .map(|r| (r.1, if with { r.2 } else { r.3 }))
+                .collect();
+            match (runs.first(), runs.last()) {
+                (Some(a), Some(b)) if b.0 > a.0 => out.line(&format!(
+                    "  N = {np}, {label}: p = {:.2} between {} and {} dofs",
+                    exponent(*a, *b),
+                    a.0,
+                    b.0
+                )),
+                _ => out.line(&format!(
+                    "  N = {np}, {label}: -  (fewer than two successful mesh levels)"
+                )),
+            }
         }
     }
     let two: Vec<(usize, f64)> = done
         .iter()
-        .filter(|r| r.0 == 2)
+        .filter(|r| r.0 == 2 && r.4)
         .map(|r| (r.1, r.2))
         .collect();
     let at = |n: usize| two.iter().find(|r| r.0 == dofs_of(n)).copied();
@@ -231,8 +238,9 @@ const NOTES: [&str; 8] = [
     "failed: the run ended without a summary (exit status and its last error line on stderr); the others went on",
 ];
 
-fn parse_args() -> (Vec<usize>, Vec<usize>, bool) {
+fn parse_args() -> (Vec<usize>, Vec<usize>, bool, Option<usize>) {
     let mut levels = Vec::new();
+    let mut estimate_up_to = None;
     let mut ranks = vec![1, 2, 4];
     let mut quick = false;
     let mut hertz = false;
@@ -245,6 +253,13 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool) {
             }
             "--quick" => quick = true,
             "--hertz" => hertz = true,
+            "--estimate-up-to" => {
+                estimate_up_to = Some(
+                    args.next()
+                        .and_then(|s| s.parse::<usize>().ok())
+                        .unwrap_or_else(|| usage("--estimate-up-to needs a level")),
+                )
+            }
             "--ranks" => {
                 let list = args
                     .next()
@@ -275,7 +290,7 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool) {
     levels.dedup();
     ranks.sort_unstable();
     ranks.dedup();
-    (levels, ranks, hertz)
+    (levels, ranks, hertz, estimate_up_to)
 }
 
 fn usage(msg: &str) -> ! {

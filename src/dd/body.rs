@@ -118,7 +118,7 @@ impl Body {
             let rows = owned_rows(&partition, problem.dirichlet.iter().map(|d| d.0));
             let mut k_neu = k.duplicate()?;
             k_neu.zero_rows_columns(&rows, diag)?;
-            k_neu.set_rigid_body_near_null_space(comm, &local_coordinates(&problem, &partition))?;
+            k_neu.set_near_null_space(comm, &rigid_modes(&problem, &frames, &partition))?;
             (k, diag, k_neu)
         };
         let gc = problem.contact_normal_dofs();
@@ -184,9 +184,9 @@ impl Body {
             let rows = owned_rows(&self.partition, dofs.chain(self.gc.iter().copied()));
             let mut m = self.k.duplicate()?;
             m.zero_rows_columns(&rows, self.diag)?;
-            m.set_rigid_body_near_null_space(
+            m.set_near_null_space(
                 self.comm,
-                &local_coordinates(&self.problem, &self.partition),
+                &rigid_modes(&self.problem, &self.frames, &self.partition),
             )?;
             m
         };
@@ -505,13 +505,34 @@ fn owned_rows(part: &Partition, dofs: impl Iterator<Item = usize>) -> Vec<petsc:
     rows
 }
 
-/// x, y of this rank's nodes in PETSc order (for the rigid-body modes).
-fn local_coordinates(problem: &BodyProblem, part: &Partition) -> Vec<f64> {
-    let flat: Vec<f64> = problem
-        .mesh
-        .points
+/// The rigid-body modes of 2D elasticity (two translations and the rotation about the
+/// centroid), in the nodal frames, orthonormalised: this rank's parts, in PETSc order (the
+/// near null space of GAMG).
+fn rigid_modes(problem: &BodyProblem, frames: &Frames, part: &Partition) -> Vec<Vec<f64>> {
+    let pts = &problem.mesh.points;
+    let n = pts.len() as f64;
+    let c = pts
         .iter()
-        .flat_map(|p| [p[0], p[1]])
-        .collect();
-    part.local_part(&flat)
+        .fold([0.0; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+    let mut modes: Vec<Vec<f64>> = vec![
+        pts.iter().flat_map(|_| [1.0, 0.0]).collect(),
+        pts.iter().flat_map(|_| [0.0, 1.0]).collect(),
+        pts.iter()
+            .flat_map(|p| [c[1] - p[1], p[0] - c[0]])
+            .collect(),
+    ];
+    // Gram–Schmidt, on the whole vectors (every rank holds them: the same result everywhere).
+    for i in 0..modes.len() {
+        frames.to_local(&mut modes[i]);
+        for j in 0..i {
+            let d: f64 = modes[i].iter().zip(&modes[j]).map(|(a, b)| a * b).sum();
+            let (done, rest) = modes.split_at_mut(i);
+            for (a, b) in rest[0].iter_mut().zip(&done[j]) {
+                *a -= d * b;
+            }
+        }
+        let norm = modes[i].iter().map(|a| a * a).sum::<f64>().sqrt();
+        modes[i].iter_mut().for_each(|a| *a /= norm);
+    }
+    modes.iter().map(|m| part.local_part(m)).collect()
 }

@@ -578,14 +578,27 @@ impl Matrix {
         call!(MatSetOption(self.0, ffi::MAT_SPD, ffi::PETSC_TRUE))
     }
 
-    /// Attach the rigid-body modes of 2D elasticity as near null space (for GAMG), from the
-    /// coordinates of this rank's nodes (x, y interleaved, in the matrix's row order).
-    pub fn set_rigid_body_near_null_space(&mut self, comm: Comm, coords: &[f64]) -> Result<()> {
-        let mut v = Vector::new(comm, coords.len())?;
-        call!(VecSetBlockSize(v.0, 2))?;
-        v.copy_from(coords)?;
+    /// Attach a near null space (for GAMG) spanned by `modes`: this rank's parts (in the
+    /// matrix's row order) of orthonormal vectors.
+    pub fn set_near_null_space(&mut self, comm: Comm, modes: &[Vec<f64>]) -> Result<()> {
+        let vecs = modes
+            .iter()
+            .map(|m| {
+                let mut v = Vector::new(comm, m.len())?;
+                call!(VecSetBlockSize(v.0, 2))?;
+                v.copy_from(m)?;
+                Ok(v)
+            })
+            .collect::<Result<Vec<Vector>>>()?;
+        let raw: Vec<ffi::Vec> = vecs.iter().map(|v| v.0).collect();
         let mut ns: ffi::MatNullSpace = ptr::null_mut();
-        call!(MatNullSpaceCreateRigidBody(v.0, &mut ns))?;
+        call!(MatNullSpaceCreate(
+            comm.0,
+            ffi::PETSC_FALSE,
+            raw.len() as Int,
+            raw.as_ptr(),
+            &mut ns
+        ))?;
         let set = call!(MatSetNearNullSpace(self.0, ns));
         unsafe { ffi::MatNullSpaceDestroy(&mut ns) };
         set
