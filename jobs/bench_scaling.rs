@@ -117,7 +117,9 @@ fn main() {
         let mono = runner::try_run(2, case.opts, &[], &prefix, &mono_args);
         clean(&prefix);
         match &mono {
-            Ok((_, wall)) => mono_done.push((dofs, *wall)),
+            Ok((j, wall)) => {
+                mono_done.push((j["dofs"].as_u64().map_or(dofs, |d| d as usize), *wall))
+            }
             Err(e) => eprintln!("bench-scaling: monolithic n = {n} failed: {e}"),
         }
         let estimate = estimate_up_to.is_none_or(|l| n <= l);

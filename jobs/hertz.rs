@@ -125,10 +125,7 @@ fn main() {
             runner::num(est, "eta_nndd"),
             (e - em).abs() / em.abs(),
             t("input"),
-            ["assembly", "factorisation", "dirichlet_step", "contact_step", "neumann_step", "exchange"]
-                .iter()
-                .map(|k| t(k))
-                .sum::<f64>(),
+            runner::solve_seconds(&j),
             t("estimation"),
             wall,
         ));

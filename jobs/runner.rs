@@ -46,6 +46,23 @@ pub fn num(v: &serde_json::Value, key: &str) -> f64 {
     v[key].as_f64().unwrap_or(f64::NAN)
 }
 
+/// The solve's time in a summary: assembly + factorisation + the NNDD loop (its steps and
+/// exchanges), each a maximum over the ranks.
+pub fn solve_seconds(summary: &serde_json::Value) -> f64 {
+    let t = &summary["timings"];
+    [
+        "assembly",
+        "factorisation",
+        "dirichlet_step",
+        "contact_step",
+        "neumann_step",
+        "exchange",
+    ]
+    .iter()
+    .map(|k| num(t, k))
+    .sum()
+}
+
 /// Like [`run`], with another options file and extra mpirun arguments (e.g. `--oversubscribe`),
 /// and a failed run (bad input, solver failure, killed for lack of memory …) is an `Err` with
 /// its exit status and one line of its stderr (nndd's error, else mpirun's) instead of ending

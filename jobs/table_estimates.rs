@@ -97,17 +97,7 @@ fn main() {
             ],
         );
         let t = &j["timings"];
-        let solve = [
-            "assembly",
-            "factorisation",
-            "dirichlet_step",
-            "contact_step",
-            "neumann_step",
-            "exchange",
-        ]
-        .iter()
-        .map(|k| num(t, k))
-        .sum::<f64>();
+        let solve = runner::solve_seconds(&j);
         let est = num(t, "estimation");
         println!(
             "{:>5} {:>9} {:>10.3} {:>10.3} {:>10.3}",

@@ -14,7 +14,6 @@ mod common;
 use common::*;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const PAPER_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
 const PAPER_OPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.opts");
@@ -96,18 +95,7 @@ fn turned_data(phi: f64) -> Vec<String> {
 
 fn paper_mesh(dir: &Path) -> PathBuf {
     let out = dir.join("paper-8.msh");
-    let st = Command::new("gmsh")
-        .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "n", "8"])
-        .arg(PAPER_GEO)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .expect("gmsh runs (jobs/setup installs it)");
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
-    );
+    gmsh(PAPER_GEO, &[("n", "8")], &[], &out);
     out
 }
 

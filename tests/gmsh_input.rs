@@ -7,25 +7,13 @@ mod common;
 use common::*;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
 
 /// `gmsh -2 -format msh41 [-bin] -setnumber … paper.geo -o DIR/NAME.msh`.
 fn mesh(dir: &Path, name: &str, numbers: &[(&str, &str)], extra: &[&str]) -> PathBuf {
     let out = dir.join(format!("{name}.msh"));
-    let mut cmd = Command::new("gmsh");
-    cmd.args(["-2", "-format", "msh41", "-v", "1"]);
-    for (k, v) in numbers {
-        cmd.args(["-setnumber", k, v]);
-    }
-    cmd.args(extra).arg(GEO).arg("-o").arg(&out);
-    let st = cmd.output().expect("gmsh runs (jobs/setup installs it)");
-    assert!(
-        st.status.success(),
-        "gmsh: {}",
-        String::from_utf8_lossy(&st.stderr)
-    );
+    gmsh(GEO, numbers, extra, &out);
     out
 }
 

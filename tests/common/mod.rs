@@ -137,12 +137,22 @@ pub fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
 /// by jobs/setup); the mesh file's path.
 pub fn gmsh_level(geo: &str, dir: &Path, stem: &str, level: u32) -> PathBuf {
     let out = dir.join(format!("{stem}-{level}.msh"));
-    let st = Command::new("gmsh")
-        .args(["-2", "-format", "msh41", "-v", "1", "-setnumber", "level"])
-        .arg(level.to_string())
+    gmsh(geo, &[("level", &level.to_string())], &[], &out);
+    out
+}
+
+/// `gmsh -2 -format msh41 [-setnumber NAME VALUE …] [EXTRA …] GEO -o OUT`; must succeed.
+pub fn gmsh(geo: &str, numbers: &[(&str, &str)], extra: &[&str], out: &Path) {
+    let mut cmd = Command::new("gmsh");
+    cmd.args(["-2", "-format", "msh41", "-v", "1"]);
+    for (k, v) in numbers {
+        cmd.args(["-setnumber", k, v]);
+    }
+    let st = cmd
+        .args(extra)
         .arg(geo)
         .arg("-o")
-        .arg(&out)
+        .arg(out)
         .output()
         .expect("gmsh runs (jobs/setup installs it)");
     assert!(
@@ -150,7 +160,6 @@ pub fn gmsh_level(geo: &str, dir: &Path, stem: &str, level: u32) -> PathBuf {
         "gmsh: {}",
         String::from_utf8_lossy(&st.stderr)
     );
-    out
 }
 
 /// Solve the options file `opts` on the Gmsh mesh `msh`, output at `prefix` (options after the
