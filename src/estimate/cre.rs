@@ -272,9 +272,10 @@ fn traction_carrying(n: &[[f64; 2]], lengths: &[f64], gc: &[f64]) -> Vec<[f64; 2
     c
 }
 
-/// The traction data of body α for the equilibration: Γ_N data, Γc normal density `gc`
-/// (tangential 0, frictionless), traction free elsewhere; components under Dirichlet
-/// conditions on both ends of an edge are free.
+/// The traction data of body α for the equilibration: Γ_N data, on Γc the traction
+/// [`contact_traction`] of the normal density `gc` (g n: frictionless on a straight side),
+/// traction free elsewhere; components under Dirichlet conditions on both ends of an edge are
+/// free.
 pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
     let mesh = &p.mesh;
     let mut constrained = vec![false; mesh.num_dofs()];
