@@ -37,6 +37,9 @@ fn log_view_shows_the_stages() {
         &[
             "-nndd_n",
             "4",
+            "-nndd_estimate",
+            "-nndd_reference_factor",
+            "2",
             "-log_view",
             "-nndd_output",
             dir.join("r").to_str().unwrap(),
@@ -50,12 +53,42 @@ fn log_view_shows_the_stages() {
         "Dirichlet step",
         "Contact step",
         "Neumann step",
+        "Estimation",
+        "Estimation/traction QP",
+        "Estimation/re-solves",
+        "Estimation/recovery",
+        "Estimation/element sums",
+        "Estimation/e_ref",
+        "Estimation/reduction",
+        "Reference solve",
         "Output",
     ] {
         assert!(
-            text.lines().any(|l| l.contains(&format!("{stage}:"))),
+            text.lines().any(|l| l.contains(&format!(" {stage}:"))),
             "-log_view lacks stage {stage}:\n{text}"
         );
     }
+    // The summary splits the estimation time the same way: the parts cover it (each part is
+    // a maximum over the ranks, so their sum may exceed it a little).
+    let j = json(&dir.join("r"));
+    let t = &j["timings"];
+    let total = f(t, "estimation");
+    let parts = &t["estimation_parts"];
+    let names = [
+        "traction_qp",
+        "resolves",
+        "recovery",
+        "element_sums",
+        "e_ref",
+        "reduction",
+    ];
+    for name in names {
+        assert!(f(parts, name) > 0.0, "{name}: {parts}");
+    }
+    let sum: f64 = names.iter().map(|n| f(parts, n)).sum();
+    assert!(
+        sum > 0.8 * total && sum < 2.0 * total,
+        "parts {sum} vs estimation {total}: {parts}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -20,10 +20,10 @@ use crate::dd::contact::ContactError;
 use crate::dd::monolithic::MonolithicError;
 use crate::dd::nndd::NnddError;
 use crate::estimate::equilibrate::StarChoice;
-use crate::estimate::{EstimateError, Estimator, Interface};
+use crate::estimate::{EstimateError, Estimator, Interface, Parts};
 use crate::io::fields;
 use crate::io::output::{self, OutputError, Results};
-use crate::io::summary::Timings;
+use crate::io::summary::{EstimationParts, Timings};
 use crate::parallel::layout::{Layout, LayoutError};
 use crate::parallel::partition::PartitionError;
 use crate::petsc::log::Stages;
@@ -153,6 +153,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         layout: &layout,
         reference,
         overlaps: Default::default(),
+        parts: Parts::new(Some(stages.estimation_parts)),
     });
 
     // Solve: the NNDD (paper §3) or the monolithic check.
@@ -193,6 +194,9 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         .as_ref()
         .and_then(|e| e.reference.as_ref())
         .map(|r| r.iterations);
+    if let Some(e) = &estimator {
+        timings.estimation_parts = EstimationParts::from(e.parts.seconds());
+    }
     drop(estimator);
     report::max_over_ranks(&layout, &mut timings);
     let peaks = report::peak_memory_per_rank(&layout);

@@ -167,6 +167,12 @@ pub fn max_over_ranks(layout: &Layout, t: &mut Timings) {
         &mut t.monolithic,
         &mut t.estimation,
         &mut t.reference,
+        &mut t.estimation_parts.traction_qp,
+        &mut t.estimation_parts.resolves,
+        &mut t.estimation_parts.recovery,
+        &mut t.estimation_parts.element_sums,
+        &mut t.estimation_parts.e_ref,
+        &mut t.estimation_parts.reduction,
     ] {
         *x = layout.max(*x);
     }

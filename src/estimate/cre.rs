@@ -10,7 +10,7 @@ use super::equilibrate::{
 };
 use super::overlap::Overlap;
 use super::traction::Interface;
-use super::{EstimateError, NnddVariant};
+use super::{EstimateError, NnddVariant, Part, Parts};
 use crate::dd::body::Body;
 use crate::fem::mesh::Mesh;
 use crate::fem::{element_dofs, element_stiffness, element_stress};
@@ -125,22 +125,28 @@ pub fn estimate_body(
     iface: &Interface,
     data: &IterationData,
     view: &View,
+    parts: &Parts,
 ) -> Result<BodyEstimate, EstimateError> {
     let p = &body.problem;
     let alpha = p.alpha;
     let mesh = &p.mesh;
     let ne = mesh.triangles.len();
     let (sub, kept) = view.kept(body);
-    let sigma_p: Vec<[f64; 3]> = kept
-        .iter()
-        .map(|&(_, e)| element_stress(mesh, e, &p.material, u_p))
-        .collect();
+    let sigma_p: Vec<[f64; 3]> = parts.run(Part::ElementSums, || {
+        kept.iter()
+            .map(|&(_, e)| element_stress(mesh, e, &p.material, u_p))
+            .collect()
+    });
 
     // η^glo and η^NNDD: the Neumann re-solve with Γc data t̂^α, and its equilibration.
     let sign = if alpha == 1 { 1.0 } else { -1.0 };
     let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
-    let u_tilde = body.neumann_solve(&iface.forces(&t_alpha), true)?;
-    let (s_glo, mut res) = view.equilibrate(p, &u_tilde, &t_alpha, data.recovery)?;
+    let u_tilde = parts.run(Part::Resolves, || {
+        body.neumann_solve(&iface.forces(&t_alpha), true)
+    })?;
+    let (s_glo, mut res) = parts.run(Part::Recovery, || {
+        view.equilibrate(p, &u_tilde, &t_alpha, data.recovery)
+    })?;
     let mut est = BodyEstimate {
         glo: vec![0.0; ne],
         fe: vec![0.0; ne],
@@ -152,66 +158,78 @@ pub fn estimate_body(
     let u_d = match data.nndd_variant {
         NnddVariant::Discrete => {
             let f: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
-            body.neumann_solve(&f, true)?
+            parts.run(Part::Resolves, || body.neumann_solve(&f, true))?
         }
         NnddVariant::Density => u_tilde.clone(),
     };
-    for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
-        est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
-        let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
-        let dofs = element_dofs(&mesh.triangles[e]);
-        let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
-        est.nndd[e] = (0..6)
-            .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
-            .sum();
-    }
+    parts.run(Part::ElementSums, || {
+        for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
+            est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
+            let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
+            let dofs = element_dofs(&mesh.triangles[e]);
+            let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
+            est.nndd[e] = (0..6)
+                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+                .sum();
+        }
+    });
     drop(s_glo);
 
     // η^FE: the step-p problem at fixed λ_p.
     let (s_fe, r_fe) = if alpha == 1 {
         // Body 1: σ(u¹_p) is FE-equilibrated with its Γc reaction density M⁻¹T¹_p.
         let t = iface.density(data.reaction1);
-        view.equilibrate(p, u_p, &t, data.recovery)?
+        parts.run(Part::Recovery, || {
+            view.equilibrate(p, u_p, &t, data.recovery)
+        })?
     } else {
         let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
-        let u_fe = body.neumann_solve(&iface.forces(&t2), true)?;
-        view.equilibrate(p, &u_fe, &t2, data.recovery)?
+        let u_fe = parts.run(Part::Resolves, || {
+            body.neumann_solve(&iface.forces(&t2), true)
+        })?;
+        parts.run(Part::Recovery, || {
+            view.equilibrate(p, &u_fe, &t2, data.recovery)
+        })?
     };
     res = worst(res, r_fe);
-    for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
-        est.fe[e] = s_fe.cre_squared(sub, l, sig, &p.material);
-    }
+    parts.run(Part::ElementSums, || {
+        for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
+            est.fe[e] = s_fe.cre_squared(sub, l, sig, &p.material);
+        }
+    });
 
     // Contact terms 2∫ t̂ (λ_p − g₀ − u²_n) ≥ 0, on the body-2 elements along Γc (their
     // owners).
     if alpha == 2 {
-        let u2n = p.normal_trace(u_p);
-        let obstacle = p.obstacle(data.lambda);
-        let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
-        let c_glo = iface.segment_products(data.t_glo, &gap);
-        let c_fe = iface.segment_products(data.t_fe, &gap);
-        let edges = edge_elements(mesh);
-        let m = gap.len();
-        for k in 0..c_glo.len() {
-            let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
-            let e = edges[&(a.min(b), a.max(b))];
-            if !body.partition.owns_element(e) {
-                continue;
+        parts.run(Part::ElementSums, || {
+            let u2n = p.normal_trace(u_p);
+            let obstacle = p.obstacle(data.lambda);
+            let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
+            let c_glo = iface.segment_products(data.t_glo, &gap);
+            let c_fe = iface.segment_products(data.t_fe, &gap);
+            let edges = edge_elements(mesh);
+            let m = gap.len();
+            for k in 0..c_glo.len() {
+                let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+                let e = edges[&(a.min(b), a.max(b))];
+                if !body.partition.owns_element(e) {
+                    continue;
+                }
+                est.glo[e] += 2.0 * c_glo[k];
+                est.fe[e] += 2.0 * c_fe[k];
+                est.nndd[e] += match data.nndd_variant {
+                    NnddVariant::Density => 2.0 * c_glo[k],
+                    // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's element.
+                    NnddVariant::Discrete => [k, k + 1]
+                        .iter()
+                        .map(|&i| {
+                            let w = if i == 0 || i == m - 1 { 1.0 } else { 0.5 };
+                            -2.0 * w * data.mu_hat[i] * gap[i]
+                        })
+                        .sum::<f64>(),
+                };
             }
-            est.glo[e] += 2.0 * c_glo[k];
-            est.fe[e] += 2.0 * c_fe[k];
-            est.nndd[e] += match data.nndd_variant {
-                NnddVariant::Density => 2.0 * c_glo[k],
-                // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's element.
-                NnddVariant::Discrete => [k, k + 1]
-                    .iter()
-                    .map(|&i| {
-                        let w = if i == 0 || i == m - 1 { 1.0 } else { 0.5 };
-                        -2.0 * w * data.mu_hat[i] * gap[i]
-                    })
-                    .sum::<f64>(),
-            };
-        }
+        });
     }
     est.residuals = res;
     Ok(est)

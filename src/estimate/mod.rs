@@ -44,6 +44,7 @@ use crate::estimate::equilibrate::{vertex_colours, EquilibrationError, Residuals
 use crate::estimate::overlap::Overlap;
 use crate::estimate::reference::interpolate_nested;
 use crate::parallel::layout::Layout;
+use crate::petsc::LogStage;
 use crate::qp::{QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -91,6 +92,57 @@ pub struct EstimateRecord {
     pub t_hat: Vec<f64>,
 }
 
+/// The parts of an estimate (issue 11 item 4), each a `-log_view` stage nested in Estimation
+/// (`petsc::log::ESTIMATION_PARTS`) and a timer for the summary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// The admissible Γc tractions (Clarabel QPs).
+    TractionQp = 0,
+    /// The FE-equilibrated Neumann re-solves.
+    Resolves,
+    /// The equilibrated stresses (EET + Johnson–Mercier, patch relaxation) and their overlap.
+    Recovery,
+    /// The element contributions of η^glo, η^FE, η^NNDD.
+    ElementSums,
+    /// e_ref against the reference solution.
+    ReferenceError,
+    /// Sums and maxima over the ranks.
+    Reduction,
+}
+
+/// Where the estimates' time goes: per [`Part`], the stage it is logged in and the seconds
+/// spent in it on this rank.
+pub struct Parts {
+    stages: Option<[LogStage; 6]>,
+    seconds: std::cell::Cell<[f64; 6]>,
+}
+
+impl Parts {
+    /// `stages`: the nested `-log_view` stages (`Stages::estimation_parts`), or none.
+    pub fn new(stages: Option<[LogStage; 6]>) -> Parts {
+        Parts {
+            stages,
+            seconds: Default::default(),
+        }
+    }
+
+    /// Run `f` as `part`: inside its stage, its wall time added to the part's.
+    pub fn run<T>(&self, part: Part, f: impl FnOnce() -> T) -> T {
+        let _stage = self.stages.map(|s| s[part as usize].enter());
+        let t = std::time::Instant::now();
+        let r = f();
+        let mut s = self.seconds.get();
+        s[part as usize] += t.elapsed().as_secs_f64();
+        self.seconds.set(s);
+        r
+    }
+
+    /// Seconds per part, in [`Part`]'s order.
+    pub fn seconds(&self) -> [f64; 6] {
+        self.seconds.get()
+    }
+}
+
 /// Computes the estimates of NNDD iterates (collective over all ranks).
 pub struct Estimator<'a> {
     pub iface: Interface,
@@ -102,6 +154,8 @@ pub struct Estimator<'a> {
     /// Per body, this rank's overlapping element set (built at the first estimate; `None`:
     /// the body is on one rank and the recovery runs on its whole mesh).
     pub overlaps: [std::cell::OnceCell<Option<Overlap>>; 2],
+    /// The time of each part of the estimates.
+    pub parts: Parts,
 }
 
 /// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
@@ -151,23 +205,32 @@ impl Estimator<'_> {
             if let Some(b) = body {
                 let sign = if k == 0 { 1.0 } else { -1.0 };
                 let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
-                let u_d = b.neumann_solve(&f, true)?;
+                let u_d = self
+                    .parts
+                    .run(Part::Resolves, || b.neumann_solve(&f, true))?;
                 let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
-                let kd = b.apply_k(&d)?;
-                if !b.is_root() {
-                    continue; // the same numbers on every rank of the group: count them once
-                }
-                sum += d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
-                if k == 1 {
-                    let u2n = b.normal_trace(&it.u[1]);
-                    let obstacle = b.problem.obstacle(&it.lambda);
-                    sum += (0..mu_hat.len())
-                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]))
-                        .sum::<f64>();
-                }
+                sum += self.parts.run(Part::ElementSums, || {
+                    let kd = b.apply_k(&d)?;
+                    if !b.is_root() {
+                        return Ok::<f64, EstimateError>(0.0); // counted once per group
+                    }
+                    let mut s = d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
+                    if k == 1 {
+                        let u2n = b.normal_trace(&it.u[1]);
+                        let obstacle = b.problem.obstacle(&it.lambda);
+                        s += (0..mu_hat.len())
+                            .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]))
+                            .sum::<f64>();
+                    }
+                    Ok(s)
+                })?;
             }
         }
-        Ok(self.layout.sum(sum).max(0.0).sqrt())
+        Ok(self
+            .parts
+            .run(Part::Reduction, || self.layout.sum(sum))
+            .max(0.0)
+            .sqrt())
     }
 
     /// η^glo, η^FE, η^NNDD (and e_ref, γ with a reference) of the iterate `it`.
@@ -183,9 +246,13 @@ impl Estimator<'_> {
             .zip(&it.forces[1])
             .map(|(a, b)| 0.5 * (a - b))
             .collect();
-        let t_glo = self.iface.admissible_traction(&target, &self.qp)?;
         let minus_t2: Vec<f64> = it.forces[1].iter().map(|t| -t).collect();
-        let t_fe = self.iface.admissible_traction(&minus_t2, &self.qp)?;
+        let (t_glo, t_fe) = self.parts.run(Part::TractionQp, || {
+            Ok::<_, EstimateError>((
+                self.iface.admissible_traction(&target, &self.qp)?,
+                self.iface.admissible_traction(&minus_t2, &self.qp)?,
+            ))
+        })?;
         let mu_hat = nodal_contact_forces(it);
         let data = IterationData {
             lambda: &it.lambda,
@@ -202,9 +269,10 @@ impl Estimator<'_> {
         let mut e_ref2 = 0.0;
         for (k, body) in bodies.iter().enumerate() {
             if let Some(b) = body {
-                let overlap = self.overlaps[k].get_or_init(|| self.overlap(b));
+                let overlap = self.overlaps[k]
+                    .get_or_init(|| self.parts.run(Part::Recovery, || self.overlap(b)));
                 let view = overlap.as_ref().map_or(View::Whole, View::Overlap);
-                let est = estimate_body(b, &it.u[k], &self.iface, &data, &view)?;
+                let est = estimate_body(b, &it.u[k], &self.iface, &data, &view, &self.parts)?;
                 let t = est.totals();
                 for c in 0..3 {
                     sums[c] += t[c];
@@ -212,34 +280,44 @@ impl Estimator<'_> {
                 res = worst(res, est.residuals);
                 maps[k] = [&est.glo, &est.fe, &est.nndd]
                     .map(|v| v.iter().map(|x| x.max(0.0).sqrt()).collect());
-                for map in maps[k].iter_mut() {
-                    layout.group_sum(map); // each element from its owner
-                }
-                if let Some(r) = &self.reference {
-                    let fine = r.bodies[k]
-                        .as_ref()
-                        .expect("reference body on the same ranks");
-                    let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &it.u[k])?;
-                    let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
-                    let kd = fine.apply_k(&d)?;
-                    if b.is_root() {
-                        e_ref2 += d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
+                self.parts.run(Part::Reduction, || {
+                    for map in maps[k].iter_mut() {
+                        layout.group_sum(map); // each element from its owner
                     }
+                });
+                if let Some(r) = &self.reference {
+                    e_ref2 += self.parts.run(Part::ReferenceError, || {
+                        let fine = r.bodies[k]
+                            .as_ref()
+                            .expect("reference body on the same ranks");
+                        let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &it.u[k])?;
+                        let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
+                        let kd = fine.apply_k(&d)?;
+                        // Every rank of the group has it: count it once.
+                        Ok::<f64, EstimateError>(if b.is_root() {
+                            d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
+                        } else {
+                            0.0
+                        })
+                    })?;
                 }
             }
         }
-        let [glo, fe, nndd] = sums.map(|s| layout.sum(s));
-        let e_ref = self
-            .reference
-            .as_ref()
-            .map(|_| layout.sum(e_ref2).max(0.0).sqrt());
-        let res = Residuals {
-            divergence: layout.max(res.divergence),
-            internal_jump: layout.max(res.internal_jump),
-            element_jump: layout.max(res.element_jump),
-            boundary: layout.max(res.boundary),
-            point_reaction: layout.max(res.point_reaction),
-        };
+        let (sums, e_ref, res) = self.parts.run(Part::Reduction, || {
+            let e_ref = self
+                .reference
+                .as_ref()
+                .map(|_| layout.sum(e_ref2).max(0.0).sqrt());
+            let res = Residuals {
+                divergence: layout.max(res.divergence),
+                internal_jump: layout.max(res.internal_jump),
+                element_jump: layout.max(res.element_jump),
+                boundary: layout.max(res.boundary),
+                point_reaction: layout.max(res.point_reaction),
+            };
+            (sums.map(|s| layout.sum(s)), e_ref, res)
+        });
+        let [glo, fe, nndd] = sums;
         let iterate = it.clone();
         let eta_glo = glo.max(0.0).sqrt();
         Ok(EstimateRecord {

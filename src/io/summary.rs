@@ -18,9 +18,43 @@ pub struct Timings {
     pub exchange: f64,
     pub monolithic: f64,
     pub estimation: f64,
+    /// The estimation's parts (each also a `-log_view` stage nested in Estimation).
+    pub estimation_parts: EstimationParts,
     pub reference: f64,
     pub output: f64,
     pub total: f64,
+}
+
+/// Seconds in each part of the estimates (maximum over ranks); their sum is the estimation
+/// time up to the glue between the parts.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct EstimationParts {
+    /// The admissible Γc tractions (Clarabel QPs).
+    pub traction_qp: f64,
+    /// The FE-equilibrated Neumann re-solves.
+    pub resolves: f64,
+    /// The stress recovery (and, at the first estimate on a body split over ranks, its overlap).
+    pub recovery: f64,
+    /// The element contributions.
+    pub element_sums: f64,
+    /// e_ref against the reference solution.
+    pub e_ref: f64,
+    /// Sums and maxima over the ranks (with the waits for the slower ranks).
+    pub reduction: f64,
+}
+
+impl From<[f64; 6]> for EstimationParts {
+    /// From the seconds in `estimate::Part`'s order.
+    fn from(s: [f64; 6]) -> Self {
+        EstimationParts {
+            traction_qp: s[0],
+            resolves: s[1],
+            recovery: s[2],
+            element_sums: s[3],
+            e_ref: s[4],
+            reduction: s[5],
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default, Serialize)]

@@ -13,9 +13,22 @@ pub struct Stages {
     pub neumann_step: LogStage,
     pub monolithic: LogStage,
     pub estimation: LogStage,
+    /// The parts of the estimation, nested in it (their time is theirs, not Estimation's).
+    pub estimation_parts: [LogStage; 6],
     pub reference: LogStage,
     pub output: LogStage,
 }
+
+/// The names of the estimation's parts, in the order of `Stages::estimation_parts` and of
+/// `estimate::Part`.
+pub const ESTIMATION_PARTS: [&str; 6] = [
+    "Estimation/traction QP",
+    "Estimation/re-solves",
+    "Estimation/recovery",
+    "Estimation/element sums",
+    "Estimation/e_ref",
+    "Estimation/reduction",
+];
 
 impl Stages {
     pub fn register() -> Result<Stages, PetscError> {
@@ -27,6 +40,13 @@ impl Stages {
             neumann_step: LogStage::register("Neumann step")?,
             monolithic: LogStage::register("Monolithic QP")?,
             estimation: LogStage::register("Estimation")?,
+            estimation_parts: {
+                let mut parts = [LogStage::register(ESTIMATION_PARTS[0])?; 6];
+                for (p, name) in parts.iter_mut().zip(ESTIMATION_PARTS).skip(1) {
+                    *p = LogStage::register(name)?;
+                }
+                parts
+            },
             reference: LogStage::register("Reference solve")?,
             output: LogStage::register("Output")?,
         };
@@ -42,7 +62,10 @@ impl Stages {
             stages.estimation,
             stages.reference,
             stages.output,
-        ] {
+        ]
+        .iter()
+        .chain(&stages.estimation_parts)
+        {
             drop(s.enter());
         }
         Ok(stages)

@@ -63,10 +63,11 @@
 //!
 //! Costs (2-core machine, release, 256 × 256 mesh, 131k triangles): averaged 0.2 s, minimum
 //! energy 0.7 s, 3 patch sweeps 1.2 s. The local operators are cached per triangle shape and
-//! per vertex-patch pattern (up to 65536 each, ≈ 170 MB and ≈ 500 MB at most): a structured
+//! per vertex-patch pattern (up to 262144 each, ≈ 680 MB and ≈ 2 GB at most): a structured
 //! mesh has a handful of each, an unstructured one about one per element and per vertex,
 //! so its first estimate builds them all (the Hertz level-2 mesh, 4024 dofs: 5 s on 2 ranks)
-//! and beyond the capacities they are rebuilt at every use.
+//! and beyond the capacities they are rebuilt at every use (at 65536, Hertz level 5's estimate
+//! took 386 s instead of 78 s).
 //!
 //! Files, one concept each:
 //! - `topology`: mesh edges, vertex stars, vertex colouring and sweep keys, owned elements.
@@ -102,12 +103,12 @@ const NC: usize = 27;
 /// Number of edge-traction values per element: 3 edges × 2 end points × 2 components.
 const NT: usize = 12;
 /// Shape-cache capacity; beyond it the local operator is recomputed per element.
-const MAX_SHAPES: usize = 1 << 16;
+const MAX_SHAPES: usize = 1 << 18;
 /// Quantum of the shape key (normalised coordinates), 2⁻⁴⁴ ≈ 5.7e-14.
 const SHAPE_QUANTUM: f64 = 1.0 / 17_592_186_044_416.0;
 
 /// Capacity of the patch-operator cache; beyond it patch operators are recomputed.
-const MAX_PATCHES: usize = 1 << 16;
+const MAX_PATCHES: usize = 1 << 18;
 
 #[cfg(test)]
 thread_local! {
