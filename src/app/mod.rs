@@ -154,6 +154,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         reference,
         overlaps: Default::default(),
         parts: Parts::new(Some(stages.estimation_parts)),
+        operators: Default::default(),
     });
 
     // Solve: the NNDD (paper §3) or the monolithic check.

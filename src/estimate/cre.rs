@@ -5,8 +5,8 @@
 use std::collections::HashMap;
 
 use super::equilibrate::{
-    equilibrate_restricted, equilibrate_with, Boundary, BoundaryEdge, EdgeComponent,
-    EquilibratedStress, Residuals, StarChoice,
+    equilibrate_restricted, Boundary, BoundaryEdge, EdgeComponent, EquilibratedStress,
+    OperatorCache, Residuals, StarChoice,
 };
 use super::overlap::Overlap;
 use super::traction::Interface;
@@ -64,6 +64,7 @@ impl View<'_> {
         u: &[f64],
         gc: &[f64],
         choice: StarChoice,
+        operators: &mut OperatorCache,
     ) -> Result<(EquilibratedStress, Residuals), EstimateError> {
         let b = boundary(p, gc);
         let err = |source| EstimateError::Equilibration {
@@ -72,7 +73,16 @@ impl View<'_> {
         };
         match self {
             View::Whole => {
-                let s = equilibrate_with(&p.mesh, &p.material, u, &b, choice).map_err(err)?;
+                let s = equilibrate_restricted(
+                    &p.mesh,
+                    &p.material,
+                    u,
+                    &b,
+                    choice,
+                    None,
+                    Some(operators),
+                )
+                .map_err(err)?;
                 let r = s.residuals(&p.mesh, &b);
                 Ok((s, r))
             }
@@ -86,6 +96,7 @@ impl View<'_> {
                     &b,
                     choice,
                     Some(&restriction),
+                    Some(operators),
                 )
                 .map_err(err)?;
                 let r = s.residuals_restricted(&o.mesh, &b, Some(&o.owned));
@@ -126,6 +137,7 @@ pub fn estimate_body(
     data: &IterationData,
     view: &View,
     parts: &Parts,
+    operators: &mut OperatorCache,
 ) -> Result<BodyEstimate, EstimateError> {
     let p = &body.problem;
     let alpha = p.alpha;
@@ -145,7 +157,7 @@ pub fn estimate_body(
         body.neumann_solve(&iface.forces(&t_alpha), true)
     })?;
     let (s_glo, mut res) = parts.run(Part::Recovery, || {
-        view.equilibrate(p, &u_tilde, &t_alpha, data.recovery)
+        view.equilibrate(p, &u_tilde, &t_alpha, data.recovery, operators)
     })?;
     let mut est = BodyEstimate {
         glo: vec![0.0; ne],
@@ -180,7 +192,7 @@ pub fn estimate_body(
         // Body 1: σ(u¹_p) is FE-equilibrated with its Γc reaction density M⁻¹T¹_p.
         let t = iface.density(data.reaction1);
         parts.run(Part::Recovery, || {
-            view.equilibrate(p, u_p, &t, data.recovery)
+            view.equilibrate(p, u_p, &t, data.recovery, operators)
         })?
     } else {
         let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
@@ -188,7 +200,7 @@ pub fn estimate_body(
             body.neumann_solve(&iface.forces(&t2), true)
         })?;
         parts.run(Part::Recovery, || {
-            view.equilibrate(p, &u_fe, &t2, data.recovery)
+            view.equilibrate(p, &u_fe, &t2, data.recovery, operators)
         })?
     };
     res = worst(res, r_fe);

@@ -40,7 +40,9 @@ pub use traction::Interface;
 use crate::dd::body::{Body, BodyError};
 use crate::dd::nndd::Iterate;
 use crate::estimate::cre::{estimate_body, worst, IterationData, View};
-use crate::estimate::equilibrate::{vertex_colours, EquilibrationError, Residuals, StarChoice};
+use crate::estimate::equilibrate::{
+    vertex_colours, EquilibrationError, OperatorCache, Residuals, StarChoice,
+};
 use crate::estimate::overlap::Overlap;
 use crate::estimate::reference::interpolate_nested;
 use crate::parallel::layout::Layout;
@@ -156,6 +158,8 @@ pub struct Estimator<'a> {
     pub overlaps: [std::cell::OnceCell<Option<Overlap>>; 2],
     /// The time of each part of the estimates.
     pub parts: Parts,
+    /// Per body, the recovery's local operators on this rank, kept across estimates.
+    pub operators: [std::cell::RefCell<OperatorCache>; 2],
 }
 
 /// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
@@ -272,7 +276,15 @@ impl Estimator<'_> {
                 let overlap = self.overlaps[k]
                     .get_or_init(|| self.parts.run(Part::Recovery, || self.overlap(b)));
                 let view = overlap.as_ref().map_or(View::Whole, View::Overlap);
-                let est = estimate_body(b, &it.u[k], &self.iface, &data, &view, &self.parts)?;
+                let est = estimate_body(
+                    b,
+                    &it.u[k],
+                    &self.iface,
+                    &data,
+                    &view,
+                    &self.parts,
+                    &mut self.operators[k].borrow_mut(),
+                )?;
                 let t = est.totals();
                 for c in 0..3 {
                     sums[c] += t[c];

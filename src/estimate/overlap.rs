@@ -243,9 +243,16 @@ mod tests {
             let own: Vec<bool> = part.iter().map(|&q| q == p).collect();
             let ov = Overlap::new(mesh, &own, rings, &colours);
             let (us, bs) = (ov.restrict_dofs(u), ov.restrict_boundary(bd));
-            let eq =
-                equilibrate_restricted(&ov.mesh, &STEEL, &us, &bs, choice, Some(&ov.restriction()))
-                    .unwrap();
+            let eq = equilibrate_restricted(
+                &ov.mesh,
+                &STEEL,
+                &us,
+                &bs,
+                choice,
+                Some(&ov.restriction()),
+                None,
+            )
+            .unwrap();
             let cre = eq.cre_map(&ov.mesh, &STEEL, &us);
             for (le, &ge) in ov
                 .elements
@@ -456,6 +463,7 @@ mod tests {
             &all.restrict_boundary(&bd),
             StarChoice::minimum_energy(),
             Some(&all.restriction()),
+            None,
         );
         assert!(matches!(
             err,

@@ -201,7 +201,7 @@ pub(super) fn apply_operator(g: &[f64; NC * NT], t: &[f64; NT]) -> [f64; NC] {
 
 /// JM operators per triangle shape (normalised vertices, quantised key).
 #[derive(Default)]
-pub(super) struct ShapeCache {
+pub(crate) struct ShapeCache {
     map: HashMap<[i64; 4], usize>,
     pub(super) ops: Vec<[f64; NC * NT]>,
     scratch: Option<Box<[f64; NC * NT]>>,

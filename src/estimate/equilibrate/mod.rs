@@ -67,7 +67,8 @@
 //! mesh has a handful of each, an unstructured one about one per element and per vertex,
 //! so its first estimate builds them all (the Hertz level-2 mesh, 4024 dofs: 5 s on 2 ranks)
 //! and beyond the capacities they are rebuilt at every use (at 65536, Hertz level 5's estimate
-//! took 386 s instead of 78 s).
+//! took 386 s instead of 78 s). An [`OperatorCache`] keeps them from one recovery to the next
+//! (the estimator holds one per body: 57.5 s).
 //!
 //! Files, one concept each:
 //! - `topology`: mesh edges, vertex stars, vertex colouring and sweep keys, owned elements.
@@ -93,6 +94,43 @@ mod topology;
 
 pub use restricted::equilibrate_restricted;
 pub use topology::{sweep_key, vertex_colours};
+
+/// The local operators of the recovery, which depend on the mesh and the material only (the
+/// JM element operators per triangle shape, the patch operators per vertex-patch pattern and
+/// the element Hessians), kept from one recovery to the next (issue 11: the later estimates
+/// reuse everything that does not depend on the iterate). One per body and rank; its
+/// capacities are those of the per-call caches.
+#[derive(Default)]
+pub struct OperatorCache {
+    pub(crate) shapes: johnson_mercier::ShapeCache,
+    pub(crate) patch_map: std::collections::HashMap<Vec<i64>, usize>,
+    pub(crate) patch_ops: Vec<relaxation::PatchOp>,
+    pub(crate) hhat: std::collections::HashMap<usize, Box<[f64; NT * NT]>>,
+    /// The material the operators were built for (they are rebuilt for another).
+    material: Option<Material>,
+}
+
+impl OperatorCache {
+    /// Ready for `material`: emptied if it was filled for another one.
+    pub(crate) fn for_material(&mut self, material: &Material) -> &mut OperatorCache {
+        if self.material != Some(*material) {
+            *self = OperatorCache {
+                material: Some(*material),
+                ..Default::default()
+            };
+        }
+        self
+    }
+
+    /// Number of (shape, patch) operators held.
+    pub fn len(&self) -> (usize, usize) {
+        (self.shapes.ops.len(), self.patch_ops.len())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == (0, 0)
+    }
+}
 
 use crate::fem::mesh::Mesh;
 use crate::fem::Material;
@@ -321,7 +359,7 @@ pub fn equilibrate_with(
     boundary: &Boundary,
     choice: StarChoice,
 ) -> Result<EquilibratedStress, EquilibrationError> {
-    equilibrate_restricted(mesh, material, u, boundary, choice, None)
+    equilibrate_restricted(mesh, material, u, boundary, choice, None, None)
 }
 
 /// Unit-test helpers are shared with `overlap.rs` (`fe_solve`, `block_rect`, `STEEL`).
@@ -492,6 +530,48 @@ pub(crate) mod tests {
             for (a, b) in cached.coefficients(e).iter().zip(uncached.coefficients(e)) {
                 assert!((a - b).abs() < 1e-10 * smax);
             }
+        }
+    }
+
+    #[test]
+    fn kept_operators_give_the_same_stress_and_grow_no_more() {
+        let (mut mesh, bd) = block(4);
+        let centre = mesh.node(2, 2);
+        mesh.points[centre][0] += 0.03;
+        let u = fe_solve(&mesh, &bd);
+        let v: Vec<f64> = u
+            .iter()
+            .enumerate()
+            .map(|(i, x)| x * (1.0 + 0.1 * (i % 3) as f64))
+            .collect();
+        let choice = StarChoice::PatchRelaxation { sweeps: 2 };
+        let mut ops = OperatorCache::default();
+        let with = |w: &[f64], ops: &mut OperatorCache| {
+            equilibrate_restricted(&mesh, &STEEL, w, &bd, choice, None, Some(ops)).unwrap()
+        };
+        let first = with(&u, &mut ops);
+        let filled = ops.len();
+        assert!(filled.0 > 0 && filled.1 > 0, "{filled:?}");
+        // Another field on the same mesh: the same operators, reused, and the same σ̂ as a
+        // recovery with fresh ones, bit for bit.
+        let second = with(&v, &mut ops);
+        assert_eq!(ops.len(), filled);
+        let fresh = equilibrate_with(&mesh, &STEEL, &v, &bd, choice).unwrap();
+        let fresh_u = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
+        for e in 0..mesh.triangles.len() {
+            assert_eq!(second.coefficients(e), fresh.coefficients(e));
+            assert_eq!(first.coefficients(e), fresh_u.coefficients(e));
+        }
+        // Another material: the operators are rebuilt for it.
+        let soft = Material {
+            young: STEEL.young / 3.0,
+            poisson: 0.4,
+        };
+        let third =
+            equilibrate_restricted(&mesh, &soft, &v, &bd, choice, None, Some(&mut ops)).unwrap();
+        let fresh_soft = equilibrate_with(&mesh, &soft, &v, &bd, choice).unwrap();
+        for e in 0..mesh.triangles.len() {
+            assert_eq!(third.coefficients(e), fresh_soft.coefficients(e));
         }
     }
 }

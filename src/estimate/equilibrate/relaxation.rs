@@ -16,7 +16,7 @@ use crate::fem::mesh::Mesh;
 /// admissible perturbations and the inverse of the normalised patch Hessian
 /// (NᵀH_pN)/h_p² (d × d).
 #[derive(Default)]
-pub(super) struct PatchOp {
+pub(crate) struct PatchOp {
     d: usize,
     basis: Vec<f64>,
     hinv: Vec<f64>,

@@ -1,16 +1,14 @@
 //! The construction itself: σ̂ on a mesh or on an overlapping sub-mesh (FE stresses and nodal
 //! forces, (a) the star problems, (b) the JM fields, then the chosen lowering of the energy).
 
-use std::collections::HashMap;
-
 use super::eet::{edge_conditions, edge_tractions, known_moment, Bc, Stars};
 use super::energy::{compliance, total_energy, EnergyContext};
-use super::johnson_mercier::{jm_fields, local_frame, traction, ShapeCache};
+use super::johnson_mercier::{jm_fields, local_frame, traction};
 use super::relaxation::Relaxation;
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
 use super::{
-    Boundary, EquilibratedStress, EquilibrationError, EquilibrationStats, Restriction, StarChoice,
-    NC, NONE,
+    Boundary, EquilibratedStress, EquilibrationError, EquilibrationStats, OperatorCache,
+    Restriction, StarChoice, NC, NONE,
 };
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
@@ -34,7 +32,11 @@ pub fn equilibrate_restricted(
     boundary: &Boundary,
     choice: StarChoice,
     restriction: Option<&Restriction>,
+    operators: Option<&mut OperatorCache>,
 ) -> Result<EquilibratedStress, EquilibrationError> {
+    // The local operators: the caller's (kept across calls) or this call's own.
+    let mut own = OperatorCache::default();
+    let operators = operators.unwrap_or(&mut own).for_material(material);
     let ndof = mesh.num_dofs();
     let nt = mesh.triangles.len();
     let nn = mesh.num_nodes();
@@ -213,15 +215,19 @@ pub fn equilibrate_restricted(
     let star_parameters: usize = stars.star_op.iter().map(|&o| stars.ops[o].nnull).sum();
 
     // (b) JM fields.
-    let mut cache = ShapeCache::default();
+    let mut cache = std::mem::take(&mut operators.shapes);
     let mut shape_of = vec![NONE; nt];
     let mut coef = vec![[0.0; NC]; nt];
     let mut trac = edge_tractions(&topo, &bc, &moments);
     for e in 0..nt {
         let (_, _, qv) = local_frame(&mesh.triangle_points(e));
-        shape_of[e] = cache
-            .index(&qv)
-            .ok_or(EquilibrationError::SingularLocalProblem { element: e })?;
+        match cache.index(&qv) {
+            Some(i) => shape_of[e] = i,
+            None => {
+                operators.shapes = cache;
+                return Err(EquilibrationError::SingularLocalProblem { element: e });
+            }
+        }
     }
     jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
     let energy_averaged = total_energy(mesh, material, &coef, &sig, owned);
@@ -279,10 +285,10 @@ pub fn equilibrate_restricted(
             sig: &sig,
             shape_of: &shape_of,
             cm: compliance(material),
-            map: HashMap::new(),
-            ops: Vec::new(),
+            map: std::mem::take(&mut operators.patch_map),
+            ops: std::mem::take(&mut operators.patch_ops),
             vertex_op: vec![NONE; nn],
-            hhat: HashMap::new(),
+            hhat: std::mem::take(&mut operators.hhat),
         };
         // Multicolour symmetric Gauss–Seidel: vertices by increasing sweep key (colour, then
         // global index) in the even sweeps, decreasing in the odd ones. The steps of one
@@ -306,11 +312,15 @@ pub fn equilibrate_restricted(
             }
         }
         stats.patch_patterns = relax.ops.len();
+        operators.patch_map = relax.map;
+        operators.patch_ops = relax.ops;
+        operators.hhat = relax.hhat;
         // Rebuild σ̂ from the edge tractions (no drift of the incremental updates).
         jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
         stats.energy_final = total_energy(mesh, material, &coef, &sig, owned);
     }
     stats.shapes = cache.ops.len();
+    operators.shapes = cache;
     Ok(EquilibratedStress {
         coef,
         reactions,
@@ -355,7 +365,7 @@ mod tests {
             owned: &owned,
         };
         let restricted = |choice, r: &Restriction| {
-            equilibrate_restricted(&mesh, &STEEL, &u, &bd, choice, Some(r))
+            equilibrate_restricted(&mesh, &STEEL, &u, &bd, choice, Some(r), None)
         };
         assert!(matches!(
             restricted(StarChoice::minimum_energy(), &all),
