@@ -106,7 +106,7 @@ impl Settings {
         )?;
         let (contact, _) = o.string(
             "-nndd_contact",
-            "With -nndd_mesh: Gamma_c as body 1's curve,body 2's curve (physical curve names)",
+            "With -nndd_mesh: Gamma_c as body 1's curve,body 2's curve (physical curve names); each node of body 2's curve must lie on the normal of body 1's curve at a node (either curve may be curved)",
             "",
         )?;
         let problem = match problem.as_str() {
