@@ -29,33 +29,11 @@ fn read(prefix: &Path, dataset: &str) -> Vec<f64> {
 }
 
 fn main() {
-    let mut levels = vec![1u32, 2, 3, 4];
-    let mut estimate_up_to = u32::MAX;
-    let mut reference_factor = 4u32;
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--levels" => {
-                levels = it
-                    .next()
-                    .expect("--levels 1,2,…")
-                    .split(',')
-                    .map(|s| s.parse().expect("a level"))
-                    .collect()
-            }
-            "--estimate-up-to" => {
-                estimate_up_to = it.next().and_then(|s| s.parse().ok()).expect("a level")
-            }
-            "--reference-factor" => {
-                reference_factor = it.next().and_then(|s| s.parse().ok()).expect("r")
-            }
-            other => {
-                eprintln!("hertz: unknown argument {other}");
-                std::process::exit(1);
-            }
-        }
-    }
+    let runner::LevelArgs {
+        levels,
+        estimate_up_to,
+        reference_factor,
+    } = runner::LevelArgs::parse("hertz");
     let dir = Path::new("results/hertz");
     std::fs::create_dir_all(dir).expect("results/hertz");
     let mut table = String::from(
@@ -64,7 +42,7 @@ fn main() {
     let mut finest = None;
     for &level in &levels {
         let msh = dir.join(format!("hertz-{level}.msh"));
-        runner::gmsh_level("examples/hertz/hertz.geo", level as usize, &msh);
+        runner::gmsh_level("examples/hertz/hertz.geo", level, &msh);
         let prefix = dir.join(format!("level{level}"));
         let m = msh.to_str().unwrap();
         let r = reference_factor.to_string();

@@ -3,7 +3,7 @@
 //! 2 ranks (NNDD to tol 1e−8 and the monolithic check) with the estimate of the final iterate
 //! and e_ref on the mesh refined r times (`--reference-factor r`, default 4).
 //!
-//! Run: `jobs/pin [--levels 1,2,3,4] [--reference-factor r]` → a table on stdout and in
+//! Run: `jobs/pin [--levels 1,2,3,4] [--estimate-up-to L] [--reference-factor r]` → a table on stdout and in
 //! `results/pin/table.txt`.
 
 #[path = "runner.rs"]
@@ -13,29 +13,11 @@ use runner::num;
 use std::path::Path;
 
 fn main() {
-    let mut levels = vec![1usize, 2, 3, 4];
-    let mut reference_factor = 4usize;
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--levels" => {
-                levels = it
-                    .next()
-                    .expect("--levels 1,2,…")
-                    .split(',')
-                    .map(|s| s.parse().expect("a level"))
-                    .collect()
-            }
-            "--reference-factor" => {
-                reference_factor = it.next().and_then(|s| s.parse().ok()).expect("r")
-            }
-            other => {
-                eprintln!("pin: unknown argument {other}");
-                std::process::exit(1);
-            }
-        }
-    }
+    let runner::LevelArgs {
+        levels,
+        estimate_up_to,
+        reference_factor,
+    } = runner::LevelArgs::parse("pin");
     let dir = Path::new("results/pin");
     std::fs::create_dir_all(dir).expect("results/pin");
     let mut table = String::from(
@@ -48,9 +30,12 @@ fn main() {
         let m = msh.to_str().unwrap();
         let r = reference_factor.to_string();
         let prefix = dir.join(format!("level{level}"));
-        let mut extra = vec!["-nndd_mesh", m, "-nndd_estimate"];
-        if reference_factor > 1 {
-            extra.extend(["-nndd_reference_factor", &r]);
+        let mut extra = vec!["-nndd_mesh", m];
+        if level <= estimate_up_to {
+            extra.push("-nndd_estimate");
+            if reference_factor > 1 {
+                extra.extend(["-nndd_reference_factor", &r]);
+            }
         }
         let (j, wall) = runner::try_run(2, "examples/pin/pin.opts", &[], &prefix, &extra)
             .unwrap_or_else(|e| panic!("level {level}: {e}"));

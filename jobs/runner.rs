@@ -135,3 +135,49 @@ pub fn gmsh_level(geo: &str, level: usize, out: &Path) {
         .expect("gmsh runs (jobs/setup installs it)");
     assert!(st.success(), "gmsh failed on {geo}, level {level}");
 }
+
+/// The arguments of the mesh-level jobs (jobs/hertz, jobs/pin):
+/// `[--levels 1,2,3,4] [--estimate-up-to L] [--reference-factor r]`.
+pub struct LevelArgs {
+    pub levels: Vec<usize>,
+    /// Estimate on the levels up to this one (default: all).
+    pub estimate_up_to: usize,
+    /// e_ref on the mesh refined r times (default 4; 0 or 1: none).
+    pub reference_factor: usize,
+}
+
+impl LevelArgs {
+    /// From the command line; an unknown argument ends `job` with a message.
+    pub fn parse(job: &str) -> LevelArgs {
+        let mut a = LevelArgs {
+            levels: vec![1, 2, 3, 4],
+            estimate_up_to: usize::MAX,
+            reference_factor: 4,
+        };
+        let args: Vec<String> = std::env::args().skip(1).collect();
+        let mut it = args.iter();
+        while let Some(arg) = it.next() {
+            match arg.as_str() {
+                "--levels" => {
+                    a.levels = it
+                        .next()
+                        .expect("--levels 1,2,…")
+                        .split(',')
+                        .map(|s| s.parse().expect("a level"))
+                        .collect()
+                }
+                "--estimate-up-to" => {
+                    a.estimate_up_to = it.next().and_then(|s| s.parse().ok()).expect("a level")
+                }
+                "--reference-factor" => {
+                    a.reference_factor = it.next().and_then(|s| s.parse().ok()).expect("r")
+                }
+                other => {
+                    eprintln!("{job}: unknown argument {other}");
+                    std::process::exit(1);
+                }
+            }
+        }
+        a
+    }
+}

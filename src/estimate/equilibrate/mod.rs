@@ -509,12 +509,19 @@ pub(crate) mod tests {
         assert!(worst < 1e-10);
     }
 
-    #[test]
-    fn uncached_paths_agree_with_cached() {
+    /// `block(4)` with its centre node moved (so its patches are not all alike) and its FE
+    /// solution.
+    fn skewed_block() -> (Mesh, Boundary, Vec<f64>) {
         let (mut mesh, bd) = block(4);
         let centre = mesh.node(2, 2);
         mesh.points[centre][0] += 0.03;
         let u = fe_solve(&mesh, &bd);
+        (mesh, bd, u)
+    }
+
+    #[test]
+    fn uncached_paths_agree_with_cached() {
+        let (mesh, bd, u) = skewed_block();
         let choice = StarChoice::PatchRelaxation { sweeps: 2 };
         let cached = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
         CAPACITY.with(|c| c.set((3, 2)));
@@ -535,10 +542,7 @@ pub(crate) mod tests {
 
     #[test]
     fn kept_operators_give_the_same_stress_and_grow_no_more() {
-        let (mut mesh, bd) = block(4);
-        let centre = mesh.node(2, 2);
-        mesh.points[centre][0] += 0.03;
-        let u = fe_solve(&mesh, &bd);
+        let (mesh, bd, u) = skewed_block();
         let v: Vec<f64> = u
             .iter()
             .enumerate()
