@@ -6,7 +6,8 @@
 //! benchmark (examples/hertz) at mesh levels L, meshed by Gmsh (`results/bench-scaling-hertz.txt`).
 //! `--estimate-up-to L`: the levels above L run without the estimate (the growth of the solve
 //! alone is printed too).
-//! Run through `jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [--estimate-up-to L] [n or L …]`.
+//! `--recovery NAME`: the NNDD runs' -nndd_recovery (to compare `patch` with `patch-classic`).
+//! Run through `jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [--estimate-up-to L] [--recovery NAME] [n or L …]`.
 
 #[path = "runner.rs"]
 mod runner;
@@ -16,12 +17,14 @@ use std::io::Write;
 use serde_json::Value;
 
 const USAGE: &str =
-    "usage: jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [--estimate-up-to L] [n …]
+    "usage: jobs/bench-scaling [--quick] [--hertz] [--ranks 1,2,4] [--estimate-up-to L] [--recovery NAME] [n …]
   n …           mesh levels (default 64 128 256 512 1024; --quick: 64 128)
   --hertz       the Hertz benchmark meshed by Gmsh instead, at levels L (default 2 3 4 5 6,
                 52404 dofs at L = 4, x4 per level; --quick: 2 3)
   --ranks LIST  MPI rank counts of the NNDD runs (default 1,2,4; mpirun --oversubscribe above 2)
   --estimate-up-to L  no estimate on the levels above L (default: the estimate on every level)
+  --recovery NAME     the -nndd_recovery of the NNDD runs (default patch; patch-classic: the
+                      recovery it replaced, to compare)
   The monolithic solve runs once per n on 2 ranks. NNDD=path picks the binary.";
 
 /// One mesh level of the benchmark: its options and its expected dofs.
@@ -61,7 +64,7 @@ impl Case {
 type Outcome = Result<(Value, f64), String>;
 
 fn main() {
-    let (levels, ranks, hertz, estimate_up_to) = parse_args();
+    let (levels, ranks, hertz, estimate_up_to, recovery) = parse_args();
     let dir = runner::scratch("scaling");
     std::fs::create_dir_all(&dir).expect("scratch directory");
     std::fs::create_dir_all("results").expect("results/ directory");
@@ -72,7 +75,7 @@ fn main() {
     };
     let mut out = Out::new(table);
     out.line(&format!(
-        "# jobs/bench-scaling: {}, tol 1e-8, final estimate (no reference){}; {} on {} ({} cores); {} = {:?}, N = {:?}",
+        "# jobs/bench-scaling: {}, tol 1e-8, final estimate (no reference, -nndd_recovery {recovery}){}; {} on {} ({} cores); {} = {:?}, N = {:?}",
         if hertz { "Hertz (Gmsh meshes)" } else { "paper" },
         estimate_up_to.map_or(String::new(), |l| format!(" up to level {l}")),
         now(),
@@ -150,6 +153,7 @@ fn main() {
                 extra.push("-nndd_estimate");
             }
             extra.extend(["-nndd_estimate_every", "0", "-nndd_reference_factor", "0"]);
+            extra.extend(["-nndd_recovery", &recovery]);
             let args = case.with(&extra);
             let args: Vec<&str> = args.iter().map(String::as_str).collect();
             let res: Outcome = runner::try_run(np, case.opts, mpirun_args, &prefix, &args);
@@ -240,8 +244,12 @@ const NOTES: [&str; 8] = [
     "failed: the run ended without a summary (exit status and its last error line on stderr); the others went on",
 ];
 
-fn parse_args() -> (Vec<usize>, Vec<usize>, bool, Option<usize>) {
+/// The command line: levels, ranks, --hertz, --estimate-up-to, --recovery.
+type Args = (Vec<usize>, Vec<usize>, bool, Option<usize>, String);
+
+fn parse_args() -> Args {
     let mut levels = Vec::new();
+    let mut recovery = "patch".to_string();
     let mut estimate_up_to = None;
     let mut ranks = vec![1, 2, 4];
     let mut quick = false;
@@ -261,6 +269,11 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool, Option<usize>) {
                         .and_then(|s| s.parse::<usize>().ok())
                         .unwrap_or_else(|| usage("--estimate-up-to needs a level")),
                 )
+            }
+            "--recovery" => {
+                recovery = args
+                    .next()
+                    .unwrap_or_else(|| usage("--recovery needs a name, e.g. patch-classic"));
             }
             "--ranks" => {
                 let list = args
@@ -292,7 +305,7 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool, Option<usize>) {
     levels.dedup();
     ranks.sort_unstable();
     ranks.dedup();
-    (levels, ranks, hertz, estimate_up_to)
+    (levels, ranks, hertz, estimate_up_to, recovery)
 }
 
 fn usage(msg: &str) -> ! {

@@ -2,14 +2,26 @@
 //! η^glo, η^FE, η^NNDD, e_ref (reference mesh 8n), the effectivity and the ratio (25), for the
 //! recoveries `eet` (plain EET + Johnson–Mercier) and `patch` (with patch-wise complementary
 //! energy minimisation); then the largest equilibrium residuals and the estimation time as a
-//! fraction of the solve time at n = 64 and 256. Run through `jobs/table-estimates [n …]`.
+//! fraction of the solve time, per n (`--compare 16,64,256,512,1024` by default), for the
+//! default recovery and the one it replaced (issue 11). Run through
+//! `jobs/table-estimates [--compare n,n,…] [n …]`.
 
 #[path = "runner.rs"]
 mod runner;
 use runner::num;
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    // `--compare n,n,…`: the levels of the recovery comparison.
+    let mut compare_levels = vec![16, 64, 256, 512, 1024];
+    if let Some(k) = args.iter().position(|a| a == "--compare") {
+        let list = args.get(k + 1).expect("--compare n,n,…").clone();
+        compare_levels = list
+            .split(',')
+            .map(|a| a.parse().expect("integers"))
+            .collect();
+        args.drain(k..k + 2);
+    }
     let levels: Vec<usize> = if args.is_empty() {
         vec![4, 8, 16, 32]
     } else {
@@ -76,38 +88,68 @@ fn main() {
         "equilibrium residuals (max over all runs, relative): divergence {:.1e}, internal jumps {:.1e}, element jumps {:.1e}, boundary {:.1e}, point reactions {:.1e}",
         worst[0], worst[1], worst[2], worst[3], worst[4]
     );
-    println!(
-        "\n{:>5} {:>9} {:>10} {:>10} {:>10}",
-        "n", "dofs", "solve_s", "estim_s", "fraction"
-    );
-    for n in [64usize, 256] {
-        eprintln!("table-estimates: timing n = {n} …");
-        let ns = n.to_string();
-        let (j, _) = runner::run(
-            2,
-            &dir.join(format!("t{n}")),
-            &[
-                "-nndd_n",
-                &ns,
-                "-nndd_estimate",
-                "-nndd_estimate_every",
-                "0",
-                "-nndd_reference_factor",
-                "0",
-            ],
-        );
-        let t = &j["timings"];
-        let solve = runner::solve_seconds(&j);
-        let est = num(t, "estimation");
-        println!(
-            "{:>5} {:>9} {:>10.3} {:>10.3} {:>10.3}",
-            n,
-            j["dofs"],
-            solve,
-            est,
-            est / solve
-        );
-    }
-    println!("(one estimate of the final iterate, patch recovery; solve = assembly + factorisation + NNDD loop, max over ranks)");
+    compare(&dir, &compare_levels);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Issue 11's table: per n, the solve and one estimate of the final iterate (tol 1e-8, 2
+/// ranks) with the default recovery (`patch`) and the one it replaced (`patch-classic`), one
+/// run each: the solve time, the estimate's time, their ratio, the effectivity (against the
+/// reference on the mesh 8n, for n ≤ 64) and the peak memory per rank.
+fn compare(dir: &std::path::Path, levels: &[usize]) {
+    println!(
+        "\n{:>5} {:>8} {:>14} {:>4} {:>9} {:>9} {:>7} {:>8} {:>16}",
+        "n", "dofs", "recovery", "its", "solve_s", "estim_s", "ratio", "gamma", "MiB/rank"
+    );
+    for &n in levels {
+        for recovery in ["patch", "patch-classic"] {
+            eprintln!("table-estimates: comparison n = {n}, {recovery} …");
+            let ns = n.to_string();
+            let reference = if n <= 64 { "8" } else { "0" };
+            let (j, _) = runner::run(
+                2,
+                &dir.join(format!("c{n}{recovery}")),
+                &[
+                    "-nndd_n",
+                    &ns,
+                    "-nndd_estimate",
+                    "-nndd_estimate_every",
+                    "0",
+                    "-nndd_reference_factor",
+                    reference,
+                    "-nndd_recovery",
+                    recovery,
+                ],
+            );
+            let solve = runner::solve_seconds(&j);
+            let est = num(&j["timings"], "estimation");
+            let last = j["estimates"].as_array().and_then(|e| e.last()).cloned();
+            let gamma = last.map_or(f64::NAN, |e| num(&e, "effectivity"));
+            let mib: Vec<String> = j["peak_memory_mib_per_rank"]
+                .as_array()
+                .map(|v| {
+                    v.iter()
+                        .map(|m| format!("{:.0}", m.as_f64().unwrap_or(0.0)))
+                        .collect()
+                })
+                .unwrap_or_default();
+            println!(
+                "{:>5} {:>8} {:>14} {:>4} {:>9.3} {:>9.3} {:>7.3} {:>8} {:>16}",
+                n,
+                j["dofs"],
+                recovery,
+                j["iterations"],
+                solve,
+                est,
+                est / solve,
+                if gamma.is_nan() {
+                    "-".to_string()
+                } else {
+                    format!("{gamma:.4}")
+                },
+                mib.join(", ")
+            );
+        }
+    }
+    println!("(one estimate of the final iterate, tol 1e-8, 2 ranks; solve = assembly + factorisation + NNDD loop, max over ranks; ratio = estim_s / solve_s; gamma = eta_glo / e_ref on the mesh 8n, n <= 64 only; patch: 6 sweeps, the eta_FE recovery warm-started with 1; patch-classic: 10 sweeps each)");
 }

@@ -6,6 +6,16 @@
 mod common;
 use common::*;
 
+/// The recoveries every test runs with: the default (`patch`: planned on the edge
+/// tractions, the η^FE recovery warm-started) and the one it replaced (`patch-classic`, its
+/// 10 sweeps).
+const RECOVERIES: [&str; 2] = ["patch", "patch-classic"];
+
+/// `args` with `-nndd_recovery recovery`.
+fn with<'a>(args: &[&'a str], recovery: &'a str) -> Vec<&'a str> {
+    [args, &["-nndd_recovery", recovery]].concat()
+}
+
 fn estimates(j: &serde_json::Value) -> Vec<serde_json::Value> {
     j["estimates"]
         .as_array()
@@ -22,22 +32,31 @@ fn g(e: &serde_json::Value, k: &str) -> f64 {
 /// patch test of two equal bodies in one update: its first θ is 1/2).
 #[test]
 fn uniform_patch_test_has_zero_estimates() {
-    let dir = scratch("est-uniform");
+    for recovery in RECOVERIES {
+        uniform_patch_test_has_zero_estimates_with(recovery);
+    }
+}
+
+fn uniform_patch_test_has_zero_estimates_with(recovery: &str) {
+    let dir = scratch(&format!("est-uniform-{recovery}"));
     let j = solve(
         2,
         &dir.join("u"),
-        &[
-            "-nndd_problem",
-            "uniform",
-            "-nndd_n",
-            "4",
-            "-nndd_theta",
-            "0.25",
-            "-nndd_tol",
-            "1e-13",
-            "-nndd_estimate_every",
-            "2",
-        ],
+        &with(
+            &[
+                "-nndd_problem",
+                "uniform",
+                "-nndd_n",
+                "4",
+                "-nndd_theta",
+                "0.25",
+                "-nndd_tol",
+                "1e-13",
+                "-nndd_estimate_every",
+                "2",
+            ],
+            recovery,
+        ),
     );
     // ‖u‖_E² = uᵀKu = 2 × potential energy (no Neumann load).
     let norm = (2.0 * f(&j, "potential_energy")).sqrt();
@@ -67,11 +86,17 @@ fn uniform_patch_test_has_zero_estimates() {
 
 #[test]
 fn recovered_stresses_are_equilibrated() {
-    let dir = scratch("est-eq");
+    for recovery in RECOVERIES {
+        recovered_stresses_are_equilibrated_with(recovery);
+    }
+}
+
+fn recovered_stresses_are_equilibrated_with(recovery: &str) {
+    let dir = scratch(&format!("est-eq-{recovery}"));
     let j = solve(
         2,
         &dir.join("p"),
-        &["-nndd_n", "8", "-nndd_estimate_every", "3"],
+        &with(&["-nndd_n", "8", "-nndd_estimate_every", "3"], recovery),
     );
     let r = &j["equilibrium_residuals"];
     for k in [
@@ -92,7 +117,13 @@ fn recovered_stresses_are_equilibrated() {
 /// iterates 2 and 6 are far from converged), and is sharp: γ ≤ 1.2 converged.
 #[test]
 fn the_bound_holds() {
-    let dir = scratch("est-bound");
+    for recovery in RECOVERIES {
+        the_bound_holds_with(recovery);
+    }
+}
+
+fn the_bound_holds_with(recovery: &str) {
+    let dir = scratch(&format!("est-bound-{recovery}"));
     for (n, theta) in [
         ("4", "auto"),
         ("8", "auto"),
@@ -105,16 +136,19 @@ fn the_bound_holds() {
         let j = solve(
             2,
             &p,
-            &[
-                "-nndd_n",
-                n,
-                "-nndd_theta",
-                theta,
-                "-nndd_estimate_every",
-                "2",
-                "-nndd_reference_factor",
-                "8",
-            ],
+            &with(
+                &[
+                    "-nndd_n",
+                    n,
+                    "-nndd_theta",
+                    theta,
+                    "-nndd_estimate_every",
+                    "2",
+                    "-nndd_reference_factor",
+                    "8",
+                ],
+                recovery,
+            ),
         );
         let est = estimates(&j);
         let iters: Vec<u64> = est
@@ -175,13 +209,22 @@ fn the_bound_holds() {
 
 #[test]
 fn eta_nndd_vanishes_and_eta_fe_falls_with_h() {
-    let dir = scratch("est-limits");
+    for recovery in RECOVERIES {
+        eta_nndd_vanishes_and_eta_fe_falls_with_h_with(recovery);
+    }
+}
+
+fn eta_nndd_vanishes_and_eta_fe_falls_with_h_with(recovery: &str) {
+    let dir = scratch(&format!("est-limits-{recovery}"));
     let mut fe = Vec::new();
     for n in ["4", "8", "16"] {
         let j = solve(
             2,
             &dir.join(format!("l{n}")),
-            &["-nndd_n", n, "-nndd_tol", "1e-10", "-nndd_estimate"],
+            &with(
+                &["-nndd_n", n, "-nndd_tol", "1e-10", "-nndd_estimate"],
+                recovery,
+            ),
         );
         let e = estimates(&j).pop().unwrap();
         assert!(
@@ -204,7 +247,13 @@ fn eta_nndd_vanishes_and_eta_fe_falls_with_h() {
 
 #[test]
 fn estimates_agree_on_one_and_two_ranks() {
-    let dir = scratch("est-ranks");
+    for recovery in RECOVERIES {
+        estimates_agree_on_one_and_two_ranks_with(recovery);
+    }
+}
+
+fn estimates_agree_on_one_and_two_ranks_with(recovery: &str) {
+    let dir = scratch(&format!("est-ranks-{recovery}"));
     let args = [
         "-nndd_n",
         "6",
@@ -213,8 +262,8 @@ fn estimates_agree_on_one_and_two_ranks() {
         "-nndd_tol",
         "1e-10",
     ];
-    let a = estimates(&solve(1, &dir.join("r1"), &args));
-    let b = estimates(&solve(2, &dir.join("r2"), &args));
+    let a = estimates(&solve(1, &dir.join("r1"), &with(&args, recovery)));
+    let b = estimates(&solve(2, &dir.join("r2"), &with(&args, recovery)));
     assert_eq!(a.len(), b.len());
     for (x, y) in a.iter().zip(&b) {
         for k in ["eta_glo", "eta_fe", "eta_nndd"] {

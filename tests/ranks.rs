@@ -81,9 +81,17 @@ fn compare(j: &serde_json::Value, base: &serde_json::Value, what: &str) {
     }
 }
 
+/// For both recoveries (the default `patch`, whose warm-started η^FE recovery needs the
+/// larger overlap of `Overlap::rings_for`, and `patch-classic`).
 #[test]
 fn one_to_six_ranks_give_the_same_solution_and_estimates() {
-    let dir = scratch("ranks-n");
+    for recovery in ["patch", "patch-classic"] {
+        one_to_six_ranks(recovery);
+    }
+}
+
+fn one_to_six_ranks(recovery: &str) {
+    let dir = scratch(&format!("ranks-n-{recovery}"));
     // paper.opts's problem (its -nndd_output would override the test's).
     let args = [
         "-nndd_problem",
@@ -96,6 +104,8 @@ fn one_to_six_ranks_give_the_same_solution_and_estimates() {
         "12",
         "-nndd_tol",
         "1e-10",
+        "-nndd_recovery",
+        recovery,
     ];
     let base = solve(1, &dir.join("n1"), &args);
     assert_eq!(base["body_ranks"], serde_json::json!([1, 1]));
@@ -106,7 +116,7 @@ fn one_to_six_ranks_give_the_same_solution_and_estimates() {
     for n in [2, 3, 4, 6] {
         let prefix = dir.join(format!("n{n}"));
         let j = solve(n, &prefix, &args);
-        let what = format!("-n {n}");
+        let what = format!("-n {n}, {recovery}");
         assert_eq!(j["ranks"], n);
         let ranks: Vec<u64> = j["body_ranks"]
             .as_array()

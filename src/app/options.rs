@@ -343,19 +343,32 @@ impl Settings {
         }
         let (recovery, _) = o.string(
             "-nndd_recovery",
-            "Equilibrated stress recovery: patch (EET then patch-wise complementary energy minimisation), star (EET, star parameters minimising it), eet (EET, averaged tractions)",
+            "Equilibrated stress recovery: patch (EET then patch-wise complementary energy minimisation, planned on the edge tractions, the eta_FE recovery warm-started), patch-classic (the same minimisation on the Johnson-Mercier fields, every recovery from EET), star (EET, star parameters minimising it), eet (EET, averaged tractions)",
             "patch",
         )?;
+        // patch-classic keeps the sweeps it had as the default recovery.
         let (sweeps, _) = o.int(
             "-nndd_recovery_sweeps",
-            "Patch relaxation sweeps of -nndd_recovery patch (>= 1)",
-            10,
+            "Patch relaxation sweeps of -nndd_recovery patch (default 6) and patch-classic (default 10)",
+            if recovery == "patch-classic" { 10 } else { 6 },
         )?;
         if !(1..=1000).contains(&sweeps) {
             return Err(SettingsError::OutOfRange {
                 option: "-nndd_recovery_sweeps",
                 accepted: "an integer in [1, 1000]",
                 value: sweeps.to_string(),
+            });
+        }
+        let (warm_sweeps, _) = o.int(
+            "-nndd_recovery_warm_sweeps",
+            "Sweeps of the eta_FE recovery of -nndd_recovery patch, started from the change the eta_glo recovery's sweeps made (0: started like it, with -nndd_recovery_sweeps)",
+            1,
+        )?;
+        if !(0..=1000).contains(&warm_sweeps) {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_recovery_warm_sweeps",
+                accepted: "an integer in [0, 1000]",
+                value: warm_sweeps.to_string(),
             });
         }
         let (stop, _) = o.string(
@@ -412,7 +425,11 @@ impl Settings {
             });
         }
         let recovery = match recovery.as_str() {
-            "patch" => StarChoice::PatchRelaxation {
+            "patch" => StarChoice::PatchTraction {
+                sweeps: sweeps as usize,
+                warm_sweeps: warm_sweeps as usize,
+            },
+            "patch-classic" => StarChoice::PatchRelaxation {
                 sweeps: sweeps as usize,
             },
             "star" => StarChoice::minimum_energy(),
@@ -421,7 +438,7 @@ impl Settings {
                 return Err(SettingsError::UnknownValue {
                     option: "-nndd_recovery",
                     value: recovery,
-                    accepted: "patch, star, eet",
+                    accepted: "patch, patch-classic, star, eet",
                 })
             }
         };

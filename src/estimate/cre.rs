@@ -156,6 +156,9 @@ pub fn estimate_body(
     let u_tilde = parts.run(Part::Resolves, || {
         body.neumann_solve(&iface.forces(&t_alpha), true)
     })?;
+    // The η^glo recovery starts cold; the η^FE one (of nearly the same data) may start from
+    // the change its sweeps made (`StarChoice::PatchTraction`).
+    operators.forget_warm_start();
     let (s_glo, mut res) = parts.run(Part::Recovery, || {
         view.equilibrate(p, &u_tilde, &t_alpha, data.recovery, operators)
     })?;

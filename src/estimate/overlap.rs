@@ -96,9 +96,10 @@ impl Overlap {
 
     /// Rings of overlap for which `equilibrate_restricted` on the sub-mesh is exact on the
     /// own elements, with `colours` colours (`colour_count`): `2 + sweeps × colours` for
-    /// `PatchRelaxation`, 2 for `AveragedTraction`, `usize::MAX` for `MinimumEnergy` (a global
-    /// solve: no overlap short of the whole mesh is exact, and `equilibrate_restricted`
-    /// refuses it).
+    /// `PatchRelaxation`, `2 + (sweeps + warm_sweeps) × colours` for `PatchTraction` (a warm
+    /// recovery after a cold one of the same cache: see below), 2 for `AveragedTraction`,
+    /// `usize::MAX` for `MinimumEnergy` (a global solve: no overlap short of the whole mesh
+    /// is exact, and `equilibrate_restricted` refuses it).
     ///
     /// The dependency argument. Let O be the own elements, E_r the elements within r rings of
     /// O (E_0 = O) and E_L the sub-mesh. Every element datum (FE stress, nodal forces) is
@@ -118,6 +119,12 @@ impl Overlap {
     ///   `colours` of them, and the final rebuild of the fields from the edge tractions keeps
     ///   the exact set. Hence the own elements are exact if L − 1 − sweeps × colours ≥ 0.
     ///
+    /// - Warm start (`PatchTraction` after a cold recovery with the same cache on the same
+    ///   sub-mesh): the start t_EET(new) + (t_relaxed − t_EET)(previous) is exact on the
+    ///   edges of E_{L−1−sweeps × colours} (where both previous fields were), so after
+    ///   `warm_sweeps` sweeps the own elements are exact if
+    ///   L − 1 − (sweeps + warm_sweeps) × colours ≥ 0.
+    ///
     /// So the own elements' fields are exact from 1 ring (averaged) and 1 + sweeps × colours
     /// rings (patch relaxation) on. One more ring makes them exact on E_1 too, i.e. also on
     /// every element across an edge of an own element: then the equilibrium check of
@@ -133,6 +140,11 @@ impl Overlap {
         match choice {
             StarChoice::AveragedTraction => 2,
             StarChoice::PatchRelaxation { sweeps } => 2 + sweeps * colours,
+            // A warm start carries the previous (cold) recovery's sweeps.
+            StarChoice::PatchTraction {
+                sweeps,
+                warm_sweeps,
+            } => 2 + (sweeps + warm_sweeps) * colours,
             StarChoice::MinimumEnergy { .. } => usize::MAX,
         }
     }
@@ -377,6 +389,66 @@ mod tests {
             }
         }
         check_partition(&mesh, &bd, &slabs(&mesh), 2, "distorted slabs");
+    }
+
+    /// A warm-started `PatchTraction` recovery after a cold one (the η^FE recovery after the
+    /// η^glo one), each part on its overlap of `rings_for` rings with its own cache, equals
+    /// the same two recoveries on the whole mesh on the own elements; with the rings of a
+    /// cold recovery only it does not.
+    #[test]
+    fn warm_started_recovery_partition_is_exact() {
+        let (mesh, bd) = block_rect(48, 32);
+        let u = fe_solve(&mesh, &bd);
+        let v: Vec<f64> = u
+            .iter()
+            .enumerate()
+            .map(|(i, x)| x * (1.0 + 0.05 * ((i / 7) % 3) as f64))
+            .collect();
+        let colours = vertex_colours(&mesh);
+        let c = colour_count(&colours);
+        let choice = StarChoice::PatchTraction {
+            sweeps: 2,
+            warm_sweeps: 1,
+        };
+        let chain = |m: &Mesh, b: &Boundary, u: &[f64], v: &[f64], r: Option<&Restriction>| {
+            let mut ops = crate::estimate::equilibrate::OperatorCache::default();
+            equilibrate_restricted(m, &STEEL, u, b, choice, r, Some(&mut ops)).unwrap();
+            equilibrate_restricted(m, &STEEL, v, b, choice, r, Some(&mut ops)).unwrap()
+        };
+        let full = chain(&mesh, &bd, &u, &v, None);
+        let part = slabs(&mesh);
+        let cold_rings = Overlap::rings_for(
+            StarChoice::PatchTraction {
+                sweeps: 2,
+                warm_sweeps: 0,
+            },
+            c,
+        );
+        let rings = Overlap::rings_for(choice, c);
+        assert_eq!(rings, cold_rings + c);
+        for (rings, exact) in [(rings, true), (cold_rings - 1, false)] {
+            let mut worst: f64 = 0.0;
+            for p in 0..=*part.iter().max().unwrap() {
+                let own: Vec<bool> = part.iter().map(|&q| q == p).collect();
+                let ov = Overlap::new(&mesh, &own, rings, &colours);
+                let bs = ov.restrict_boundary(&bd);
+                let (us, vs) = (ov.restrict_dofs(&u), ov.restrict_dofs(&v));
+                let eq = chain(&ov.mesh, &bs, &us, &vs, Some(&ov.restriction()));
+                for (le, &ge) in ov.elements.iter().enumerate().filter(|&(l, _)| ov.owned[l]) {
+                    let b = full.coefficients(ge);
+                    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                    for (x, y) in eq.coefficients(le).iter().zip(b) {
+                        worst = worst.max((x - y).abs() / scale);
+                    }
+                }
+            }
+            println!("warm chain, {rings} rings: max coefficient difference {worst:.1e}");
+            if exact {
+                assert!(worst < 1e-10, "{rings} rings: {worst:e}");
+            } else {
+                assert!(worst > 1e-6, "{rings} rings: {worst:e}");
+            }
+        }
     }
 
     /// Where exactness sets in: the differences against the ring count (3 sweeps, slabs).

@@ -2,7 +2,7 @@
 //! moments ↔ linear tractions, the element traction vectors, and the operators (pseudo-inverse
 //! and null space) of the star problems.
 
-use std::collections::HashMap;
+use super::FastMap;
 
 use super::topology::Topology;
 use super::{Boundary, EdgeComponent, EquilibrationError, NONE, NT};
@@ -124,7 +124,7 @@ pub(super) struct StarOp {
 
 #[derive(Default)]
 pub(super) struct Stars {
-    map: HashMap<Vec<i16>, usize>,
+    map: FastMap<Vec<i16>, usize>,
     pub(super) ops: Vec<StarOp>,
     /// Per star (2 i + k): index into `ops`.
     pub(super) star_op: Vec<usize>,

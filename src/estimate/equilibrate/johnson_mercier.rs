@@ -2,7 +2,7 @@
 //! system and its least-squares operator (edge tractions → JM coefficients), the operator cache
 //! per triangle shape, and the JM fields of all elements from the edge tractions.
 
-use std::collections::HashMap;
+use super::FastMap;
 
 use super::eet::element_tractions;
 use super::topology::Topology;
@@ -32,7 +32,8 @@ pub(super) fn local_frame(p: &[[f64; 2]; 3]) -> ([f64; 2], f64, [[f64; 2]; 3]) {
     let mut h: f64 = 0.0;
     for a in 0..3 {
         let b = (a + 1) % 3;
-        h = h.max((p[b][0] - p[a][0]).hypot(p[b][1] - p[a][1]));
+        let (dx, dy) = (p[b][0] - p[a][0], p[b][1] - p[a][1]);
+        h = h.max((dx * dx + dy * dy).sqrt());
     }
     let q = [0, 1, 2].map(|a| [(p[a][0] - c[0]) / h, (p[a][1] - c[1]) / h]);
     (c, h, q)
@@ -137,33 +138,41 @@ fn jm_operator(q: &[[f64; 2]; 3]) -> Option<[f64; NC * NT]> {
 /// For the m × n matrix `a` (row-major, m ≥ n, full column rank), the n × rhs.len()
 /// matrix whose column c is argmin_x ‖a x − e_{rhs[c]}‖ (Householder QR). None if a is
 /// numerically rank deficient.
-fn lstsq_operator(mut a: Vec<f64>, m: usize, n: usize, rhs: &[usize]) -> Option<Vec<f64>> {
+fn lstsq_operator(a: Vec<f64>, m: usize, n: usize, rhs: &[usize]) -> Option<Vec<f64>> {
+    // Column-major copy (contiguous columns for the reflections).
+    let mut ac = vec![0.0; m * n];
+    for i in 0..m {
+        for j in 0..n {
+            ac[j * m + i] = a[i * n + j];
+        }
+    }
     let mut vs = vec![0.0; m * n];
     let mut betas = vec![0.0; n];
     let mut rdiag_max: f64 = 0.0;
     for j in 0..n {
-        let norm = (j..m)
-            .map(|i| a[i * n + j] * a[i * n + j])
+        let norm = ac[j * m + j..(j + 1) * m]
+            .iter()
+            .map(|x| x * x)
             .sum::<f64>()
             .sqrt();
-        let alpha = if a[j * n + j] > 0.0 { -norm } else { norm };
+        let alpha = if ac[j * m + j] > 0.0 { -norm } else { norm };
         let v = &mut vs[j * m..(j + 1) * m];
-        for i in j..m {
-            v[i] = a[i * n + j];
-        }
+        v[j..].copy_from_slice(&ac[j * m + j..(j + 1) * m]);
         v[j] -= alpha;
-        let vn2: f64 = (j..m).map(|i| v[i] * v[i]).sum();
+        let vn2: f64 = v[j..].iter().map(|x| x * x).sum();
         let beta = if vn2 > 0.0 { 2.0 / vn2 } else { 0.0 };
         betas[j] = beta;
+        let v = &vs[j * m + j..(j + 1) * m];
         for c in j..n {
-            let d: f64 = (j..m).map(|i| v[i] * a[i * n + c]).sum();
-            for i in j..m {
-                a[i * n + c] -= beta * d * v[i];
+            let col = &mut ac[c * m + j..(c + 1) * m];
+            let d: f64 = v.iter().zip(col.iter()).map(|(x, y)| x * y).sum();
+            for (y, x) in col.iter_mut().zip(v) {
+                *y -= beta * d * x;
             }
         }
-        rdiag_max = rdiag_max.max(a[j * n + j].abs());
+        rdiag_max = rdiag_max.max(ac[j * m + j].abs());
     }
-    if !(0..n).all(|j| a[j * n + j].abs() > 1e-10 * rdiag_max) {
+    if !(0..n).all(|j| ac[j * m + j].abs() > 1e-10 * rdiag_max) {
         return None;
     }
     let nr = rhs.len();
@@ -173,18 +182,18 @@ fn lstsq_operator(mut a: Vec<f64>, m: usize, n: usize, rhs: &[usize]) -> Option<
         y.iter_mut().for_each(|v| *v = 0.0);
         y[row] = 1.0;
         for j in 0..n {
-            let v = &vs[j * m..(j + 1) * m];
-            let d: f64 = (j..m).map(|i| v[i] * y[i]).sum();
-            for i in j..m {
-                y[i] -= betas[j] * d * v[i];
+            let v = &vs[j * m + j..(j + 1) * m];
+            let d: f64 = v.iter().zip(&y[j..]).map(|(a, b)| a * b).sum();
+            for (yi, vi) in y[j..].iter_mut().zip(v) {
+                *yi -= betas[j] * d * vi;
             }
         }
         for j in (0..n).rev() {
             let s: f64 = y[j]
                 - (j + 1..n)
-                    .map(|k| a[j * n + k] * out[k * nr + c])
+                    .map(|k| ac[k * m + j] * out[k * nr + c])
                     .sum::<f64>();
-            out[j * nr + c] = s / a[j * n + j];
+            out[j * nr + c] = s / ac[j * m + j];
         }
     }
     Some(out)
@@ -202,7 +211,7 @@ pub(super) fn apply_operator(g: &[f64; NC * NT], t: &[f64; NT]) -> [f64; NC] {
 /// JM operators per triangle shape (normalised vertices, quantised key).
 #[derive(Default)]
 pub(crate) struct ShapeCache {
-    map: HashMap<[i64; 4], usize>,
+    map: FastMap<[i64; 4], usize>,
     pub(super) ops: Vec<[f64; NC * NT]>,
     scratch: Option<Box<[f64; NC * NT]>>,
 }

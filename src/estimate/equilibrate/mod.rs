@@ -85,6 +85,7 @@
 mod eet;
 mod energy;
 mod johnson_mercier;
+mod plan;
 mod relaxation;
 mod restricted;
 mod stress;
@@ -103,9 +104,15 @@ pub use topology::{sweep_key, vertex_colours};
 #[derive(Default)]
 pub struct OperatorCache {
     pub(crate) shapes: johnson_mercier::ShapeCache,
-    pub(crate) patch_map: std::collections::HashMap<Vec<i64>, usize>,
+    pub(crate) patch_map: FastMap<Vec<i64>, usize>,
     pub(crate) patch_ops: Vec<relaxation::PatchOp>,
-    pub(crate) hhat: std::collections::HashMap<usize, Box<[f64; NT * NT]>>,
+    pub(crate) hhat: FastMap<usize, Box<[f64; NT * NT]>>,
+    /// The topology of the last mesh recovered on, with the mesh's fingerprint.
+    topology: Option<(u64, topology::Topology)>,
+    /// The plan of `PatchTraction` (per mesh, boundary codes and sweep order).
+    pub(crate) plan: Option<plan::Plan>,
+    /// The change made by the last `PatchTraction` recovery (its warm start).
+    pub(crate) warm: Option<plan::Warm>,
     /// The material the operators were built for (they are rebuilt for another).
     material: Option<Material>,
 }
@@ -122,6 +129,12 @@ impl OperatorCache {
         self
     }
 
+    /// The next recovery starts cold (the estimator calls it before each estimate's first
+    /// recovery, so that a warm start only follows a recovery of the same estimate).
+    pub fn forget_warm_start(&mut self) {
+        self.warm = None;
+    }
+
     /// Number of (shape, patch) operators held.
     pub fn len(&self) -> (usize, usize) {
         (self.shapes.ops.len(), self.patch_ops.len())
@@ -134,6 +147,44 @@ impl OperatorCache {
 
 use crate::fem::mesh::Mesh;
 use crate::fem::Material;
+
+/// The maps of the local operators, keyed by integer patterns: hashed by [`FastHasher`].
+pub(crate) type FastMap<K, V> = std::collections::HashMap<K, V, FastHash>;
+pub(crate) type FastHash = std::hash::BuildHasherDefault<FastHasher>;
+
+/// A multiply–rotate hasher for the integer keys of the operator maps (the keys are not
+/// adversarial; SipHash cost more than the lookups it served).
+#[derive(Default)]
+pub(crate) struct FastHasher(u64);
+
+impl std::hash::Hasher for FastHasher {
+    fn finish(&self) -> u64 {
+        // A final avalanche, so that the low bits the table uses depend on every input bit.
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut b = [0u8; 8];
+            b[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(b));
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+    fn write_i16(&mut self, x: i16) {
+        self.write_u64(x as u16 as u64);
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+}
 
 const NONE: usize = usize::MAX;
 /// Number of JM coefficients per element: 3 sub-triangles × 3 components × (1, ξ, η).
@@ -219,6 +270,16 @@ pub enum StarChoice {
     /// minimum of the complementary energy over the whole admissible JM space (the JM mixed
     /// solution).
     PatchRelaxation { sweeps: usize },
+    /// The same steps as `PatchRelaxation`, carried out on the edge tractions with every
+    /// mesh-only datum planned once and kept in the [`OperatorCache`] (`plan.rs`; the same
+    /// iterates to round-off, several times faster): `sweeps` sweeps from the
+    /// averaged-traction field. With `warm_sweeps` > 0, a recovery that follows another one
+    /// with the same cache (on the same mesh, with the same boundary codes) starts instead
+    /// from the averaged-traction field plus the change that recovery's sweeps made, which
+    /// is admissible (the change lies in the data-independent patch kernel) and, for nearby
+    /// data, nearly relaxed already; it then makes `warm_sweeps` sweeps. A recovery starts
+    /// cold after [`OperatorCache::forget_warm_start`].
+    PatchTraction { sweeps: usize, warm_sweeps: usize },
 }
 
 impl StarChoice {
@@ -315,7 +376,8 @@ pub struct EquilibrationStats {
     pub shapes: usize,
     /// Conjugate-gradient iterations of `MinimumEnergy` (0 otherwise).
     pub cg_iterations: usize,
-    /// Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹} with the averaged-traction choice.
+    /// Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹} with the averaged-traction choice (NaN with `PatchTraction`,
+    /// which does not build that field).
     pub energy_averaged: f64,
     /// The same after the minimisation (= `energy_averaged` for `AveragedTraction`).
     pub energy_final: f64,

@@ -2,9 +2,9 @@
 //! Gauss–Seidel over vertex patches, each step an exact minimisation of the complementary
 //! energy over the admissible changes of the edge tractions through the vertex.
 
-use std::collections::HashMap;
+use super::FastMap;
 
-use super::eet::{sym_eigen, Bc};
+use super::eet::Bc;
 use super::johnson_mercier::{
     apply_operator, eval, local_frame, midpoints, triangle_area, ShapeCache,
 };
@@ -20,6 +20,69 @@ pub(crate) struct PatchOp {
     d: usize,
     basis: Vec<f64>,
     hinv: Vec<f64>,
+    /// Per element of the patch (in `vertex_elements` order), the map A_E (d × 12,
+    /// row-major) from its traction values to the step's coefficients: the step is
+    /// α = a − Σ_E A_E t_E with a = Hinv Nᵀ Σ_E S_Eᵀ r_E / h_p² (`plan.rs`).
+    slots: Vec<f64>,
+}
+
+impl PatchOp {
+    /// Dimension of the patch kernel (0: nothing to relax).
+    pub(super) fn dim(&self) -> usize {
+        self.d
+    }
+
+    /// a = Hinv Nᵀ g / h_p² for the load part g (per unknown) of the patch gradient
+    /// (`inv_hp2` = 1/h_p²), appended to `out`.
+    pub(super) fn load_coefficients(&self, g: &[f64], inv_hp2: f64, out: &mut Vec<f64>) {
+        let d = self.d;
+        let ng: Vec<f64> = (0..d)
+            .map(|j| (0..g.len()).map(|u| self.basis[u * d + j] * g[u]).sum())
+            .collect();
+        out.extend(
+            (0..d).map(|j| inv_hp2 * (0..d).map(|l| self.hinv[j * d + l] * ng[l]).sum::<f64>()),
+        );
+    }
+
+    /// The minimising step of a patch: α = a − Σ_E A_E t_E over its elements' traction
+    /// values `te` (12 per element), then δ = N α, passed unknown by unknown to `add`.
+    pub(super) fn step(&self, a: &[f64], te: &[[f64; NT]], mut add: impl FnMut(usize, f64)) {
+        let d = self.d;
+        // Stack buffer for the usual kernel dimensions (≤ 64), heap beyond.
+        let mut s_alpha = [0.0; 64];
+        let mut h_alpha = Vec::new();
+        let alpha = if d <= 64 {
+            &mut s_alpha[..d]
+        } else {
+            h_alpha.resize(d, 0.0);
+            &mut h_alpha[..]
+        };
+        alpha.copy_from_slice(a);
+        for (slot, t) in te.iter().enumerate() {
+            let am = &self.slots[slot * d * NT..(slot + 1) * d * NT];
+            for j in 0..d {
+                let row = &am[j * NT..(j + 1) * NT];
+                alpha[j] -= row.iter().zip(t).map(|(x, y)| x * y).sum::<f64>();
+            }
+        }
+        let nu = self.basis.len() / d;
+        for u in 0..nu {
+            let row = &self.basis[u * d..(u + 1) * d];
+            add(u, row.iter().zip(alpha.iter()).map(|(x, y)| x * y).sum());
+        }
+    }
+}
+
+/// The patch of one vertex (`Relaxation::layout`).
+pub(super) struct Layout {
+    star_edges: Vec<usize>,
+    /// (edge, end, component) of every non-prescribed traction value on the edges through
+    /// the vertex.
+    pub(super) unknowns: Vec<(usize, usize, usize)>,
+    /// Per element of the patch: (traction index in the element, unknown, sign).
+    pub(super) smap: Vec<Vec<(usize, usize, f64)>>,
+    /// Largest element diameter of the patch.
+    pub(super) hp: f64,
 }
 
 pub(super) struct Relaxation<'a> {
@@ -29,13 +92,13 @@ pub(super) struct Relaxation<'a> {
     pub(super) sig: &'a [[f64; 3]],
     pub(super) shape_of: &'a [usize],
     pub(super) cm: [[f64; 3]; 3],
-    pub(super) map: HashMap<Vec<i64>, usize>,
+    pub(super) map: FastMap<Vec<i64>, usize>,
     pub(super) ops: Vec<PatchOp>,
     /// Per vertex: its cached patch operator (NONE before the first visit or if uncached).
     pub(super) vertex_op: Vec<usize>,
     /// Per shape: the normalised element Hessian Ĥ (12 × 12) of the traction values,
     /// H_E = h_E² Ĥ.
-    pub(super) hhat: HashMap<usize, Box<[f64; NT * NT]>>,
+    pub(super) hhat: FastMap<usize, Box<[f64; NT * NT]>>,
 }
 
 /// Stress values at the point ξ of sub-triangle a as a 3 × 12 map of the traction values.
@@ -54,7 +117,7 @@ fn point_map(g: &[f64; NC * NT], a: usize, xi: [f64; 2]) -> [[f64; NT]; 3] {
 }
 
 impl Relaxation<'_> {
-    fn element_hessian(
+    pub(super) fn element_hessian(
         &mut self,
         cache: &mut ShapeCache,
         e: usize,
@@ -113,6 +176,52 @@ impl Relaxation<'_> {
         trac: &mut [[[f64; 2]; 2]],
         coef: &mut [[f64; NC]],
     ) {
+        let lay = self.layout(i);
+        if lay.unknowns.is_empty() {
+            return;
+        }
+        let elems = self.topo.vertex_elements(i);
+        let op_index = match self.vertex_op[i] {
+            NONE => self.operator_for(cache, i, &lay, false),
+            o => Some(o),
+        };
+        match op_index {
+            Some(o) => {
+                self.vertex_op[i] = o;
+                let op = std::mem::take(&mut self.ops[o]);
+                self.apply(
+                    cache,
+                    &op,
+                    elems,
+                    &lay.smap,
+                    &lay.unknowns,
+                    lay.hp,
+                    trac,
+                    coef,
+                );
+                self.ops[o] = op;
+            }
+            None => {
+                // Past the cache capacity: built for this use only.
+                let op = self.build(cache, elems, &lay.smap, lay.unknowns.len(), lay.hp);
+                self.apply(
+                    cache,
+                    &op,
+                    elems,
+                    &lay.smap,
+                    &lay.unknowns,
+                    lay.hp,
+                    trac,
+                    coef,
+                );
+            }
+        }
+    }
+
+    /// The patch of vertex i: the edges through it, the local unknowns (edge, end,
+    /// component) of their non-prescribed traction values, and per element of the patch the
+    /// map (traction index in the element, unknown, sign).
+    pub(super) fn layout(&self, i: usize) -> Layout {
         let topo = self.topo;
         let mesh = self.mesh;
         let elems = topo.vertex_elements(i);
@@ -125,54 +234,71 @@ impl Relaxation<'_> {
                 }
             }
         }
-        // Local unknowns (edge, end, component) and the element maps (t index, unknown, sign).
         let mut unknowns: Vec<(usize, usize, usize)> = Vec::with_capacity(4 * star_edges.len());
+        // Per star edge and component: the index of its end-0 unknown (end 1 follows).
+        let mut first: Vec<[usize; 2]> = Vec::with_capacity(star_edges.len());
         for &g in &star_edges {
+            let mut f = [NONE; 2];
             for k in 0..2 {
                 if !matches!(self.bc[g][k], Bc::Known(_)) {
+                    f[k] = unknowns.len();
                     for end in 0..2 {
                         unknowns.push((g, end, k));
                     }
                 }
             }
-        }
-        let nu = unknowns.len();
-        if nu == 0 {
-            return;
+            first.push(f);
         }
         let mut smap: Vec<Vec<(usize, usize, f64)>> = Vec::with_capacity(elems.len());
         let mut hp: f64 = 0.0;
-        for &(e, a) in elems {
-            let tri = mesh.triangles[e];
-            let mut list = Vec::with_capacity(8);
-            for l in [a, (a + 2) % 3] {
-                let g = topo.elem_edges[e][l];
-                let s = topo.sign(e, g);
-                for pos in 0..2 {
-                    let end = topo.end_of(g, tri[(l + pos) % 3]);
-                    for k in 0..2 {
-                        if let Some(u) = unknowns.iter().position(|&x| x == (g, end, k)) {
-                            list.push((4 * l + 2 * pos + k, u, s));
+        if !unknowns.is_empty() {
+            for &(e, a) in elems {
+                let tri = mesh.triangles[e];
+                let mut list = Vec::with_capacity(8);
+                for l in [a, (a + 2) % 3] {
+                    let g = topo.elem_edges[e][l];
+                    let s = topo.sign(e, g);
+                    for pos in 0..2 {
+                        let end = topo.end_of(g, tri[(l + pos) % 3]);
+                        let f = first[star_edges.iter().position(|&x| x == g).expect("star edge")];
+                        for k in 0..2 {
+                            if f[k] != NONE {
+                                list.push((4 * l + 2 * pos + k, f[k] + end, s));
+                            }
                         }
                     }
                 }
+                smap.push(list);
+                hp = hp.max(local_frame(&mesh.triangle_points(e)).1);
             }
-            smap.push(list);
-            hp = hp.max(local_frame(&mesh.triangle_points(e)).1);
         }
-        if self.vertex_op[i] != NONE {
-            let o = self.vertex_op[i];
-            let op = std::mem::take(&mut self.ops[o]);
-            self.apply(cache, &op, elems, &smap, &unknowns, hp, trac, coef);
-            self.ops[o] = op;
-            return;
+        Layout {
+            star_edges,
+            unknowns,
+            smap,
+            hp,
         }
+    }
+
+    /// Index of the patch operator of vertex i (built and cached for a new pattern); None
+    /// past the cache capacity unless `always`.
+    pub(super) fn operator_for(
+        &mut self,
+        cache: &mut ShapeCache,
+        i: usize,
+        lay: &Layout,
+        always: bool,
+    ) -> Option<usize> {
+        let (mesh, topo) = (self.mesh, self.topo);
+        let elems = topo.vertex_elements(i);
+        let nu = lay.unknowns.len();
+        let hp = lay.hp;
         // Pattern key: topology, orientation, boundary codes and normalised geometry.
         let pi = mesh.points[i];
-        let mut key: Vec<i64> = vec![elems.len() as i64, star_edges.len() as i64, nu as i64];
+        let mut key: Vec<i64> = vec![elems.len() as i64, lay.star_edges.len() as i64, nu as i64];
         for (row, &(e, a)) in elems.iter().enumerate() {
             key.push(a as i64);
-            for &(ti, u, s) in &smap[row] {
+            for &(ti, u, s) in &lay.smap[row] {
                 key.extend([ti as i64, u as i64, s as i64]);
             }
             for v in mesh.triangles[e] {
@@ -182,7 +308,7 @@ impl Relaxation<'_> {
                 }
             }
         }
-        for &g in &star_edges {
+        for &g in &lay.star_edges {
             for k in 0..2 {
                 key.push(match self.bc[g][k] {
                     Bc::Interior => 0,
@@ -192,24 +318,16 @@ impl Relaxation<'_> {
             }
             key.push(topo.end_of(g, i) as i64);
         }
-        let op_index = match self.map.get(&key) {
-            Some(&o) => o,
-            None => {
-                let op = self.build(cache, elems, &smap, nu, hp);
-                if self.ops.len() < patch_capacity() {
-                    self.ops.push(op);
-                    self.map.insert(key, self.ops.len() - 1);
-                    self.ops.len() - 1
-                } else {
-                    self.apply(cache, &op, elems, &smap, &unknowns, hp, trac, coef);
-                    return;
-                }
-            }
-        };
-        self.vertex_op[i] = op_index;
-        let op = std::mem::take(&mut self.ops[op_index]);
-        self.apply(cache, &op, elems, &smap, &unknowns, hp, trac, coef);
-        self.ops[op_index] = op;
+        if let Some(&o) = self.map.get(&key) {
+            return Some(o);
+        }
+        if !always && self.ops.len() >= patch_capacity() {
+            return None;
+        }
+        let op = self.build(cache, elems, &lay.smap, nu, hp);
+        self.ops.push(op);
+        self.map.insert(key, self.ops.len() - 1);
+        Some(self.ops.len() - 1)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -305,26 +423,11 @@ impl Relaxation<'_> {
                 }
             }
         }
-        let mut ctc = vec![0.0; nu * nu];
-        for a in 0..nu {
-            for b in 0..nu {
-                ctc[a * nu + b] = (0..3 * m).map(|r| c[r * nu + a] * c[r * nu + b]).sum();
-            }
-        }
-        let v = sym_eigen(&mut ctc, nu);
-        let lmax = (0..nu).fold(0.0f64, |mx, j| mx.max(ctc[j * nu + j].abs()));
-        let kernel: Vec<usize> = (0..nu)
-            .filter(|&j| ctc[j * nu + j] <= 1e-10 * lmax.max(1e-300))
-            .collect();
-        let d = kernel.len();
-        let mut basis = vec![0.0; nu * d];
-        for (jj, &j) in kernel.iter().enumerate() {
-            for u in 0..nu {
-                basis[u * d + jj] = v[u * nu + j];
-            }
-        }
+        let (basis, d) = null_space(&c, 3 * m, nu);
         // Normalised patch Hessian Σ_E (h_E/h_p)² (S_E N)ᵀ Ĥ_E (S_E N).
         let mut h = crate::qp::dense::SymMatrix::new(d);
+        // Per element: (h_E/h_p)² Ĥ_E S_E N (12 × d), for the slot maps below.
+        let mut fhsn: Vec<Vec<f64>> = Vec::with_capacity(m);
         for (row, &(e, _)) in elems.iter().enumerate() {
             let pts = self.mesh.triangle_points(e);
             let (_, he, q) = local_frame(&pts);
@@ -336,28 +439,117 @@ impl Relaxation<'_> {
                     sn[ti * d + j] += s * basis[u * d + j];
                 }
             }
+            // (S_E N)ᵀ Ĥ_E (S_E N), through Ĥ_E (S_E N) (12 × d).
+            let mut hsn = vec![0.0; NT * d];
+            for i in 0..NT {
+                for j in 0..NT {
+                    let hij = hh[i * NT + j];
+                    if hij == 0.0 {
+                        continue;
+                    }
+                    for b in 0..d {
+                        hsn[i * d + b] += hij * sn[j * d + b];
+                    }
+                }
+            }
             for a in 0..d {
                 for b in 0..d {
-                    let mut acc = 0.0;
-                    for i in 0..NT {
-                        if sn[i * d + a] == 0.0 {
-                            continue;
-                        }
-                        for j in 0..NT {
-                            acc += sn[i * d + a] * hh[i * NT + j] * sn[j * d + b];
-                        }
-                    }
+                    let acc: f64 = (0..NT).map(|i| sn[i * d + a] * hsn[i * d + b]).sum();
                     h.set(a, b, h.get(a, b) + f * acc);
                 }
             }
+            fhsn.push(hsn.iter().map(|v| f * v).collect());
         }
         h.symmetrize();
         let hinv = match h.inverse_spd() {
             Ok(inv) => inv.data().to_vec(),
             Err(_) => return PatchOp::default(),
         };
-        PatchOp { d, basis, hinv }
+        // A_E = Hinv ((h_E/h_p)² Ĥ_E S_E N)ᵀ (d × 12) per element.
+        let mut slots = vec![0.0; m * d * NT];
+        for (row, x) in fhsn.iter().enumerate() {
+            let a = &mut slots[row * d * NT..(row + 1) * d * NT];
+            for j in 0..d {
+                for l in 0..d {
+                    let hjl = hinv[j * d + l];
+                    for i in 0..NT {
+                        a[j * NT + i] += hjl * x[i * d + l];
+                    }
+                }
+            }
+        }
+        PatchOp {
+            d,
+            basis,
+            hinv,
+            slots,
+        }
     }
+}
+
+/// An orthonormal basis of the null space of the `rows` × `cols` matrix `c` (row-major):
+/// the last columns of Q in the Householder QR with column pivoting of cᵀ, past its
+/// numerical rank (|R_kk| ≤ 1e-7 |R_00|; the patch constraints are either independent or
+/// dependent to round-off). Returns the basis (cols × d, row-major) and d.
+pub(super) fn null_space(c: &[f64], rows: usize, cols: usize) -> (Vec<f64>, usize) {
+    // a = cᵀ, column-major: column r is row r of c.
+    let (n, m) = (cols, rows);
+    let mut a = c.to_vec();
+    let mut reflectors: Vec<(Vec<f64>, f64)> = Vec::new();
+    let mut first = 0.0;
+    for k in 0..m.min(n) {
+        // The column of largest remaining norm (recomputed: no downdating drift).
+        let rest =
+            |a: &[f64], r: usize| -> f64 { a[r * n + k..(r + 1) * n].iter().map(|x| x * x).sum() };
+        let (p, np2) = (k..m)
+            .map(|r| (r, rest(&a, r)))
+            .max_by(|x, y| x.1.total_cmp(&y.1))
+            .expect("k < m");
+        let np = np2.sqrt();
+        if k == 0 {
+            first = np;
+        }
+        if np == 0.0 || np <= 1e-7 * first {
+            break;
+        }
+        if p != k {
+            for i in 0..n {
+                a.swap(k * n + i, p * n + i);
+            }
+        }
+        // Householder vector of a[k.., k].
+        let mut v: Vec<f64> = a[k * n + k..(k + 1) * n].to_vec();
+        let alpha = if v[0] >= 0.0 { -np } else { np };
+        v[0] -= alpha;
+        let vv: f64 = v.iter().map(|x| x * x).sum();
+        let tau = if vv > 0.0 { 2.0 / vv } else { 0.0 };
+        for r in k..m {
+            let colr = &mut a[r * n + k..(r + 1) * n];
+            let dot: f64 = colr.iter().zip(&v).map(|(x, y)| x * y).sum();
+            for (x, y) in colr.iter_mut().zip(&v) {
+                *x -= tau * dot * y;
+            }
+        }
+        reflectors.push((v, tau));
+    }
+    let rank = reflectors.len();
+    let d = n - rank;
+    let mut basis = vec![0.0; n * d];
+    for j in 0..d {
+        // Q e_{rank + j} = H_0 ⋯ H_{rank−1} e_{rank + j}.
+        let mut x = vec![0.0; n];
+        x[rank + j] = 1.0;
+        for (k, (v, tau)) in reflectors.iter().enumerate().rev() {
+            let dot: f64 = x[k..].iter().zip(v).map(|(a, b)| a * b).sum();
+            for (xi, vi) in x[k..].iter_mut().zip(v) {
+                *xi -= tau * dot * vi;
+            }
+        }
+        for u in 0..n {
+            basis[u * d + j] = x[u];
+        }
+    }
+    (basis, d)
 }
 
 /// Self-equilibrium constraints (force x, force y, moment about the origin) of the 12

@@ -4,6 +4,7 @@
 use super::eet::{edge_conditions, edge_tractions, known_moment, Bc, Stars};
 use super::energy::{compliance, total_energy, EnergyContext};
 use super::johnson_mercier::{jm_fields, local_frame, traction};
+use super::plan::{fingerprint, mesh_fingerprint, Plan, Warm};
 use super::relaxation::Relaxation;
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
 use super::{
@@ -67,7 +68,12 @@ pub fn equilibrate_restricted(
     }
     let owned = restriction.map(|r| r.owned);
     let vertex_owned = owned_vertices(mesh, owned);
-    let topo = Topology::new(mesh)?;
+    // The topology of this mesh: kept in the cache from the previous recovery, or built.
+    let mesh_fp = mesh_fingerprint(mesh);
+    let topo = match operators.topology.take() {
+        Some((fp, t)) if fp == mesh_fp => t,
+        _ => Topology::new(mesh)?,
+    };
     let bc = edge_conditions(&topo, boundary)?;
     let ne = topo.edge_nodes.len();
 
@@ -229,8 +235,14 @@ pub fn equilibrate_restricted(
             }
         }
     }
-    jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
-    let energy_averaged = total_energy(mesh, material, &coef, &sig, owned);
+    // The averaged-traction field and its energy (`PatchTraction` only builds the final
+    // field).
+    let energy_averaged = if matches!(choice, StarChoice::PatchTraction { .. }) {
+        f64::NAN
+    } else {
+        jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
+        total_energy(mesh, material, &coef, &sig, owned)
+    };
     let mut stats = EquilibrationStats {
         star_parameters,
         shapes: cache.ops.len(),
@@ -277,7 +289,15 @@ pub fn equilibrate_restricted(
             stats.energy_final = total_energy(mesh, material, &coef, &sig, owned);
         }
     }
-    if let StarChoice::PatchRelaxation { sweeps } = choice {
+    let (sweeps, warm) = match choice {
+        StarChoice::PatchRelaxation { sweeps } => (sweeps, None),
+        StarChoice::PatchTraction {
+            sweeps,
+            warm_sweeps,
+        } => (sweeps, Some(warm_sweeps)),
+        _ => (0, None),
+    };
+    if sweeps > 0 {
         let mut relax = Relaxation {
             mesh,
             topo: &topo,
@@ -293,25 +313,58 @@ pub fn equilibrate_restricted(
         // Multicolour symmetric Gauss–Seidel: vertices by increasing sweep key (colour, then
         // global index) in the even sweeps, decreasing in the odd ones. The steps of one
         // colour touch disjoint data (see `Relaxation::step`).
-        let full_keys: Vec<u64>;
-        let keys = match restriction {
-            Some(r) => r.vertex_key,
-            None => {
-                let colours = vertex_colours(mesh);
-                full_keys = (0..nn).map(|i| sweep_key(colours[i], i)).collect();
-                &full_keys
-            }
+        let order = || -> Vec<usize> {
+            let full_keys: Vec<u64>;
+            let keys = match restriction {
+                Some(r) => r.vertex_key,
+                None => {
+                    let colours = vertex_colours(mesh);
+                    full_keys = (0..nn).map(|i| sweep_key(colours[i], i)).collect();
+                    &full_keys
+                }
+            };
+            let mut order: Vec<usize> = (0..nn).collect();
+            order.sort_unstable_by_key(|&i| keys[i]);
+            order
         };
-        let mut order: Vec<usize> = (0..nn).collect();
-        order.sort_unstable_by_key(|&i| keys[i]);
-        for sweep in 0..sweeps {
-            let forward = sweep % 2 == 0;
-            for v in 0..nn {
-                let i = order[if forward { v } else { nn - 1 - v }];
-                relax.step(&mut cache, i, &mut trac, &mut coef);
+        match warm {
+            None => {
+                let order = order();
+                for sweep in 0..sweeps {
+                    let forward = sweep % 2 == 0;
+                    for v in 0..nn {
+                        let i = order[if forward { v } else { nn - 1 - v }];
+                        relax.step(&mut cache, i, &mut trac, &mut coef);
+                    }
+                }
+                stats.patch_patterns = relax.ops.len();
+            }
+            Some(warm_sweeps) => {
+                let fp = fingerprint(mesh_fp, &bc, restriction.map(|r| r.vertex_key));
+                let plan = match operators.plan.take() {
+                    Some(p) if p.fingerprint() == fp => p,
+                    _ => Plan::new(&mut relax, &mut cache, &order(), fp),
+                };
+                let a = plan.loads(mesh, &mut cache, &shape_of, &sig, &relax.cm, &relax.ops);
+                let flat = trac.as_flattened_mut().as_flattened_mut();
+                let start = flat.to_vec();
+                // Warm: from the change of the previous recovery with this cache (if any,
+                // on this sub-mesh with these boundary codes), `warm_sweeps` sweeps.
+                let warm =
+                    warm_sweeps > 0 && operators.warm.take().is_some_and(|w| w.apply(fp, flat));
+                plan.sweep(
+                    &relax.ops,
+                    &a,
+                    flat,
+                    if warm { warm_sweeps } else { sweeps },
+                );
+                if warm_sweeps > 0 {
+                    operators.warm = Some(Warm::new(fp, flat, &start));
+                }
+                stats.patch_patterns = plan.patterns;
+                operators.plan = Some(plan);
             }
         }
-        stats.patch_patterns = relax.ops.len();
         operators.patch_map = relax.map;
         operators.patch_ops = relax.ops;
         operators.hhat = relax.hhat;
@@ -321,6 +374,7 @@ pub fn equilibrate_restricted(
     }
     stats.shapes = cache.ops.len();
     operators.shapes = cache;
+    operators.topology = Some((mesh_fp, topo));
     Ok(EquilibratedStress {
         coef,
         reactions,

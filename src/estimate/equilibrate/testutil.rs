@@ -10,10 +10,14 @@ pub(crate) const STEEL: Material = Material {
     poisson: 0.27,
 };
 
-pub(super) const CHOICES: [StarChoice; 3] = [
+pub(super) const CHOICES: [StarChoice; 4] = [
     StarChoice::AveragedTraction,
     StarChoice::minimum_energy(),
     StarChoice::PatchRelaxation { sweeps: 3 },
+    StarChoice::PatchTraction {
+        sweeps: 3,
+        warm_sweeps: 1,
+    },
 ];
 
 pub(super) fn known(a: f64, b: f64) -> EdgeComponent {
