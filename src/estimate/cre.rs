@@ -206,6 +206,8 @@ pub fn estimate_body(
             view.equilibrate(p, &u_fe, &t2, data.recovery, operators)
         })?
     };
+    // The change the η^glo recovery made served its purpose (the next estimate starts cold).
+    operators.forget_warm_start();
     res = worst(res, r_fe);
     parts.run(Part::ElementSums, || {
         for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {

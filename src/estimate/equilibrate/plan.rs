@@ -174,7 +174,20 @@ impl Plan {
             plan.negative.push(neg);
         }
         plan.patterns = relax.ops.len();
+        plan.shrink();
         plan
+    }
+
+    /// Release the growth slack of the vectors (up to half of them).
+    fn shrink(&mut self) {
+        for v in [&mut self.vptr, &mut self.eptr, &mut self.unk, &mut self.vop] {
+            v.shrink_to_fit();
+        }
+        for v in [&mut self.pel, &mut self.rptr, &mut self.aptr] {
+            v.shrink_to_fit();
+        }
+        self.inv_hp2.shrink_to_fit();
+        self.rows.shrink_to_fit();
     }
 
     pub(super) fn fingerprint(&self) -> u64 {
@@ -271,11 +284,14 @@ impl Plan {
 }
 
 impl Warm {
-    /// δ = `relaxed` − `start` for the plan `fingerprint`.
-    pub(super) fn new(fingerprint: u64, relaxed: &[f64], start: &[f64]) -> Warm {
+    /// δ = `relaxed` − `start` for the plan `fingerprint` (in `start`'s storage).
+    pub(super) fn new(fingerprint: u64, relaxed: &[f64], mut start: Vec<f64>) -> Warm {
+        for (s, r) in start.iter_mut().zip(relaxed) {
+            *s = r - *s;
+        }
         Warm {
             fingerprint,
-            delta: relaxed.iter().zip(start).map(|(a, b)| a - b).collect(),
+            delta: start,
         }
     }
 

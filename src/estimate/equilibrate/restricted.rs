@@ -219,12 +219,24 @@ pub fn equilibrate_restricted(
         }
     }
     let star_parameters: usize = stars.star_op.iter().map(|&o| stars.ops[o].nnull).sum();
+    // Per-element and per-edge data of the star problems only, freed before the fields.
+    drop((force, edge_ref));
 
     // (b) JM fields.
     let mut cache = std::mem::take(&mut operators.shapes);
     let mut shape_of = vec![NONE; nt];
-    let mut coef = vec![[0.0; NC]; nt];
+    let planned = matches!(choice, StarChoice::PatchTraction { .. });
+    // `PatchTraction` builds the fields once, at the end, after its sweeps' data is freed.
+    let mut coef = if planned {
+        Vec::new()
+    } else {
+        vec![[0.0; NC]; nt]
+    };
     let mut trac = edge_tractions(&topo, &bc, &moments);
+    if planned {
+        // Only `MinimumEnergy` needs the star problems and the moments again.
+        (stars, moments) = (Stars::default(), Vec::new());
+    }
     for e in 0..nt {
         let (_, _, qv) = local_frame(&mesh.triangle_points(e));
         match cache.index(&qv) {
@@ -237,7 +249,7 @@ pub fn equilibrate_restricted(
     }
     // The averaged-traction field and its energy (`PatchTraction` only builds the final
     // field).
-    let energy_averaged = if matches!(choice, StarChoice::PatchTraction { .. }) {
+    let energy_averaged = if planned {
         f64::NAN
     } else {
         jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
@@ -297,7 +309,7 @@ pub fn equilibrate_restricted(
         } => (sweeps, Some(warm_sweeps)),
         _ => (0, None),
     };
-    if sweeps > 0 {
+    if sweeps > 0 || planned {
         let mut relax = Relaxation {
             mesh,
             topo: &topo,
@@ -359,7 +371,7 @@ pub fn equilibrate_restricted(
                     if warm { warm_sweeps } else { sweeps },
                 );
                 if warm_sweeps > 0 {
-                    operators.warm = Some(Warm::new(fp, flat, &start));
+                    operators.warm = Some(Warm::new(fp, flat, start));
                 }
                 stats.patch_patterns = plan.patterns;
                 operators.plan = Some(plan);
@@ -369,6 +381,9 @@ pub fn equilibrate_restricted(
         operators.patch_ops = relax.ops;
         operators.hhat = relax.hhat;
         // Rebuild σ̂ from the edge tractions (no drift of the incremental updates).
+        if coef.is_empty() {
+            coef = vec![[0.0; NC]; nt];
+        }
         jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
         stats.energy_final = total_energy(mesh, material, &coef, &sig, owned);
     }
