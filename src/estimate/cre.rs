@@ -83,7 +83,7 @@ impl View<'_> {
                     Some(operators),
                 )
                 .map_err(err)?;
-                let r = s.residuals(&p.mesh, &b);
+                let r = s.checked_residuals();
                 Ok((s, r))
             }
             View::Overlap(o) => {
@@ -99,7 +99,7 @@ impl View<'_> {
                     Some(operators),
                 )
                 .map_err(err)?;
-                let r = s.residuals_restricted(&o.mesh, &b, Some(&o.owned));
+                let r = s.checked_residuals();
                 Ok((s, r))
             }
         }

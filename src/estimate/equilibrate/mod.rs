@@ -399,6 +399,8 @@ pub struct EquilibratedStress {
     /// Per constrained star (vertex, relative least-squares residual): the point reactions.
     reactions: Vec<(usize, f64)>,
     stats: EquilibrationStats,
+    /// The equilibrium check made by the construction (on the owned elements).
+    checked: Residuals,
 }
 
 /// Build σ̂ with the averaged-traction star choice (method.md §3.2 (a), (b)).

@@ -8,7 +8,7 @@ use super::plan::{fingerprint, mesh_fingerprint, Plan, Warm};
 use super::relaxation::Relaxation;
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
 use super::{
-    Boundary, EquilibratedStress, EquilibrationError, EquilibrationStats, OperatorCache,
+    Boundary, EquilibratedStress, EquilibrationError, EquilibrationStats, OperatorCache, Residuals,
     Restriction, StarChoice, NC, NONE,
 };
 use crate::fem::mesh::Mesh;
@@ -389,12 +389,16 @@ pub fn equilibrate_restricted(
     }
     stats.shapes = cache.ops.len();
     operators.shapes = cache;
-    operators.topology = Some((mesh_fp, topo));
-    Ok(EquilibratedStress {
+    let mut stress = EquilibratedStress {
         coef,
         reactions,
         stats,
-    })
+        checked: Residuals::default(),
+    };
+    // The equilibrium check on the owned elements, with this mesh's topology and codes.
+    stress.checked = stress.residuals_with(mesh, &topo, &bc, owned);
+    operators.topology = Some((mesh_fp, topo));
+    Ok(stress)
 }
 
 /// Err(error(expected, found)) if the lengths differ.
@@ -467,6 +471,7 @@ mod tests {
                 b.residuals_restricted(&mesh, &bd, Some(&owned)),
             );
             assert_eq!(format!("{ra:?}"), format!("{rb:?}"));
+            assert_eq!(format!("{ra:?}"), format!("{:?}", b.checked_residuals()));
         }
     }
 

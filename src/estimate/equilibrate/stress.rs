@@ -66,6 +66,12 @@ impl EquilibratedStress {
             .collect()
     }
 
+    /// The equilibrium check the construction made with its own topology and boundary
+    /// codes: [`Self::residuals_restricted`] with its restriction's owned elements.
+    pub fn checked_residuals(&self) -> Residuals {
+        self.checked
+    }
+
     /// Figures of the construction (star parameters, shapes, energies).
     pub fn stats(&self) -> EquilibrationStats {
         self.stats
@@ -101,6 +107,30 @@ impl EquilibratedStress {
                 "`owned`: one entry per element"
             );
         }
+        let Ok(topo) = Topology::new(mesh) else {
+            return Residuals {
+                divergence: f64::INFINITY,
+                ..Residuals::default()
+            };
+        };
+        let Ok(bc) = edge_conditions(&topo, boundary) else {
+            return Residuals {
+                boundary: f64::INFINITY,
+                ..Residuals::default()
+            };
+        };
+        self.residuals_with(mesh, &topo, &bc, owned)
+    }
+
+    /// [`Self::residuals_restricted`] with the mesh's topology and boundary codes at hand
+    /// (the construction's own, `equilibrate_restricted`).
+    pub(super) fn residuals_with(
+        &self,
+        mesh: &Mesh,
+        topo: &Topology,
+        bc: &[[Bc; 2]],
+        owned: Option<&[bool]>,
+    ) -> Residuals {
         let own = |e: usize| is_owned(owned, e);
         let vertex_owned = owned_vertices(mesh, owned);
         let point_reaction = self
@@ -111,12 +141,6 @@ impl EquilibratedStress {
         let mut res = Residuals {
             point_reaction,
             ..Residuals::default()
-        };
-        let Ok(topo) = Topology::new(mesh) else {
-            return Residuals {
-                divergence: f64::INFINITY,
-                ..res
-            };
         };
         let nt = mesh.triangles.len();
         let mut smax: f64 = 0.0;
@@ -155,17 +179,13 @@ impl EquilibratedStress {
             let n = topo.edge_normal[g];
             for node in topo.edge_nodes[g] {
                 let x = mesh.points[node];
-                let t0 = traction(&self.edge_stress(mesh, &topo, e0, g, x), n);
-                let t1 = traction(&self.edge_stress(mesh, &topo, e1, g, x), n);
+                let t0 = traction(&self.edge_stress(mesh, topo, e0, g, x), n);
+                let t1 = traction(&self.edge_stress(mesh, topo, e1, g, x), n);
                 jel = jel.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
             }
         }
         res.element_jump = jel / smax;
         // Boundary data.
-        let Ok(bc) = edge_conditions(&topo, boundary) else {
-            res.boundary = f64::INFINITY;
-            return res;
-        };
         let mut gmax = smax;
         let mut jb: f64 = 0.0;
         for g in 0..topo.edge_nodes.len() {
@@ -175,7 +195,7 @@ impl EquilibratedStress {
             }
             let n = topo.edge_normal[g];
             for (end, node) in topo.edge_nodes[g].into_iter().enumerate() {
-                let t = traction(&self.edge_stress(mesh, &topo, e0, g, mesh.points[node]), n);
+                let t = traction(&self.edge_stress(mesh, topo, e0, g, mesh.points[node]), n);
                 for k in 0..2 {
                     if let Bc::Known(v) = bc[g][k] {
                         gmax = gmax.max(v[end].abs());
