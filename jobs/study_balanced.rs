@@ -47,7 +47,7 @@ fn main() {
     let levels: &[usize] = if opts.quick {
         &[8, 16]
     } else {
-        &[8, 16, 32, 64, 128, 256]
+        &[8, 16, 32, 64, 128, 256, 512]
     };
     let dir = runner::scratch("balanced");
     let mut pairs = Vec::new();
