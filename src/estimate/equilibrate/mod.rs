@@ -446,7 +446,6 @@ pub(crate) mod tests {
     use super::testutil::*;
     use super::*;
     use crate::fem;
-    use crate::testutil::Lcg;
 
     #[test]
     fn patch_test_reproduces_uniform_stress() {
@@ -518,15 +517,7 @@ pub(crate) mod tests {
     #[test]
     fn distorted_mesh_is_exactly_equilibrated() {
         // Every triangle a different shape (no cache sharing), boundary kept straight.
-        let (mut mesh, bd) = block(6);
-        let mut rng = Lcg(7);
-        for j in 1..6 {
-            for i in 1..6 {
-                let n = mesh.node(i, j);
-                mesh.points[n][0] += 0.05 * rng.next();
-                mesh.points[n][1] += 0.05 * rng.next();
-            }
-        }
+        let (mesh, bd) = distorted_block(6, 7);
         let u = fe_solve(&mesh, &bd);
         for choice in CHOICES {
             let eq = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();

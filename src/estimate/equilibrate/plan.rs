@@ -315,7 +315,6 @@ mod tests {
         equilibrate_restricted, equilibrate_with, EquilibratedStress, OperatorCache, StarChoice,
     };
     use crate::fem::mesh::Mesh;
-    use crate::testutil::Lcg;
 
     /// max over elements of |a − b| / max |b|.
     fn max_diff(mesh: &Mesh, a: &EquilibratedStress, b: &EquilibratedStress) -> f64 {
@@ -334,18 +333,9 @@ mod tests {
             / scale
     }
 
-    /// A 6 × 6 block with every interior node moved (no two patches alike) and its FE
-    /// solution.
+    /// A distorted 6 × 6 block (no two patches alike) and its FE solution.
     fn distorted() -> (Mesh, super::super::Boundary, Vec<f64>) {
-        let (mut mesh, bd) = block(6);
-        let mut rng = Lcg(3);
-        for j in 1..6 {
-            for i in 1..6 {
-                let n = mesh.node(i, j);
-                mesh.points[n][0] += 0.05 * rng.next();
-                mesh.points[n][1] += 0.05 * rng.next();
-            }
-        }
+        let (mesh, bd) = distorted_block(6, 3);
         let u = fe_solve(&mesh, &bd);
         (mesh, bd, u)
     }

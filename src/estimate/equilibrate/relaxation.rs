@@ -185,36 +185,21 @@ impl Relaxation<'_> {
             NONE => self.operator_for(cache, i, &lay, false),
             o => Some(o),
         };
-        match op_index {
+        let (op, cached) = match op_index {
             Some(o) => {
                 self.vertex_op[i] = o;
-                let op = std::mem::take(&mut self.ops[o]);
-                self.apply(
-                    cache,
-                    &op,
-                    elems,
-                    &lay.smap,
-                    &lay.unknowns,
-                    lay.hp,
-                    trac,
-                    coef,
-                );
-                self.ops[o] = op;
+                (std::mem::take(&mut self.ops[o]), Some(o))
             }
-            None => {
-                // Past the cache capacity: built for this use only.
-                let op = self.build(cache, elems, &lay.smap, lay.unknowns.len(), lay.hp);
-                self.apply(
-                    cache,
-                    &op,
-                    elems,
-                    &lay.smap,
-                    &lay.unknowns,
-                    lay.hp,
-                    trac,
-                    coef,
-                );
-            }
+            // Past the cache capacity: built for this use only.
+            None => (
+                self.build(cache, elems, &lay.smap, lay.unknowns.len(), lay.hp),
+                None,
+            ),
+        };
+        let (smap, unknowns) = (&lay.smap, &lay.unknowns);
+        self.apply(cache, &op, elems, smap, unknowns, lay.hp, trac, coef);
+        if let Some(o) = cached {
+            self.ops[o] = op;
         }
     }
 

@@ -204,3 +204,18 @@ pub(super) fn assert_admissible(r: &Residuals, tol: f64) {
     assert!(r.boundary < tol, "{r:?}");
     assert!(r.point_reaction < tol, "{r:?}");
 }
+
+/// `block(n)` with every interior node moved by up to 0.05 (random, `seed`): no two
+/// triangles, and no two vertex patches, alike (the boundary stays straight).
+pub(super) fn distorted_block(n: usize, seed: u64) -> (Mesh, Boundary) {
+    let (mut mesh, bd) = block(n);
+    let mut rng = crate::testutil::Lcg(seed);
+    for j in 1..n {
+        for i in 1..n {
+            let k = mesh.node(i, j);
+            mesh.points[k][0] += 0.05 * rng.next();
+            mesh.points[k][1] += 0.05 * rng.next();
+        }
+    }
+    (mesh, bd)
+}
