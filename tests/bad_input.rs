@@ -54,6 +54,16 @@ fn malformed_numbers_are_refused() {
 }
 
 #[test]
+fn recovery_sweeps_out_of_range_are_refused() {
+    refused(1, &["-nndd_recovery_sweeps", "0"], "-nndd_recovery_sweeps");
+    refused(
+        1,
+        &["-nndd_recovery_warm_sweeps", "-1"],
+        "-nndd_recovery_warm_sweeps",
+    );
+}
+
+#[test]
 fn unwritable_output_is_refused() {
     let dir = scratch("unwritable");
     let blocker = dir.join("file");
