@@ -155,6 +155,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         overlaps: Default::default(),
         parts: Parts::new(Some(stages.estimation_parts)),
         operators: Default::default(),
+        schur_factors: Default::default(),
     });
 
     // Solve: the NNDD (paper §3) or the monolithic check.

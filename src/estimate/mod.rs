@@ -47,6 +47,7 @@ use crate::estimate::overlap::Overlap;
 use crate::estimate::reference::interpolate_nested;
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
+use crate::qp::dense::Cholesky;
 use crate::qp::{QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -160,6 +161,9 @@ pub struct Estimator<'a> {
     pub parts: Parts,
     /// Per body, the recovery's local operators on this rank, kept across estimates.
     pub operators: [std::cell::RefCell<OperatorCache>; 2],
+    /// Per body, the Cholesky factor of its interface Schur complement S^α (when the body
+    /// has one), for the recovery-free η^NNDD ([`Estimator::eta_nndd`]); made at its first use.
+    pub schur_factors: [std::cell::OnceCell<Option<Cholesky>>; 2],
 }
 
 /// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
@@ -198,10 +202,15 @@ impl Estimator<'_> {
         })
     }
 
-    /// η^NNDD alone, discrete variant, without any stress recovery: per body one Neumann
-    /// re-solve and (ũ − u_p)ᵀK(ũ − u_p), plus the nodal contact pairing. The same number as
-    /// [`Estimator::estimate`] gives, at the cost of two back-solves: what the balanced stopping
-    /// rule checks at every iteration.
+    /// η^NNDD alone, discrete variant, without any stress recovery: what the balanced
+    /// stopping rule checks at every iteration, the same number as [`Estimator::estimate`]
+    /// gives. Per body, ũ − u_p solves the Neumann system with loads on the Γc normal dofs
+    /// only: the re-solve's nodal forces ∓μ̂ less the iterate's Γc forces T^α_p (u¹_p, the
+    /// Dirichlet step's solution, is the Neumann solution with its reaction T¹_p). So
+    /// (ũ − u_p)ᵀK(ũ − u_p) = Δᵀ (S^α)⁻¹ Δ, Δ = ∓μ̂ − T^α_p, with the body's interface Schur
+    /// complement S^α (m × m, factored once): no back-solve. A body without S^α (its Dirichlet
+    /// step not condensed) makes the Neumann re-solve and (ũ − u_p)ᵀK(ũ − u_p) instead.
+    /// Plus the nodal contact pairing of body 2.
     pub fn eta_nndd(&self, bodies: [Option<&Body>; 2], it: &Iterate) -> Result<f64, EstimateError> {
         let mu_hat = nodal_contact_forces(it);
         let mut sum = 0.0;
@@ -209,25 +218,36 @@ impl Estimator<'_> {
             if let Some(b) = body {
                 let sign = if k == 0 { 1.0 } else { -1.0 };
                 let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
-                let u_d = self
-                    .parts
-                    .run(Part::Resolves, || b.neumann_solve(&f, true))?;
-                let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
-                sum += self.parts.run(Part::ElementSums, || {
-                    let kd = b.apply_k(&d)?;
-                    if !b.is_root() {
-                        return Ok::<f64, EstimateError>(0.0); // counted once per group
+                let factor = self.schur_factors[k]
+                    .get_or_init(|| b.schur.as_ref().and_then(|s| s.cholesky().ok()));
+                let energy = match factor {
+                    Some(ch) => self.parts.run(Part::ElementSums, || {
+                        let delta: Vec<f64> =
+                            f.iter().zip(&it.forces[k]).map(|(a, t)| a - t).collect();
+                        let mut x = delta.clone();
+                        ch.solve_in_place(&mut x);
+                        delta.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>()
+                    }),
+                    None => {
+                        let u_d = self
+                            .parts
+                            .run(Part::Resolves, || b.neumann_solve(&f, true))?;
+                        let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
+                        let kd = self.parts.run(Part::ElementSums, || b.apply_k(&d))?;
+                        d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
                     }
-                    let mut s = d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>();
-                    if k == 1 {
-                        let u2n = b.normal_trace(&it.u[1]);
-                        let obstacle = b.problem.obstacle(&it.lambda);
-                        s += (0..mu_hat.len())
-                            .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]))
-                            .sum::<f64>();
-                    }
-                    Ok(s)
-                })?;
+                };
+                if !b.is_root() {
+                    continue; // counted once per group
+                }
+                sum += energy;
+                if k == 1 {
+                    let u2n = b.normal_trace(&it.u[1]);
+                    let obstacle = b.problem.obstacle(&it.lambda);
+                    sum += (0..mu_hat.len())
+                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]))
+                        .sum::<f64>();
+                }
             }
         }
         Ok(self
