@@ -159,9 +159,18 @@ pub fn solve_nndd(
             let _s = stages.estimation.enter();
             let balanced_rule = settings.nndd.stop == StopRule::Balanced
                 && settings.eta_nndd == NnddVariant::Discrete;
-            // Balanced stopping: check the cheap η^NNDD against κ η^FE of the last full
-            // estimate; a full estimate only at the first check and when the rule may hold.
-            if let (true, Some(fe)) = (balanced_rule, last_fe.get()) {
+            // Balanced stopping: check the cheap η^NNDD against κ η^FE (of the first check,
+            // which computes η^FE alone, then of the last full estimate); a full estimate only
+            // when the rule may hold.
+            if balanced_rule {
+                let fe = match last_fe.get() {
+                    Some(fe) => fe,
+                    None => {
+                        let fe = est.eta_fe(refs, it)?;
+                        last_fe.set(Some(fe));
+                        fe
+                    }
+                };
                 let nndd = est.eta_nndd(refs, it)?;
                 if nndd > settings.stop_ratio * fe {
                     checks.borrow_mut().push((it.iteration, nndd));

@@ -47,6 +47,9 @@ pub struct IterationData<'a> {
     pub mu_hat: &'a [f64],
     pub nndd_variant: NnddVariant,
     pub recovery: StarChoice,
+    /// η^FE alone (the balanced rule's first check): no η^glo re-solve and recovery, no
+    /// η^NNDD; `glo` and `nndd` stay zero.
+    pub fe_only: bool,
 }
 
 /// Where a rank's recovery runs: the whole body mesh (the body on one rank), or the rank's
@@ -150,45 +153,21 @@ pub fn estimate_body(
             .collect()
     });
 
-    // η^glo and η^NNDD: the Neumann re-solve with Γc data t̂^α, and its equilibration.
-    let sign = if alpha == 1 { 1.0 } else { -1.0 };
-    let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
-    let u_tilde = parts.run(Part::Resolves, || {
-        body.neumann_solve(&iface.forces(&t_alpha), true)
-    })?;
-    // The η^glo recovery starts cold; the η^FE one (of nearly the same data) may start from
-    // the change its sweeps made (`StarChoice::PatchTraction`).
-    operators.forget_warm_start();
-    let (s_glo, mut res) = parts.run(Part::Recovery, || {
-        view.equilibrate(p, &u_tilde, &t_alpha, data.recovery, operators)
-    })?;
     let mut est = BodyEstimate {
         glo: vec![0.0; ne],
         fe: vec![0.0; ne],
         nndd: vec![0.0; ne],
         ..Default::default()
     };
-    // η^NNDD: the discretely equilibrated field of the discrete problem (nodal forces ∓μ̂),
-    // or docs/method.md's ũ^α_h of η^glo.
-    let u_d = match data.nndd_variant {
-        NnddVariant::Discrete => {
-            let f: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
-            parts.run(Part::Resolves, || body.neumann_solve(&f, true))?
-        }
-        NnddVariant::Density => u_tilde.clone(),
-    };
-    parts.run(Part::ElementSums, || {
-        for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
-            est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
-            let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
-            let dofs = element_dofs(&mesh.triangles[e]);
-            let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
-            est.nndd[e] = (0..6)
-                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
-                .sum();
-        }
-    });
-    drop(s_glo);
+    // The η^glo recovery starts cold; the η^FE one (of nearly the same data) may start from
+    // the change its sweeps made (`StarChoice::PatchTraction`).
+    operators.forget_warm_start();
+    let mut res = Residuals::default();
+    if !data.fe_only {
+        res = glo_and_nndd(
+            body, u_p, iface, data, view, parts, operators, &sigma_p, &kept, sub, &mut est,
+        )?;
+    }
 
     // η^FE: the step-p problem at fixed λ_p.
     let (s_fe, r_fe) = if alpha == 1 {
@@ -250,6 +229,58 @@ pub fn estimate_body(
     }
     est.residuals = res;
     Ok(est)
+}
+
+/// η^glo and η^NNDD of body α (the element terms of `est`): the Neumann re-solve with Γc
+/// data t̂^α and its equilibration, and the discrete (or density) η^NNDD field.
+#[allow(clippy::too_many_arguments)]
+fn glo_and_nndd(
+    body: &Body,
+    u_p: &[f64],
+    iface: &Interface,
+    data: &IterationData,
+    view: &View,
+    parts: &Parts,
+    operators: &mut OperatorCache,
+    sigma_p: &[[f64; 3]],
+    kept: &[(usize, usize)],
+    sub: &Mesh,
+    est: &mut BodyEstimate,
+) -> Result<Residuals, EstimateError> {
+    let p = &body.problem;
+    let alpha = p.alpha;
+    let mesh = &p.mesh;
+    let sign = if alpha == 1 { 1.0 } else { -1.0 };
+    // η^glo and η^NNDD: the Neumann re-solve with Γc data t̂^α, and its equilibration.
+    let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
+    let u_tilde = parts.run(Part::Resolves, || {
+        body.neumann_solve(&iface.forces(&t_alpha), true)
+    })?;
+    let (s_glo, res) = parts.run(Part::Recovery, || {
+        view.equilibrate(p, &u_tilde, &t_alpha, data.recovery, operators)
+    })?;
+    // η^NNDD: the discretely equilibrated field of the discrete problem (nodal forces ∓μ̂),
+    // or docs/method.md's ũ^α_h of η^glo.
+    let u_d = match data.nndd_variant {
+        NnddVariant::Discrete => {
+            let f: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
+            parts.run(Part::Resolves, || body.neumann_solve(&f, true))?
+        }
+        NnddVariant::Density => u_tilde.clone(),
+    };
+    parts.run(Part::ElementSums, || {
+        for (&(l, e), &sig) in kept.iter().zip(sigma_p) {
+            est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
+            let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
+            let dofs = element_dofs(&mesh.triangles[e]);
+            let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
+            est.nndd[e] = (0..6)
+                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+                .sum();
+        }
+    });
+    drop(s_glo);
+    Ok(res)
 }
 
 pub(super) fn worst(a: Residuals, b: Residuals) -> Residuals {

@@ -263,6 +263,23 @@ impl Estimator<'_> {
         bodies: [Option<&Body>; 2],
         it: &Iterate,
     ) -> Result<EstimateRecord, EstimateError> {
+        self.run(bodies, it, false)
+    }
+
+    /// η^FE alone of the iterate `it` (one recovery per body, and body 2's re-solve): what
+    /// the balanced stopping rule compares η^NNDD with at its first check.
+    pub fn eta_fe(&self, bodies: [Option<&Body>; 2], it: &Iterate) -> Result<f64, EstimateError> {
+        Ok(self.run(bodies, it, true)?.eta_fe)
+    }
+
+    /// The estimates of `it`; with `fe_only`, η^FE alone (the other totals are zero, and
+    /// there is no e_ref).
+    fn run(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+        fe_only: bool,
+    ) -> Result<EstimateRecord, EstimateError> {
         let layout = self.layout;
         // The admissible Γc tractions (the same small QPs on every rank).
         let target: Vec<f64> = it.forces[0]
@@ -272,10 +289,13 @@ impl Estimator<'_> {
             .collect();
         let minus_t2: Vec<f64> = it.forces[1].iter().map(|t| -t).collect();
         let (t_glo, t_fe) = self.parts.run(Part::TractionQp, || {
-            Ok::<_, EstimateError>((
-                self.iface.admissible_traction(&target, &self.qp)?,
-                self.iface.admissible_traction(&minus_t2, &self.qp)?,
-            ))
+            let t_fe = self.iface.admissible_traction(&minus_t2, &self.qp)?;
+            let t_glo = if fe_only {
+                t_fe.clone() // unused
+            } else {
+                self.iface.admissible_traction(&target, &self.qp)?
+            };
+            Ok::<_, EstimateError>((t_glo, t_fe))
         })?;
         let mu_hat = nodal_contact_forces(it);
         let data = IterationData {
@@ -286,6 +306,7 @@ impl Estimator<'_> {
             mu_hat: &mu_hat,
             nndd_variant: self.nndd_variant,
             recovery: self.recovery,
+            fe_only,
         };
         let mut sums = [0.0; 3];
         let mut res = Residuals::default();
@@ -317,7 +338,7 @@ impl Estimator<'_> {
                         layout.group_sum(map); // each element from its owner
                     }
                 });
-                if let Some(r) = &self.reference {
+                if let Some(r) = self.reference.as_ref().filter(|_| !fe_only) {
                     e_ref2 += self.parts.run(Part::ReferenceError, || {
                         let fine = r.bodies[k]
                             .as_ref()
