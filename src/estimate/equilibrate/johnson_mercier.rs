@@ -214,6 +214,9 @@ pub(crate) struct ShapeCache {
     map: FastMap<[i64; 4], usize>,
     pub(super) ops: Vec<[f64; NC * NT]>,
     scratch: Option<Box<[f64; NC * NT]>>,
+    /// Keep every shape, past the capacity too (`PatchTraction`, which uses each element's
+    /// operator several times per recovery and keeps them across recoveries).
+    pub(super) uncapped: bool,
 }
 
 impl ShapeCache {
@@ -229,7 +232,7 @@ impl ShapeCache {
             return Some(i);
         }
         let op = jm_operator(q)?;
-        if self.ops.len() >= shape_capacity() {
+        if !self.uncapped && self.ops.len() >= shape_capacity() {
             return Some(NONE);
         }
         self.ops.push(op);
