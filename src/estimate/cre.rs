@@ -163,10 +163,39 @@ pub fn estimate_body(
     // the change its sweeps made (`StarChoice::PatchTraction`).
     operators.forget_warm_start();
     let mut res = Residuals::default();
+    // η^glo and η^NNDD (not at the balanced rule's first check, `fe_only`): the Neumann
+    // re-solve with Γc data t̂^α, and its equilibration.
     if !data.fe_only {
-        res = glo_and_nndd(
-            body, u_p, iface, data, view, parts, operators, &sigma_p, &kept, sub, &mut est,
-        )?;
+        let sign = if alpha == 1 { 1.0 } else { -1.0 };
+        let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
+        let u_tilde = parts.run(Part::Resolves, || {
+            body.neumann_solve(&iface.forces(&t_alpha), true)
+        })?;
+        let (s_glo, r_glo) = parts.run(Part::Recovery, || {
+            view.equilibrate(p, &u_tilde, &t_alpha, data.recovery, operators)
+        })?;
+        // η^NNDD: the discretely equilibrated field of the discrete problem (nodal forces ∓μ̂),
+        // or docs/method.md's ũ^α_h of η^glo.
+        let u_d = match data.nndd_variant {
+            NnddVariant::Discrete => {
+                let f: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
+                parts.run(Part::Resolves, || body.neumann_solve(&f, true))?
+            }
+            NnddVariant::Density => u_tilde.clone(),
+        };
+        parts.run(Part::ElementSums, || {
+            for (&(l, e), &sig) in kept.iter().zip(&sigma_p) {
+                est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
+                let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
+                let dofs = element_dofs(&mesh.triangles[e]);
+                let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
+                est.nndd[e] = (0..6)
+                    .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+                    .sum();
+            }
+        });
+        drop(s_glo);
+        res = r_glo;
     }
 
     // η^FE: the step-p problem at fixed λ_p.
@@ -229,58 +258,6 @@ pub fn estimate_body(
     }
     est.residuals = res;
     Ok(est)
-}
-
-/// η^glo and η^NNDD of body α (the element terms of `est`): the Neumann re-solve with Γc
-/// data t̂^α and its equilibration, and the discrete (or density) η^NNDD field.
-#[allow(clippy::too_many_arguments)]
-fn glo_and_nndd(
-    body: &Body,
-    u_p: &[f64],
-    iface: &Interface,
-    data: &IterationData,
-    view: &View,
-    parts: &Parts,
-    operators: &mut OperatorCache,
-    sigma_p: &[[f64; 3]],
-    kept: &[(usize, usize)],
-    sub: &Mesh,
-    est: &mut BodyEstimate,
-) -> Result<Residuals, EstimateError> {
-    let p = &body.problem;
-    let alpha = p.alpha;
-    let mesh = &p.mesh;
-    let sign = if alpha == 1 { 1.0 } else { -1.0 };
-    // η^glo and η^NNDD: the Neumann re-solve with Γc data t̂^α, and its equilibration.
-    let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
-    let u_tilde = parts.run(Part::Resolves, || {
-        body.neumann_solve(&iface.forces(&t_alpha), true)
-    })?;
-    let (s_glo, res) = parts.run(Part::Recovery, || {
-        view.equilibrate(p, &u_tilde, &t_alpha, data.recovery, operators)
-    })?;
-    // η^NNDD: the discretely equilibrated field of the discrete problem (nodal forces ∓μ̂),
-    // or docs/method.md's ũ^α_h of η^glo.
-    let u_d = match data.nndd_variant {
-        NnddVariant::Discrete => {
-            let f: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
-            parts.run(Part::Resolves, || body.neumann_solve(&f, true))?
-        }
-        NnddVariant::Density => u_tilde.clone(),
-    };
-    parts.run(Part::ElementSums, || {
-        for (&(l, e), &sig) in kept.iter().zip(sigma_p) {
-            est.glo[e] = s_glo.cre_squared(sub, l, sig, &p.material);
-            let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
-            let dofs = element_dofs(&mesh.triangles[e]);
-            let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
-            est.nndd[e] = (0..6)
-                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
-                .sum();
-        }
-    });
-    drop(s_glo);
-    Ok(res)
 }
 
 pub(super) fn worst(a: Residuals, b: Residuals) -> Residuals {
