@@ -225,9 +225,6 @@ pub fn equilibrate_restricted(
     // (b) JM fields.
     let planned = matches!(choice, StarChoice::PatchTraction { .. });
     let mut cache = std::mem::take(&mut operators.shapes);
-    // `PatchTraction` keeps every element's JM operator (it uses each several times per
-    // recovery, and again at every estimate).
-    cache.uncapped |= planned;
     let mut shape_of = vec![NONE; nt];
     // `PatchTraction` builds the fields once, at the end, after its sweeps' data is freed.
     let mut coef = if planned {
