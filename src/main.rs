@@ -1,7 +1,16 @@
 //! `nndd`: see `nndd -help` and README.md.
+//!
+//! How a run ends (issue 12, README "Exit codes"): every failure ends every rank, with one
+//! line naming the cause. Failures that all ranks meet at the same point (bad input, an
+//! unwritable output, a failure at the end of a setup phase) are agreed on and reported once,
+//! and the ranks exit together; a failure of one rank in the middle of the solve, where the
+//! others wait in a collective, is reported by that rank, which then aborts the job.
 
-use nndd::app::{self, AppError, Outcome};
+use nndd::app::{self, preflight, AppError, Outcome};
+use nndd::parallel::fault::{self, Agreement, Phase};
 use nndd::petsc::Petsc;
+
+use mpi::traits::Communicator;
 
 fn main() {
     std::panic::set_hook(Box::new(|info| {
@@ -12,40 +21,92 @@ fn main() {
         std::process::exit(1);
     };
     let world = universe.world();
-    let rank = mpi::traits::Communicator::rank(&world);
-    let size = mpi::traits::Communicator::size(&world);
+    let rank = world.rank();
+    let agreement = Agreement::new(&world);
     let args: Vec<String> = std::env::args().collect();
-    let code = match Petsc::initialize(&args, app::HELP) {
-        Err(e) => {
-            eprintln!("nndd: error: {e}");
-            1
+    // PETSc reads the options files on rank 0 only and broadcasts them: every rank checks
+    // them first, so that a missing one ends every rank instead of leaving them waiting.
+    let files = preflight::options_files(&args);
+    let bad_files = files.as_ref().err().cloned();
+    if let Some(first) = agreement.first_failed(files.is_err(), || {
+        app::abort_with(bad_files.as_deref())
+    }) {
+        if rank as usize == first {
+            eprintln!("nndd: error: {}", files.unwrap_err());
         }
-        Ok(petsc) => {
-            let code = match app::run(world) {
-                Ok(Outcome::Solved) | Ok(Outcome::Help) => 0,
-                Ok(Outcome::NotConverged) => 3,
-                Err(e) => report(&e, rank, size),
-            };
-            drop(petsc); // PetscFinalize before MPI_Finalize
-            code
+        drop(agreement);
+        drop(universe);
+        std::process::exit(1);
+    }
+    // `-nndd_fault RANK:init` must be on the command line (PETSc reads the options files).
+    fault::arm(fault_on_command_line(&args), rank);
+    let petsc = Petsc::initialize(&args, app::HELP)
+        .map_err(|e| e.to_string())
+        .and_then(|p| match fault::check(Phase::Init) {
+            Ok(()) => Ok(p),
+            Err(e) => {
+                // PETSc started here: finalise it with the others below.
+                std::mem::forget(p);
+                Err(e.to_string())
+            }
+        });
+    let message = petsc.as_ref().err().cloned();
+    if let Some(first) = agreement.first_failed(petsc.is_err(), || {
+        app::abort_with(message.as_deref())
+    }) {
+        if rank as usize == first {
+            eprintln!("nndd: error: {}", message.unwrap_or_default());
         }
+        // PETSc did not start on every rank: PetscFinalize would wait for them.
+        std::mem::forget(petsc);
+        drop(agreement);
+        drop(universe);
+        std::process::exit(1);
+    }
+    let petsc = petsc.expect("agreed");
+    let code = match app::run(world, &agreement) {
+        Ok(Outcome::Solved) | Ok(Outcome::Help) => 0,
+        Ok(Outcome::NotConverged) => 3,
+        Ok(Outcome::Interrupted) => 4,
+        Err(e) => report(&e, rank, &agreement),
     };
+    drop(petsc); // PetscFinalize before MPI_Finalize
+    drop(agreement);
     drop(universe);
     std::process::exit(code);
 }
 
-fn report(e: &AppError, rank: i32, size: i32) -> i32 {
-    if e.is_collective() {
-        if rank == 0 {
+/// `-nndd_fault RANK:PHASE` from the command line (the options files are read by PETSc, and
+/// `-nndd_fault` there arms the later phases through the settings).
+fn fault_on_command_line(args: &[String]) -> Option<(i32, Phase)> {
+    let at = args.iter().position(|a| a == "-nndd_fault")?;
+    Phase::parse_spec(args.get(at + 1)?)
+}
+
+/// Report `e` once and give the exit code (see the module documentation).
+fn report(e: &AppError, rank: i32, agreement: &Agreement) -> i32 {
+    if !e.is_collective() {
+        // A failure on this rank only: the others may wait in a collective; end the job.
+        if mpi::topology::SimpleCommunicator::world().size() == 1 {
             eprintln!("nndd: error: {e}");
+            return 2;
         }
-        return 1;
+        app::abort_with(Some(&e.to_string()));
     }
-    // A failure on one rank only: the others may wait in a collective; abort the job.
-    eprintln!("nndd: error (rank {rank}): {e}");
-    if size > 1 {
-        use mpi::traits::Communicator;
-        mpi::topology::SimpleCommunicator::world().abort(2);
+    // Every rank meets this error here: the lowest rank holding a message prints it, and all
+    // exit with its code.
+    let has_message = !matches!(e, AppError::ReportedElsewhere { .. });
+    let message = e.to_string();
+    let first = agreement.first_failure(has_message.then_some(e.exit_code() as u8), || {
+        app::abort_with(has_message.then_some(message.as_str()))
+    });
+    match first {
+        Some((r, code)) => {
+            if r == rank as usize {
+                eprintln!("nndd: error: {e}");
+            }
+            code as i32
+        }
+        None => e.exit_code(),
     }
-    2
 }

@@ -7,6 +7,7 @@
 //! `petsc`).
 
 pub mod options;
+pub mod preflight;
 mod report;
 mod solve;
 
@@ -14,6 +15,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use mpi::topology::SimpleCommunicator;
+use mpi::traits::Communicator as _;
 
 use crate::dd::body::BodyError;
 use crate::dd::contact::ContactError;
@@ -21,9 +23,11 @@ use crate::dd::monolithic::MonolithicError;
 use crate::dd::nndd::NnddError;
 use crate::estimate::equilibrate::StarChoice;
 use crate::estimate::{EstimateError, Estimator, Interface, Parts};
+use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
 use crate::io::output::{self, OutputError, Results};
 use crate::io::summary::{EstimationParts, Timings};
+use crate::parallel::fault::{self, Agreement, InjectedFault, Phase};
 use crate::parallel::layout::{Layout, LayoutError};
 use crate::parallel::partition::PartitionError;
 use crate::petsc::log::Stages;
@@ -31,7 +35,7 @@ use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::meshed::MeshedError;
 use crate::problem::{self, BodyProblem};
 use options::{Settings, SettingsError, SolverKind};
-use solve::Solution;
+use solve::{Restart, Solution};
 
 /// Printed by `-help` before the option list.
 pub const HELP: &str =
@@ -67,9 +71,18 @@ pub enum AppError {
     Estimate(#[from] EstimateError),
     #[error("{0}")]
     Json(String),
-    /// The error was detected and reported by rank 0; this rank only exits.
-    #[error("(reported by rank 0)")]
-    ReportedElsewhere,
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+    #[error(transparent)]
+    Fault(#[from] InjectedFault),
+    #[error("cannot catch the stop signals: {0}")]
+    Signals(std::io::Error),
+    /// An error that every rank learnt at an agreement: all exit together.
+    #[error(transparent)]
+    Agreed(Box<AppError>),
+    /// Another rank failed and reports it; this rank exits with the same `code`.
+    #[error("(reported by another rank)")]
+    ReportedElsewhere { code: i32 },
 }
 
 impl AppError {
@@ -80,9 +93,23 @@ impl AppError {
             AppError::Settings(_)
                 | AppError::Problem(_)
                 | AppError::Layout(_)
-                | AppError::ReportedElsewhere
+                | AppError::ReportedElsewhere { .. }
                 | AppError::Output(_)
+                | AppError::Checkpoint(_)
+                | AppError::Fault(_)
+                | AppError::Agreed(_)
         )
+    }
+
+    /// The process exit code (README "Exit codes"): 1 for bad input, 2 for a failure of the
+    /// solve.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            AppError::Agreed(inner) => inner.exit_code(),
+            AppError::ReportedElsewhere { code } => *code,
+            e if e.is_collective() => 1,
+            _ => 2,
+        }
     }
 }
 
@@ -92,26 +119,59 @@ pub enum Outcome {
     Solved,
     /// The NNDD did not converge; results were written (exit 3).
     NotConverged,
+    /// A signal stopped the NNDD; a restart point and the results so far were written (exit 4).
+    Interrupted,
     /// Only `-help` was asked (exit 0).
     Help,
 }
 
-pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
+pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, AppError> {
     let t_start = Instant::now();
-    // Settings: every -nndd_ option, validated.
-    let settings = Settings::from_options(Petsc::comm_world())?;
+    // Settings: every -nndd_ option, validated; the ranks agree before going on.
+    let settings = agreed(
+        agreement,
+        Settings::from_options(Petsc::comm_world())
+            .map_err(AppError::from)
+            .and_then(|s| {
+                fault::arm(s.fault, world.rank());
+                fault::check(Phase::Options)?;
+                Ok(s)
+            }),
+    )?;
     if petsc::option_present("-help") {
         list_solver_options()?;
         return Ok(Outcome::Help);
     }
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
     // the whole geometry, for the interface and the output).
-    let problems = problem::build(&settings.problem)?;
+    let problems = agreed(
+        agreement,
+        problem::build(&settings.problem)
+            .map_err(AppError::from)
+            .and_then(|p| {
+                fault::check(Phase::Mesh)?;
+                Ok(p)
+            }),
+    )?;
     let input_seconds = t_start.elapsed().as_secs_f64();
     let dofs = [problems[0].mesh.num_dofs(), problems[1].mesh.num_dofs()];
     let layout = Layout::new(world, settings.body1_ranks, dofs)?;
     check_recovery(&settings, &layout)?;
     check_output(&settings, &layout)?;
+    // The restart point this run continues from, checked against this problem.
+    let identity = Identity::of(
+        settings.problem.kind.name(),
+        &problems,
+        settings.theta_text.clone(),
+    );
+    let from = match &settings.restart {
+        None => None,
+        Some(path) => Some(agreed(
+            agreement,
+            checkpoint::read(path, &identity, settings.nndd.max_it).map_err(AppError::from),
+        )?),
+    };
+    petsc::signals::catch_stop_requests().map_err(AppError::Signals)?;
     let stages = Stages::register()?;
     Petsc::track_memory()?;
     let mut timings = Timings {
@@ -119,8 +179,11 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         ..Timings::default()
     };
 
-    // Setup: each rank's bodies (partition, assembly, factorisation).
-    let bodies = solve::setup_bodies(&settings, &problems, &layout, &stages, &mut timings)?;
+    // Setup: each rank's bodies (partition, assembly, factorisation); the ranks agree.
+    let bodies = agreed(
+        agreement,
+        solve::setup_bodies(&settings, &problems, &layout, &stages, &mut timings),
+    )?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     if settings.monitor && layout.is_root() {
         println!(
@@ -159,23 +222,30 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     });
 
     // Solve: the NNDD (paper §3) or the monolithic check.
+    let restart = Restart {
+        identity: &identity,
+        path: checkpoint::path_for(&settings.output),
+        from,
+        agreement,
+    };
     let sol = match settings.solver {
-        SolverKind::Nndd => solve::solve_nndd(
+        SolverKind::Nndd => end_job_on_local_failure(solve::solve_nndd(
             &settings,
             &layout,
             refs,
             estimator.as_ref(),
             &stages,
             &mut timings,
-        )?,
-        SolverKind::Monolithic => solve::solve_monolithic(
+            Some(&restart),
+        ))?,
+        SolverKind::Monolithic => end_job_on_local_failure(solve::solve_monolithic(
             &settings,
             &layout,
             refs,
             estimator.as_ref(),
             &stages,
             &mut timings,
-        )?,
+        ))?,
     };
 
     // Post-processing: energy, Schur source, timings and memory over ranks.
@@ -216,6 +286,7 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
     };
     timings.output = layout.max(t_out.elapsed().as_secs_f64());
     timings.total = t_start.elapsed().as_secs_f64();
+    let mut written = Ok(());
     if layout.is_root() {
         let summary = report::summarise(
             &settings,
@@ -231,14 +302,56 @@ pub fn run(world: SimpleCommunicator) -> Result<Outcome, AppError> {
         );
         let json =
             serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
-        output::write_atomic(&output::with_ext(&settings.output, "json"), json.as_bytes())?;
-        report::report(&settings, &summary, &sol);
+        written = output::write_atomic(&output::with_ext(&settings.output, "json"), json.as_bytes())
+            .map_err(AppError::from);
+        if written.is_ok() {
+            report::report(&settings, &summary, &sol);
+        }
     }
-    Ok(if sol.requested {
+    agreed(agreement, written)?;
+    Ok(if sol.interrupted {
+        Outcome::Interrupted
+    } else if sol.requested {
         Outcome::Solved
     } else {
         Outcome::NotConverged
     })
+}
+
+/// `local` on every rank if no rank failed; else, after every rank learnt it, the rank's own
+/// error, or [`AppError::ReportedElsewhere`] where it did not fail (collective, on the
+/// ranks' [`Agreement`]). A rank that failed and whose partners do not arrive ends the job.
+pub fn agreed<T>(agreement: &Agreement, local: Result<T, AppError>) -> Result<T, AppError> {
+    let code = local.as_ref().err().map(|e| e.exit_code() as u8);
+    let message = local.as_ref().err().map(|e| e.to_string());
+    let first = agreement.first_failure(code, || abort_with(message.as_deref()));
+    match (first, local) {
+        (None, local) => local,
+        (Some(_), Err(e)) if e.is_collective() => Err(e),
+        (Some(_), Err(e)) => Err(AppError::Agreed(Box::new(e))),
+        (Some((_, code)), Ok(_)) => Err(AppError::ReportedElsewhere { code: code as i32 }),
+    }
+}
+
+/// A failure of this rank alone in the solve (a KSP, the QP, an estimate) leaves the other
+/// ranks waiting in a collective: end the job here, before the bodies are dropped (destroying
+/// a factorisation spread over ranks is itself collective, and would wait for ever).
+pub(crate) fn end_job_on_local_failure<T>(r: Result<T, AppError>) -> Result<T, AppError> {
+    match r {
+        Err(e) if !e.is_collective() && SimpleCommunicator::world().size() > 1 => {
+            abort_with(Some(&e.to_string()))
+        }
+        r => r,
+    }
+}
+
+/// Print this rank's error (if any) and end the job (every rank).
+pub fn abort_with(message: Option<&str>) -> ! {
+    let world = SimpleCommunicator::world();
+    if let Some(m) = message {
+        eprintln!("nndd: error (rank {}): {m}", world.rank());
+    }
+    world.abort(2)
 }
 
 /// The result files' content: one step per estimated iteration, or the reported iterate.
@@ -287,7 +400,7 @@ fn check_output(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
     };
     if !layout.agree(checked.is_ok()) {
         checked?;
-        return Err(AppError::ReportedElsewhere);
+        return Err(AppError::ReportedElsewhere { code: 1 });
     }
     Ok(())
 }

@@ -9,6 +9,7 @@ use crate::estimate::equilibrate::StarChoice;
 use crate::estimate::NnddVariant;
 use crate::fem::gmsh;
 use crate::fem::Material;
+use crate::parallel::fault::Phase;
 use crate::petsc::{self, Comm, OptionsBlock};
 use crate::problem::meshed::{CurveCondition, MeshSpec};
 use crate::problem::{ProblemKind, ProblemSettings};
@@ -84,6 +85,14 @@ pub struct Settings {
     /// Ranks of body 1's group (0: by the bodies' dof counts); checked against the world
     /// size by `Layout`.
     pub body1_ranks: usize,
+    /// `-nndd_theta` as given (`auto` or the number), for the checkpoints' identity.
+    pub theta_text: String,
+    /// Write a restart point every k iterations (0: only when a signal stops the run).
+    pub checkpoint_every: usize,
+    /// Continue from this restart point.
+    pub restart: Option<PathBuf>,
+    /// Test only: fail on one rank at one phase (`-nndd_fault RANK:PHASE`).
+    pub fault: Option<(i32, Phase)>,
 }
 
 impl Settings {
@@ -253,7 +262,7 @@ impl Settings {
                     return Err(SettingsError::OutOfRange {
                         option: "-nndd_theta",
                         accepted: "a number > 0, or auto",
-                        value: theta_text,
+                        value: theta_text.clone(),
                     })
                 }
             },
@@ -424,6 +433,46 @@ impl Settings {
                 value: body1_ranks.to_string(),
             });
         }
+        let (checkpoint_every, _) = o.int(
+            "-nndd_checkpoint_every",
+            "Write a restart point PREFIX.checkpoint.json every k NNDD iterations (0: only when SIGTERM, SIGINT or SIGUSR1 stops the run)",
+            0,
+        )?;
+        if checkpoint_every < 0 {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_checkpoint_every",
+                accepted: "an integer >= 0",
+                value: checkpoint_every.to_string(),
+            });
+        }
+        let (restart, restart_given) = o.string(
+            "-nndd_restart",
+            "Continue the NNDD from this restart point (written by -nndd_checkpoint_every or a signal; any rank count)",
+            "",
+        )?;
+        if restart_given && restart.trim().is_empty() {
+            return Err(SettingsError::OutOfRange {
+                option: "-nndd_restart",
+                accepted: "a checkpoint file name",
+                value: "''".into(),
+            });
+        }
+        let (fault_text, fault_given) = o.string(
+            "-nndd_fault",
+            "Testing: fail on one rank at one phase, RANK:PHASE (PHASE: init, options, mesh, assembly, factorisation, ksp, qp, estimate, checkpoint, output)",
+            "",
+        )?;
+        let fault = match (fault_given, Phase::parse_spec(&fault_text)) {
+            (false, _) => None,
+            (true, Some(spec)) => Some(spec),
+            (true, None) => {
+                return Err(SettingsError::UnknownValue {
+                    option: "-nndd_fault",
+                    value: fault_text,
+                    accepted: Phase::ACCEPTED,
+                })
+            }
+        };
         let recovery = match recovery.as_str() {
             "patch" => StarChoice::PatchTraction {
                 sweeps: sweeps as usize,
@@ -482,6 +531,10 @@ impl Settings {
             eta_nndd,
             stop_ratio,
             body1_ranks: body1_ranks as usize,
+            theta_text: theta_text.trim().to_string(),
+            checkpoint_every: checkpoint_every as usize,
+            restart: restart_given.then(|| PathBuf::from(restart)),
+            fault,
         })
     }
 
@@ -496,6 +549,8 @@ impl Settings {
         s.estimate = false;
         s.estimate_every = 0;
         s.reference_factor = 0;
+        s.checkpoint_every = 0;
+        s.restart = None;
         s
     }
 }

@@ -124,7 +124,13 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             monitor::estimate_text(e).trim_start()
         );
     }
-    if !sol.requested {
+    if sol.interrupted {
+        eprintln!(
+            "nndd: interrupted by a signal after {} iterations; continue with -nndd_restart {}",
+            sol.iterations,
+            crate::io::checkpoint::path_for(&settings.output).display()
+        );
+    } else if !sol.requested {
         let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
         eprintln!(
             "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); {}",

@@ -1,7 +1,6 @@
 //! The solve and its estimates: the bodies' setup, the NNDD loop (estimating where asked,
 //! and the balanced stopping rule) or the monolithic check, and the reference solution of (26).
 
-use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::Instant;
 
@@ -11,9 +10,13 @@ use crate::dd::body::{Body, SchurMode};
 use crate::dd::contact::ContactStep;
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
-use crate::dd::nndd::{self, Iterate, IterationRecord, Status, StopRule};
+use crate::dd::nndd::{self, Iterate, IterationRecord, LoopState, Status, StopRule};
 use crate::estimate::{EstimateRecord, Estimator, NnddVariant, Reference};
+use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
+use crate::parallel::fault::{self, Agreement, Phase};
+use super::agreed;
+use crate::petsc;
 use crate::io::summary::Timings;
 use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
@@ -27,6 +30,8 @@ pub struct Solution {
     pub converged: bool,
     /// The run ended as asked (converged, balanced, or the fixed iteration count).
     pub requested: bool,
+    /// A signal stopped it (a restart point was written).
+    pub interrupted: bool,
     pub iterations: usize,
     pub history: Vec<IterationRecord>,
     /// The reported iterate (λ = u¹_n, T¹, T², contact set, fields on their owners).
@@ -95,7 +100,15 @@ pub fn solve_reference(
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let sol = {
         let _s = stages.reference.enter();
-        solve_nndd(&fine, layout, refs, None, stages, &mut scratch)?
+        super::end_job_on_local_failure(solve_nndd(
+            &fine,
+            layout,
+            refs,
+            None,
+            stages,
+            &mut scratch,
+            None,
+        ))?
     };
     timings.reference = t.elapsed().as_secs_f64();
     if layout.is_root() && settings.monitor {
@@ -116,7 +129,127 @@ pub fn solve_reference(
     })
 }
 
-/// The NNDD loop (paper §3), estimating where asked.
+/// Where the restart points go, and where a run starts from.
+pub struct Restart<'a> {
+    /// The identity of this run's problem (written into each checkpoint).
+    pub identity: &'a Identity,
+    /// Where to write them (`PREFIX.checkpoint.json`).
+    pub path: std::path::PathBuf,
+    /// The checkpoint this run continues from.
+    pub from: Option<Checkpoint>,
+    pub agreement: &'a Agreement,
+}
+
+/// The NNDD loop's caller: the estimates at the estimated iterations and the balanced
+/// stopping rule, the monitor, the signals, and the restart points.
+struct Observer<'a> {
+    settings: &'a Settings,
+    layout: &'a Layout,
+    refs: [Option<&'a Body>; 2],
+    estimator: Option<&'a Estimator<'a>>,
+    stages: &'a Stages,
+    m: usize,
+    estimates: Vec<EstimateRecord>,
+    /// Balanced stopping's cheap checks (iteration, η^NNDD) and the last full η^FE.
+    checks: Vec<(usize, f64)>,
+    last_fe: Option<f64>,
+    seconds: f64,
+    restart: Option<&'a Restart<'a>>,
+}
+
+impl nndd::Observer<AppError> for Observer<'_> {
+    fn estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
+        let Some(est) = self.estimator else {
+            return Ok(false);
+        };
+        let settings = self.settings;
+        let t = Instant::now();
+        let _s = self.stages.estimation.enter();
+        let balanced_rule =
+            settings.nndd.stop == StopRule::Balanced && settings.eta_nndd == NnddVariant::Discrete;
+        // Balanced stopping: check the cheap η^NNDD against κ η^FE (of the first check, which
+        // computes η^FE alone, then of the last full estimate); a full estimate only when the
+        // rule may hold.
+        if balanced_rule {
+            let fe = match self.last_fe {
+                Some(fe) => fe,
+                None => {
+                    let fe = est.eta_fe(self.refs, it)?;
+                    self.last_fe = Some(fe);
+                    fe
+                }
+            };
+            let nndd = est.eta_nndd(self.refs, it)?;
+            if nndd > settings.stop_ratio * fe {
+                self.checks.push((it.iteration, nndd));
+                self.seconds += t.elapsed().as_secs_f64();
+                return Ok(false);
+            }
+        }
+        let rec = est.estimate(self.refs, it)?;
+        self.seconds += t.elapsed().as_secs_f64();
+        self.last_fe = Some(rec.eta_fe);
+        let balanced =
+            settings.nndd.stop == StopRule::Balanced && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
+        self.estimates.push(rec);
+        Ok(balanced)
+    }
+
+    fn monitor(&mut self, r: &IterationRecord) {
+        if self.settings.monitor && self.layout.is_root() {
+            monitor::monitor_line(
+                r,
+                self.m,
+                self.estimates.last().filter(|e| e.iteration == r.iteration),
+            );
+        }
+    }
+
+    fn interrupted(&self) -> bool {
+        self.restart.is_some() && petsc::signals::stop_requested()
+    }
+
+    fn checkpoint_due(&self, p: usize) -> bool {
+        let k = self.settings.checkpoint_every;
+        self.restart.is_some() && k > 0 && p.is_multiple_of(k)
+    }
+
+    fn checkpoint(&mut self, state: &LoopState) -> Result<(), AppError> {
+        let Some(restart) = self.restart else {
+            return Ok(());
+        };
+        let mut state = state.clone();
+        attach_estimates(&mut state.history, &self.estimates);
+        attach_checks(&mut state.history, &self.checks);
+        let cp = Checkpoint {
+            format: checkpoint::FORMAT.into(),
+            identity: restart.identity.clone(),
+            state,
+            balanced_fe: self.last_fe,
+            checks: self.checks.clone(),
+        };
+        let written = fault::check(Phase::Checkpoint)
+            .map_err(AppError::from)
+            .and_then(|()| {
+                if self.layout.is_root() {
+                    checkpoint::write(&restart.path, &cp)?;
+                }
+                Ok(())
+            });
+        agreed(restart.agreement, written)?;
+        if self.settings.monitor && self.layout.is_root() {
+            println!(
+                "nndd: restart point after iteration {} written to {}",
+                cp.state.iteration,
+                restart.path.display()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The NNDD loop (paper §3), estimating where asked; with `restart`, writing restart points
+/// and stopping on a signal, or continuing from one.
 pub fn solve_nndd(
     settings: &Settings,
     layout: &Layout,
@@ -124,16 +257,12 @@ pub fn solve_nndd(
     estimator: Option<&Estimator>,
     stages: &Stages,
     timings: &mut Timings,
+    restart: Option<&Restart>,
 ) -> Result<Solution, AppError> {
     let dirichlet = refs[0].map(DirichletStep::new).transpose()?;
     let contact = refs[1]
         .map(|b2| ContactStep::new(b2, settings.qp.clone(), settings.qp_warm_start))
         .transpose()?;
-    let estimates: RefCell<Vec<EstimateRecord>> = RefCell::new(Vec::new());
-    // Balanced stopping's cheap checks (iteration, η^NNDD) and the last full η^FE.
-    let checks: RefCell<Vec<(usize, f64)>> = RefCell::new(Vec::new());
-    let last_fe: std::cell::Cell<Option<f64>> = std::cell::Cell::new(None);
-    let mut t_est = 0.0;
     let every = if estimator.is_some() && settings.estimate_every > 0 {
         Some(settings.estimate_every)
     } else {
@@ -142,6 +271,20 @@ pub fn solve_nndd(
     let root = layout.is_root();
     // The number of Γc pairs (every rank holds at least one body).
     let m = refs.iter().flatten().next().map_or(0, |b| b.gc.len());
+    let from = restart.and_then(|r| r.from.clone());
+    let mut observer = Observer {
+        settings,
+        layout,
+        refs,
+        estimator,
+        stages,
+        m,
+        estimates: Vec::new(),
+        checks: from.as_ref().map_or(Vec::new(), |c| c.checks.clone()),
+        last_fe: from.as_ref().and_then(|c| c.balanced_fe),
+        seconds: 0.0,
+        restart,
+    };
     let res = nndd::solve::<AppError>(
         &settings.nndd,
         m,
@@ -151,55 +294,15 @@ pub fn solve_nndd(
         contact.as_ref(),
         stages,
         every,
-        |it| {
-            let Some(est) = estimator else {
-                return Ok(false);
-            };
-            let t = Instant::now();
-            let _s = stages.estimation.enter();
-            let balanced_rule = settings.nndd.stop == StopRule::Balanced
-                && settings.eta_nndd == NnddVariant::Discrete;
-            // Balanced stopping: check the cheap η^NNDD against κ η^FE (of the first check,
-            // which computes η^FE alone, then of the last full estimate); a full estimate only
-            // when the rule may hold.
-            if balanced_rule {
-                let fe = match last_fe.get() {
-                    Some(fe) => fe,
-                    None => {
-                        let fe = est.eta_fe(refs, it)?;
-                        last_fe.set(Some(fe));
-                        fe
-                    }
-                };
-                let nndd = est.eta_nndd(refs, it)?;
-                if nndd > settings.stop_ratio * fe {
-                    checks.borrow_mut().push((it.iteration, nndd));
-                    t_est += t.elapsed().as_secs_f64();
-                    return Ok(false);
-                }
-            }
-            let rec = est.estimate(refs, it)?;
-            t_est += t.elapsed().as_secs_f64();
-            last_fe.set(Some(rec.eta_fe));
-            let balanced = settings.nndd.stop == StopRule::Balanced
-                && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
-            estimates.borrow_mut().push(rec);
-            Ok(balanced)
-        },
-        |r| {
-            if settings.monitor && root {
-                monitor::monitor_line(
-                    r,
-                    m,
-                    estimates
-                        .borrow()
-                        .last()
-                        .filter(|e| e.iteration == r.iteration),
-                );
-            }
-        },
+        from.map(|c| c.state),
+        &mut observer,
     )?;
-    let mut estimates = estimates.into_inner();
+    let Observer {
+        mut estimates,
+        checks,
+        seconds: mut t_est,
+        ..
+    } = observer;
     if let Some(est) = estimator {
         if estimates.last().map(|e| e.iteration) != Some(res.iterations) {
             let t = Instant::now();
@@ -219,11 +322,7 @@ pub fn solve_nndd(
     timings.exchange = res.timers.exchange.seconds();
     let mut history = res.history;
     attach_estimates(&mut history, &estimates);
-    for (iteration, nndd) in checks.into_inner() {
-        if let Some(h) = history.iter_mut().find(|h| h.iteration == iteration) {
-            h.eta_nndd = Some(nndd);
-        }
-    }
+    attach_checks(&mut history, &checks);
     Ok(Solution {
         status: res.status.name().to_string(),
         stop_reason: res.status.stop_reason(),
@@ -231,6 +330,7 @@ pub fn solve_nndd(
         converged: res.status.succeeded(),
         requested: res.status.succeeded()
             || (settings.nndd.stop == StopRule::None && res.status == Status::MaxIterations),
+        interrupted: res.status == Status::Interrupted,
         iterations: res.iterations,
         history,
         last: res.last,
@@ -280,12 +380,22 @@ pub fn solve_monolithic(
         stop_reason: "direct",
         converged: true,
         requested: true,
+        interrupted: false,
         iterations: 0,
         history: Vec::new(),
         last,
         estimates,
         dirichlet_step: "",
     })
+}
+
+/// The cheap η^NNDD checks of balanced stopping, into the history.
+fn attach_checks(history: &mut [IterationRecord], checks: &[(usize, f64)]) {
+    for &(iteration, nndd) in checks {
+        if let Some(h) = history.iter_mut().find(|h| h.iteration == iteration) {
+            h.eta_nndd = Some(nndd);
+        }
+    }
 }
 
 fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord]) {

@@ -22,6 +22,7 @@
 use std::cell::RefCell;
 
 use crate::fem::{element_dofs, element_stiffness};
+use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::partition::Partition;
 use crate::petsc::{self, Comm, Gather, Ksp, Matrix, Vector};
 use std::rc::Rc;
@@ -41,6 +42,8 @@ pub enum BodyError {
     },
     #[error("body {alpha}: interface Schur complement: {source}")]
     Schur { alpha: usize, source: DenseError },
+    #[error(transparent)]
+    Fault(#[from] InjectedFault),
 }
 
 /// Unit right-hand sides per multiple-RHS solve when S^α comes from back-solves.
@@ -114,6 +117,7 @@ impl Body {
         let frames = problem.frames();
         let (k, diag, k_neu) = {
             let _s = stages.assembly.enter();
+            fault::check(Phase::Assembly)?;
             let (k, diag) = assemble(&problem, &frames, comm, &partition)?;
             let rows = owned_rows(&partition, problem.dirichlet.iter().map(|d| d.0));
             let mut k_neu = k.duplicate()?;
@@ -128,6 +132,7 @@ impl Body {
         let _s = stages.factorisation.enter();
         // MUMPS forms S^α during the factorisation only on one rank (PETSc 3.18).
         let want = (schur != SchurMode::None && partition.size == 1).then_some(&gc_rows[..]);
+        fault::check(Phase::Factorisation)?;
         let neumann = Ksp::new(comm, k_neu, &format!("body{alpha}_"), want)?;
         let x = Vector::new(comm, partition.local_rows())?;
         let whole = Gather::new(&x, &partition.rows_in_mesh_order())?;

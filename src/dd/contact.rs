@@ -99,6 +99,11 @@ impl ContactStep {
         (&self.u0, &self.v_star)
     }
 
+    /// The contact set the next [`Self::solve`] tries first (a restart's last one).
+    pub fn set_warm_start(&self, active: Vec<bool>) {
+        *self.previous.borrow_mut() = Some(active);
+    }
+
     /// Solve the contact step for the interface position λ_p (obstacle λ_p − g₀).
     pub fn solve(&self, body: &Body, lambda: &[f64]) -> Result<ContactSolution, ContactError> {
         let s: &SymMatrix = body

@@ -10,6 +10,7 @@ use crate::dd::contact::{ContactError, ContactStep};
 use crate::dd::dirichlet::DirichletStep;
 use crate::dd::neumann::neumann_step;
 use crate::dd::secant::SecantUpdate;
+use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::Layout;
 use crate::petsc::log::{Stages, Timer};
 
@@ -19,6 +20,8 @@ pub enum NnddError {
     Body(#[from] BodyError),
     #[error(transparent)]
     Contact(#[from] ContactError),
+    #[error(transparent)]
+    Fault(#[from] InjectedFault),
 }
 
 /// The most secant columns `-nndd_theta auto` keeps (at most one per Γc pair is useful).
@@ -74,6 +77,8 @@ pub enum Status {
     MaxIterations,
     Diverged,
     Stagnated,
+    /// A signal asked to stop (SIGTERM, SIGINT, SIGUSR1): a restart point was written.
+    Interrupted,
 }
 
 impl Status {
@@ -84,6 +89,7 @@ impl Status {
             Status::MaxIterations => "max_it",
             Status::Diverged => "diverged",
             Status::Stagnated => "stagnated",
+            Status::Interrupted => "interrupted",
         }
     }
 
@@ -107,6 +113,7 @@ impl Status {
             Status::MaxIterations,
             Status::Diverged,
             Status::Stagnated,
+            Status::Interrupted,
         ]
         .into_iter()
         .find(|s| *s as u8 + 1 == c)
@@ -114,7 +121,7 @@ impl Status {
 }
 
 /// One line of the convergence history.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct IterationRecord {
     pub iteration: usize,
     /// ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
@@ -230,11 +237,48 @@ fn form_fields(
     Ok(())
 }
 
+/// What the loop needs to continue after iteration `iteration` (a restart point): written by
+/// `-nndd_checkpoint_every` and on a signal, read by `-nndd_restart`. The same on every rank.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct LoopState {
+    /// The iterations done; the next one is `iteration + 1`.
+    pub iteration: usize,
+    /// λ_{p+1}: where the next iteration starts.
+    pub lambda: Vec<f64>,
+    /// The history of the iterations done.
+    pub history: Vec<IterationRecord>,
+    /// The contact set of the last contact step (the warm start of the next QP).
+    pub active: Vec<bool>,
+    /// `-nndd_theta auto`: the secant update's columns and estimates.
+    pub secant: Option<SecantUpdate>,
+    /// The stagnation and divergence guards: the best ‖Δλ‖/‖λ‖, where, and the run of growth.
+    pub best: f64,
+    pub best_at: usize,
+    pub growth: usize,
+}
+
+/// What the loop asks of its caller, besides the bodies and steps: the estimates, the
+/// monitor, whether a stop was requested, and the restart points. Every method but
+/// `monitor` and `interrupted` is called on every rank at the same point (collectively).
+pub trait Observer<E> {
+    /// At the iterations of `estimate_every`, with the fields of step p formed: whether the
+    /// balanced stopping criterion holds.
+    fn estimate(&mut self, it: &Iterate) -> Result<bool, E>;
+    /// After each iteration.
+    fn monitor(&mut self, record: &IterationRecord);
+    /// Whether this rank was asked to stop (the loop agrees over the ranks).
+    fn interrupted(&self) -> bool;
+    /// Whether to write a restart point after iteration p (when the loop goes on).
+    fn checkpoint_due(&self, p: usize) -> bool;
+    /// Write the restart point `state`.
+    fn checkpoint(&mut self, state: &LoopState) -> Result<(), E>;
+}
+
 /// Run the NNDD loop on `m` Γc node pairs. `bodies[α-1]` is `Some` on the ranks owning body
 /// α, with `dirichlet` on body 1's and `contact` on body 2's. Every `estimate_every`
-/// iterations (if set), the fields of step p are formed and `observe` is called with the
-/// iterate (collectively); it returns whether the balanced stopping criterion holds there.
-/// Its errors (of type `E`, which the loop's own errors convert into) end the loop.
+/// iterations (if set), the fields of step p are formed and `observer.estimate` is called
+/// with the iterate (collectively). A run continues from `start` (`-nndd_restart`) when
+/// given. Errors of type `E` (which the loop's own errors convert into) end the loop.
 #[allow(clippy::too_many_arguments)]
 pub fn solve<E: From<NnddError>>(
     settings: &NnddSettings,
@@ -245,21 +289,39 @@ pub fn solve<E: From<NnddError>>(
     contact: Option<&ContactStep>,
     stages: &Stages,
     estimate_every: Option<usize>,
-    mut observe: impl FnMut(&Iterate) -> Result<bool, E>,
-    mut monitor: impl FnMut(&IterationRecord),
+    start: Option<LoopState>,
+    observer: &mut impl Observer<E>,
 ) -> Result<NnddResult, E> {
-    let mut lambda = vec![0.0; m];
-    let mut history = Vec::new();
     let mut timers = LoopTimers::default();
     let mut status = Status::MaxIterations;
-    let mut best = f64::INFINITY;
-    let mut best_at = 0usize;
-    let mut growth = 0usize;
     let mut last: Option<Iterate> = None;
-    let mut secant = settings
-        .auto
-        .then(|| SecantUpdate::new(settings.theta, SECANT_MEMORY.min(m.max(1))));
-    for p in 1..=settings.max_it {
+    let fresh = LoopState {
+        iteration: 0,
+        lambda: vec![0.0; m],
+        history: Vec::new(),
+        active: Vec::new(),
+        secant: settings
+            .auto
+            .then(|| SecantUpdate::new(settings.theta, SECANT_MEMORY.min(m.max(1)))),
+        best: f64::INFINITY,
+        best_at: 0,
+        growth: 0,
+    };
+    let resumed = start.is_some();
+    let LoopState {
+        iteration: done,
+        mut lambda,
+        mut history,
+        active: warm,
+        mut secant,
+        mut best,
+        mut best_at,
+        mut growth,
+    } = start.unwrap_or(fresh);
+    if let (Some(c), true) = (contact, resumed && !warm.is_empty()) {
+        c.set_warm_start(warm);
+    }
+    for p in done + 1..=settings.max_it {
         // Step 1: Dirichlet problem on Ω¹ and contact problem on Ω², concurrently.
         let mut t1 = vec![0.0; m];
         let mut u1 = Vec::new();
@@ -275,6 +337,7 @@ pub fn solve<E: From<NnddError>>(
         let mut t2 = vec![0.0; m];
         // Body 2's contact set, the QP's KKT residual and iterations, and the gaps.
         let mut act = vec![0.0; 2 * m + 2];
+        fault::check(Phase::Qp).map_err(NnddError::from)?;
         // The contact QP lives on Γc: body 2's root solves it, the broadcast below shares it.
         if let (Some(b2), Some(c)) = (bodies[1].filter(|b| b.is_root()), contact) {
             let _s = stages.contact_step.enter();
@@ -300,6 +363,7 @@ pub fn solve<E: From<NnddError>>(
         let mut w2 = vec![0.0; m];
         {
             let _s = stages.neumann_step.enter();
+            fault::check(Phase::Ksp).map_err(NnddError::from)?;
             if let Some(b1) = bodies[0] {
                 w1 = timers
                     .neumann_step
@@ -384,11 +448,10 @@ pub fn solve<E: From<NnddError>>(
                 stages,
                 &mut timers,
             )?;
-            balanced = observe(&it)?;
+            balanced = observer.estimate(&it)?;
         }
-        monitor(&record);
+        observer.monitor(&record);
         history.push(record);
-        last = Some(it);
         // Step 6: stop? (all ranks computed the same numbers; rank 0 decides for all)
         let use_tol = settings.stop != StopRule::None;
         let verdict = if !change.is_finite() {
@@ -402,7 +465,8 @@ pub fn solve<E: From<NnddError>>(
                 best = change;
                 best_at = p;
             }
-            growth = if p > 1 && change > history[p - 2].lambda_change {
+            let previous = history.len().checked_sub(2).map(|k| history[k].lambda_change);
+            growth = if previous.is_some_and(|c| change > c) {
                 growth + 1
             } else {
                 0
@@ -415,16 +479,40 @@ pub fn solve<E: From<NnddError>>(
                 None
             }
         };
-        // Rank 0 decides for all (every rank computed the same numbers).
-        let code = layout.agree_code(verdict.map_or(0u8, |s| s as u8 + 1));
-        if let Some(s) = Status::from_code(code) {
+        // Rank 0 decides for all (every rank computed the same numbers); a signal on any
+        // rank stops all at the end of this iteration.
+        let (code, interrupted) =
+            layout.agree_stop(verdict.map_or(0u8, |s| s as u8 + 1), observer.interrupted());
+        let stop = Status::from_code(code);
+        let continues = stop.is_none() && p < settings.max_it;
+        if interrupted && continues {
+            status = Status::Interrupted;
+        }
+        if continues && (interrupted || observer.checkpoint_due(p)) {
+            let active = it.active.clone();
+            observer.checkpoint(&LoopState {
+                iteration: p,
+                lambda: new.clone(),
+                history: history.clone(),
+                active,
+                secant: secant.clone(),
+                best,
+                best_at,
+                growth,
+            })?;
+        }
+        last = Some(it);
+        if let Some(s) = stop {
             status = s;
+            break;
+        }
+        if status == Status::Interrupted {
             break;
         }
         lambda = new;
     }
     let iterations = history.len();
-    let mut last = last.expect("max_it ≥ 1");
+    let mut last = last.expect("the loop runs at least once (checked by the restart)");
     // The fields of the reported step (the loop needs only the Γc forces).
     form_fields(
         layout,

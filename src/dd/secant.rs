@@ -46,6 +46,7 @@ use std::collections::VecDeque;
 const FILTER: f64 = 1e-10;
 
 /// One secant column: the differences of two iterates in the same contact set.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 struct Column {
     /// Δλ.
     dl: Vec<f64>,
@@ -56,6 +57,7 @@ struct Column {
 }
 
 /// An iterate as the update remembers it.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 struct Point {
     lambda: Vec<f64>,
     d: Vec<f64>,
@@ -63,7 +65,8 @@ struct Point {
     signs: Vec<f64>,
 }
 
-/// The state of the secant update across the NNDD iterations.
+/// The state of the secant update across the NNDD iterations (kept in a checkpoint).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct SecantUpdate {
     probe: f64,
     memory: usize,

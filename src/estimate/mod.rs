@@ -63,6 +63,8 @@ pub enum EstimateError {
     },
     #[error("reference mesh {fine} is not a refinement of mesh {coarse}")]
     NotNested { coarse: String, fine: String },
+    #[error(transparent)]
+    Fault(#[from] crate::parallel::fault::InjectedFault),
 }
 
 /// Which reference problem η^NNDD is measured against (see the module docs).
@@ -280,6 +282,7 @@ impl Estimator<'_> {
         it: &Iterate,
         fe_only: bool,
     ) -> Result<EstimateRecord, EstimateError> {
+        crate::parallel::fault::check(crate::parallel::fault::Phase::Estimate)?;
         let layout = self.layout;
         // The admissible Γc tractions (the same small QPs on every rank).
         let target: Vec<f64> = it.forces[0]

@@ -18,7 +18,29 @@ pub struct Mesh {
     pub triangles: Vec<[usize; 3]>,
 }
 
+/// A 64-bit mixing step (the multiply–xorshift of splitmix64): fingerprints that cost about
+/// a nanosecond per entry.
+pub fn mix(h: u64, x: u64) -> u64 {
+    let mut z = (h ^ x).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
 impl Mesh {
+    /// Fingerprint of the mesh: its triangles and the bits of its coordinates (the plans of
+    /// the estimator and the checkpoints are checked against it).
+    pub fn fingerprint(&self) -> u64 {
+        let mut h = mix(self.triangles.len() as u64, self.points.len() as u64);
+        for t in &self.triangles {
+            h = mix(h, (t[0] as u64) | (t[1] as u64) << 21 | (t[2] as u64) << 42);
+        }
+        for p in &self.points {
+            h = mix(mix(h, p[0].to_bits()), p[1].to_bits());
+        }
+        h
+    }
+
     pub fn structured(origin: [f64; 2], size: [f64; 2], nx: usize, ny: usize) -> Mesh {
         let (hx, hy) = (size[0] / nx as f64, size[1] / ny as f64);
         let mut points = Vec::with_capacity((nx + 1) * (ny + 1));

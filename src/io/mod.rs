@@ -1,8 +1,9 @@
 //! Layer `io`: what a run writes. [`output`]: `PREFIX.h5` + `PREFIX.xdmf` for ParaView and
-//! atomic writes; [`summary`]: the JSON run summary; [`monitor`]: the PETSc-style monitor lines.
+//! atomic writes; [`checkpoint`]: the restart points; [`summary`]: the JSON run summary; [`monitor`]: the PETSc-style monitor lines.
 //!
 //! May use: `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`.
 
+pub mod checkpoint;
 pub mod fields;
 pub mod monitor;
 pub mod output;

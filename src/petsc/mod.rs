@@ -9,6 +9,7 @@
 
 mod ffi;
 pub mod log;
+pub mod signals;
 
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_int};

@@ -24,7 +24,7 @@ use super::eet::Bc;
 use super::johnson_mercier::{local_frame, midpoints, triangle_area, ShapeCache};
 use super::relaxation::{PatchOp, Relaxation};
 use super::{NC, NT};
-use crate::fem::mesh::Mesh;
+use crate::fem::mesh::{mix, Mesh};
 
 /// The mesh-only data of the planned sweeps (see the module documentation).
 pub(crate) struct Plan {
@@ -59,28 +59,7 @@ pub(crate) struct Warm {
     delta: Vec<f64>,
 }
 
-/// A 64-bit mixing step (the multiply–xorshift of splitmix64): fingerprints that cost
-/// about a nanosecond per entry.
-fn mix(h: u64, x: u64) -> u64 {
-    let mut z = (h ^ x).wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// Fingerprint of a mesh (its triangles and the bits of its coordinates).
-pub(super) fn mesh_fingerprint(mesh: &Mesh) -> u64 {
-    let mut h = mix(mesh.triangles.len() as u64, mesh.points.len() as u64);
-    for t in &mesh.triangles {
-        h = mix(h, (t[0] as u64) | (t[1] as u64) << 21 | (t[2] as u64) << 42);
-    }
-    for p in &mesh.points {
-        h = mix(mix(h, p[0].to_bits()), p[1].to_bits());
-    }
-    h
-}
-
-/// Fingerprint of what a plan depends on: the mesh (`mesh_fingerprint`), the boundary
+/// Fingerprint of what a plan depends on: the mesh ([`Mesh::fingerprint`]), the boundary
 /// codes and the sweep keys of a restriction (none: the mesh's own colouring).
 pub(super) fn fingerprint(mesh: u64, bc: &[[Bc; 2]], keys: Option<&[u64]>) -> u64 {
     let mut h = mesh;

@@ -4,7 +4,7 @@
 use super::eet::{edge_conditions, edge_tractions, known_moment, Bc, Stars};
 use super::energy::{compliance, total_energy, EnergyContext};
 use super::johnson_mercier::{jm_fields, local_frame, traction};
-use super::plan::{fingerprint, mesh_fingerprint, Plan, Warm};
+use super::plan::{fingerprint, Plan, Warm};
 use super::relaxation::Relaxation;
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
 use super::{
@@ -69,7 +69,7 @@ pub fn equilibrate_restricted(
     let owned = restriction.map(|r| r.owned);
     let vertex_owned = owned_vertices(mesh, owned);
     // The topology of this mesh: kept in the cache from the previous recovery, or built.
-    let mesh_fp = mesh_fingerprint(mesh);
+    let mesh_fp = mesh.fingerprint();
     let topo = match operators.topology.take() {
         Some((fp, t)) if fp == mesh_fp => t,
         _ => Topology::new(mesh)?,

@@ -37,6 +37,12 @@ pub(super) fn write_h5<W: Writers>(
         .create_excl(tmp)
         .map_err(h5err(target, "creating the file".into()));
     let file = agree(w, created)?;
+    // `-nndd_fault RANK:output`: a failure of one rank with the file open on all (which all
+    // then close together: closing is collective).
+    agree(
+        w,
+        crate::parallel::fault::check(crate::parallel::fault::Phase::Output).map_err(OutputError::from),
+    )?;
     let out = H5Out {
         w,
         target,

@@ -252,20 +252,23 @@ pub enum OutputError {
     /// The results are inconsistent; nothing was written.
     #[error("{}: invalid results, nothing written: {reason}", .path.display())]
     Invalid { path: PathBuf, reason: String },
-    /// A file-system operation failed.
-    #[error("{}: cannot {action}: {source}", .path.display())]
+    /// A file-system operation failed (writes go to temporaries: the file of that name, if
+    /// any, is untouched).
+    #[error("{}: cannot {action}: {source}; any previous file of that name is untouched", .path.display())]
     Io {
         path: PathBuf,
         action: &'static str,
         source: io::Error,
     },
     /// The HDF5 library reported an error.
-    #[error("{}: HDF5 error while {action}: {source}", .path.display())]
+    #[error("{}: HDF5 error while {action}: {source}; any previous file of that name is untouched", .path.display())]
     Hdf5 {
         path: PathBuf,
         action: String,
         source: hdf5::Error,
     },
+    #[error(transparent)]
+    Fault(#[from] crate::parallel::fault::InjectedFault),
     /// Another rank of a collective write failed with this message (which
     /// names the path); this rank stopped at the same point.
     #[error("{message} (reported by rank {rank})")]

@@ -68,14 +68,15 @@ impl<C: mpi::traits::Communicator> Writers for Team<'_, C> {
     }
 
     fn first_failed(&self, failed: bool) -> Option<usize> {
-        use mpi::collective::SystemOperation;
-        use mpi::traits::CommunicatorCollectives as _;
-        let size = self.0.size();
-        let mine = if failed { self.0.rank() } else { size };
-        let mut first = size;
-        self.0
-            .all_reduce_into(&mine, &mut first, SystemOperation::min());
-        (first < size).then_some(first as usize)
+        // A rank that failed waits a few seconds: the others may be stuck in a collective
+        // HDF5 call that its failure left them in; then it ends the job.
+        crate::parallel::fault::first_failed(self.0, failed, || {
+            eprintln!(
+                "nndd: error (rank {}): writing the results failed on this rank and the other ranks do not answer; ending the job",
+                self.0.rank()
+            );
+            self.0.abort(2)
+        })
     }
 
     fn broadcast(&self, root: usize, mut bytes: Vec<u8>) -> Vec<u8> {

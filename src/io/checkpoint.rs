@@ -1,0 +1,233 @@
+//! Restart points (issue 12): what `-nndd_checkpoint_every` and a signal write, and what
+//! `-nndd_restart` reads. A checkpoint holds the NNDD loop's state ([`LoopState`]: λ_{p+1},
+//! the iteration count, the history, the secant update and the last contact set), the
+//! balanced stopping rule's state, and the identity of the discrete problem it belongs to,
+//! which a restart compares with its own before anything else.
+//!
+//! The file is JSON (`PREFIX.checkpoint.json`), replaced atomically (a temporary, synced,
+//! renamed), so a run killed while writing leaves the previous checkpoint whole. Floating
+//! point numbers are written with the shortest representation that reads back to the same
+//! bits, so a restart continues from exactly the checkpointed λ: the iterates it computes are
+//! the uninterrupted run's, up to the round-off differences between rank counts.
+
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+use crate::dd::nndd::LoopState;
+use crate::fem::mesh::mix;
+use crate::io::output::{write_atomic, OutputError};
+use crate::problem::BodyProblem;
+
+/// The format tag of the files this version writes and reads.
+pub const FORMAT: &str = "nndd-checkpoint-1";
+
+/// What cannot be restarted from, naming `-nndd_restart` and the file.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    #[error("-nndd_restart {}: cannot read the checkpoint: {source}", .path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("-nndd_restart {}: not an nndd checkpoint ({reason})", .path.display())]
+    Format { path: PathBuf, reason: String },
+    #[error("-nndd_restart {}: the checkpoint does not match this run: {what}", .path.display())]
+    Differs { path: PathBuf, what: String },
+    #[error("-nndd_restart {}: the checkpoint is at iteration {iteration}, not below -nndd_max_it {max_it}", .path.display())]
+    Done {
+        path: PathBuf,
+        iteration: usize,
+        max_it: usize,
+    },
+}
+
+/// A restart point.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Checkpoint {
+    pub format: String,
+    pub identity: Identity,
+    pub state: LoopState,
+    /// Balanced stopping: the η^FE of the last full estimate (None before the first).
+    pub balanced_fe: Option<f64>,
+    /// Balanced stopping: the cheap η^NNDD checks made (iteration, η^NNDD).
+    pub checks: Vec<(usize, f64)>,
+}
+
+/// What a checkpoint belongs to: the discrete problem and the update rule.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Identity {
+    /// `paper`, `uniform` or `mesh`.
+    pub problem: String,
+    pub bodies: [BodyIdentity; 2],
+    /// `-nndd_theta`: `auto` or the fixed value.
+    pub theta: String,
+}
+
+/// One body's discrete problem, by fingerprints (see [`crate::fem::mesh::Mesh::fingerprint`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BodyIdentity {
+    pub nodes: usize,
+    pub elements: usize,
+    pub mesh: u64,
+    pub young: f64,
+    pub poisson: f64,
+    /// The Dirichlet dofs and values and the Neumann tractions.
+    pub loads: u64,
+    /// The Γc nodes, normals and initial gaps.
+    pub contact: u64,
+}
+
+impl BodyIdentity {
+    fn of(b: &BodyProblem) -> BodyIdentity {
+        let mut loads = mix(b.dirichlet.len() as u64, b.neumann.len() as u64);
+        for &(dof, v) in &b.dirichlet {
+            loads = mix(mix(loads, dof as u64), v.to_bits());
+        }
+        for e in &b.neumann {
+            loads = mix(mix(loads, e.nodes[0] as u64), e.nodes[1] as u64);
+            for t in e.traction.iter().flatten() {
+                loads = mix(loads, t.to_bits());
+            }
+        }
+        let mut contact = mix(b.contact_nodes.len() as u64, 0);
+        for (k, &node) in b.contact_nodes.iter().enumerate() {
+            contact = mix(mix(contact, node as u64), b.gap[k].to_bits());
+            for c in b.contact_normals[k] {
+                contact = mix(contact, c.to_bits());
+            }
+        }
+        BodyIdentity {
+            nodes: b.mesh.points.len(),
+            elements: b.mesh.triangles.len(),
+            mesh: b.mesh.fingerprint(),
+            young: b.material.young,
+            poisson: b.material.poisson,
+            loads,
+            contact,
+        }
+    }
+}
+
+impl Identity {
+    pub fn of(problem: &str, bodies: &[Rc<BodyProblem>; 2], theta: String) -> Identity {
+        Identity {
+            problem: problem.to_string(),
+            bodies: [BodyIdentity::of(&bodies[0]), BodyIdentity::of(&bodies[1])],
+            theta,
+        }
+    }
+
+    /// The first difference of `self` (the checkpoint's) from `run` (this run's), as a phrase.
+    pub fn difference(&self, run: &Identity) -> Option<String> {
+        if self.problem != run.problem {
+            return Some(format!(
+                "problem '{}', this run '{}' (-nndd_problem, -nndd_mesh)",
+                self.problem, run.problem
+            ));
+        }
+        for (k, (c, r)) in self.bodies.iter().zip(&run.bodies).enumerate() {
+            let body = k + 1;
+            if (c.nodes, c.elements) != (r.nodes, r.elements) {
+                return Some(format!(
+                    "body {body}'s mesh has {} nodes and {} elements, this run's {} and {} (-nndd_n, -nndd_body{body}_nx, -nndd_body{body}_ny, -nndd_mesh)",
+                    c.nodes, c.elements, r.nodes, r.elements
+                ));
+            }
+            if c.mesh != r.mesh {
+                return Some(format!(
+                    "body {body}'s mesh has other coordinates or connectivity (-nndd_mesh)"
+                ));
+            }
+            if (c.young, c.poisson) != (r.young, r.poisson) {
+                return Some(format!(
+                    "body {body}'s material is E = {:e}, nu = {}, this run's E = {:e}, nu = {} (-nndd_E, -nndd_nu, -nndd_body{body}_E, -nndd_body{body}_nu)",
+                    c.young, c.poisson, r.young, r.poisson
+                ));
+            }
+            if c.loads != r.loads {
+                return Some(format!(
+                    "body {body}'s boundary conditions or loads differ (-nndd_u_D, -nndd_F_max, -nndd_bc_*)"
+                ));
+            }
+            if c.contact != r.contact {
+                return Some(format!(
+                    "body {body}'s contact interface (its nodes, normals or gaps) differs (-nndd_contact, -nndd_mesh)"
+                ));
+            }
+        }
+        if self.theta != run.theta {
+            return Some(format!(
+                "-nndd_theta {}, this run {}",
+                self.theta, run.theta
+            ));
+        }
+        None
+    }
+}
+
+/// `PREFIX.checkpoint.json`.
+pub fn path_for(output: &Path) -> PathBuf {
+    crate::io::output::with_ext(output, "checkpoint.json")
+}
+
+/// Write `cp` to `path` atomically (the caller is one rank).
+pub fn write(path: &Path, cp: &Checkpoint) -> Result<(), OutputError> {
+    let json = serde_json::to_vec(cp).map_err(|e| OutputError::Io {
+        path: path.to_path_buf(),
+        action: "serialise the checkpoint",
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    write_atomic(path, &json)
+}
+
+/// Read the checkpoint `path` and check it against this run's `identity` and `max_it`.
+pub fn read(path: &Path, identity: &Identity, max_it: usize) -> Result<Checkpoint, CheckpointError> {
+    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let format = |reason: String| CheckpointError::Format {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let value: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| format(e.to_string()))?;
+    match value.get("format").and_then(|f| f.as_str()) {
+        Some(FORMAT) => {}
+        Some(other) => return Err(format(format!("format '{other}', this version reads '{FORMAT}'"))),
+        None => return Err(format("no 'format' field".into())),
+    }
+    let cp: Checkpoint = serde_json::from_value(value).map_err(|e| format(e.to_string()))?;
+    if let Some(what) = cp.identity.difference(identity) {
+        return Err(CheckpointError::Differs {
+            path: path.to_path_buf(),
+            what,
+        });
+    }
+    if let Some(reason) = inconsistency(&cp.state) {
+        return Err(format(reason));
+    }
+    if cp.state.iteration >= max_it {
+        return Err(CheckpointError::Done {
+            path: path.to_path_buf(),
+            iteration: cp.state.iteration,
+            max_it,
+        });
+    }
+    Ok(cp)
+}
+
+/// Why a state's sizes do not match each other (a damaged or hand-edited file), if they do not.
+fn inconsistency(state: &LoopState) -> Option<String> {
+    let m = state.lambda.len();
+    if state.active.len() != m || state.history.len() != state.iteration {
+        return Some(format!(
+            "inconsistent state: {} λ values, {} contact flags, {} history lines at iteration {}",
+            m,
+            state.active.len(),
+            state.history.len(),
+            state.iteration
+        ));
+    }
+    None
+}

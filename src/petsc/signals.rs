@@ -1,0 +1,49 @@
+//! The signals that ask a run to stop (issue 12): SIGTERM (a batch system's time limit, or
+//! `kill`), SIGINT (Ctrl-C) and SIGUSR1 (which `mpirun` forwards to every rank, where it ends
+//! the job on SIGTERM itself). `PetscInitialize` installs PETSc's own handler for SIGTERM,
+//! which aborts; [`catch_stop_requests`] replaces it (and is therefore called after PETSc's
+//! initialisation, here beside the rest of the foreign calls). The handler only sets a flag,
+//! which the NNDD loop reads at the end of each iteration; a second signal ends the process
+//! at once (exit status 128 + the signal).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+static REQUESTED: AtomicBool = AtomicBool::new(false);
+
+/// The signals [`catch_stop_requests`] handles.
+pub const STOP_SIGNALS: [(libc::c_int, &str); 3] = [
+    (libc::SIGTERM, "SIGTERM"),
+    (libc::SIGINT, "SIGINT"),
+    (libc::SIGUSR1, "SIGUSR1"),
+];
+
+extern "C" fn on_stop_signal(sig: libc::c_int) {
+    if REQUESTED.swap(true, Ordering::SeqCst) {
+        // SAFETY: _exit is async-signal-safe.
+        unsafe { libc::_exit(128 + sig) }
+    }
+}
+
+/// Catch [`STOP_SIGNALS`] (replacing PETSc's handler).
+pub fn catch_stop_requests() -> std::io::Result<()> {
+    for (sig, _) in STOP_SIGNALS {
+        // SAFETY: a zeroed sigaction with an async-signal-safe handler (one atomic swap, or
+        // _exit) and an emptied mask is a valid argument.
+        let rc = unsafe {
+            let mut action: libc::sigaction = std::mem::zeroed();
+            action.sa_sigaction = on_stop_signal as extern "C" fn(libc::c_int) as usize;
+            action.sa_flags = libc::SA_RESTART;
+            libc::sigemptyset(&mut action.sa_mask);
+            libc::sigaction(sig, &action, std::ptr::null_mut())
+        };
+        if rc != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+    }
+    Ok(())
+}
+
+/// Whether a stop signal arrived on this rank.
+pub fn stop_requested() -> bool {
+    REQUESTED.load(Ordering::SeqCst)
+}

@@ -1,0 +1,473 @@
+//! Faults end every rank, promptly, with one line (issue 12); a run stopped by a signal
+//! writes a restart point that any rank count continues from. Every run here is under a
+//! time limit, so that a hang fails the test instead of CI: the process group is killed and
+//! the test says how long it waited.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::os::unix::process::CommandExt;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use common::{f, json, scratch, walk};
+
+/// The tests of this file run one at a time: their time limits assume the machine's cores.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+/// How long a failing job may take to end (issue 12).
+const LIMIT: Duration = Duration::from_secs(10);
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// `mpirun -n np nndd args…` in its own process group, its output piped.
+fn spawn(np: usize, args: &[&str]) -> Child {
+    let mut cmd = Command::new("mpirun");
+    cmd.args(["-n", &np.to_string(), "--oversubscribe", "--bind-to", "none"])
+        .arg(env!("CARGO_BIN_EXE_nndd"))
+        .args(args)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .process_group(0);
+    cmd.spawn().expect("mpirun starts")
+}
+
+/// Kill the job's whole process group (mpirun and the ranks).
+fn kill_group(child: &Child) {
+    // SAFETY: kill(2) on our own child's process group.
+    unsafe {
+        libc::kill(-(child.id() as i32), libc::SIGKILL);
+    }
+}
+
+struct Ended {
+    code: Option<i32>,
+    seconds: f64,
+    stdout: String,
+    stderr: String,
+}
+
+/// Wait for `child` at most `limit` (else kill it and fail: a hang).
+fn wait_within(mut child: Child, limit: Duration, what: &str) -> Ended {
+    let t0 = Instant::now();
+    // Drain the pipes on threads (a full pipe would block the job).
+    // (`started_until` has taken stdout already.)
+    let out = child.stdout.take();
+    let mut err = child.stderr.take().unwrap();
+    let t_out = std::thread::spawn(move || {
+        let mut s = String::new();
+        if let Some(mut out) = out {
+            std::io::Read::read_to_string(&mut out, &mut s).ok();
+        }
+        s
+    });
+    let t_err = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut err, &mut s).ok();
+        s
+    });
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return Ended {
+                code: status.code(),
+                seconds: t0.elapsed().as_secs_f64(),
+                stdout: t_out.join().unwrap(),
+                stderr: t_err.join().unwrap(),
+            };
+        }
+        if t0.elapsed() > limit {
+            kill_group(&child);
+            let _ = child.wait();
+            panic!(
+                "{what}: still running after {:.0} s (a hang); killed. stderr so far:\n{}",
+                limit.as_secs_f64(),
+                t_err.join().unwrap()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The lines nndd itself wrote to stderr.
+fn our_lines(stderr: &str) -> Vec<&str> {
+    stderr.lines().filter(|l| l.starts_with("nndd:")).collect()
+}
+
+/// A failed job: non-zero exit, one `nndd: error` line containing `needle`, no Rust panic or
+/// PETSc traceback.
+fn assert_failed_once(e: &Ended, needle: &str, what: &str) {
+    assert!(
+        e.code != Some(0),
+        "{what}: exit 0\n{}\n{}",
+        e.stdout,
+        e.stderr
+    );
+    let ours = our_lines(&e.stderr);
+    assert_eq!(ours.len(), 1, "{what}: expected one line, got:\n{}", e.stderr);
+    assert!(
+        ours[0].starts_with("nndd: error") && ours[0].contains(needle),
+        "{what}: '{}' does not say '{needle}'",
+        ours[0]
+    );
+    for bad in ["panicked", "RUST_BACKTRACE", "PETSC ERROR", "internal error"] {
+        assert!(
+            !e.stderr.contains(bad) && !e.stdout.contains(bad),
+            "{what}: '{bad}' in\n{}",
+            e.stderr
+        );
+    }
+}
+
+/// The result files under their final names.
+fn results_left(prefix: &Path) -> Vec<String> {
+    ["h5", "xdmf", "json"]
+        .iter()
+        .map(|x| format!("{}.{x}", prefix.display()))
+        .filter(|p| Path::new(p).exists())
+        .collect()
+}
+
+#[test]
+fn bad_input_ends_every_rank_promptly_with_one_line() {
+    let _s = serial();
+    let dir = scratch("faults-input");
+    let prefix = dir.join("run");
+    let p = prefix.to_str().unwrap();
+    let missing_opts = dir.join("missing.opts");
+    let nesting = dir.join("nesting.opts");
+    std::fs::write(
+        &nesting,
+        format!("-nndd_n 4\n-options_file {}\n", missing_opts.display()),
+    )
+    .unwrap();
+    let cases: [(&str, Vec<&str>, &str); 4] = [
+        (
+            "missing options file",
+            vec!["-options_file", missing_opts.to_str().unwrap()],
+            "-options_file",
+        ),
+        (
+            "missing nested options file",
+            vec!["-options_file", nesting.to_str().unwrap()],
+            "missing.opts",
+        ),
+        (
+            "missing mesh file",
+            vec!["-nndd_mesh", "/nonexistent/two-bodies.msh"],
+            "-nndd_mesh",
+        ),
+        ("invalid option value", vec!["-nndd_theta", "-1"], "-nndd_theta"),
+    ];
+    for np in [1, 2, 4] {
+        for (what, args, needle) in &cases {
+            let mut all = vec!["-nndd_n", "4", "-nndd_output", p];
+            all.extend(args.iter().copied());
+            let what = format!("{what} on {np} rank(s)");
+            let e = wait_within(spawn(np, &all), 3 * LIMIT, &what);
+            assert!(e.seconds < LIMIT.as_secs_f64(), "{what}: {:.1} s", e.seconds);
+            assert_failed_once(&e, needle, &what);
+            // Bad input is agreed on: no rank aborts, so nothing but our line and mpirun's
+            // own note of the non-zero exit.
+            assert!(!e.stderr.contains("MPI_ABORT"), "{what}:\n{}", e.stderr);
+            assert!(walk(&dir).iter().all(|f| f.extension().is_some_and(|x| x == "opts")));
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `-nndd_fault RANK:PHASE` in every phase, on 2 and 3 ranks: the job ends within the limit
+/// with one line naming the fault, and no result file exists under its final name.
+#[test]
+fn a_fault_on_one_rank_in_any_phase_ends_the_job() {
+    let _s = serial();
+    let dir = scratch("faults-phases");
+    let phases = [
+        "init",
+        "options",
+        "mesh",
+        "assembly",
+        "factorisation",
+        "ksp",
+        "qp",
+        "estimate",
+        "checkpoint",
+        "output",
+    ];
+    let mut table = Vec::new();
+    for np in [2, 3] {
+        for rank in [np - 1, 0] {
+            for phase in phases {
+                let prefix = dir.join(format!("run-{np}-{rank}-{phase}"));
+                let spec = format!("{rank}:{phase}");
+                let args = [
+                    "-nndd_n",
+                    "8",
+                    "-nndd_theta",
+                    "0.25",
+                    "-nndd_estimate_every",
+                    "3",
+                    "-nndd_checkpoint_every",
+                    "4",
+                    "-nndd_output",
+                    prefix.to_str().unwrap(),
+                    "-nndd_fault",
+                    &spec,
+                ];
+                let what = format!("fault {spec} on {np} ranks");
+                let e = wait_within(spawn(np, &args), 3 * LIMIT, &what);
+                assert!(e.seconds < LIMIT.as_secs_f64(), "{what}: {:.1} s", e.seconds);
+                assert_failed_once(&e, "-nndd_fault", &what);
+                let left = results_left(&prefix);
+                assert!(left.is_empty(), "{what}: left {left:?}");
+                table.push(format!(
+                    "{np} ranks, fault {spec:<16} exit {:?} in {:.1} s",
+                    e.code, e.seconds
+                ));
+            }
+        }
+    }
+    println!("{}", table.join("\n"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Start a long run; return the child once its monitor has printed `iteration`.
+fn started_until(np: usize, args: &[&str], iteration: usize) -> (Child, Vec<String>) {
+    let mut child = spawn(np, args);
+    let out = child.stdout.take().unwrap();
+    let mut lines = Vec::new();
+    let mut reader = BufReader::new(out);
+    let t0 = Instant::now();
+    loop {
+        let mut line = String::new();
+        if reader.read_line(&mut line).unwrap() == 0 {
+            panic!("the run ended before iteration {iteration}:\n{}", lines.join(""));
+        }
+        let it = line
+            .split_whitespace()
+            .next()
+            .and_then(|w| w.parse::<usize>().ok());
+        lines.push(line);
+        if it.is_some_and(|i| i >= iteration) {
+            break;
+        }
+        assert!(t0.elapsed() < 3 * LIMIT, "no iteration {iteration} yet");
+    }
+    // Keep draining stdout (a full pipe would block the job).
+    let drain = std::thread::spawn(move || {
+        let mut rest = String::new();
+        std::io::Read::read_to_string(&mut reader, &mut rest).ok();
+    });
+    std::mem::forget(drain);
+    (child, lines)
+}
+
+/// The rank processes of a job (mpirun's children).
+fn ranks_of(child: &Child) -> Vec<i32> {
+    let out = Command::new("pgrep")
+        .args(["-P", &child.id().to_string()])
+        .output()
+        .expect("pgrep");
+    String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .filter_map(|p| p.parse().ok())
+        .collect()
+}
+
+/// SIGTERM to every rank (as a batch system's time limit sends it): the run stops at the
+/// end of an iteration, writes its results marked interrupted and a restart point, exits 4;
+/// the restart on another rank count converges to the uninterrupted run's solution in the
+/// remaining iterations. A checkpoint of another problem is refused with one line.
+#[test]
+fn sigterm_writes_a_restart_point_that_another_rank_count_continues() {
+    let _s = serial();
+    let dir = scratch("faults-sigterm");
+    let long = [
+        "-nndd_n",
+        "64",
+        "-nndd_theta",
+        "0.02",
+        "-nndd_estimate_every",
+        "0",
+        "-nndd_reference_factor",
+        "0",
+        "-nndd_monitor",
+    ];
+    let full = dir.join("full");
+    let mut args: Vec<&str> = long.to_vec();
+    args.extend(["-nndd_output", full.to_str().unwrap()]);
+    let e = wait_within(spawn(2, &args), 12 * LIMIT, "uninterrupted run");
+    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let reference = json(&full);
+
+    let cut = dir.join("cut");
+    let mut args: Vec<&str> = long.to_vec();
+    args.extend(["-nndd_output", cut.to_str().unwrap()]);
+    let (child, _) = started_until(2, &args, 20);
+    let ranks = ranks_of(&child);
+    assert_eq!(ranks.len(), 2, "{ranks:?}");
+    for pid in &ranks {
+        // SAFETY: kill(2) on the job's own processes.
+        unsafe {
+            libc::kill(*pid, libc::SIGTERM);
+        }
+    }
+    let e = wait_within(child, 3 * LIMIT, "interrupted run");
+    assert_eq!(e.code, Some(4), "exit code of an interrupted run:\n{}", e.stderr);
+    assert!(
+        e.stderr.contains("interrupted by a signal") && e.stderr.contains("-nndd_restart"),
+        "{}",
+        e.stderr
+    );
+    let summary = json(&cut);
+    assert_eq!(summary["stop_reason"], "interrupted");
+    assert_eq!(summary["converged"], false);
+    let stopped_at = f(&summary, "iterations") as usize;
+    let checkpoint = dir.join("cut.checkpoint.json");
+    let cp: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&checkpoint).unwrap()).unwrap();
+    assert_eq!(cp["state"]["iteration"].as_u64(), Some(stopped_at as u64));
+    let total = f(&reference, "iterations") as usize;
+    assert!(
+        (20..total).contains(&stopped_at),
+        "stopped at {stopped_at} of {total}"
+    );
+
+    // Continue on 3 ranks.
+    let resumed = dir.join("resumed");
+    let mut args: Vec<&str> = long.to_vec();
+    args.extend([
+        "-nndd_output",
+        resumed.to_str().unwrap(),
+        "-nndd_restart",
+        checkpoint.to_str().unwrap(),
+    ]);
+    let e = wait_within(spawn(3, &args), 12 * LIMIT, "restart on 3 ranks");
+    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let r = json(&resumed);
+    let (e_ref, e_res) = (
+        f(&reference, "potential_energy"),
+        f(&r, "potential_energy"),
+    );
+    let rel = (e_res - e_ref).abs() / e_ref.abs();
+    println!(
+        "SIGTERM after iteration {stopped_at}; restart on 3 ranks: {} iterations (uninterrupted: {total}), energy {e_res:.12e} vs {e_ref:.12e}, relative difference {rel:.1e}",
+        f(&r, "iterations")
+    );
+    assert!(rel < 1e-10, "energy differs by {rel:e}");
+    let its = f(&r, "iterations") as usize;
+    assert!(its.abs_diff(total) <= 1, "{its} iterations against {total}");
+    assert_eq!(r["history"].as_array().unwrap().len(), its);
+    // The history before the cut is the checkpoint's, exactly.
+    assert_eq!(
+        r["history"].as_array().unwrap()[..stopped_at],
+        summary["history"].as_array().unwrap()[..]
+    );
+
+    // Another material, mesh or θ: refused, with what differs.
+    let refused = dir.join("refused");
+    for (extra, needle) in [
+        (["-nndd_E", "2e11"], "material"),
+        (["-nndd_n", "32"], "mesh"),
+        (["-nndd_theta", "0.25"], "-nndd_theta"),
+    ] {
+        let mut args: Vec<&str> = long.to_vec();
+        args.extend(["-nndd_restart", checkpoint.to_str().unwrap()]);
+        args.extend(["-nndd_output", refused.to_str().unwrap()]);
+        args.extend(extra);
+        let what = format!("restart with {extra:?}");
+        let e = wait_within(spawn(2, &args), 3 * LIMIT, &what);
+        assert_failed_once(&e, needle, &what);
+        assert!(our_lines(&e.stderr)[0].contains("-nndd_restart"));
+        assert!(results_left(&refused).is_empty());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Restart points written by `-nndd_checkpoint_every` on the same rank count give the
+/// uninterrupted run's iterates exactly (θ auto: the secant state is in the checkpoint).
+#[test]
+fn a_restart_repeats_the_uninterrupted_iterates_exactly() {
+    let _s = serial();
+    let dir = scratch("faults-every");
+    let base = [
+        "-nndd_n",
+        "16",
+        "-nndd_theta",
+        "auto",
+        "-nndd_estimate_every",
+        "0",
+        "-nndd_reference_factor",
+        "0",
+        "-nndd_checkpoint_every",
+        "4",
+    ];
+    let full = dir.join("full");
+    let mut args: Vec<&str> = base.to_vec();
+    args.extend(["-nndd_output", full.to_str().unwrap()]);
+    let e = wait_within(spawn(2, &args), 6 * LIMIT, "run with checkpoints");
+    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let a = json(&full);
+    let checkpoint = dir.join("full.checkpoint.json");
+    let cp: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&checkpoint).unwrap()).unwrap();
+    let at = cp["state"]["iteration"].as_u64().unwrap() as usize;
+    let total = f(&a, "iterations") as usize;
+    assert!(at.is_multiple_of(4) && at < total && at >= 4, "checkpoint at {at} of {total}");
+    assert!(cp["state"]["secant"].is_object(), "θ auto keeps its secant state");
+
+    let again = dir.join("again");
+    let mut args: Vec<&str> = base.to_vec();
+    args.extend([
+        "-nndd_output",
+        again.to_str().unwrap(),
+        "-nndd_restart",
+        checkpoint.to_str().unwrap(),
+    ]);
+    let e = wait_within(spawn(2, &args), 6 * LIMIT, "restart");
+    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let b = json(&again);
+    assert_eq!(a["history"], b["history"], "restart from iteration {at}");
+    assert_eq!(a["potential_energy"], b["potential_energy"]);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// kill -9 of one rank: the job ends (mpirun's own message), no result file under its final
+/// name.
+#[test]
+fn kill_9_of_one_rank_ends_the_job() {
+    let _s = serial();
+    let dir = scratch("faults-kill9");
+    let prefix = dir.join("run");
+    let args = [
+        "-nndd_n",
+        "64",
+        "-nndd_theta",
+        "0.02",
+        "-nndd_estimate_every",
+        "0",
+        "-nndd_reference_factor",
+        "0",
+        "-nndd_monitor",
+        "-nndd_output",
+        prefix.to_str().unwrap(),
+    ];
+    let (child, _) = started_until(2, &args, 20);
+    let ranks = ranks_of(&child);
+    assert_eq!(ranks.len(), 2, "{ranks:?}");
+    // SAFETY: kill(2) on one of the job's own processes.
+    unsafe {
+        libc::kill(ranks[1], libc::SIGKILL);
+    }
+    let e = wait_within(child, 3 * LIMIT, "job with a killed rank");
+    assert!(e.code != Some(0));
+    assert!(e.seconds < LIMIT.as_secs_f64(), "{:.1} s", e.seconds);
+    assert!(results_left(&prefix).is_empty(), "{:?}", results_left(&prefix));
+    std::fs::remove_dir_all(&dir).ok();
+}
