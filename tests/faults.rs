@@ -95,6 +95,14 @@ fn wait_within(mut child: Child, limit: Duration, what: &str) -> Ended {
     }
 }
 
+/// `base` then `extra` on `np` ranks, required to succeed within `limit`.
+fn solved(np: usize, base: &[&str], extra: &[&str], limit: Duration, what: &str) -> Ended {
+    let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+    let e = wait_within(spawn(np, &args), limit, what);
+    assert_eq!(e.code, Some(0), "{what}:\n{}", e.stderr);
+    e
+}
+
 /// The lines nndd itself wrote to stderr.
 fn our_lines(stderr: &str) -> Vec<&str> {
     stderr.lines().filter(|l| l.starts_with("nndd:")).collect()
@@ -300,10 +308,8 @@ fn sigterm_writes_a_restart_point_that_another_rank_count_continues() {
         "-nndd_monitor",
     ];
     let full = dir.join("full");
-    let mut args: Vec<&str> = long.to_vec();
-    args.extend(["-nndd_output", full.to_str().unwrap()]);
-    let e = wait_within(spawn(2, &args), 12 * LIMIT, "uninterrupted run");
-    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let out = ["-nndd_output", full.to_str().unwrap()];
+    solved(2, &long, &out, 12 * LIMIT, "uninterrupted run");
     let reference = json(&full);
 
     let cut = dir.join("cut");
@@ -341,15 +347,9 @@ fn sigterm_writes_a_restart_point_that_another_rank_count_continues() {
 
     // Continue on 3 ranks.
     let resumed = dir.join("resumed");
-    let mut args: Vec<&str> = long.to_vec();
-    args.extend([
-        "-nndd_output",
-        resumed.to_str().unwrap(),
-        "-nndd_restart",
-        checkpoint.to_str().unwrap(),
-    ]);
-    let e = wait_within(spawn(3, &args), 12 * LIMIT, "restart on 3 ranks");
-    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let cp = checkpoint.to_str().unwrap();
+    let out = ["-nndd_output", resumed.to_str().unwrap(), "-nndd_restart", cp];
+    solved(3, &long, &out, 12 * LIMIT, "restart on 3 ranks");
     let r = json(&resumed);
     let (e_ref, e_res) = (
         f(&reference, "potential_energy"),
@@ -409,10 +409,8 @@ fn a_restart_repeats_the_uninterrupted_iterates_exactly() {
         "4",
     ];
     let full = dir.join("full");
-    let mut args: Vec<&str> = base.to_vec();
-    args.extend(["-nndd_output", full.to_str().unwrap()]);
-    let e = wait_within(spawn(2, &args), 6 * LIMIT, "run with checkpoints");
-    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let out = ["-nndd_output", full.to_str().unwrap()];
+    solved(2, &base, &out, 6 * LIMIT, "run with checkpoints");
     let a = json(&full);
     let checkpoint = dir.join("full.checkpoint.json");
     let cp: serde_json::Value =
@@ -423,15 +421,9 @@ fn a_restart_repeats_the_uninterrupted_iterates_exactly() {
     assert!(cp["state"]["secant"].is_object(), "θ auto keeps its secant state");
 
     let again = dir.join("again");
-    let mut args: Vec<&str> = base.to_vec();
-    args.extend([
-        "-nndd_output",
-        again.to_str().unwrap(),
-        "-nndd_restart",
-        checkpoint.to_str().unwrap(),
-    ]);
-    let e = wait_within(spawn(2, &args), 6 * LIMIT, "restart");
-    assert_eq!(e.code, Some(0), "{}", e.stderr);
+    let cp = checkpoint.to_str().unwrap();
+    let out = ["-nndd_output", again.to_str().unwrap(), "-nndd_restart", cp];
+    solved(2, &base, &out, 6 * LIMIT, "restart");
     let b = json(&again);
     assert_eq!(a["history"], b["history"], "restart from iteration {at}");
     assert_eq!(a["potential_energy"], b["potential_energy"]);

@@ -142,7 +142,7 @@ pub struct Restart<'a> {
 
 /// The NNDD loop's caller: the estimates at the estimated iterations and the balanced
 /// stopping rule, the monitor, the signals, and the restart points.
-struct Observer<'a> {
+struct RunObserver<'a> {
     settings: &'a Settings,
     layout: &'a Layout,
     refs: [Option<&'a Body>; 2],
@@ -157,7 +157,7 @@ struct Observer<'a> {
     restart: Option<&'a Restart<'a>>,
 }
 
-impl nndd::Observer<AppError> for Observer<'_> {
+impl nndd::Observer<AppError> for RunObserver<'_> {
     fn estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
         let Some(est) = self.estimator else {
             return Ok(false);
@@ -272,7 +272,7 @@ pub fn solve_nndd(
     // The number of Γc pairs (every rank holds at least one body).
     let m = refs.iter().flatten().next().map_or(0, |b| b.gc.len());
     let from = restart.and_then(|r| r.from.clone());
-    let mut observer = Observer {
+    let mut observer = RunObserver {
         settings,
         layout,
         refs,
@@ -297,13 +297,14 @@ pub fn solve_nndd(
         from.map(|c| c.state),
         &mut observer,
     )?;
-    let Observer {
+    let RunObserver {
         mut estimates,
         checks,
         seconds: mut t_est,
         ..
     } = observer;
-    if let Some(est) = estimator {
+    // The reported iterate's estimate (not when a signal stopped the run: it must end soon).
+    if let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) {
         if estimates.last().map(|e| e.iteration) != Some(res.iterations) {
             let t = Instant::now();
             let _s = stages.estimation.enter();

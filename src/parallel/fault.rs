@@ -183,15 +183,19 @@ fn first_failure<C: Communicator>(
     mpi::request::scope(|scope| {
         let mut req =
             comm.immediate_all_reduce_into(scope, &mine, &mut first, SystemOperation::min());
+        if !failed {
+            req.wait();
+            return;
+        }
         loop {
             match req.test() {
                 Ok(_) => return,
                 Err(r) => req = r,
             }
-            if failed && t0.elapsed() > DEADLINE {
+            if t0.elapsed() > DEADLINE {
                 match on_timeout() {}
             }
-            std::thread::sleep(Duration::from_millis(if failed { 1 } else { 5 }));
+            std::thread::sleep(Duration::from_millis(1));
         }
     });
     (first < 256 * size as i64).then_some(((first / 256) as usize, (first % 256) as u8))
