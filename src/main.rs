@@ -28,9 +28,9 @@ fn main() {
     // them first, so that a missing one ends every rank instead of leaving them waiting.
     let files = preflight::options_files(&args);
     let bad_files = files.as_ref().err().cloned();
-    if let Some(first) = agreement.first_failed(files.is_err(), || {
-        app::abort_with(bad_files.as_deref())
-    }) {
+    if let Some(first) =
+        agreement.first_failed(files.is_err(), || app::abort_with(bad_files.as_deref()))
+    {
         if rank as usize == first {
             eprintln!("nndd: error: {}", files.unwrap_err());
         }
@@ -51,9 +51,9 @@ fn main() {
             }
         });
     let message = petsc.as_ref().err().cloned();
-    if let Some(first) = agreement.first_failed(petsc.is_err(), || {
-        app::abort_with(message.as_deref())
-    }) {
+    if let Some(first) =
+        agreement.first_failed(petsc.is_err(), || app::abort_with(message.as_deref()))
+    {
         if rank as usize == first {
             eprintln!("nndd: error: {}", message.unwrap_or_default());
         }

@@ -27,15 +27,21 @@ fn serial() -> std::sync::MutexGuard<'static, ()> {
 /// `mpirun -n np nndd args…` in its own process group, its output piped.
 fn spawn(np: usize, args: &[&str]) -> Child {
     let mut cmd = Command::new("mpirun");
-    cmd.args(["-n", &np.to_string(), "--oversubscribe", "--bind-to", "none"])
-        .arg(env!("CARGO_BIN_EXE_nndd"))
-        .args(args)
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .process_group(0);
+    cmd.args([
+        "-n",
+        &np.to_string(),
+        "--oversubscribe",
+        "--bind-to",
+        "none",
+    ])
+    .arg(env!("CARGO_BIN_EXE_nndd"))
+    .args(args)
+    .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+    .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped())
+    .process_group(0);
     cmd.spawn().expect("mpirun starts")
 }
 
@@ -118,13 +124,23 @@ fn assert_failed_once(e: &Ended, needle: &str, what: &str) {
         e.stderr
     );
     let ours = our_lines(&e.stderr);
-    assert_eq!(ours.len(), 1, "{what}: expected one line, got:\n{}", e.stderr);
+    assert_eq!(
+        ours.len(),
+        1,
+        "{what}: expected one line, got:\n{}",
+        e.stderr
+    );
     assert!(
         ours[0].starts_with("nndd: error") && ours[0].contains(needle),
         "{what}: '{}' does not say '{needle}'",
         ours[0]
     );
-    for bad in ["panicked", "RUST_BACKTRACE", "PETSC ERROR", "internal error"] {
+    for bad in [
+        "panicked",
+        "RUST_BACKTRACE",
+        "PETSC ERROR",
+        "internal error",
+    ] {
         assert!(
             !e.stderr.contains(bad) && !e.stdout.contains(bad),
             "{what}: '{bad}' in\n{}",
@@ -171,7 +187,11 @@ fn bad_input_ends_every_rank_promptly_with_one_line() {
             vec!["-nndd_mesh", "/nonexistent/two-bodies.msh"],
             "-nndd_mesh",
         ),
-        ("invalid option value", vec!["-nndd_theta", "-1"], "-nndd_theta"),
+        (
+            "invalid option value",
+            vec!["-nndd_theta", "-1"],
+            "-nndd_theta",
+        ),
     ];
     for np in [1, 2, 4] {
         for (what, args, needle) in &cases {
@@ -179,12 +199,18 @@ fn bad_input_ends_every_rank_promptly_with_one_line() {
             all.extend(args.iter().copied());
             let what = format!("{what} on {np} rank(s)");
             let e = wait_within(spawn(np, &all), 3 * LIMIT, &what);
-            assert!(e.seconds < LIMIT.as_secs_f64(), "{what}: {:.1} s", e.seconds);
+            assert!(
+                e.seconds < LIMIT.as_secs_f64(),
+                "{what}: {:.1} s",
+                e.seconds
+            );
             assert_failed_once(&e, needle, &what);
             // Bad input is agreed on: no rank aborts, so nothing but our line and mpirun's
             // own note of the non-zero exit.
             assert!(!e.stderr.contains("MPI_ABORT"), "{what}:\n{}", e.stderr);
-            assert!(walk(&dir).iter().all(|f| f.extension().is_some_and(|x| x == "opts")));
+            assert!(walk(&dir)
+                .iter()
+                .all(|f| f.extension().is_some_and(|x| x == "opts")));
         }
     }
     std::fs::remove_dir_all(&dir).ok();
@@ -230,7 +256,11 @@ fn a_fault_on_one_rank_in_any_phase_ends_the_job() {
                 ];
                 let what = format!("fault {spec} on {np} ranks");
                 let e = wait_within(spawn(np, &args), 3 * LIMIT, &what);
-                assert!(e.seconds < LIMIT.as_secs_f64(), "{what}: {:.1} s", e.seconds);
+                assert!(
+                    e.seconds < LIMIT.as_secs_f64(),
+                    "{what}: {:.1} s",
+                    e.seconds
+                );
                 assert_failed_once(&e, "-nndd_fault", &what);
                 let left = results_left(&prefix);
                 assert!(left.is_empty(), "{what}: left {left:?}");
@@ -255,7 +285,10 @@ fn started_until(np: usize, args: &[&str], iteration: usize) -> (Child, Vec<Stri
     loop {
         let mut line = String::new();
         if reader.read_line(&mut line).unwrap() == 0 {
-            panic!("the run ended before iteration {iteration}:\n{}", lines.join(""));
+            panic!(
+                "the run ended before iteration {iteration}:\n{}",
+                lines.join("")
+            );
         }
         let it = line
             .split_whitespace()
@@ -325,7 +358,12 @@ fn sigterm_writes_a_restart_point_that_another_rank_count_continues() {
         }
     }
     let e = wait_within(child, 3 * LIMIT, "interrupted run");
-    assert_eq!(e.code, Some(4), "exit code of an interrupted run:\n{}", e.stderr);
+    assert_eq!(
+        e.code,
+        Some(4),
+        "exit code of an interrupted run:\n{}",
+        e.stderr
+    );
     assert!(
         e.stderr.contains("interrupted by a signal") && e.stderr.contains("-nndd_restart"),
         "{}",
@@ -348,13 +386,15 @@ fn sigterm_writes_a_restart_point_that_another_rank_count_continues() {
     // Continue on 3 ranks.
     let resumed = dir.join("resumed");
     let cp = checkpoint.to_str().unwrap();
-    let out = ["-nndd_output", resumed.to_str().unwrap(), "-nndd_restart", cp];
+    let out = [
+        "-nndd_output",
+        resumed.to_str().unwrap(),
+        "-nndd_restart",
+        cp,
+    ];
     solved(3, &long, &out, 12 * LIMIT, "restart on 3 ranks");
     let r = json(&resumed);
-    let (e_ref, e_res) = (
-        f(&reference, "potential_energy"),
-        f(&r, "potential_energy"),
-    );
+    let (e_ref, e_res) = (f(&reference, "potential_energy"), f(&r, "potential_energy"));
     let rel = (e_res - e_ref).abs() / e_ref.abs();
     println!(
         "SIGTERM after iteration {stopped_at}; restart on 3 ranks: {} iterations (uninterrupted: {total}), energy {e_res:.12e} vs {e_ref:.12e}, relative difference {rel:.1e}",
@@ -417,8 +457,14 @@ fn a_restart_repeats_the_uninterrupted_iterates_exactly() {
         serde_json::from_str(&std::fs::read_to_string(&checkpoint).unwrap()).unwrap();
     let at = cp["state"]["iteration"].as_u64().unwrap() as usize;
     let total = f(&a, "iterations") as usize;
-    assert!(at.is_multiple_of(4) && at < total && at >= 4, "checkpoint at {at} of {total}");
-    assert!(cp["state"]["secant"].is_object(), "θ auto keeps its secant state");
+    assert!(
+        at.is_multiple_of(4) && at < total && at >= 4,
+        "checkpoint at {at} of {total}"
+    );
+    assert!(
+        cp["state"]["secant"].is_object(),
+        "θ auto keeps its secant state"
+    );
 
     let again = dir.join("again");
     let cp = checkpoint.to_str().unwrap();
@@ -460,6 +506,10 @@ fn kill_9_of_one_rank_ends_the_job() {
     let e = wait_within(child, 3 * LIMIT, "job with a killed rank");
     assert!(e.code != Some(0));
     assert!(e.seconds < LIMIT.as_secs_f64(), "{:.1} s", e.seconds);
-    assert!(results_left(&prefix).is_empty(), "{:?}", results_left(&prefix));
+    assert!(
+        results_left(&prefix).is_empty(),
+        "{:?}",
+        results_left(&prefix)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -302,8 +302,9 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         );
         let json =
             serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
-        written = output::write_atomic(&output::with_ext(&settings.output, "json"), json.as_bytes())
-            .map_err(AppError::from);
+        written =
+            output::write_atomic(&output::with_ext(&settings.output, "json"), json.as_bytes())
+                .map_err(AppError::from);
         if written.is_ok() {
             report::report(&settings, &summary, &sol);
         }

@@ -79,16 +79,29 @@ mod tests {
         let inner = dir.join("inner.opts");
         let outer = dir.join("outer.opts");
         let cyclic = dir.join("cyclic.opts");
-        std::fs::write(&inner, "-nndd_n 4 # a comment -options_file not-this.opts\n").unwrap();
-        std::fs::write(&outer, format!("-nndd_tol 1e-6\n-options_file {}\n", inner.display()))
-            .unwrap();
+        std::fs::write(
+            &inner,
+            "-nndd_n 4 # a comment -options_file not-this.opts\n",
+        )
+        .unwrap();
+        std::fs::write(
+            &outer,
+            format!("-nndd_tol 1e-6\n-options_file {}\n", inner.display()),
+        )
+        .unwrap();
         std::fs::write(&cyclic, format!("-options_file {}\n", cyclic.display())).unwrap();
         let o = outer.to_str().unwrap();
-        assert_eq!(options_files(&args(&["-options_file", o, "-nndd_n", "8"])), Ok(()));
+        assert_eq!(
+            options_files(&args(&["-options_file", o, "-nndd_n", "8"])),
+            Ok(())
+        );
         assert_eq!(options_files(&args(&["-nndd_n", "8"])), Ok(()));
 
         let e = options_files(&args(&["-options_file", "missing.opts"])).unwrap_err();
-        assert!(e.starts_with("-options_file missing.opts: cannot read the file"), "{e}");
+        assert!(
+            e.starts_with("-options_file missing.opts: cannot read the file"),
+            "{e}"
+        );
         assert_eq!(e.lines().count(), 1);
         let e = options_files(&args(&["-nndd_n", "2", "-options_file"])).unwrap_err();
         assert_eq!(e, "-options_file needs a file name");
@@ -96,7 +109,10 @@ mod tests {
         // A missing file named inside another is reported with the file that names it.
         std::fs::remove_file(&inner).unwrap();
         let e = options_files(&args(&["-options_file", o])).unwrap_err();
-        assert!(e.contains("inner.opts") && e.contains(&format!("(in {o})")), "{e}");
+        assert!(
+            e.contains("inner.opts") && e.contains(&format!("(in {o})")),
+            "{e}"
+        );
         let e = options_files(&args(&["-options_file", cyclic.to_str().unwrap()])).unwrap_err();
         assert!(e.contains("nested more than 16 deep"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();

@@ -4,6 +4,7 @@
 use std::rc::Rc;
 use std::time::Instant;
 
+use super::agreed;
 use super::options::{Settings, SolverKind};
 use super::AppError;
 use crate::dd::body::{Body, SchurMode};
@@ -14,12 +15,11 @@ use crate::dd::nndd::{self, Iterate, IterationRecord, LoopState, Status, StopRul
 use crate::estimate::{EstimateRecord, Estimator, NnddVariant, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
-use crate::parallel::fault::{self, Agreement, Phase};
-use super::agreed;
-use crate::petsc;
 use crate::io::summary::Timings;
+use crate::parallel::fault::{self, Agreement, Phase};
 use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
+use crate::petsc;
 use crate::petsc::log::Stages;
 use crate::problem::{self, BodyProblem};
 
@@ -189,8 +189,8 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
         let rec = est.estimate(self.refs, it)?;
         self.seconds += t.elapsed().as_secs_f64();
         self.last_fe = Some(rec.eta_fe);
-        let balanced =
-            settings.nndd.stop == StopRule::Balanced && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
+        let balanced = settings.nndd.stop == StopRule::Balanced
+            && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
         self.estimates.push(rec);
         Ok(balanced)
     }

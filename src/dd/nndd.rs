@@ -465,7 +465,10 @@ pub fn solve<E: From<NnddError>>(
                 best = change;
                 best_at = p;
             }
-            let previous = history.len().checked_sub(2).map(|k| history[k].lambda_change);
+            let previous = history
+                .len()
+                .checked_sub(2)
+                .map(|k| history[k].lambda_change);
             growth = if previous.is_some_and(|c| change > c) {
                 growth + 1
             } else {

@@ -181,7 +181,11 @@ pub fn write(path: &Path, cp: &Checkpoint) -> Result<(), OutputError> {
 }
 
 /// Read the checkpoint `path` and check it against this run's `identity` and `max_it`.
-pub fn read(path: &Path, identity: &Identity, max_it: usize) -> Result<Checkpoint, CheckpointError> {
+pub fn read(
+    path: &Path,
+    identity: &Identity,
+    max_it: usize,
+) -> Result<Checkpoint, CheckpointError> {
     let bytes = std::fs::read(path).map_err(|source| CheckpointError::Read {
         path: path.to_path_buf(),
         source,
@@ -194,7 +198,11 @@ pub fn read(path: &Path, identity: &Identity, max_it: usize) -> Result<Checkpoin
         serde_json::from_slice(&bytes).map_err(|e| format(e.to_string()))?;
     match value.get("format").and_then(|f| f.as_str()) {
         Some(FORMAT) => {}
-        Some(other) => return Err(format(format!("format '{other}', this version reads '{FORMAT}'"))),
+        Some(other) => {
+            return Err(format(format!(
+                "format '{other}', this version reads '{FORMAT}'"
+            )))
+        }
         None => return Err(format("no 'format' field".into())),
     }
     let cp: Checkpoint = serde_json::from_value(value).map_err(|e| format(e.to_string()))?;

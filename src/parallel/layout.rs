@@ -175,11 +175,17 @@ impl Layout {
     /// The end of an NNDD iteration: world rank 0's stop `code` and whether any rank was
     /// `interrupted`, on every rank (one reduction).
     pub fn agree_stop(&self, code: u8, interrupted: bool) -> (u8, bool) {
-        let mine = [if self.world.rank() == 0 { code } else { 0 }, interrupted as u8];
+        let mine = [
+            if self.world.rank() == 0 { code } else { 0 },
+            interrupted as u8,
+        ];
         let mut out = mine;
         if self.size > 1 {
-            self.world
-                .all_reduce_into(&mine[..], &mut out[..], mpi::collective::SystemOperation::max());
+            self.world.all_reduce_into(
+                &mine[..],
+                &mut out[..],
+                mpi::collective::SystemOperation::max(),
+            );
         }
         (out[0], out[1] != 0)
     }

@@ -495,7 +495,10 @@ mod tests {
                 assert!(misfit(&q, &xl, &t) < 1e-14);
             }
         }
-        assert!(worst_residual < 1e-14, "JM residual of the mapped operator: {worst_residual:e}");
+        assert!(
+            worst_residual < 1e-14,
+            "JM residual of the mapped operator: {worst_residual:e}"
+        );
         assert!(worst < 1e-7, "mapped vs least squares: {worst:e}");
         let cw = [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]];
         let (_, _, q) = local_frame(&cw);

@@ -41,7 +41,8 @@ pub(super) fn write_h5<W: Writers>(
     // then close together: closing is collective).
     agree(
         w,
-        crate::parallel::fault::check(crate::parallel::fault::Phase::Output).map_err(OutputError::from),
+        crate::parallel::fault::check(crate::parallel::fault::Phase::Output)
+            .map_err(OutputError::from),
     )?;
     let out = H5Out {
         w,
