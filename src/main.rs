@@ -27,13 +27,7 @@ fn main() {
     // PETSc reads the options files on rank 0 only and broadcasts them: every rank checks
     // them first, so that a missing one ends every rank instead of leaving them waiting.
     let files = preflight::options_files(&args);
-    let bad_files = files.as_ref().err().cloned();
-    if let Some(first) =
-        agreement.first_failed(files.is_err(), || app::abort_with(bad_files.as_deref()))
-    {
-        if rank as usize == first {
-            eprintln!("nndd: error: {}", files.unwrap_err());
-        }
+    if failed_somewhere(&agreement, rank, files.err()) {
         drop(agreement);
         drop(universe);
         std::process::exit(1);
@@ -45,18 +39,11 @@ fn main() {
         .and_then(|p| match fault::check(Phase::Init) {
             Ok(()) => Ok(p),
             Err(e) => {
-                // PETSc started here: finalise it with the others below.
-                std::mem::forget(p);
+                std::mem::forget(p); // not finalised: see below
                 Err(e.to_string())
             }
         });
-    let message = petsc.as_ref().err().cloned();
-    if let Some(first) =
-        agreement.first_failed(petsc.is_err(), || app::abort_with(message.as_deref()))
-    {
-        if rank as usize == first {
-            eprintln!("nndd: error: {}", message.unwrap_or_default());
-        }
+    if failed_somewhere(&agreement, rank, petsc.as_ref().err().cloned()) {
         // PETSc did not start on every rank: PetscFinalize would wait for them.
         std::mem::forget(petsc);
         drop(agreement);
@@ -74,6 +61,21 @@ fn main() {
     drop(agreement);
     drop(universe);
     std::process::exit(code);
+}
+
+/// Before the run: whether any rank failed (`failure` is this rank's reason); the lowest
+/// failed rank prints its reason. Collective.
+fn failed_somewhere(agreement: &Agreement, rank: i32, failure: Option<String>) -> bool {
+    let code = failure.as_ref().map(|_| 1);
+    match agreement.first_failure(code, || app::abort_with(failure.as_deref())) {
+        Some((first, _)) => {
+            if first == rank as usize {
+                eprintln!("nndd: error: {}", failure.unwrap_or_default());
+            }
+            true
+        }
+        None => false,
+    }
 }
 
 /// `-nndd_fault RANK:PHASE` from the command line (the options files are read by PETSc, and

@@ -130,19 +130,10 @@ impl Agreement {
         }
     }
 
-    /// The lowest rank whose `failed` is true (None: none failed). Every rank calls it at the
-    /// same point; `on_timeout` (which must end the job) is called on a failed rank whose
-    /// partners do not arrive within [`DEADLINE`].
-    pub fn first_failed(
-        &self,
-        failed: bool,
-        on_timeout: impl FnOnce() -> std::convert::Infallible,
-    ) -> Option<usize> {
-        first_failure(&self.comm, failed.then_some(0), on_timeout).map(|(rank, _)| rank)
-    }
-
-    /// [`Self::first_failed`] with a small code per failure (an exit code): the lowest failed
-    /// rank and its code.
+    /// The lowest failed rank and its code (None: none failed); `code` is this rank's failure
+    /// (a small code, the exit code). Every rank calls it at the same point; `on_timeout`
+    /// (which must end the job) is called on a failed rank whose partners do not arrive
+    /// within [`DEADLINE`].
     pub fn first_failure(
         &self,
         code: Option<u8>,
@@ -152,7 +143,7 @@ impl Agreement {
     }
 }
 
-/// [`Agreement::first_failed`] on `comm`: a non-blocking reduction, which a rank that failed
+/// [`Agreement::first_failure`] without codes, on `comm`: a non-blocking reduction, which a rank that failed
 /// waits for at most [`DEADLINE`]. Every rank of `comm` calls it at the same point.
 pub fn first_failed<C: Communicator>(
     comm: &C,

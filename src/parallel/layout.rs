@@ -163,15 +163,6 @@ impl Layout {
         v != 0
     }
 
-    /// Broadcast a small code from world rank 0.
-    pub fn agree_code(&self, code: u8) -> u8 {
-        let mut v = code;
-        if self.size > 1 {
-            self.world.process_at_rank(0).broadcast_into(&mut v);
-        }
-        v
-    }
-
     /// The end of an NNDD iteration: world rank 0's stop `code` and whether any rank was
     /// `interrupted`, on every rank (one reduction).
     pub fn agree_stop(&self, code: u8, interrupted: bool) -> (u8, bool) {
