@@ -3,8 +3,9 @@
 //! recoveries `eet` (plain EET + Johnson–Mercier) and `patch` (with patch-wise complementary
 //! energy minimisation); then the largest equilibrium residuals and the estimation time as a
 //! fraction of the solve time, per n (`--compare 16,64,256,512,1024` by default), for the
-//! default recovery and the one it replaced (issue 11). Run through
-//! `jobs/table-estimates [--compare n,n,…] [n …]`.
+//! default recovery and the one it replaced (issue 11); then the cost of estimates at every
+//! iteration against none, per n (`--every 256` by default) and θ. Run through
+//! `jobs/table-estimates [--compare n,n,…] [--every n,n,…] [n …]`.
 
 #[path = "runner.rs"]
 mod runner;
@@ -17,6 +18,16 @@ fn main() {
     if let Some(k) = args.iter().position(|a| a == "--compare") {
         let list = args.get(k + 1).expect("--compare n,n,…").clone();
         compare_levels = list
+            .split(',')
+            .map(|a| a.parse().expect("integers"))
+            .collect();
+        args.drain(k..k + 2);
+    }
+    // `--every n,n,…`: the levels of the estimates-every-iteration comparison.
+    let mut every_levels = vec![256];
+    if let Some(k) = args.iter().position(|a| a == "--every") {
+        let list = args.get(k + 1).expect("--every n,n,…").clone();
+        every_levels = list
             .split(',')
             .map(|a| a.parse().expect("integers"))
             .collect();
@@ -89,7 +100,66 @@ fn main() {
         worst[0], worst[1], worst[2], worst[3], worst[4]
     );
     compare(&dir, &compare_levels);
+    every(&dir, &every_levels);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Issue 11 item 3: per n and θ (auto, the default, and the paper's 0.25), a run without
+/// estimates against one with `-nndd_estimate_every 1` (tol 1e-8, 2 ranks, one run each):
+/// the summaries' total times, their ratio, the estimates' total and mean time, and the last
+/// η^glo.
+fn every(dir: &std::path::Path, levels: &[usize]) {
+    println!(
+        "\n{:>5} {:>6} {:>4} {:>10} {:>10} {:>7} {:>4} {:>10} {:>10} {:>10}",
+        "n",
+        "theta",
+        "its",
+        "none_s",
+        "every1_s",
+        "ratio",
+        "est",
+        "estim_s",
+        "per_est_s",
+        "eta_glo"
+    );
+    for &n in levels {
+        for theta in ["auto", "0.25"] {
+            let ns = n.to_string();
+            let run = |every: &str| {
+                eprintln!("table-estimates: n = {n}, theta {theta}, estimate every {every} …");
+                let args = [
+                    "-nndd_n",
+                    &ns,
+                    "-nndd_theta",
+                    theta,
+                    "-nndd_estimate_every",
+                    every,
+                    "-nndd_reference_factor",
+                    "0",
+                ];
+                runner::run(2, &dir.join(format!("every{n}-{theta}-{every}")), &args).0
+            };
+            let (none, all) = (run("0"), run("1"));
+            let total = |j: &serde_json::Value| num(&j["timings"], "total");
+            let est = all["estimates"].as_array().map_or(0, |e| e.len());
+            let estim = num(&all["timings"], "estimation");
+            let last = all["estimates"].as_array().and_then(|e| e.last()).cloned();
+            println!(
+                "{:>5} {:>6} {:>4} {:>10.2} {:>10.2} {:>7.2} {:>4} {:>10.2} {:>10.3} {:>10.5}",
+                n,
+                theta,
+                all["iterations"],
+                total(&none),
+                total(&all),
+                total(&all) / total(&none),
+                est,
+                estim,
+                estim / est.max(1) as f64,
+                last.map_or(f64::NAN, |e| num(&e, "eta_glo"))
+            );
+        }
+    }
+    println!("(none_s, every1_s: the summaries' total times without estimates and with -nndd_estimate_every 1; ratio = every1_s / none_s; est: estimates made; estim_s: their total time, per_est_s: per estimate)");
 }
 
 /// Issue 11's table: per n, the solve and one estimate of the final iterate (tol 1e-8, 2

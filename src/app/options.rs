@@ -370,7 +370,7 @@ impl Settings {
         }
         let (warm_sweeps, _) = o.int(
             "-nndd_recovery_warm_sweeps",
-            "Sweeps of the eta_FE recovery of -nndd_recovery patch, started from the change the eta_glo recovery's sweeps made (0: started like it, with -nndd_recovery_sweeps)",
+            "Sweeps of a -nndd_recovery patch recovery started from the change the previous recovery's sweeps made (the eta_FE one after the eta_glo one, and each estimate's after the previous estimate's, when the displacement changed by at most 1/32 in energy); 0: every recovery cold, with -nndd_recovery_sweeps",
             1,
         )?;
         if !(0..=1000).contains(&warm_sweeps) {

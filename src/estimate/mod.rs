@@ -43,7 +43,7 @@ use crate::estimate::cre::{estimate_body, worst, IterationData, View};
 use crate::estimate::equilibrate::{
     vertex_colours, EquilibrationError, OperatorCache, Residuals, StarChoice,
 };
-use crate::estimate::overlap::Overlap;
+use crate::estimate::overlap::{Halo, Overlap};
 use crate::estimate::reference::interpolate_nested;
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
@@ -158,7 +158,7 @@ pub struct Estimator<'a> {
     pub reference: Option<Reference>,
     /// Per body, this rank's overlapping element set (built at the first estimate; `None`:
     /// the body is on one rank and the recovery runs on its whole mesh).
-    pub overlaps: [std::cell::OnceCell<Option<Overlap>>; 2],
+    pub overlaps: [std::cell::OnceCell<Option<(Overlap, Halo)>>; 2],
     /// The time of each part of the estimates.
     pub parts: Parts,
     /// Per body, the recovery's local operators on this rank, kept across estimates.
@@ -186,7 +186,7 @@ fn nodal_contact_forces(it: &Iterate) -> Vec<f64> {
 impl Estimator<'_> {
     /// This rank's overlapping element set of `body`: its own elements and as many rings as
     /// the recovery needs to be exact there.
-    fn overlap(&self, body: &Body) -> Option<Overlap> {
+    fn overlap(&self, body: &Body) -> Option<(Overlap, Halo)> {
         let part = &body.partition;
         (part.size > 1).then(|| {
             let mesh = &body.problem.mesh;
@@ -195,12 +195,14 @@ impl Estimator<'_> {
             let own: Vec<bool> = (0..mesh.triangles.len())
                 .map(|e| part.owns_element(e))
                 .collect();
-            Overlap::new(
+            let overlap = Overlap::new(
                 mesh,
                 &own,
                 Overlap::rings_for(self.recovery, count),
                 &colours,
-            )
+            );
+            let halo = Halo::new(&overlap, &part.element_owner, self.layout);
+            (overlap, halo)
         })
     }
 
@@ -319,7 +321,9 @@ impl Estimator<'_> {
             if let Some(b) = body {
                 let overlap = self.overlaps[k]
                     .get_or_init(|| self.parts.run(Part::Recovery, || self.overlap(b)));
-                let view = overlap.as_ref().map_or(View::Whole, View::Overlap);
+                let view = overlap
+                    .as_ref()
+                    .map_or(View::Whole, |(o, h)| View::Overlap(o, h, layout));
                 let est = estimate_body(
                     b,
                     &it.u[k],

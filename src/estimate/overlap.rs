@@ -5,8 +5,11 @@
 
 use std::collections::HashSet;
 
-use crate::estimate::equilibrate::{sweep_key, Boundary, BoundaryEdge, Restriction, StarChoice};
+use crate::estimate::equilibrate::{
+    sweep_key, Boundary, BoundaryEdge, OperatorCache, Restriction, StarChoice, NT,
+};
 use crate::fem::mesh::Mesh;
+use crate::parallel::layout::Layout;
 
 const NONE: usize = usize::MAX;
 
@@ -30,6 +33,71 @@ pub struct Overlap {
     pub owned: Vec<bool>,
     /// Per sub-mesh node: its sweep key (full-mesh colour, global index).
     pub vertex_key: Vec<u64>,
+}
+
+/// The warm-start exchange of a body split over several ranks (issue 11). A warm recovery
+/// (`StarChoice::PatchTraction`) starts from the change δ of the previous recovery of the
+/// same cache; on a sub-mesh, δ is exact on the own elements only. Before a warm recovery,
+/// [`Halo::refresh`] gives every sub-mesh element that the rank does not own its owner's
+/// values of δ, so the start is exact on the whole sub-mesh (up to the averaged-traction
+/// field's last ring) and the overlap needs the rings of one recovery's sweeps, however many
+/// recoveries the warm start has been carried through ([`Overlap::rings_for`]).
+pub struct Halo {
+    /// Per group rank: the sub-mesh indices of own elements that rank holds, in its order.
+    send: Vec<Vec<usize>>,
+    /// Per group rank: the sub-mesh indices of the elements that rank owns and this one
+    /// holds without owning them.
+    recv: Vec<Vec<usize>>,
+}
+
+impl Halo {
+    /// The exchange pattern of the sub-mesh `ov`; `owner`: the group rank owning each body
+    /// element. Collective over the body group.
+    pub fn new(ov: &Overlap, owner: &[u32], layout: &Layout) -> Halo {
+        let size = layout.group_size();
+        let (mut recv, mut ask) = (vec![Vec::new(); size], vec![Vec::new(); size]);
+        for (l, &e) in ov.elements.iter().enumerate() {
+            if !ov.owned[l] {
+                recv[owner[e] as usize].push(l);
+                ask[owner[e] as usize].push(e as u64);
+            }
+        }
+        let asked = layout.group_exchange(&ask);
+        let send = asked
+            .iter()
+            .map(|ids| {
+                ids.iter()
+                    .map(|&e| {
+                        ov.elements
+                            .binary_search(&(e as usize))
+                            .expect("the owner holds its elements")
+                    })
+                    .collect()
+            })
+            .collect();
+        Halo { send, recv }
+    }
+
+    /// Give the elements this rank holds but does not own their owners' warm-start values
+    /// (`OperatorCache::warm_values`); nothing where no warm start is held (the ranks of a
+    /// group make the same recoveries, so they hold one alike). Collective over the group.
+    pub fn refresh(&self, layout: &Layout, cache: &mut OperatorCache) {
+        let send: Vec<Vec<f64>> = self
+            .send
+            .iter()
+            .map(|l| cache.warm_values(l).map_or(Vec::new(), |v| v.concat()))
+            .collect();
+        let got = layout.group_exchange(&send);
+        for (l, v) in self.recv.iter().zip(&got) {
+            if !l.is_empty() && v.len() == l.len() * NT {
+                let values: Vec<[f64; NT]> = v
+                    .chunks_exact(NT)
+                    .map(|c| c.try_into().expect("NT values"))
+                    .collect();
+                cache.set_warm_values(l, &values);
+            }
+        }
+    }
 }
 
 /// Number of colours of a colouring (`equilibrate::vertex_colours`).
@@ -119,14 +187,16 @@ impl Overlap {
     ///   `colours` of them, and the final rebuild of the fields from the edge tractions keeps
     ///   the exact set. Hence the own elements are exact if L − 1 − sweeps × colours ≥ 0.
     ///
-    /// - Warm start (`PatchTraction` after a cold recovery with the same cache on the same
-    ///   sub-mesh): the start t_EET(new) + (t_relaxed − t_EET)(previous) is exact on the
-    ///   edges of E_{L−1−sweeps × colours} (where both previous fields were), so after
-    ///   `warm_sweeps` sweeps the own elements are exact if
-    ///   L − 1 − (sweeps + warm_sweeps) × colours ≥ 0.
+    /// - Warm start (`PatchTraction` after another recovery with the same cache on the same
+    ///   sub-mesh): the change δ = (t_relaxed − t_EET)(previous) is exact on the own
+    ///   elements, and [`Halo::refresh`] gives every other sub-mesh element its owner's δ
+    ///   (without the exchange δ would only be exact on E_{L−1−sweeps × colours}, and
+    ///   the exact set would shrink with every warm recovery). The start t_EET(new) + δ is
+    ///   then exact on E_{L−1}, so after `warm_sweeps` sweeps the own elements are exact if
+    ///   L − 1 − warm_sweeps × colours ≥ 0.
     ///
-    /// So the own elements' fields are exact from 1 ring (averaged) and 1 + sweeps × colours
-    /// rings (patch relaxation) on. One more ring makes them exact on E_1 too, i.e. also on
+    /// So the own elements' fields are exact from 1 ring (averaged) and
+    /// 1 + max(sweeps, warm_sweeps) × colours rings (patch relaxation) on. One more ring makes them exact on E_1 too, i.e. also on
     /// every element across an edge of an own element: then the equilibrium check of
     /// `residuals_restricted` (which measures the traction jumps across the edges between
     /// an own element and any neighbour, the partition interface included) compares exact
@@ -140,11 +210,11 @@ impl Overlap {
         match choice {
             StarChoice::AveragedTraction => 2,
             StarChoice::PatchRelaxation { sweeps } => 2 + sweeps * colours,
-            // A warm start carries the previous (cold) recovery's sweeps.
+            // A warm start's δ is refreshed from the owners (`Halo`).
             StarChoice::PatchTraction {
                 sweeps,
                 warm_sweeps,
-            } => 2 + (sweeps + warm_sweeps) * colours,
+            } => 2 + sweeps.max(warm_sweeps) * colours,
             StarChoice::MinimumEnergy { .. } => usize::MAX,
         }
     }
@@ -262,6 +332,7 @@ mod tests {
                 &bs,
                 choice,
                 Some(&ov.restriction()),
+                None,
                 None,
             )
             .unwrap();
@@ -391,62 +462,107 @@ mod tests {
         check_partition(&mesh, &bd, &slabs(&mesh), 2, "distorted slabs");
     }
 
-    /// A warm-started `PatchTraction` recovery after a cold one (the η^FE recovery after the
-    /// η^glo one), each part on its overlap of `rings_for` rings with its own cache, equals
-    /// the same two recoveries on the whole mesh on the own elements; with the rings of a
-    /// cold recovery only it does not.
+    /// A chain of `PatchTraction` recoveries, one cold then two warm (an estimate's η^glo
+    /// and η^FE recoveries, then the next estimate's η^glo one), each part on its overlap of
+    /// `rings_for` rings with its own cache and the warm starts refreshed from the owners
+    /// before each warm recovery ([`Halo::refresh`], emulated here), equals the same chain
+    /// on the whole mesh on the own elements; without the refresh it does not.
     #[test]
     fn warm_started_recovery_partition_is_exact() {
         let (mesh, bd) = block_rect(48, 32);
         let u = fe_solve(&mesh, &bd);
-        let v: Vec<f64> = u
-            .iter()
-            .enumerate()
-            .map(|(i, x)| x * (1.0 + 0.05 * ((i / 7) % 3) as f64))
-            .collect();
+        let scaled = |a: f64, m: usize| -> Vec<f64> {
+            u.iter()
+                .enumerate()
+                .map(|(i, x)| x * (1.0 + a * ((i / 7) % m) as f64))
+                .collect()
+        };
+        let data = [u.clone(), scaled(0.05, 3), scaled(0.03, 5)];
         let colours = vertex_colours(&mesh);
         let c = colour_count(&colours);
         let choice = StarChoice::PatchTraction {
             sweeps: 2,
             warm_sweeps: 1,
         };
-        let chain = |m: &Mesh, b: &Boundary, u: &[f64], v: &[f64], r: Option<&Restriction>| {
-            let mut ops = crate::estimate::equilibrate::OperatorCache::default();
-            equilibrate_restricted(m, &STEEL, u, b, choice, r, Some(&mut ops)).unwrap();
-            equilibrate_restricted(m, &STEEL, v, b, choice, r, Some(&mut ops)).unwrap()
-        };
-        let full = chain(&mesh, &bd, &u, &v, None);
+        let mut full_ops = OperatorCache::default();
+        let full: Vec<_> = data
+            .iter()
+            .map(|d| {
+                equilibrate_restricted(
+                    &mesh,
+                    &STEEL,
+                    d,
+                    &bd,
+                    choice,
+                    None,
+                    Some(&mut full_ops),
+                    None,
+                )
+                .unwrap()
+            })
+            .collect();
         let part = slabs(&mesh);
-        let cold_rings = Overlap::rings_for(
-            StarChoice::PatchTraction {
-                sweeps: 2,
-                warm_sweeps: 0,
-            },
-            c,
-        );
+        let parts = *part.iter().max().unwrap() + 1;
         let rings = Overlap::rings_for(choice, c);
-        assert_eq!(rings, cold_rings + c);
-        for (rings, exact) in [(rings, true), (cold_rings - 1, false)] {
+        assert_eq!(rings, 2 + 2 * c, "the rings of the cold recovery");
+        for refresh in [true, false] {
+            let ovs: Vec<Overlap> = (0..parts)
+                .map(|p| {
+                    let own: Vec<bool> = part.iter().map(|&q| q == p).collect();
+                    Overlap::new(&mesh, &own, rings, &colours)
+                })
+                .collect();
+            let mut ops: Vec<OperatorCache> = (0..parts).map(|_| Default::default()).collect();
             let mut worst: f64 = 0.0;
-            for p in 0..=*part.iter().max().unwrap() {
-                let own: Vec<bool> = part.iter().map(|&q| q == p).collect();
-                let ov = Overlap::new(&mesh, &own, rings, &colours);
-                let bs = ov.restrict_boundary(&bd);
-                let (us, vs) = (ov.restrict_dofs(&u), ov.restrict_dofs(&v));
-                let eq = chain(&ov.mesh, &bs, &us, &vs, Some(&ov.restriction()));
-                for (le, &ge) in ov.elements.iter().enumerate().filter(|&(l, _)| ov.owned[l]) {
-                    let b = full.coefficients(ge);
-                    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-                    for (x, y) in eq.coefficients(le).iter().zip(b) {
-                        worst = worst.max((x - y).abs() / scale);
+            for (step, d) in data.iter().enumerate() {
+                if refresh && step > 0 {
+                    // Every element's δ from its owner's cache (what `Halo::refresh` sends).
+                    let mut owner_values = vec![[0.0; NT]; mesh.triangles.len()];
+                    for (ov, cache) in ovs.iter().zip(&mut ops) {
+                        let own: Vec<usize> =
+                            (0..ov.elements.len()).filter(|&l| ov.owned[l]).collect();
+                        for (&l, v) in own.iter().zip(cache.warm_values(&own).unwrap()) {
+                            owner_values[ov.elements[l]] = v;
+                        }
+                    }
+                    for (ov, cache) in ovs.iter().zip(&mut ops) {
+                        let other: Vec<usize> =
+                            (0..ov.elements.len()).filter(|&l| !ov.owned[l]).collect();
+                        let values: Vec<[f64; NT]> = other
+                            .iter()
+                            .map(|&l| owner_values[ov.elements[l]])
+                            .collect();
+                        assert!(cache.set_warm_values(&other, &values));
+                    }
+                }
+                for (ov, cache) in ovs.iter().zip(&mut ops) {
+                    let bs = ov.restrict_boundary(&bd);
+                    let r = ov.restriction();
+                    let eq = equilibrate_restricted(
+                        &ov.mesh,
+                        &STEEL,
+                        &ov.restrict_dofs(d),
+                        &bs,
+                        choice,
+                        Some(&r),
+                        Some(cache),
+                        None,
+                    )
+                    .unwrap();
+                    for (le, &ge) in ov.elements.iter().enumerate().filter(|&(l, _)| ov.owned[l]) {
+                        let b = full[step].coefficients(ge);
+                        let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                        for (x, y) in eq.coefficients(le).iter().zip(b) {
+                            worst = worst.max((x - y).abs() / scale);
+                        }
                     }
                 }
             }
-            println!("warm chain, {rings} rings: max coefficient difference {worst:.1e}");
-            if exact {
+            println!("warm chain, {rings} rings, refresh {refresh}: max coefficient difference {worst:.1e}");
+            if refresh {
                 assert!(worst < 1e-10, "{rings} rings: {worst:e}");
             } else {
-                assert!(worst > 1e-6, "{rings} rings: {worst:e}");
+                assert!(worst > 1e-6, "{rings} rings, no refresh: {worst:e}");
             }
         }
     }
@@ -535,6 +651,7 @@ mod tests {
             &all.restrict_boundary(&bd),
             StarChoice::minimum_energy(),
             Some(&all.restriction()),
+            None,
             None,
         );
         assert!(matches!(

@@ -107,6 +107,11 @@ impl Layout {
         self.group.rank() as usize
     }
 
+    /// Number of ranks of this rank's body group.
+    pub fn group_size(&self) -> usize {
+        self.group.size() as usize
+    }
+
     /// Sum `data` element-wise over the ranks of this rank's body group (in place).
     pub fn group_sum(&self, data: &mut [f64]) {
         if self.group.size() > 1 {
@@ -114,6 +119,37 @@ impl Layout {
             self.group
                 .all_reduce_into(&send[..], data, mpi::collective::SystemOperation::sum());
         }
+    }
+
+    /// Personalised exchange within this rank's body group: `send[r]` goes to group rank r;
+    /// returns, per group rank r, what r sent here (collective over the group).
+    pub fn group_exchange<T: Equivalence + Copy + Default>(&self, send: &[Vec<T>]) -> Vec<Vec<T>> {
+        use mpi::datatype::{Partition, PartitionMut};
+        let size = self.group_size();
+        assert_eq!(send.len(), size, "one send buffer per group rank");
+        let counts: Vec<i32> = send.iter().map(|v| v.len() as i32).collect();
+        let mut recv_counts = vec![0i32; size];
+        self.group
+            .all_to_all_into(&counts[..], &mut recv_counts[..]);
+        let displs = |c: &[i32]| -> Vec<i32> {
+            c.iter()
+                .scan(0, |acc, &n| {
+                    let d = *acc;
+                    *acc += n;
+                    Some(d)
+                })
+                .collect()
+        };
+        let flat: Vec<T> = send.concat();
+        let mut recv = vec![T::default(); recv_counts.iter().sum::<i32>() as usize];
+        let (sd, rd) = (displs(&counts), displs(&recv_counts));
+        self.group.all_to_all_varcount_into(
+            &Partition::new(&flat[..], &counts[..], &sd[..]),
+            &mut PartitionMut::new(&mut recv[..], &recv_counts[..], &rd[..]),
+        );
+        (0..size)
+            .map(|r| recv[rd[r] as usize..(rd[r] + recv_counts[r]) as usize].to_vec())
+            .collect()
     }
 
     /// Does this rank take part in body `alpha`'s work?

@@ -122,18 +122,110 @@ pub(super) struct StarOp {
     pub(super) nnull: usize,
 }
 
+/// No unknown column (a known edge component) in `Stars::row_cols`.
+pub(super) const UNKNOWN_NONE: u8 = u8::MAX;
+
+/// The star problems' structure, which depends on the mesh and the boundary codes only
+/// (kept in the `OperatorCache` from one recovery to the next).
 #[derive(Default)]
 pub(super) struct Stars {
     map: FastMap<Vec<i16>, usize>,
     pub(super) ops: Vec<StarOp>,
     /// Per star (2 i + k): index into `ops`.
-    pub(super) star_op: Vec<usize>,
+    pub(super) star_op: Vec<u32>,
     /// Per star: its unknown edges (the columns of A).
-    pub(super) cols_ptr: Vec<usize>,
-    pub(super) cols: Vec<usize>,
+    pub(super) cols_ptr: Vec<u32>,
+    pub(super) cols: Vec<u32>,
+    /// Per star 2 i + k and row (the elements (e, a) around i in `Topology::vertex_elements`
+    /// order), at 2 vert_ptr[i] + k rows + row: the columns of the edges l = a and a + 2 of
+    /// e ([`UNKNOWN_NONE`] if that component is known); A's entry there is the edge's sign
+    /// on e.
+    pub(super) row_cols: Vec<[u8; 2]>,
+    /// Of the mesh and boundary codes they were built for (`plan::fingerprint`).
+    pub(super) fingerprint: u64,
 }
 
 impl Stars {
+    /// The star structure of `topo` with the boundary codes `bc`.
+    pub(super) fn new(topo: &Topology, bc: &[[Bc; 2]], fingerprint: u64) -> Stars {
+        let nn = topo.vert_ptr.len() - 1;
+        assert!(
+            topo.vert_elems.len() < (1 << 31) / 2 && topo.edge_nodes.len() < u32::MAX as usize,
+            "mesh too large for the star structure"
+        );
+        let mut stars = Stars {
+            fingerprint,
+            cols_ptr: vec![0],
+            ..Default::default()
+        };
+        let mut star_edges: Vec<usize> = Vec::new();
+        let mut cols: Vec<usize> = Vec::new();
+        let mut key: Vec<i16> = Vec::new();
+        for i in 0..nn {
+            let elems = topo.vertex_elements(i);
+            star_edges.clear();
+            for &(e, a) in elems {
+                for l in [a, (a + 2) % 3] {
+                    let g = topo.elem_edges[e][l];
+                    if !star_edges.contains(&g) {
+                        star_edges.push(g);
+                    }
+                }
+            }
+            for k in 0..2 {
+                cols.clear();
+                cols.extend(
+                    star_edges
+                        .iter()
+                        .copied()
+                        .filter(|&g| !matches!(bc[g][k], Bc::Known(_))),
+                );
+                let (nr, nc) = (elems.len(), cols.len());
+                key.clear();
+                key.push(nr as i16);
+                key.push(nc as i16);
+                key.resize(2 + nr * nc, 0);
+                for (row, &(e, a)) in elems.iter().enumerate() {
+                    let mut rc = [UNKNOWN_NONE; 2];
+                    for (j, l) in [a, (a + 2) % 3].into_iter().enumerate() {
+                        let g = topo.elem_edges[e][l];
+                        if !matches!(bc[g][k], Bc::Known(_)) {
+                            let c = cols.iter().position(|&x| x == g).unwrap();
+                            key[2 + row * nc + c] += topo.sign(e, g) as i16;
+                            rc[j] = c as u8;
+                        }
+                    }
+                    stars.row_cols.push(rc);
+                }
+                let op = stars.op(&key);
+                stars.star_op.push(op as u32);
+                stars.cols.extend(cols.iter().map(|&g| g as u32));
+                stars.cols_ptr.push(stars.cols.len() as u32);
+            }
+        }
+        stars.map = FastMap::default(); // the patterns are only looked up while building
+        stars
+    }
+
+    /// The unknown edges of star `s`.
+    pub(super) fn cols(&self, s: usize) -> &[u32] {
+        &self.cols[self.cols_ptr[s] as usize..self.cols_ptr[s + 1] as usize]
+    }
+
+    /// The operator of star `s`.
+    pub(super) fn op_of(&self, s: usize) -> &StarOp {
+        &self.ops[self.star_op[s] as usize]
+    }
+
+    /// The row columns of star `s` = 2 i + k ([`Stars::row_cols`]).
+    pub(super) fn row_cols(&self, topo: &Topology, s: usize) -> &[[u8; 2]] {
+        let (i, k) = (s / 2, s % 2);
+        let (p0, p1) = (topo.vert_ptr[i], topo.vert_ptr[i + 1]);
+        let nr = p1 - p0;
+        let start = 2 * p0 + k * nr;
+        &self.row_cols[start..start + nr]
+    }
+
     /// The operator of the pattern `key` = [rows, cols, entries of A row-major].
     pub(super) fn op(&mut self, key: &[i16]) -> usize {
         if let Some(&i) = self.map.get(key) {

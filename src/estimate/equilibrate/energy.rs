@@ -81,7 +81,7 @@ impl EnergyContext<'_> {
         // Parameter numbering: by star 2 i + k, then null-vector index.
         let mut pptr = vec![0usize; 2 * nn + 1];
         for s in 0..2 * nn {
-            pptr[s + 1] = pptr[s] + stars.ops[stars.star_op[s]].nnull;
+            pptr[s + 1] = pptr[s] + stars.op_of(s).nnull;
         }
         let np = pptr[2 * nn];
         // Sparsity: parameters of stars at neighbouring vertices.
@@ -112,12 +112,13 @@ impl EnergyContext<'_> {
             for &i in &tri {
                 for k in 0..2 {
                     let s = 2 * i + k;
-                    let op = &stars.ops[stars.star_op[s]];
-                    let cs = &stars.cols[stars.cols_ptr[s]..stars.cols_ptr[s + 1]];
+                    let op = stars.op_of(s);
+                    let cs = stars.cols(s);
                     for jn in 0..op.nnull {
                         let nu = &op.null[jn * cs.len()..(jn + 1) * cs.len()];
                         let mut dt = [0.0; NT];
                         for (c, &g) in cs.iter().enumerate() {
+                            let g = g as usize;
                             let Some(l) = self.topo.elem_edges[e].iter().position(|&x| x == g)
                             else {
                                 continue;

@@ -74,9 +74,12 @@
 //! on the edge tractions with a per-mesh plan (`plan.rs`): one sweep of the 256 × 256 mesh
 //! takes 0.05 s instead of about 0.5 s, the patch kernels come from a pivoted QR instead of a
 //! Jacobi eigen-decomposition, the plan, the topology and the operators are built once per
-//! run, and the η^FE recovery starts from the change the η^glo one made (one sweep then
-//! lowers its energy below six cold ones). It keeps every element's JM operator, past the
-//! shape capacity too (Hertz level 6: 72.9 s instead of 188.6 s, +1.45 GiB). `PatchRelaxation`
+//! run, and every recovery starts from the change the previous one made when its data is
+//! close (the η^FE recovery after the η^glo one, and each estimate's after the previous
+//! estimate's late in the NNDD: one sweep then lowers the energy below six cold ones, and
+//! the sweeps accumulate over the estimates). The final pass builds each element's field
+//! from its edge tractions and hands it to the caller (the estimator stores none: 216 bytes
+//! per element less), with the energy and the equilibrium check. `PatchRelaxation`
 //! (`-nndd_recovery patch-classic`) is the recovery it replaced, kept to compare.
 //!
 //! Files, one concept each:
@@ -106,6 +109,7 @@ mod testutil;
 mod topology;
 
 pub use restricted::equilibrate_restricted;
+pub use stress::element_cre;
 pub use topology::{sweep_key, vertex_colours};
 
 /// The local operators of the recovery, which depend on the mesh and the material only (the
@@ -123,8 +127,14 @@ pub struct OperatorCache {
     topology: Option<(u64, topology::Topology)>,
     /// The plan of `PatchTraction` (per mesh, boundary codes and sweep order).
     pub(crate) plan: Option<plan::Plan>,
+    /// The star problems' structure (per mesh and boundary codes).
+    stars: Option<eet::Stars>,
     /// The change made by the last `PatchTraction` recovery (its warm start).
     pub(crate) warm: Option<plan::Warm>,
+    /// The caller's record of the data that recovery was made from (the estimator keeps the
+    /// body's displacement there, to decide whether the next one is close enough to start
+    /// warm).
+    pub warm_data: Option<Vec<f64>>,
     /// The material the operators were built for (they are rebuilt for another).
     material: Option<Material>,
 }
@@ -145,6 +155,38 @@ impl OperatorCache {
     /// recovery, so that a warm start only follows a recovery of the same estimate).
     pub fn forget_warm_start(&mut self) {
         self.warm = None;
+        self.warm_data = None;
+    }
+
+    /// The warm start's 12 traction values of each sub-mesh element in `elements`, each in
+    /// the element's own orientation (so the same numbers on every sub-mesh holding the
+    /// element), or none if no warm start is held (issue 11: the halo exchange of
+    /// `overlap::Halo`).
+    pub fn warm_values(&mut self, elements: &[usize]) -> Option<Vec<[f64; NT]>> {
+        let (plan, warm) = (self.plan.as_ref()?, self.warm.as_mut()?);
+        let (fp, delta) = warm.parts_mut();
+        (fp == plan.fingerprint()).then(|| {
+            elements
+                .iter()
+                .map(|&e| plan.element_values(delta, e))
+                .collect()
+        })
+    }
+
+    /// Overwrite the warm start on the sub-mesh elements `elements` with `values`
+    /// ([`OperatorCache::warm_values`]); false (and nothing written) if none is held.
+    pub fn set_warm_values(&mut self, elements: &[usize], values: &[[f64; NT]]) -> bool {
+        let (Some(plan), Some(warm)) = (self.plan.as_ref(), self.warm.as_mut()) else {
+            return false;
+        };
+        let (fp, delta) = warm.parts_mut();
+        if fp != plan.fingerprint() {
+            return false;
+        }
+        for (&e, v) in elements.iter().zip(values) {
+            plan.set_element_values(delta, e, v);
+        }
+        true
     }
 
     /// Number of (shape, patch) operators held.
@@ -200,9 +242,9 @@ impl std::hash::Hasher for FastHasher {
 
 const NONE: usize = usize::MAX;
 /// Number of JM coefficients per element: 3 sub-triangles × 3 components × (1, ξ, η).
-const NC: usize = 27;
+pub(crate) const NC: usize = 27;
 /// Number of edge-traction values per element: 3 edges × 2 end points × 2 components.
-const NT: usize = 12;
+pub(crate) const NT: usize = 12;
 /// Shape-cache capacity; beyond it the local operator is recomputed per element.
 const MAX_SHAPES: usize = 1 << 18;
 /// Quantum of the shape key (normalised coordinates), 2⁻⁴⁴ ≈ 5.7e-14.
@@ -290,7 +332,9 @@ pub enum StarChoice {
     /// from the averaged-traction field plus the change that recovery's sweeps made, which
     /// is admissible (the change lies in the data-independent patch kernel) and, for nearby
     /// data, nearly relaxed already; it then makes `warm_sweeps` sweeps. A recovery starts
-    /// cold after [`OperatorCache::forget_warm_start`].
+    /// cold after [`OperatorCache::forget_warm_start`] (the estimator calls it when the data
+    /// changed too much, `cre::WARM_CHANGE`). On a sub-mesh the caller refreshes the change
+    /// outside the own elements from their owners first (`overlap::Halo`).
     PatchTraction { sweeps: usize, warm_sweeps: usize },
 }
 
@@ -435,7 +479,7 @@ pub fn equilibrate_with(
     boundary: &Boundary,
     choice: StarChoice,
 ) -> Result<EquilibratedStress, EquilibrationError> {
-    equilibrate_restricted(mesh, material, u, boundary, choice, None, None)
+    equilibrate_restricted(mesh, material, u, boundary, choice, None, None, None)
 }
 
 /// Unit-test helpers are shared with `overlap.rs` (`fe_solve`, `block_rect`, `STEEL`).
@@ -618,7 +662,7 @@ pub(crate) mod tests {
         let choice = StarChoice::PatchRelaxation { sweeps: 2 };
         let mut ops = OperatorCache::default();
         let with = |w: &[f64], ops: &mut OperatorCache| {
-            equilibrate_restricted(&mesh, &STEEL, w, &bd, choice, None, Some(ops)).unwrap()
+            equilibrate_restricted(&mesh, &STEEL, w, &bd, choice, None, Some(ops), None).unwrap()
         };
         let first = with(&u, &mut ops);
         let filled = ops.len();
@@ -639,7 +683,8 @@ pub(crate) mod tests {
             poisson: 0.4,
         };
         let third =
-            equilibrate_restricted(&mesh, &soft, &v, &bd, choice, None, Some(&mut ops)).unwrap();
+            equilibrate_restricted(&mesh, &soft, &v, &bd, choice, None, Some(&mut ops), None)
+                .unwrap();
         let fresh_soft = equilibrate_with(&mesh, &soft, &v, &bd, choice).unwrap();
         for e in 0..mesh.triangles.len() {
             assert_eq!(third.coefficients(e), fresh_soft.coefficients(e));

@@ -18,7 +18,9 @@
 //! patch kernel (it is zero on every prescribed component and keeps every element
 //! self-equilibrated), which does not depend on the data. So t_EET(new data) + δ(previous
 //! recovery) is admissible for the new data, and it is closer to the new minimum than
-//! t_EET(new data) when the two data are close (the η^FE recovery after the η^glo one).
+//! t_EET(new data) when the two data are close (the η^FE recovery after the η^glo one, the
+//! next estimate's late in the NNDD). δ accumulates: the next δ is t_relaxed − t_EET of the
+//! new data, so each warm recovery's sweeps add to the previous ones'.
 
 use super::eet::Bc;
 use super::johnson_mercier::{local_frame, midpoints, triangle_area, ShapeCache};
@@ -173,6 +175,29 @@ impl Plan {
         self.fingerprint
     }
 
+    /// The 12 values of element `e` in the flat traction vector `flat`, each with the
+    /// element's own orientation (the traction on its boundary, at its vertices in its own
+    /// order): the same numbers on every sub-mesh that holds the element.
+    pub(super) fn element_values(&self, flat: &[f64], e: usize) -> [f64; NT] {
+        let (idx, neg) = (&self.gather[e], self.negative[e]);
+        std::array::from_fn(|j| {
+            let t = flat[idx[j] as usize];
+            if neg & (1 << j) != 0 {
+                -t
+            } else {
+                t
+            }
+        })
+    }
+
+    /// Write the values of element `e` ([`Plan::element_values`]) into `flat`.
+    pub(super) fn set_element_values(&self, flat: &mut [f64], e: usize, v: &[f64; NT]) {
+        let (idx, neg) = (&self.gather[e], self.negative[e]);
+        for j in 0..NT {
+            flat[idx[j] as usize] = if neg & (1 << j) != 0 { -v[j] } else { v[j] };
+        }
+    }
+
     /// The step coefficients a_v = Hinv Nᵀ Σ_E S_Eᵀ r_E / h_p² of every planned vertex
     /// (`PatchOp::step`), from the element loads r_E = G_Eᵀ W_E σ̃_E (σ̃_E constant; the
     /// midpoint rule of the sub-triangles is exact for the quadratic integrand).
@@ -272,6 +297,11 @@ impl Warm {
             fingerprint,
             delta: start,
         }
+    }
+
+    /// The plan fingerprint δ was made with, and δ itself (flat traction indices).
+    pub(super) fn parts_mut(&mut self) -> (u64, &mut [f64]) {
+        (self.fingerprint, &mut self.delta)
     }
 
     /// Add δ to `trac` if it was made with the plan `fingerprint` (the same mesh, boundary
@@ -378,7 +408,7 @@ mod tests {
         };
         let mut ops = OperatorCache::default();
         let run = |w: &[f64], b, ops: &mut OperatorCache| {
-            equilibrate_restricted(&mesh, &STEEL, w, b, choice, None, Some(ops)).unwrap()
+            equilibrate_restricted(&mesh, &STEEL, w, b, choice, None, Some(ops), None).unwrap()
         };
         run(&u, &bd, &mut ops);
         let warm = run(&v, &bd2, &mut ops);

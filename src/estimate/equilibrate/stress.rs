@@ -1,14 +1,137 @@
 //! Evaluation of an [`EquilibratedStress`] (point values, coefficients, CRE) and its
 //! equilibrium check ([`Residuals`]).
 
-use super::eet::{edge_conditions, Bc};
+use super::eet::{edge_conditions, element_tractions, Bc};
+use super::energy::quad;
 use super::johnson_mercier::{
-    barycentric, eval, local_frame, midpoints, traction, triangle_area, unit,
+    apply_operator, barycentric, eval, local_frame, midpoints, traction, triangle_area, unit,
+    ShapeCache,
 };
 use super::topology::{is_owned, owned_vertices, Topology};
 use super::{Boundary, EquilibratedStress, EquilibrationStats, Residuals, NC, NONE};
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
+
+/// ∫_E (σ̂ − τ) : K⁻¹ : (σ̂ − τ) of the JM field `coef` of element e and a constant stress τ
+/// (Voigt), plane-strain compliance: exact quadrature (quadratic integrand per
+/// sub-triangle, edge-midpoint rule).
+pub fn element_cre(
+    mesh: &Mesh,
+    e: usize,
+    coef: &[f64; NC],
+    tau: [f64; 3],
+    material: &Material,
+) -> f64 {
+    let p = mesh.triangle_points(e);
+    let (_, _, qv) = local_frame(&p);
+    let area = triangle_area(&p);
+    let mut sum = 0.0;
+    for a in 0..3 {
+        for pt in midpoints(&qv, a) {
+            let s = eval(coef, a, pt);
+            let dlt = [s[0] - tau[0], s[1] - tau[1], s[2] - tau[2]];
+            sum += 2.0 * material.compliance_energy(&dlt);
+        }
+    }
+    sum * area / 9.0
+}
+
+/// The data of the final pass over the elements ([`final_pass`]).
+pub(super) struct FinalPass<'a> {
+    pub(super) mesh: &'a Mesh,
+    pub(super) topo: &'a Topology,
+    pub(super) bc: &'a [[Bc; 2]],
+    /// The edge tractions the fields are built from.
+    pub(super) trac: &'a [[[f64; 2]; 2]],
+    pub(super) shape_of: &'a [usize],
+    /// The FE stresses σ̃ and the compliance (for the complementary energy).
+    pub(super) sig: &'a [[f64; 3]],
+    pub(super) cm: [[f64; 3]; 3],
+    pub(super) owned: Option<&'a [bool]>,
+}
+
+impl FinalPass<'_> {
+    /// Every element's JM field from its edge tractions, handed to `out` (the caller stores
+    /// it or uses it at once: the estimator keeps no coefficients, issue 11), with, over
+    /// the owned elements, the complementary energy Σ_E ‖σ̂ − σ̃_E‖²_{K⁻¹,E} and the
+    /// equilibrium check (relative to max |σ̂|; boundary terms to max(|σ̂|, |g|); the point
+    /// reactions are the caller's): divergence and internal traction jumps of each field,
+    /// and at both ends of each of its edges the defect of its traction σ̂ n against the
+    /// edge traction it was built from (which the element across the edge shares, so the
+    /// inter-element jump is at most twice the largest defect, `element_jump`) or against
+    /// the boundary data.
+    pub(super) fn run(
+        &self,
+        cache: &mut ShapeCache,
+        mut out: impl FnMut(usize, &[f64; NC]),
+    ) -> (f64, Residuals) {
+        let (mesh, topo) = (self.mesh, self.topo);
+        let mut energy = 0.0;
+        let (mut smax, mut div, mut jin, mut side, mut jb, mut gmax) =
+            (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for e in 0..mesh.triangles.len() {
+            let p = mesh.triangle_points(e);
+            let (c, h, qv) = local_frame(&p);
+            let t = element_tractions(topo, self.trac, mesh, e);
+            let x = apply_operator(cache.operator(self.shape_of[e], &qv), &t);
+            if is_owned(self.owned, e) {
+                let w = triangle_area(&p) / 9.0;
+                let sig = self.sig[e];
+                for a in 0..3 {
+                    for pt in midpoints(&qv, a) {
+                        let s = eval(&x, a, pt);
+                        let d = [s[0] - sig[0], s[1] - sig[1], s[2] - sig[2]];
+                        energy += w * quad(&self.cm, &d, &d);
+                    }
+                    for pt in [[0.0, 0.0], qv[a], qv[(a + 1) % 3]] {
+                        for v in eval(&x, a, pt) {
+                            smax = smax.max(v.abs());
+                        }
+                    }
+                    let o = 9 * a;
+                    div = div.max((x[o + 1] + x[o + 8]).abs());
+                    div = div.max((x[o + 7] + x[o + 5]).abs());
+                    // Internal edge from the barycentre to q_a, between sub-triangles a−1, a.
+                    let n = unit([qv[a][1], -qv[a][0]]);
+                    for pt in [[0.0, 0.0], qv[a]] {
+                        let t1 = traction(&eval(&x, a, pt), n);
+                        let t0 = traction(&eval(&x, (a + 2) % 3, pt), n);
+                        jin = jin.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
+                    }
+                }
+                // Edge l is the outer edge of sub-triangle l.
+                for l in 0..3 {
+                    let g = topo.elem_edges[e][l];
+                    let n = topo.edge_normal[g];
+                    let interior = topo.edge_elems[g][1] != NONE;
+                    for (end, node) in topo.edge_nodes[g].into_iter().enumerate() {
+                        let xp = mesh.points[node];
+                        let tr =
+                            traction(&eval(&x, l, [(xp[0] - c[0]) / h, (xp[1] - c[1]) / h]), n);
+                        for k in 0..2 {
+                            if interior {
+                                side = side.max((tr[k] - self.trac[g][end][k]).abs());
+                            } else if let Bc::Known(v) = self.bc[g][k] {
+                                gmax = gmax.max(v[end].abs());
+                                jb = jb.max((tr[k] - v[end]).abs());
+                            }
+                        }
+                    }
+                }
+            }
+            out(e, &x);
+        }
+        let smax = if smax > 0.0 { smax } else { 1.0 };
+        let residuals = Residuals {
+            divergence: div / smax,
+            internal_jump: jin / smax,
+            element_jump: 2.0 * side / smax,
+            boundary: jb / gmax.max(smax),
+            point_reaction: 0.0,
+        };
+        (energy, residuals)
+    }
+}
 
 impl EquilibratedStress {
     /// σ̂ (Voigt xx, yy, xy) at a point of element e (evaluated with the polynomial of the
@@ -45,18 +168,7 @@ impl EquilibratedStress {
     /// ∫_E (σ̂ − τ) : K⁻¹ : (σ̂ − τ) for a constant stress τ (Voigt), plane-strain compliance:
     /// exact quadrature (quadratic integrand per sub-triangle, edge-midpoint rule).
     pub fn cre_squared(&self, mesh: &Mesh, e: usize, tau: [f64; 3], material: &Material) -> f64 {
-        let p = mesh.triangle_points(e);
-        let (_, _, qv) = local_frame(&p);
-        let area = triangle_area(&p);
-        let mut sum = 0.0;
-        for a in 0..3 {
-            for pt in midpoints(&qv, a) {
-                let s = eval(&self.coef[e], a, pt);
-                let dlt = [s[0] - tau[0], s[1] - tau[1], s[2] - tau[2]];
-                sum += 2.0 * material.compliance_energy(&dlt);
-            }
-        }
-        sum * area / 9.0
+        element_cre(mesh, e, &self.coef[e], tau, material)
     }
 
     /// Per element ∫_E (σ̂ − Kε(u)) : K⁻¹ : (σ̂ − Kε(u)): the CRE map of the pair (u, σ̂).
@@ -143,10 +255,19 @@ impl EquilibratedStress {
             ..Residuals::default()
         };
         let nt = mesh.triangles.len();
+        // Every element's local frame, once (the edge checks evaluate both sides).
+        let frames: Vec<([f64; 2], f64, [[f64; 2]; 3])> = (0..nt)
+            .map(|e| local_frame(&mesh.triangle_points(e)))
+            .collect();
+        let edge_stress = |e: usize, g: usize, x: [f64; 2]| -> [f64; 3] {
+            let (c, h, _) = frames[e];
+            let sub = topo.local_edge(e, g);
+            eval(&self.coef[e], sub, [(x[0] - c[0]) / h, (x[1] - c[1]) / h])
+        };
         let mut smax: f64 = 0.0;
         let (mut div, mut jin): (f64, f64) = (0.0, 0.0);
         for e in (0..nt).filter(|&e| own(e)) {
-            let (_, _, qv) = local_frame(&mesh.triangle_points(e));
+            let qv = frames[e].2;
             let x = &self.coef[e];
             for a in 0..3 {
                 for pt in [[0.0, 0.0], qv[a], qv[(a + 1) % 3]] {
@@ -179,8 +300,8 @@ impl EquilibratedStress {
             let n = topo.edge_normal[g];
             for node in topo.edge_nodes[g] {
                 let x = mesh.points[node];
-                let t0 = traction(&self.edge_stress(mesh, topo, e0, g, x), n);
-                let t1 = traction(&self.edge_stress(mesh, topo, e1, g, x), n);
+                let t0 = traction(&edge_stress(e0, g, x), n);
+                let t1 = traction(&edge_stress(e1, g, x), n);
                 jel = jel.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
             }
         }
@@ -195,7 +316,7 @@ impl EquilibratedStress {
             }
             let n = topo.edge_normal[g];
             for (end, node) in topo.edge_nodes[g].into_iter().enumerate() {
-                let t = traction(&self.edge_stress(mesh, topo, e0, g, mesh.points[node]), n);
+                let t = traction(&edge_stress(e0, g, mesh.points[node]), n);
                 for k in 0..2 {
                     if let Bc::Known(v) = bc[g][k] {
                         gmax = gmax.max(v[end].abs());
@@ -206,19 +327,6 @@ impl EquilibratedStress {
         }
         res.boundary = jb / gmax;
         res
-    }
-
-    /// σ̂ of element e at point x of its edge g (the sub-triangle on that edge).
-    fn edge_stress(
-        &self,
-        mesh: &Mesh,
-        topo: &Topology,
-        e: usize,
-        g: usize,
-        x: [f64; 2],
-    ) -> [f64; 3] {
-        let l = topo.local_edge(e, g);
-        self.sub_stress_at(mesh, e, l, x)
     }
 }
 
