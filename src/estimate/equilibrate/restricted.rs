@@ -15,6 +15,9 @@ use super::{
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
 
+/// The receiver of every element's field (element, its 27 JM coefficients).
+pub type FieldVisitor<'a> = &'a mut dyn FnMut(usize, &[f64; NC]);
+
 /// Build σ̂ on a mesh or, with a [`Restriction`], on an overlapping sub-mesh of a larger
 /// mesh (`overlap::Overlap`: `u` and `boundary` restricted to it).
 ///
@@ -31,6 +34,7 @@ use crate::fem::{self, Material};
 /// With `visit`, every element's field (its 27 JM coefficients) is handed to it once, in
 /// element order, and not stored (the returned stress then has no coefficients: it gives
 /// the statistics, the reactions and the construction's equilibrium check only).
+#[allow(clippy::too_many_arguments)]
 pub fn equilibrate_restricted(
     mesh: &Mesh,
     material: &Material,
@@ -39,7 +43,7 @@ pub fn equilibrate_restricted(
     choice: StarChoice,
     restriction: Option<&Restriction>,
     operators: Option<&mut OperatorCache>,
-    visit: Option<&mut dyn FnMut(usize, &[f64; NC])>,
+    visit: Option<FieldVisitor>,
 ) -> Result<EquilibratedStress, EquilibrationError> {
     // The local operators: the caller's (kept across calls) or this call's own.
     let mut own = OperatorCache::default();
