@@ -89,7 +89,6 @@ impl View<'_> {
         if !near {
             operators.forget_warm_start();
         }
-        operators.warm_data = Some(u.to_vec());
         let s = match self {
             View::Whole => equilibrate_restricted(
                 &p.mesh,
@@ -119,7 +118,10 @@ impl View<'_> {
                 )
             }
         };
-        Ok(s.map_err(err)?.checked_residuals())
+        let checked = s.map_err(err)?.checked_residuals();
+        // After the recovery: its first use sets the cache up for the material, afresh.
+        operators.warm_data = Some(u.to_vec());
+        Ok(checked)
     }
 
     /// The mesh the recovered stress lives on, and the (index there, body element) pairs this

@@ -17,33 +17,74 @@ pub(super) enum Bc {
     Free,
 }
 
+/// The conditions of every edge: interior edges (most of them) by a 4-byte index only, the
+/// boundary edges' [`Bc`] pairs stored (48 bytes each): `bc[g][k]`.
+pub(super) struct EdgeConditions {
+    /// Per edge: its position in `boundary`, or `u32::MAX` (interior).
+    slot: Vec<u32>,
+    boundary: Vec<[Bc; 2]>,
+}
+
+const INTERIOR: [Bc; 2] = [Bc::Interior; 2];
+
+impl std::ops::Index<usize> for EdgeConditions {
+    type Output = [Bc; 2];
+    fn index(&self, g: usize) -> &[Bc; 2] {
+        match self.slot[g] {
+            u32::MAX => &INTERIOR,
+            i => &self.boundary[i as usize],
+        }
+    }
+}
+
+impl std::ops::IndexMut<usize> for EdgeConditions {
+    /// Boundary edges only (interior ones have no storage).
+    fn index_mut(&mut self, g: usize) -> &mut [Bc; 2] {
+        &mut self.boundary[self.slot[g] as usize]
+    }
+}
+
+impl EdgeConditions {
+    /// Number of edges.
+    pub(super) fn len(&self) -> usize {
+        self.slot.len()
+    }
+
+    /// Every edge's pair, in edge order.
+    pub(super) fn iter(&self) -> impl Iterator<Item = &[Bc; 2]> + '_ {
+        (0..self.len()).map(|g| &self[g])
+    }
+}
+
 pub(super) fn edge_conditions(
     topo: &Topology,
     boundary: &Boundary,
-) -> Result<Vec<[Bc; 2]>, EquilibrationError> {
-    let mut bc: Vec<[Bc; 2]> = topo
-        .edge_elems
-        .iter()
-        .map(|ee| {
-            if ee[1] == NONE {
-                [Bc::Known([0.0; 2]); 2]
-            } else {
-                [Bc::Interior; 2]
-            }
-        })
-        .collect();
+) -> Result<EdgeConditions, EquilibrationError> {
+    let mut bc = EdgeConditions {
+        slot: Vec::with_capacity(topo.num_edges()),
+        boundary: Vec::new(),
+    };
+    for g in 0..topo.num_edges() {
+        let ee = topo.elems(g);
+        if ee[1] == NONE {
+            bc.slot.push(bc.boundary.len() as u32);
+            bc.boundary.push([Bc::Known([0.0; 2]); 2]);
+        } else {
+            bc.slot.push(u32::MAX);
+        }
+    }
     let mut seen = vec![false; bc.len()];
     for (index, be) in boundary.edges.iter().enumerate() {
         let [a, b] = be.nodes;
         let g = match topo.edge_id(a, b) {
-            Some(g) if topo.edge_elems[g][1] == NONE => g,
+            Some(g) if topo.elems(g)[1] == NONE => g,
             _ => return Err(EquilibrationError::NotABoundaryEdge { index, a, b }),
         };
         if seen[g] {
             return Err(EquilibrationError::DuplicateBoundaryEdge { a, b });
         }
         seen[g] = true;
-        let flip = topo.edge_nodes[g][0] != a;
+        let flip = topo.nodes(g)[0] != a;
         for k in 0..2 {
             bc[g][k] = match be.comps[k] {
                 EdgeComponent::Known(v) => Bc::Known(if flip { [v[1], v[0]] } else { v }),
@@ -64,7 +105,7 @@ pub(super) fn known_moment(len: f64, v: [f64; 2], end: usize) -> f64 {
 /// (2/|Γ|) [[2, −1], [−1, 2]] applied to the moments.
 pub(super) fn edge_tractions(
     topo: &Topology,
-    bc: &[[Bc; 2]],
+    bc: &EdgeConditions,
     moments: &[[[f64; 2]; 2]],
 ) -> Vec<[[f64; 2]; 2]> {
     let mut trac = vec![[[0.0; 2]; 2]; bc.len()];
@@ -98,7 +139,7 @@ pub(super) fn element_tractions(
     let t = mesh.triangles[e];
     let mut out = [0.0; NT];
     for l in 0..3 {
-        let g = topo.elem_edges[e][l];
+        let g = topo.edges_of(e)[l];
         let s = topo.sign(e, g);
         let first = topo.end_of(g, t[l]);
         for (pos, end) in [first, 1 - first].into_iter().enumerate() {
@@ -147,12 +188,8 @@ pub(super) struct Stars {
 
 impl Stars {
     /// The star structure of `topo` with the boundary codes `bc`.
-    pub(super) fn new(topo: &Topology, bc: &[[Bc; 2]], fingerprint: u64) -> Stars {
+    pub(super) fn new(topo: &Topology, bc: &EdgeConditions, fingerprint: u64) -> Stars {
         let nn = topo.vert_ptr.len() - 1;
-        assert!(
-            topo.vert_elems.len() < (1 << 31) / 2 && topo.edge_nodes.len() < u32::MAX as usize,
-            "mesh too large for the star structure"
-        );
         let mut stars = Stars {
             fingerprint,
             cols_ptr: vec![0],
@@ -164,9 +201,9 @@ impl Stars {
         for i in 0..nn {
             let elems = topo.vertex_elements(i);
             star_edges.clear();
-            for &(e, a) in elems {
+            for (e, a) in elems.iter() {
                 for l in [a, (a + 2) % 3] {
-                    let g = topo.elem_edges[e][l];
+                    let g = topo.edges_of(e)[l];
                     if !star_edges.contains(&g) {
                         star_edges.push(g);
                     }
@@ -185,10 +222,10 @@ impl Stars {
                 key.push(nr as i16);
                 key.push(nc as i16);
                 key.resize(2 + nr * nc, 0);
-                for (row, &(e, a)) in elems.iter().enumerate() {
+                for (row, (e, a)) in elems.iter().enumerate() {
                     let mut rc = [UNKNOWN_NONE; 2];
                     for (j, l) in [a, (a + 2) % 3].into_iter().enumerate() {
-                        let g = topo.elem_edges[e][l];
+                        let g = topo.edges_of(e)[l];
                         if !matches!(bc[g][k], Bc::Known(_)) {
                             let c = cols.iter().position(|&x| x == g).unwrap();
                             key[2 + row * nc + c] += topo.sign(e, g) as i16;

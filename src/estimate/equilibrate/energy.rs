@@ -119,8 +119,7 @@ impl EnergyContext<'_> {
                         let mut dt = [0.0; NT];
                         for (c, &g) in cs.iter().enumerate() {
                             let g = g as usize;
-                            let Some(l) = self.topo.elem_edges[e].iter().position(|&x| x == g)
-                            else {
+                            let Some(l) = self.topo.edges_of(e).iter().position(|&x| x == g) else {
                                 continue;
                             };
                             let len = self.topo.edge_len[g];

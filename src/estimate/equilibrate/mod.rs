@@ -164,11 +164,12 @@ impl OperatorCache {
     /// `overlap::Halo`).
     pub fn warm_values(&mut self, elements: &[usize]) -> Option<Vec<[f64; NT]>> {
         let (plan, warm) = (self.plan.as_ref()?, self.warm.as_mut()?);
+        let (_, topo) = self.topology.as_ref()?;
         let (fp, delta) = warm.parts_mut();
         (fp == plan.fingerprint()).then(|| {
             elements
                 .iter()
-                .map(|&e| plan.element_values(delta, e))
+                .map(|&e| plan.element_values(topo, delta, e))
                 .collect()
         })
     }
@@ -176,7 +177,11 @@ impl OperatorCache {
     /// Overwrite the warm start on the sub-mesh elements `elements` with `values`
     /// ([`OperatorCache::warm_values`]); false (and nothing written) if none is held.
     pub fn set_warm_values(&mut self, elements: &[usize], values: &[[f64; NT]]) -> bool {
-        let (Some(plan), Some(warm)) = (self.plan.as_ref(), self.warm.as_mut()) else {
+        let (Some(plan), Some(warm), Some((_, topo))) = (
+            self.plan.as_ref(),
+            self.warm.as_mut(),
+            self.topology.as_ref(),
+        ) else {
             return false;
         };
         let (fp, delta) = warm.parts_mut();
@@ -184,7 +189,7 @@ impl OperatorCache {
             return false;
         }
         for (&e, v) in elements.iter().zip(values) {
-            plan.set_element_values(delta, e, v);
+            plan.set_element_values(topo, delta, e, v);
         }
         true
     }
@@ -359,6 +364,10 @@ pub enum EquilibrationError {
     ConstrainedLength { expected: usize, found: usize },
     #[error("triangle {element} is degenerate, clockwise or refers to a missing node")]
     BadTriangle { element: usize },
+    #[error(
+        "a mesh of {elements} triangles is past the recovery's 32-bit indices (2^30 triangles)"
+    )]
+    TooLarge { elements: usize },
     #[error("edge ({a}, {b}) belongs to more than two triangles")]
     NonManifoldEdge { a: usize, b: usize },
     #[error("boundary edge {index} ({a}, {b}) is not a boundary edge of the mesh")]

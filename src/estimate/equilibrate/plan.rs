@@ -22,9 +22,10 @@
 //! next estimate's late in the NNDD). δ accumulates: the next δ is t_relaxed − t_EET of the
 //! new data, so each warm recovery's sweeps add to the previous ones'.
 
-use super::eet::Bc;
+use super::eet::{Bc, EdgeConditions};
 use super::johnson_mercier::{local_frame, midpoints, triangle_area, ShapeCache};
 use super::relaxation::{PatchOp, Relaxation};
+use super::topology::Topology;
 use super::{NC, NT};
 use crate::fem::mesh::{mix, Mesh};
 
@@ -48,9 +49,10 @@ pub(crate) struct Plan {
     rows: Vec<(u8, u8, bool)>,
     /// Per planned vertex: the offset of its step coefficients a (`Plan::loads`).
     aptr: Vec<u32>,
-    /// Per element: its 12 flat traction indices and the bit mask of the negative signs.
-    gather: Vec<[u32; NT]>,
-    negative: Vec<u16>,
+    /// Per element: bit l (l < 3) the end of its edge l at its vertex l, bit 3 + l the
+    /// edge's sign on it (1: negative); with the topology's edges, its 12 flat traction
+    /// indices and signs ([`Plan::gather`]).
+    orient: Vec<u8>,
     /// Distinct patch operators (for the statistics).
     pub(super) patterns: usize,
 }
@@ -63,9 +65,9 @@ pub(crate) struct Warm {
 
 /// Fingerprint of what a plan depends on: the mesh ([`Mesh::fingerprint`]), the boundary
 /// codes and the sweep keys of a restriction (none: the mesh's own colouring).
-pub(super) fn fingerprint(mesh: u64, bc: &[[Bc; 2]], keys: Option<&[u64]>) -> u64 {
+pub(super) fn fingerprint(mesh: u64, bc: &EdgeConditions, keys: Option<&[u64]>) -> u64 {
     let mut h = mesh;
-    for b in bc {
+    for b in bc.iter() {
         let code = |c: &Bc| match c {
             Bc::Interior => 0,
             Bc::Known(_) => 1,
@@ -101,8 +103,7 @@ impl Plan {
             rptr: vec![0],
             rows: Vec::new(),
             aptr: vec![0],
-            gather: Vec::with_capacity(nt),
-            negative: Vec::with_capacity(nt),
+            orient: Vec::with_capacity(nt),
             patterns: 0,
         };
         for &i in order {
@@ -125,7 +126,7 @@ impl Plan {
                     .iter()
                     .map(|&(g, end, k)| (4 * g + 2 * end + k) as u32),
             );
-            for (&(e, _), list) in topo.vertex_elements(i).iter().zip(&lay.smap) {
+            for ((e, _), list) in topo.vertex_elements(i).iter().zip(&lay.smap) {
                 plan.pel.push(e as u32);
                 plan.rows
                     .extend(list.iter().map(|&(ti, u, s)| (ti as u8, u as u8, s < 0.0)));
@@ -136,23 +137,14 @@ impl Plan {
         }
         for e in 0..nt {
             let t = mesh.triangles[e];
-            let mut idx = [0u32; NT];
-            let mut neg = 0u16;
-            for l in 0..3 {
-                let g = topo.elem_edges[e][l];
-                let first = topo.end_of(g, t[l]);
-                for (pos, end) in [first, 1 - first].into_iter().enumerate() {
-                    for k in 0..2 {
-                        let j = 4 * l + 2 * pos + k;
-                        idx[j] = (4 * g + 2 * end + k) as u32;
-                        if topo.sign(e, g) < 0.0 {
-                            neg |= 1 << j;
-                        }
-                    }
+            let mut o = 0u8;
+            for (l, g) in topo.edges_of(e).into_iter().enumerate() {
+                o |= (topo.end_of(g, t[l]) as u8) << l;
+                if topo.sign(e, g) < 0.0 {
+                    o |= 1 << (3 + l);
                 }
             }
-            plan.gather.push(idx);
-            plan.negative.push(neg);
+            plan.orient.push(o);
         }
         plan.patterns = relax.ops.len();
         plan.shrink();
@@ -175,11 +167,35 @@ impl Plan {
         self.fingerprint
     }
 
+    /// The 12 flat traction indices 4 g + 2 end + k of element e (value j = 4 l + 2 pos + k:
+    /// edge l, its end at the element's vertex l + pos, component k) and the bit mask of the
+    /// values whose sign is negative on e.
+    #[inline]
+    fn gather(&self, topo: &Topology, e: usize) -> ([u32; NT], u16) {
+        let (g, o) = (topo.edges_of(e), self.orient[e]);
+        let mut idx = [0u32; NT];
+        let mut neg = 0u16;
+        for l in 0..3 {
+            let first = ((o >> l) & 1) as usize;
+            let negative = (o >> (3 + l)) & 1 != 0;
+            for pos in 0..2 {
+                for k in 0..2 {
+                    let j = 4 * l + 2 * pos + k;
+                    idx[j] = (4 * g[l] + 2 * (first ^ pos) + k) as u32;
+                    if negative {
+                        neg |= 1 << j;
+                    }
+                }
+            }
+        }
+        (idx, neg)
+    }
+
     /// The 12 values of element `e` in the flat traction vector `flat`, each with the
     /// element's own orientation (the traction on its boundary, at its vertices in its own
     /// order): the same numbers on every sub-mesh that holds the element.
-    pub(super) fn element_values(&self, flat: &[f64], e: usize) -> [f64; NT] {
-        let (idx, neg) = (&self.gather[e], self.negative[e]);
+    pub(super) fn element_values(&self, topo: &Topology, flat: &[f64], e: usize) -> [f64; NT] {
+        let (idx, neg) = self.gather(topo, e);
         std::array::from_fn(|j| {
             let t = flat[idx[j] as usize];
             if neg & (1 << j) != 0 {
@@ -191,8 +207,14 @@ impl Plan {
     }
 
     /// Write the values of element `e` ([`Plan::element_values`]) into `flat`.
-    pub(super) fn set_element_values(&self, flat: &mut [f64], e: usize, v: &[f64; NT]) {
-        let (idx, neg) = (&self.gather[e], self.negative[e]);
+    pub(super) fn set_element_values(
+        &self,
+        topo: &Topology,
+        flat: &mut [f64],
+        e: usize,
+        v: &[f64; NT],
+    ) {
+        let (idx, neg) = self.gather(topo, e);
         for j in 0..NT {
             flat[idx[j] as usize] = if neg & (1 << j) != 0 { -v[j] } else { v[j] };
         }
@@ -260,8 +282,19 @@ impl Plan {
 
     /// `sweeps` symmetric Gauss–Seidel sweeps (forward in the even ones, backward in the
     /// odd ones) on the flat edge tractions `trac` (4 g + 2 end + k), with the step
-    /// coefficients `a` ([`Plan::loads`]) and the patch operators `ops`.
-    pub(super) fn sweep(&self, ops: &[PatchOp], a: &[f64], trac: &mut [f64], sweeps: usize) {
+    /// coefficients `a` ([`Plan::loads`]) and the patch operators `ops`; every change is
+    /// also added to `change` (a warm start's δ, [`Warm`]) unless it is empty.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn sweep(
+        &self,
+        topo: &Topology,
+        ops: &[PatchOp],
+        a: &[f64],
+        trac: &mut [f64],
+        change: &mut [f64],
+        sweeps: usize,
+    ) {
+        let track = !change.is_empty();
         let nv = self.vop.len();
         let mut te: Vec<[f64; NT]> = Vec::with_capacity(16);
         for s in 0..sweeps {
@@ -269,7 +302,7 @@ impl Plan {
                 let v = if s % 2 == 0 { v } else { nv - 1 - v };
                 te.clear();
                 for &e in &self.pel[self.eptr[v] as usize..self.eptr[v + 1] as usize] {
-                    let (idx, neg) = (&self.gather[e as usize], self.negative[e as usize]);
+                    let (idx, neg) = self.gather(topo, e as usize);
                     te.push(std::array::from_fn(|j| {
                         let t = trac[idx[j] as usize];
                         if neg & (1 << j) != 0 {
@@ -281,22 +314,30 @@ impl Plan {
                 }
                 let unk = &self.unk[self.vptr[v] as usize..self.vptr[v + 1] as usize];
                 let av = &a[self.aptr[v] as usize..self.aptr[v + 1] as usize];
-                ops[self.vop[v] as usize].step(av, &te, |u, d| trac[unk[u] as usize] += d);
+                ops[self.vop[v] as usize].step(av, &te, |u, d| {
+                    trac[unk[u] as usize] += d;
+                    if track {
+                        change[unk[u] as usize] += d;
+                    }
+                });
             }
         }
     }
 }
 
 impl Warm {
-    /// δ = `relaxed` − `start` for the plan `fingerprint` (in `start`'s storage).
-    pub(super) fn new(fingerprint: u64, relaxed: &[f64], mut start: Vec<f64>) -> Warm {
-        for (s, r) in start.iter_mut().zip(relaxed) {
-            *s = r - *s;
-        }
+    /// δ = 0 for the plan `fingerprint` and `len` traction values (a cold start; the sweeps
+    /// add their changes to it, [`Plan::sweep`]).
+    pub(super) fn zero(fingerprint: u64, len: usize) -> Warm {
         Warm {
             fingerprint,
-            delta: start,
+            delta: vec![0.0; len],
         }
+    }
+
+    /// δ, for the sweeps to add their changes to.
+    pub(super) fn delta_mut(&mut self) -> &mut [f64] {
+        &mut self.delta
     }
 
     /// The plan fingerprint δ was made with, and δ itself (flat traction indices).

@@ -4,11 +4,11 @@
 
 use super::FastMap;
 
-use super::eet::Bc;
+use super::eet::{Bc, EdgeConditions};
 use super::johnson_mercier::{
     apply_operator, eval, local_frame, midpoints, triangle_area, ShapeCache,
 };
-use super::topology::Topology;
+use super::topology::{Topology, VertexElements};
 use super::{patch_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use crate::fem::mesh::Mesh;
 
@@ -88,7 +88,7 @@ pub(super) struct Layout {
 pub(super) struct Relaxation<'a> {
     pub(super) mesh: &'a Mesh,
     pub(super) topo: &'a Topology,
-    pub(super) bc: &'a [[Bc; 2]],
+    pub(super) bc: &'a EdgeConditions,
     pub(super) sig: &'a [[f64; 3]],
     pub(super) shape_of: &'a [usize],
     pub(super) cm: [[f64; 3]; 3],
@@ -211,9 +211,9 @@ impl Relaxation<'_> {
         let mesh = self.mesh;
         let elems = topo.vertex_elements(i);
         let mut star_edges: Vec<usize> = Vec::with_capacity(8);
-        for &(e, a) in elems {
+        for (e, a) in elems.iter() {
             for l in [a, (a + 2) % 3] {
-                let g = topo.elem_edges[e][l];
+                let g = topo.edges_of(e)[l];
                 if !star_edges.contains(&g) {
                     star_edges.push(g);
                 }
@@ -237,11 +237,11 @@ impl Relaxation<'_> {
         let mut smap: Vec<Vec<(usize, usize, f64)>> = Vec::with_capacity(elems.len());
         let mut hp: f64 = 0.0;
         if !unknowns.is_empty() {
-            for &(e, a) in elems {
+            for (e, a) in elems.iter() {
                 let tri = mesh.triangles[e];
                 let mut list = Vec::with_capacity(8);
                 for l in [a, (a + 2) % 3] {
-                    let g = topo.elem_edges[e][l];
+                    let g = topo.edges_of(e)[l];
                     let s = topo.sign(e, g);
                     for pos in 0..2 {
                         let end = topo.end_of(g, tri[(l + pos) % 3]);
@@ -281,7 +281,7 @@ impl Relaxation<'_> {
         // Pattern key: topology, orientation, boundary codes and normalised geometry.
         let pi = mesh.points[i];
         let mut key: Vec<i64> = vec![elems.len() as i64, lay.star_edges.len() as i64, nu as i64];
-        for (row, &(e, a)) in elems.iter().enumerate() {
+        for (row, (e, a)) in elems.iter().enumerate() {
             key.push(a as i64);
             for &(ti, u, s) in &lay.smap[row] {
                 key.extend([ti as i64, u as i64, s as i64]);
@@ -320,7 +320,7 @@ impl Relaxation<'_> {
         &self,
         cache: &mut ShapeCache,
         op: &PatchOp,
-        elems: &[(usize, usize)],
+        elems: VertexElements,
         smap: &[Vec<(usize, usize, f64)>],
         unknowns: &[(usize, usize, usize)],
         hp: f64,
@@ -333,7 +333,7 @@ impl Relaxation<'_> {
         }
         let nu = unknowns.len();
         let mut gloc = vec![0.0; nu];
-        for (row, &(e, _)) in elems.iter().enumerate() {
+        for (row, (e, _)) in elems.iter().enumerate() {
             let pts = self.mesh.triangle_points(e);
             let (_, _, q) = local_frame(&pts);
             let w = triangle_area(&pts) / 9.0;
@@ -374,7 +374,7 @@ impl Relaxation<'_> {
         for (u, &(g, end, k)) in unknowns.iter().enumerate() {
             trac[g][end][k] += delta[u];
         }
-        for (row, &(e, _)) in elems.iter().enumerate() {
+        for (row, (e, _)) in elems.iter().enumerate() {
             let mut dt = [0.0; NT];
             for &(ti, u, s) in &smap[row] {
                 dt[ti] += s * delta[u];
@@ -392,14 +392,14 @@ impl Relaxation<'_> {
     fn build(
         &mut self,
         cache: &mut ShapeCache,
-        elems: &[(usize, usize)],
+        elems: VertexElements,
         smap: &[Vec<(usize, usize, f64)>],
         nu: usize,
         hp: f64,
     ) -> PatchOp {
         let m = elems.len();
         let mut c = vec![0.0; 3 * m * nu];
-        for (row, &(e, _)) in elems.iter().enumerate() {
+        for (row, (e, _)) in elems.iter().enumerate() {
             let (_, _, q) = local_frame(&self.mesh.triangle_points(e));
             let ce = equilibrium_constraints(&q);
             for &(ti, u, s) in &smap[row] {
@@ -413,7 +413,7 @@ impl Relaxation<'_> {
         let mut h = crate::qp::dense::SymMatrix::new(d);
         // Per element: (h_E/h_p)² Ĥ_E S_E N (12 × d), for the slot maps below.
         let mut fhsn: Vec<Vec<f64>> = Vec::with_capacity(m);
-        for (row, &(e, _)) in elems.iter().enumerate() {
+        for (row, (e, _)) in elems.iter().enumerate() {
             let pts = self.mesh.triangle_points(e);
             let (_, he, q) = local_frame(&pts);
             let hh = self.element_hessian(cache, e, &q);
@@ -578,7 +578,7 @@ mod tests {
     fn global_min_energy(mesh: &Mesh, bd: &Boundary, u: &[f64]) -> f64 {
         let topo = Topology::new(mesh).unwrap();
         let bc = edge_conditions(&topo, bd).unwrap();
-        let ne = topo.edge_nodes.len();
+        let ne = topo.num_edges();
         let nt = mesh.triangles.len();
         // unknown index per (edge, end, k)
         let mut idx = vec![[[NONE; 2]; 2]; ne];
@@ -614,7 +614,7 @@ mod tests {
             let mut map = [NONE; NT];
             let mut sgn = [0.0; NT];
             for l in 0..3 {
-                let g = topo.elem_edges[e][l];
+                let g = topo.edges_of(e)[l];
                 let s = topo.sign(e, g);
                 let first = topo.end_of(g, tri[l]);
                 for (pos, end) in [first, 1 - first].into_iter().enumerate() {

@@ -85,7 +85,7 @@ pub fn equilibrate_restricted(
         _ => Topology::new(mesh)?,
     };
     let bc = edge_conditions(&topo, boundary)?;
-    let ne = topo.edge_nodes.len();
+    let ne = topo.num_edges();
 
     // FE stresses and element nodal forces R_E = ∫_E σ̃ : ε(φ_a e_k); the force scale (of
     // the relative FE-equilibrium defect and point reactions) over the owned elements.
@@ -112,8 +112,8 @@ pub fn equilibrate_restricted(
     // Reference tractions (oriented to the plus element) for the star least squares.
     let mut edge_ref = vec![[0.0; 2]; ne];
     for g in 0..ne {
-        let n = topo.edge_normal[g];
-        let [e0, e1] = topo.edge_elems[g];
+        let n = topo.normal(mesh, g);
+        let [e0, e1] = topo.elems(g);
         let mut s = sig[e0];
         if e1 != NONE {
             for r in 0..3 {
@@ -123,7 +123,7 @@ pub fn equilibrate_restricted(
         edge_ref[g] = traction(&s, n);
     }
     // Known moments (for the force scale).
-    for g in (0..ne).filter(|&g| is_owned(owned, topo.edge_elems[g][0])) {
+    for g in (0..ne).filter(|&g| is_owned(owned, topo.elems(g)[0])) {
         for k in 0..2 {
             if let Bc::Known(v) = bc[g][k] {
                 for end in 0..2 {
@@ -157,11 +157,11 @@ pub fn equilibrate_restricted(
         // Per row: A's (column, sign) pairs, and Q.
         rows.clear();
         q.clear();
-        for (&(e, a), rc) in elems.iter().zip(row_cols) {
+        for ((e, a), rc) in elems.iter().zip(row_cols) {
             let mut rhs = force[e][2 * a + k];
             let mut entries = [(0usize, 0.0); 2];
             for (j, l) in [a, (a + 2) % 3].into_iter().enumerate() {
-                let g = topo.elem_edges[e][l];
+                let g = topo.edges_of(e)[l];
                 let sign = topo.sign(e, g);
                 if let Bc::Known(v) = bc[g][k] {
                     let end = topo.end_of(g, i);
@@ -348,19 +348,21 @@ pub fn equilibrate_restricted(
                 };
                 let a = plan.loads(mesh, &mut cache, &shape_of, &sig, &relax.cm, &relax.ops);
                 let flat = trac.as_flattened_mut().as_flattened_mut();
-                let start = flat.to_vec();
-                // Warm: from the change of the previous recovery with this cache (if any,
-                // on this sub-mesh with these boundary codes), `warm_sweeps` sweeps.
-                let warm =
-                    warm_sweeps > 0 && operators.warm.take().is_some_and(|w| w.apply(fp, flat));
-                plan.sweep(
-                    &relax.ops,
-                    &a,
-                    flat,
-                    if warm { warm_sweeps } else { sweeps },
-                );
+                // Warm: from the change δ of the previous recovery with this cache (if any,
+                // on this sub-mesh with these boundary codes), `warm_sweeps` sweeps; the
+                // sweeps' changes added to δ (from zero when cold) for the next one.
+                let mut warm = operators
+                    .warm
+                    .take()
+                    .filter(|w| warm_sweeps > 0 && w.apply(fp, flat));
+                let sweeps = if warm.is_some() { warm_sweeps } else { sweeps };
+                if warm_sweeps > 0 && warm.is_none() {
+                    warm = Some(Warm::zero(fp, flat.len()));
+                }
+                let change = warm.as_mut().map_or(&mut [][..], |w| w.delta_mut());
+                plan.sweep(&topo, &relax.ops, &a, flat, change, sweeps);
                 if warm_sweeps > 0 {
-                    operators.warm = Some(Warm::new(fp, flat, start));
+                    operators.warm = warm;
                 }
                 stats.patch_patterns = plan.patterns;
                 operators.plan = Some(plan);

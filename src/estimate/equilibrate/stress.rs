@@ -1,7 +1,7 @@
 //! Evaluation of an [`EquilibratedStress`] (point values, coefficients, CRE) and its
 //! equilibrium check ([`Residuals`]).
 
-use super::eet::{edge_conditions, element_tractions, Bc};
+use super::eet::{edge_conditions, element_tractions, Bc, EdgeConditions};
 use super::energy::quad;
 use super::johnson_mercier::{
     apply_operator, barycentric, eval, local_frame, midpoints, traction, triangle_area, unit,
@@ -40,7 +40,7 @@ pub fn element_cre(
 pub(super) struct FinalPass<'a> {
     pub(super) mesh: &'a Mesh,
     pub(super) topo: &'a Topology,
-    pub(super) bc: &'a [[Bc; 2]],
+    pub(super) bc: &'a EdgeConditions,
     /// The edge tractions the fields are built from.
     pub(super) trac: &'a [[[f64; 2]; 2]],
     pub(super) shape_of: &'a [usize],
@@ -101,10 +101,10 @@ impl FinalPass<'_> {
                 }
                 // Edge l is the outer edge of sub-triangle l.
                 for l in 0..3 {
-                    let g = topo.elem_edges[e][l];
-                    let n = topo.edge_normal[g];
-                    let interior = topo.edge_elems[g][1] != NONE;
-                    for (end, node) in topo.edge_nodes[g].into_iter().enumerate() {
+                    let g = topo.edges_of(e)[l];
+                    let n = topo.normal(mesh, g);
+                    let interior = topo.elems(g)[1] != NONE;
+                    for (end, node) in topo.nodes(g).into_iter().enumerate() {
                         let xp = mesh.points[node];
                         let tr =
                             traction(&eval(&x, l, [(xp[0] - c[0]) / h, (xp[1] - c[1]) / h]), n);
@@ -240,7 +240,7 @@ impl EquilibratedStress {
         &self,
         mesh: &Mesh,
         topo: &Topology,
-        bc: &[[Bc; 2]],
+        bc: &EdgeConditions,
         owned: Option<&[bool]>,
     ) -> Residuals {
         let own = |e: usize| is_owned(owned, e);
@@ -292,13 +292,13 @@ impl EquilibratedStress {
         res.internal_jump = jin / smax;
         // Inter-element jumps.
         let mut jel: f64 = 0.0;
-        for g in 0..topo.edge_nodes.len() {
-            let [e0, e1] = topo.edge_elems[g];
+        for g in 0..topo.num_edges() {
+            let [e0, e1] = topo.elems(g);
             if e1 == NONE || !(own(e0) || own(e1)) {
                 continue;
             }
-            let n = topo.edge_normal[g];
-            for node in topo.edge_nodes[g] {
+            let n = topo.normal(mesh, g);
+            for node in topo.nodes(g) {
                 let x = mesh.points[node];
                 let t0 = traction(&edge_stress(e0, g, x), n);
                 let t1 = traction(&edge_stress(e1, g, x), n);
@@ -309,13 +309,13 @@ impl EquilibratedStress {
         // Boundary data.
         let mut gmax = smax;
         let mut jb: f64 = 0.0;
-        for g in 0..topo.edge_nodes.len() {
-            let e0 = topo.edge_elems[g][0];
-            if topo.edge_elems[g][1] != NONE || !own(e0) {
+        for g in 0..topo.num_edges() {
+            let e0 = topo.elems(g)[0];
+            if topo.elems(g)[1] != NONE || !own(e0) {
                 continue;
             }
-            let n = topo.edge_normal[g];
-            for (end, node) in topo.edge_nodes[g].into_iter().enumerate() {
+            let n = topo.normal(mesh, g);
+            for (end, node) in topo.nodes(g).into_iter().enumerate() {
                 let t = traction(&edge_stress(e0, g, mesh.points[node]), n);
                 for k in 0..2 {
                     if let Bc::Known(v) = bc[g][k] {

@@ -85,20 +85,46 @@ pub(super) fn owned_vertices(mesh: &Mesh, owned: Option<&[bool]>) -> Option<Vec<
 }
 
 /// Edges of the mesh (sorted node pairs), their elements and geometry, and vertex stars.
+/// Indices are stored in 32 bits (issue 11: half the memory); the accessors give `usize`.
 pub(super) struct Topology {
     /// Nodes of each edge, n0 < n1.
-    pub(super) edge_nodes: Vec<[usize; 2]>,
+    edge_nodes: Vec<[u32; 2]>,
     /// The plus element (the one the edge traction F̂_Γ acts on) and the minus element
-    /// (NONE on the boundary).
-    pub(super) edge_elems: Vec<[usize; 2]>,
+    /// (`u32::MAX` on the boundary).
+    edge_elems: Vec<[u32; 2]>,
     pub(super) edge_len: Vec<f64>,
-    /// Unit normal, outward of the plus element.
-    pub(super) edge_normal: Vec<[f64; 2]>,
+    /// Whether the plus element runs along the edge from its first (lower) node to its
+    /// second (its unit normal, outward of the plus element, is [`Topology::normal`]).
+    plus_forward: Vec<bool>,
     /// Edge l of element e joins its local vertices l and l + 1.
-    pub(super) elem_edges: Vec<[usize; 3]>,
+    elem_edges: Vec<[u32; 3]>,
     pub(super) vert_ptr: Vec<usize>,
-    /// (element, local vertex) for every vertex.
-    pub(super) vert_elems: Vec<(usize, usize)>,
+    /// 4 e + a (element, local vertex) for every vertex.
+    vert_elems: Vec<u32>,
+}
+
+/// The elements (e, local vertex a) around a vertex ([`Topology::vertex_elements`]).
+#[derive(Clone, Copy)]
+pub(super) struct VertexElements<'a>(&'a [u32]);
+
+impl VertexElements<'_> {
+    pub(super) fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    pub(super) fn iter(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.0
+            .iter()
+            .map(|&p| ((p >> 2) as usize, (p & 3) as usize))
+    }
+}
+
+fn wide(i: u32) -> usize {
+    if i == u32::MAX {
+        NONE
+    } else {
+        i as usize
+    }
 }
 
 fn edge_key(a: usize, b: usize) -> u64 {
@@ -122,58 +148,93 @@ impl Topology {
         keys.sort_unstable();
         keys.dedup();
         let ne = keys.len();
-        let edge_nodes: Vec<[usize; 2]> = keys
+        if ne >= u32::MAX as usize || nt >= (1 << 30) {
+            return Err(EquilibrationError::TooLarge { elements: nt });
+        }
+        let edge_nodes: Vec<[u32; 2]> = keys
             .iter()
-            .map(|&k| [(k >> 32) as usize, (k & 0xffff_ffff) as usize])
+            .map(|&k| [(k >> 32) as u32, (k & 0xffff_ffff) as u32])
             .collect();
-        let mut edge_elems = vec![[NONE; 2]; ne];
+        let mut edge_elems = vec![[u32::MAX; 2]; ne];
         let mut edge_len = vec![0.0; ne];
-        let mut edge_normal = vec![[0.0; 2]; ne];
-        let mut elem_edges = vec![[0; 3]; nt];
+        let mut plus_forward = vec![false; ne];
+        let mut elem_edges = vec![[0u32; 3]; nt];
         for (e, t) in mesh.triangles.iter().enumerate() {
             for l in 0..3 {
                 let (a, b) = (t[l], t[(l + 1) % 3]);
                 let g = keys.binary_search(&edge_key(a, b)).unwrap();
-                elem_edges[e][l] = g;
-                if edge_elems[g][0] == NONE {
-                    edge_elems[g][0] = e;
+                elem_edges[e][l] = g as u32;
+                if edge_elems[g][0] == u32::MAX {
+                    edge_elems[g][0] = e as u32;
                     let (pa, pb) = (mesh.points[a], mesh.points[b]);
-                    let tv = [pb[0] - pa[0], pb[1] - pa[1]];
-                    let len = tv[0].hypot(tv[1]);
-                    edge_len[g] = len;
-                    edge_normal[g] = [tv[1] / len, -tv[0] / len];
-                } else if edge_elems[g][1] == NONE {
-                    edge_elems[g][1] = e;
+                    edge_len[g] = (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
+                    plus_forward[g] = a < b;
+                } else if edge_elems[g][1] == u32::MAX {
+                    edge_elems[g][1] = e as u32;
                 } else {
                     return Err(EquilibrationError::NonManifoldEdge { a, b });
                 }
             }
         }
-        let (vert_ptr, vert_elems) = vertex_stars(mesh);
+        let (vert_ptr, around) = vertex_stars(mesh);
+        let vert_elems = around.iter().map(|&(e, a)| (4 * e + a) as u32).collect();
         Ok(Topology {
             edge_nodes,
             edge_elems,
             edge_len,
-            edge_normal,
+            plus_forward,
             elem_edges,
             vert_ptr,
             vert_elems,
         })
     }
 
-    pub(super) fn vertex_elements(&self, i: usize) -> &[(usize, usize)] {
-        &self.vert_elems[self.vert_ptr[i]..self.vert_ptr[i + 1]]
+    pub(super) fn vertex_elements(&self, i: usize) -> VertexElements<'_> {
+        VertexElements(&self.vert_elems[self.vert_ptr[i]..self.vert_ptr[i + 1]])
+    }
+
+    pub(super) fn num_edges(&self) -> usize {
+        self.edge_nodes.len()
+    }
+
+    /// The nodes of edge g, sorted.
+    pub(super) fn nodes(&self, g: usize) -> [usize; 2] {
+        self.edge_nodes[g].map(|v| v as usize)
+    }
+
+    /// The unit normal of edge g, outward of its plus element.
+    pub(super) fn normal(&self, mesh: &Mesh, g: usize) -> [f64; 2] {
+        let [lo, hi] = self.nodes(g);
+        let (a, b) = if self.plus_forward[g] {
+            (lo, hi)
+        } else {
+            (hi, lo)
+        };
+        let (pa, pb) = (mesh.points[a], mesh.points[b]);
+        let tv = [pb[0] - pa[0], pb[1] - pa[1]];
+        let len = self.edge_len[g];
+        [tv[1] / len, -tv[0] / len]
+    }
+
+    /// The plus and minus elements of edge g (NONE on the boundary).
+    pub(super) fn elems(&self, g: usize) -> [usize; 2] {
+        self.edge_elems[g].map(wide)
+    }
+
+    /// The edges of element e (edge l joins its local vertices l and l + 1).
+    pub(super) fn edges_of(&self, e: usize) -> [usize; 3] {
+        self.elem_edges[e].map(|g| g as usize)
     }
 
     pub(super) fn edge_id(&self, a: usize, b: usize) -> Option<usize> {
         let (a, b) = if a < b { (a, b) } else { (b, a) };
-        let k = [a, b];
+        let k = [a as u32, b as u32];
         self.edge_nodes.binary_search(&k).ok()
     }
 
     /// +1 if F̂_Γ acts on e (the plus element), −1 otherwise.
     pub(super) fn sign(&self, e: usize, g: usize) -> f64 {
-        if self.edge_elems[g][0] == e {
+        if self.edge_elems[g][0] as usize == e {
             1.0
         } else {
             -1.0
@@ -182,7 +243,7 @@ impl Topology {
 
     /// Position (0 or 1) of node i in edge g.
     pub(super) fn end_of(&self, g: usize, i: usize) -> usize {
-        if self.edge_nodes[g][0] == i {
+        if self.edge_nodes[g][0] as usize == i {
             0
         } else {
             1
@@ -190,7 +251,10 @@ impl Topology {
     }
 
     pub(super) fn local_edge(&self, e: usize, g: usize) -> usize {
-        self.elem_edges[e].iter().position(|&x| x == g).unwrap()
+        self.elem_edges[e]
+            .iter()
+            .position(|&x| x as usize == g)
+            .unwrap()
     }
 }
 
