@@ -211,7 +211,7 @@ fn four_ranks_write_the_file_one_rank_writes() {
 }
 
 #[test]
-fn iterative_options_on_three_ranks_agree_with_mumps() {
+fn iterative_and_out_of_core_options_on_three_ranks_agree_with_mumps() {
     let dir = scratch("ranks-iter");
     let run = |opts: &str, name: &str| {
         let prefix = dir.join(name);
@@ -254,5 +254,13 @@ fn iterative_options_on_three_ranks_agree_with_mumps() {
     let ds = "/steps/0/body2/displacement";
     let d = rel_max_diff(&h5(&dir.join("gamg"), ds), &h5(&dir.join("mumps"), ds));
     assert!(d < 1e-8, "displacements differ by {d:e}");
+    // The low-memory variant: MUMPS with its factors out of core, the same solve.
+    let ooc = run("petsc-options/out-of-core.opts", "ooc");
+    assert_eq!(ooc["iterations"], direct["iterations"]);
+    let c = f(&ooc, "potential_energy");
+    assert!(
+        ((c - b) / b).abs() < 1e-12,
+        "out of core {c} vs in core {b}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
