@@ -158,6 +158,30 @@ struct RunObserver<'a> {
 }
 
 impl nndd::Observer<AppError> for RunObserver<'_> {
+    /// The balanced rule, once η^FE is known: the recovery-free η^NNDD from the Γc forces
+    /// alone, without the fields; an estimate only when the rule may hold.
+    fn wants_estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
+        let (Some(est), Some(fe)) = (self.estimator, self.last_fe) else {
+            return Ok(true);
+        };
+        let settings = self.settings;
+        if settings.nndd.stop != StopRule::Balanced
+            || settings.eta_nndd != NnddVariant::Discrete
+            || !est.eta_nndd_without_fields(self.refs)
+        {
+            return Ok(true);
+        }
+        let t = Instant::now();
+        let _s = self.stages.estimation.enter();
+        let nndd = est.eta_nndd(self.refs, it)?;
+        self.seconds += t.elapsed().as_secs_f64();
+        if nndd > settings.stop_ratio * fe {
+            self.checks.push((it.iteration, nndd));
+            return Ok(false);
+        }
+        Ok(true)
+    }
+
     fn estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
         let Some(est) = self.estimator else {
             return Ok(false);

@@ -261,8 +261,13 @@ pub struct LoopState {
 /// monitor, whether a stop was requested, and the restart points. Every method but
 /// `monitor` and `interrupted` is called on every rank at the same point (collectively).
 pub trait Observer<E> {
-    /// At the iterations of `estimate_every`, with the fields of step p formed: whether the
-    /// balanced stopping criterion holds.
+    /// At the iterations of `estimate_every`, before the fields of step p are formed (they
+    /// cost a solve per body): whether to form them and call [`Observer::estimate`]. The
+    /// balanced rule's check says no while it fails (it needs the Γc forces only).
+    fn wants_estimate(&mut self, _it: &Iterate) -> Result<bool, E> {
+        Ok(true)
+    }
+    /// With the fields of step p formed: whether the balanced stopping criterion holds.
     fn estimate(&mut self, it: &Iterate) -> Result<bool, E>;
     /// After each iteration.
     fn monitor(&mut self, record: &IterationRecord);
@@ -438,7 +443,7 @@ pub fn solve<E: From<NnddError>>(
             iteration: p,
         };
         let mut balanced = false;
-        if estimate_every.is_some_and(|k| p % k == 0) {
+        if estimate_every.is_some_and(|k| p % k == 0) && observer.wants_estimate(&it)? {
             form_fields(
                 layout,
                 &mut it,

@@ -166,6 +166,8 @@ pub struct Estimator<'a> {
     /// Per body, the Cholesky factor of its interface Schur complement S^α (when the body
     /// has one), for the recovery-free η^NNDD ([`Estimator::eta_nndd`]); made at its first use.
     pub schur_factors: [std::cell::OnceCell<Option<Cholesky>>; 2],
+    /// [`Estimator::eta_nndd_without_fields`], agreed over the ranks at its first use.
+    pub cheap_nndd: std::cell::OnceCell<bool>,
 }
 
 /// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
@@ -206,6 +208,23 @@ impl Estimator<'_> {
         })
     }
 
+    /// Whether [`Estimator::eta_nndd`] can do without the fields of the iterate (every body
+    /// has its interface Schur complement); the same answer on every rank.
+    pub fn eta_nndd_without_fields(&self, bodies: [Option<&Body>; 2]) -> bool {
+        *self.cheap_nndd.get_or_init(|| {
+            let missing =
+                (0..2).any(|k| bodies[k].is_some_and(|b| self.schur_factor(k, b).is_none()));
+            self.layout.max(missing as u8 as f64) == 0.0
+        })
+    }
+
+    /// The Cholesky factor of body k's S^α (made at the first use; none without S^α).
+    fn schur_factor(&self, k: usize, b: &Body) -> Option<&Cholesky> {
+        self.schur_factors[k]
+            .get_or_init(|| b.schur.as_ref().and_then(|s| s.cholesky().ok()))
+            .as_ref()
+    }
+
     /// η^NNDD alone, discrete variant, without any stress recovery: what the balanced
     /// stopping rule checks at every iteration, the same number as [`Estimator::estimate`]
     /// gives. Per body, ũ − u_p solves the Neumann system with loads on the Γc normal dofs
@@ -214,7 +233,10 @@ impl Estimator<'_> {
     /// (ũ − u_p)ᵀK(ũ − u_p) = Δᵀ (S^α)⁻¹ Δ, Δ = ∓μ̂ − T^α_p, with the body's interface Schur
     /// complement S^α (m × m, factored once): no back-solve. A body without S^α (its Dirichlet
     /// step not condensed) makes the Neumann re-solve and (ũ − u_p)ᵀK(ũ − u_p) instead.
-    /// Plus the nodal contact pairing of body 2.
+    /// Plus the nodal contact pairing of body 2, 2 μ̂ᵀ(u²_n − λ + g₀), when body 2's field is
+    /// formed; it is zero anyway (μ̂ vanishes off the contact set, and on it the contact step
+    /// puts u²_n = λ − g₀ exactly), so the check needs the Γc forces only when every body
+    /// has its S^α ([`Estimator::eta_nndd_without_fields`]).
     pub fn eta_nndd(&self, bodies: [Option<&Body>; 2], it: &Iterate) -> Result<f64, EstimateError> {
         let mu_hat = nodal_contact_forces(it);
         let mut sum = 0.0;
@@ -222,9 +244,7 @@ impl Estimator<'_> {
             if let Some(b) = body {
                 let sign = if k == 0 { 1.0 } else { -1.0 };
                 let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
-                let factor = self.schur_factors[k]
-                    .get_or_init(|| b.schur.as_ref().and_then(|s| s.cholesky().ok()));
-                let energy = match factor {
+                let energy = match self.schur_factor(k, b) {
                     Some(ch) => self.parts.run(Part::ElementSums, || {
                         let delta: Vec<f64> =
                             f.iter().zip(&it.forces[k]).map(|(a, t)| a - t).collect();
@@ -245,7 +265,7 @@ impl Estimator<'_> {
                     continue; // counted once per group
                 }
                 sum += energy;
-                if k == 1 {
+                if k == 1 && !it.u[1].is_empty() {
                     let u2n = b.normal_trace(&it.u[1]);
                     let obstacle = b.problem.obstacle(&it.lambda);
                     sum += (0..mu_hat.len())

@@ -36,6 +36,31 @@ pub fn element_cre(
     sum * area / 9.0
 }
 
+/// Of one element's JM field `x` (local vertices `qv`): max |σ̂| at the sub-triangles'
+/// vertices, the largest divergence and the largest traction jump across the three internal
+/// edges (at their ends; exact for the linear fields).
+fn field_checks(x: &[f64; NC], qv: &[[f64; 2]; 3]) -> [f64; 3] {
+    let (mut smax, mut div, mut jin): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    for a in 0..3 {
+        for pt in [[0.0, 0.0], qv[a], qv[(a + 1) % 3]] {
+            for v in eval(x, a, pt) {
+                smax = smax.max(v.abs());
+            }
+        }
+        let o = 9 * a;
+        div = div.max((x[o + 1] + x[o + 8]).abs());
+        div = div.max((x[o + 7] + x[o + 5]).abs());
+        // Internal edge from the barycentre to q_a, between sub-triangles a−1 and a.
+        let n = unit([qv[a][1], -qv[a][0]]);
+        for pt in [[0.0, 0.0], qv[a]] {
+            let t1 = traction(&eval(x, a, pt), n);
+            let t0 = traction(&eval(x, (a + 2) % 3, pt), n);
+            jin = jin.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
+        }
+    }
+    [smax, div, jin]
+}
+
 /// The data of the final pass over the elements ([`final_pass`]).
 pub(super) struct FinalPass<'a> {
     pub(super) mesh: &'a Mesh,
@@ -83,22 +108,9 @@ impl FinalPass<'_> {
                         let d = [s[0] - sig[0], s[1] - sig[1], s[2] - sig[2]];
                         energy += w * quad(&self.cm, &d, &d);
                     }
-                    for pt in [[0.0, 0.0], qv[a], qv[(a + 1) % 3]] {
-                        for v in eval(&x, a, pt) {
-                            smax = smax.max(v.abs());
-                        }
-                    }
-                    let o = 9 * a;
-                    div = div.max((x[o + 1] + x[o + 8]).abs());
-                    div = div.max((x[o + 7] + x[o + 5]).abs());
-                    // Internal edge from the barycentre to q_a, between sub-triangles a−1, a.
-                    let n = unit([qv[a][1], -qv[a][0]]);
-                    for pt in [[0.0, 0.0], qv[a]] {
-                        let t1 = traction(&eval(&x, a, pt), n);
-                        let t0 = traction(&eval(&x, (a + 2) % 3, pt), n);
-                        jin = jin.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
-                    }
                 }
+                let [m, d, j] = field_checks(&x, &qv);
+                (smax, div, jin) = (smax.max(m), div.max(d), jin.max(j));
                 // Edge l is the outer edge of sub-triangle l.
                 for l in 0..3 {
                     let g = topo.edges_of(e)[l];
@@ -267,25 +279,8 @@ impl EquilibratedStress {
         let mut smax: f64 = 0.0;
         let (mut div, mut jin): (f64, f64) = (0.0, 0.0);
         for e in (0..nt).filter(|&e| own(e)) {
-            let qv = frames[e].2;
-            let x = &self.coef[e];
-            for a in 0..3 {
-                for pt in [[0.0, 0.0], qv[a], qv[(a + 1) % 3]] {
-                    for v in eval(x, a, pt) {
-                        smax = smax.max(v.abs());
-                    }
-                }
-                let o = 9 * a;
-                div = div.max((x[o + 1] + x[o + 8]).abs());
-                div = div.max((x[o + 7] + x[o + 5]).abs());
-                // Internal edge from the barycentre to q_a, between sub-triangles a−1 and a.
-                let n = unit([qv[a][1], -qv[a][0]]);
-                for pt in [[0.0, 0.0], qv[a]] {
-                    let t1 = traction(&eval(x, a, pt), n);
-                    let t0 = traction(&eval(x, (a + 2) % 3, pt), n);
-                    jin = jin.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
-                }
-            }
+            let [m, d, j] = field_checks(&self.coef[e], &frames[e].2);
+            (smax, div, jin) = (smax.max(m), div.max(d), jin.max(j));
         }
         let smax = if smax > 0.0 { smax } else { 1.0 };
         res.divergence = div / smax;
