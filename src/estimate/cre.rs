@@ -60,12 +60,43 @@ pub struct IterationData<'a> {
 pub enum View<'a> {
     Whole,
     Overlap(&'a Overlap, &'a Halo, &'a Layout),
+    /// None of the body's elements, which other ranks estimate: this rank only takes part in
+    /// their warm-start exchanges.
+    Idle(&'a Halo, &'a Layout),
 }
 
 impl View<'_> {
-    /// Recover σ̂ of the data (u, Γc density `gc`) on this view and hand every element's
-    /// field to `visit` (sub-mesh element index, its JM coefficients; none is stored);
-    /// returns the construction's equilibrium check.
+    /// Before a recovery of the data u: start it warm only from nearby data (see
+    /// `WARM_CHANGE`; every rank decides alike, from the whole-body displacement), and on a
+    /// split body refresh the warm start from the owners (collective over all ranks: the
+    /// estimator prepares every body's recovery before making any, so that no rank waits for
+    /// another's).
+    pub fn prepare(
+        &self,
+        p: &BodyProblem,
+        u: &[f64],
+        choice: StarChoice,
+        operators: &mut OperatorCache,
+    ) {
+        let near = operators
+            .warm_data
+            .as_ref()
+            .is_some_and(|prev| relative_change(&p.mesh, &p.material, u, prev) <= WARM_CHANGE);
+        if !near {
+            operators.forget_warm_start();
+        }
+        let warm =
+            matches!(choice, StarChoice::PatchTraction { warm_sweeps, .. } if warm_sweeps > 0);
+        if let (true, true, View::Overlap(_, halo, layout) | View::Idle(halo, layout)) =
+            (near, warm, self)
+        {
+            halo.refresh(layout, operators);
+        }
+    }
+
+    /// Recover σ̂ of the data (u, Γc density `gc`) on this view ([`View::prepare`]d) and hand
+    /// every element's field to `visit` (sub-mesh element index, its JM coefficients; none
+    /// is stored); returns the construction's equilibrium check.
     fn equilibrate(
         &self,
         p: &BodyProblem,
@@ -80,17 +111,9 @@ impl View<'_> {
             alpha: p.alpha,
             source,
         };
-        // A warm start only from nearby data (see `WARM_CHANGE`); every rank of the body
-        // decides alike (from the whole-body displacement).
-        let near = operators
-            .warm_data
-            .as_ref()
-            .is_some_and(|prev| relative_change(&p.mesh, &p.material, u, prev) <= WARM_CHANGE);
-        if !near {
-            operators.forget_warm_start();
-        }
         let s = match self {
-            View::Whole => equilibrate_restricted(
+            View::Idle(..) => None,
+            View::Whole => Some(equilibrate_restricted(
                 &p.mesh,
                 &p.material,
                 u,
@@ -99,190 +122,297 @@ impl View<'_> {
                 None,
                 Some(operators),
                 Some(visit),
-            ),
-            View::Overlap(o, halo, layout) => {
-                if near
-                    && matches!(choice, StarChoice::PatchTraction { warm_sweeps, .. } if warm_sweeps > 0)
-                {
-                    halo.refresh(layout, operators);
-                }
-                equilibrate_restricted(
-                    &o.mesh,
-                    &p.material,
-                    &o.restrict_dofs(u),
-                    &o.restrict_boundary(&b),
-                    choice,
-                    Some(&o.restriction()),
-                    Some(operators),
-                    Some(visit),
-                )
-            }
+            )),
+            View::Overlap(o, ..) => Some(equilibrate_restricted(
+                &o.mesh,
+                &p.material,
+                &o.restrict_dofs(u),
+                &o.restrict_boundary(&b),
+                choice,
+                Some(&o.restriction()),
+                Some(operators),
+                Some(visit),
+            )),
         };
-        let checked = s.map_err(err)?.checked_residuals();
+        let checked = match s {
+            Some(s) => s.map_err(err)?.checked_residuals(),
+            None => Residuals::default(),
+        };
         // After the recovery: its first use sets the cache up for the material, afresh.
         operators.warm_data = Some(u.to_vec());
         Ok(checked)
     }
 
-    /// The mesh the recovered stress lives on, and the (index there, body element) pairs this
-    /// rank estimates.
-    fn kept<'b>(&'b self, body: &'b Body) -> (&'b Mesh, Vec<(usize, usize)>) {
+    /// The mesh the recovered stress lives on, and for each of its elements the body element
+    /// this rank estimates there (`u32::MAX`: none, a ring of the overlap).
+    fn kept<'b>(&'b self, mesh: &'b Mesh) -> (&'b Mesh, Vec<u32>) {
         match self {
-            View::Whole => (
-                &body.problem.mesh,
-                (0..body.problem.mesh.triangles.len())
-                    .map(|e| (e, e))
-                    .collect(),
-            ),
+            View::Whole => (mesh, (0..mesh.triangles.len() as u32).collect()),
             View::Overlap(o, ..) => (
                 &o.mesh,
                 o.elements
                     .iter()
-                    .enumerate()
-                    .filter(|&(l, _)| o.owned[l])
-                    .map(|(l, &e)| (l, e))
+                    .zip(&o.owned)
+                    .map(|(&e, &own)| if own { e as u32 } else { u32::MAX })
                     .collect(),
             ),
+            View::Idle(..) => (mesh, Vec::new()),
+        }
+    }
+
+    /// Whether this rank estimates the body element e.
+    fn estimates(&self, e: usize) -> bool {
+        match self {
+            View::Whole => true,
+            View::Overlap(o, ..) => o.elements.binary_search(&e).is_ok_and(|l| o.owned[l]),
+            View::Idle(..) => false,
         }
     }
 }
 
-/// Element contributions of body α at iteration p on this rank's elements (zero elsewhere);
-/// `u_p` is u^α_p (whole, on every rank of the body's group).
-pub fn estimate_body(
+/// The whole-body fields of one body's estimate: u^α_p and the Neumann re-solves with the
+/// Γc data of η^glo (ũ^α), of the discrete η^NNDD (ũ^α_d) and, for body 2, of η^FE; made on
+/// the body's group ([`body_fields`]) and broadcast to the other ranks that estimate elements
+/// of the body (empty when not needed: `fe_only`, the density variant, body 1's η^FE).
+#[derive(Default)]
+pub struct BodyFields<'a> {
+    pub u_p: std::borrow::Cow<'a, [f64]>,
+    pub u_tilde: Vec<f64>,
+    pub u_d: Vec<f64>,
+    pub u_fe: Vec<f64>,
+}
+
+/// The re-solves of body α (collective over its group); `u_p` is u^α_p.
+pub fn body_fields<'a>(
     body: &Body,
-    u_p: &[f64],
+    u_p: &'a [f64],
     iface: &Interface,
     data: &IterationData,
-    view: &View,
     parts: &Parts,
-    operators: &mut OperatorCache,
-) -> Result<BodyEstimate, EstimateError> {
-    let p = &body.problem;
-    let alpha = p.alpha;
-    let mesh = &p.mesh;
-    let ne = mesh.triangles.len();
-    let (sub, kept) = view.kept(body);
-    let sigma_p: Vec<[f64; 3]> = parts.run(Part::ElementSums, || {
-        kept.iter()
-            .map(|&(_, e)| element_stress(mesh, e, &p.material, u_p))
-            .collect()
-    });
-    // The CRE ‖σ̂ − Kε(u_p)‖² of every kept element, taken from the recovery's final pass
-    // (the recovered fields are not stored): `slot` of each sub-mesh element in `kept`.
-    let mut slot = vec![u32::MAX; sub.triangles.len()];
-    for (k, &(l, _)) in kept.iter().enumerate() {
-        slot[l] = k as u32;
-    }
-    let cre_into = |out| CreMap {
-        sub,
-        kept: &kept,
-        slot: &slot,
-        sigma_p: &sigma_p,
-        material: &p.material,
-        out,
-    };
-
-    let mut est = BodyEstimate {
-        glo: vec![0.0; ne],
-        fe: vec![0.0; ne],
-        nndd: vec![0.0; ne],
+) -> Result<BodyFields<'a>, EstimateError> {
+    let alpha = body.problem.alpha;
+    let sign = if alpha == 1 { 1.0 } else { -1.0 };
+    let mut f = BodyFields {
+        u_p: std::borrow::Cow::Borrowed(u_p),
         ..Default::default()
     };
-    // With `StarChoice::PatchTraction`, every recovery after the run's first starts from the
-    // change the previous one's sweeps made (the η^FE one after the η^glo one, and the next
-    // estimate's η^glo one after this η^FE one: the iterates change little late in the NNDD).
-    let mut res = Residuals::default();
-    // η^glo and η^NNDD (not at the balanced rule's first check, `fe_only`): the Neumann
-    // re-solve with Γc data t̂^α, and its equilibration.
-    if !data.fe_only {
-        let sign = if alpha == 1 { 1.0 } else { -1.0 };
-        let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
-        let u_tilde = parts.run(Part::Resolves, || {
-            body.neumann_solve(&iface.forces(&t_alpha), true)
-        })?;
-        let r_glo = parts.run(Part::Recovery, || {
-            let mut map = cre_into(&mut est.glo);
-            let mut visit = |l: usize, c: &[f64; NC]| map.visit(l, c);
-            view.equilibrate(p, &u_tilde, &t_alpha, data.recovery, operators, &mut visit)
-        })?;
-        // η^NNDD: the discretely equilibrated field of the discrete problem (nodal forces ∓μ̂),
-        // or docs/method.md's ũ^α_h of η^glo.
-        let u_d = match data.nndd_variant {
-            NnddVariant::Discrete => {
-                let f: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
-                parts.run(Part::Resolves, || body.neumann_solve(&f, true))?
+    parts.run(Part::Resolves, || {
+        if !data.fe_only {
+            let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
+            f.u_tilde = body.neumann_solve(&iface.forces(&t_alpha), true)?;
+            if data.nndd_variant == NnddVariant::Discrete {
+                let m: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
+                f.u_d = body.neumann_solve(&m, true)?;
             }
-            NnddVariant::Density => u_tilde.clone(),
+        }
+        if alpha == 2 {
+            let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
+            f.u_fe = body.neumann_solve(&iface.forces(&t2), true)?;
+        }
+        Ok::<_, EstimateError>(())
+    })?;
+    Ok(f)
+}
+
+/// The element work of one body's estimate on this rank (the elements of its view): the η^glo
+/// recovery and the η^NNDD element terms ([`ElementWork::glo`]), the η^FE recovery
+/// ([`ElementWork::fe`]), the contact terms ([`ElementWork::finish`]). Each recovery is
+/// [`View::prepare`]d first, by the caller, for both bodies at once.
+pub struct ElementWork<'a> {
+    p: &'a BodyProblem,
+    fields: &'a BodyFields<'a>,
+    view: &'a View<'a>,
+    /// The mesh the recovery runs on, and the body element estimated at each of its
+    /// elements (`u32::MAX`: none).
+    sub: &'a Mesh,
+    kept: Vec<u32>,
+    est: BodyEstimate,
+}
+
+impl<'a> ElementWork<'a> {
+    pub fn new(
+        p: &'a BodyProblem,
+        fields: &'a BodyFields<'a>,
+        view: &'a View<'a>,
+    ) -> ElementWork<'a> {
+        let mesh = &p.mesh;
+        let ne = mesh.triangles.len();
+        let (sub, kept) = view.kept(mesh);
+        ElementWork {
+            p,
+            fields,
+            view,
+            sub,
+            kept,
+            est: BodyEstimate {
+                glo: vec![0.0; ne],
+                fe: vec![0.0; ne],
+                nndd: vec![0.0; ne],
+                ..Default::default()
+            },
+        }
+    }
+
+    /// The sign of body α's Γc data (body 1 takes t̂, body 2 −t̂).
+    fn sign(&self) -> f64 {
+        if self.p.alpha == 1 {
+            1.0
+        } else {
+            -1.0
+        }
+    }
+
+    /// The displacement the η^glo recovery starts from (ũ^α).
+    pub fn glo_data(&self) -> &[f64] {
+        &self.fields.u_tilde
+    }
+
+    /// The displacement the η^FE recovery starts from (u¹_p, or body 2's re-solve).
+    pub fn fe_data(&self) -> &[f64] {
+        if self.p.alpha == 1 {
+            &self.fields.u_p
+        } else {
+            &self.fields.u_fe
+        }
+    }
+
+    /// The η^glo recovery (Γc data t̂^α, the re-solve ũ^α) and its element CREs, and the
+    /// η^NNDD element terms ‖Kε(ũ^α_d − u_p)‖² (or docs/method.md's ũ^α_h of η^glo).
+    pub fn glo(
+        &mut self,
+        data: &IterationData,
+        operators: &mut OperatorCache,
+        parts: &Parts,
+    ) -> Result<(), EstimateError> {
+        let (p, mesh) = (self.p, &self.p.mesh);
+        let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| self.sign() * t).collect();
+        let r = self.recover(Data::Glo, &t_alpha, data, operators, parts)?;
+        self.est.residuals = worst(self.est.residuals, r);
+        let u_d = match data.nndd_variant {
+            NnddVariant::Discrete => &self.fields.u_d,
+            NnddVariant::Density => &self.fields.u_tilde,
         };
+        let u_p: &[f64] = &self.fields.u_p;
         parts.run(Part::ElementSums, || {
-            for &(_, e) in &kept {
+            for e in self.kept.iter().filter(|&&e| e != u32::MAX) {
+                let e = *e as usize;
                 let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
                 let dofs = element_dofs(&mesh.triangles[e]);
                 let d: Vec<f64> = dofs.iter().map(|&i| u_d[i] - u_p[i]).collect();
-                est.nndd[e] = (0..6)
+                self.est.nndd[e] = (0..6)
                     .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
                     .sum();
             }
         });
-        res = r_glo;
+        Ok(())
     }
 
-    // η^FE: the step-p problem at fixed λ_p.
-    let mut map = cre_into(&mut est.fe);
-    let mut visit = |l: usize, c: &[f64; NC]| map.visit(l, c);
-    let r_fe = if alpha == 1 {
-        // Body 1: σ(u¹_p) is FE-equilibrated with its Γc reaction density M⁻¹T¹_p.
-        let t = iface.density(data.reaction1);
-        parts.run(Part::Recovery, || {
-            view.equilibrate(p, u_p, &t, data.recovery, operators, &mut visit)
-        })?
-    } else {
-        let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
-        let u_fe = parts.run(Part::Resolves, || {
-            body.neumann_solve(&iface.forces(&t2), true)
-        })?;
-        parts.run(Part::Recovery, || {
-            view.equilibrate(p, &u_fe, &t2, data.recovery, operators, &mut visit)
-        })?
-    };
-    res = worst(res, r_fe);
+    /// The η^FE recovery (the step-p problem at fixed λ_p) and its element CREs: body 1's
+    /// σ(u¹_p) is FE-equilibrated with its Γc reaction density M⁻¹T¹_p, body 2's re-solve
+    /// with −t̂^c_p.
+    pub fn fe(
+        &mut self,
+        iface: &Interface,
+        data: &IterationData,
+        operators: &mut OperatorCache,
+        parts: &Parts,
+    ) -> Result<(), EstimateError> {
+        let t = if self.p.alpha == 1 {
+            iface.density(data.reaction1)
+        } else {
+            data.t_fe.iter().map(|t| -t).collect()
+        };
+        let r = self.recover(Data::Fe, &t, data, operators, parts)?;
+        self.est.residuals = worst(self.est.residuals, r);
+        Ok(())
+    }
 
-    // Contact terms 2∫ t̂ (λ_p − g₀ − u²_n) ≥ 0, on the body-2 elements along Γc (their
-    // owners).
-    if alpha == 2 {
-        parts.run(Part::ElementSums, || {
-            let u2n = p.normal_trace(u_p);
-            let obstacle = p.obstacle(data.lambda);
-            let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
-            let c_glo = iface.segment_products(data.t_glo, &gap);
-            let c_fe = iface.segment_products(data.t_fe, &gap);
-            let edges = edge_elements(mesh);
-            let m = gap.len();
-            for k in 0..c_glo.len() {
-                let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
-                let e = edges[&(a.min(b), a.max(b))];
-                if !body.partition.owns_element(e) {
-                    continue;
+    /// One recovery, its element CREs into the map of `which`.
+    fn recover(
+        &mut self,
+        which: Data,
+        gc: &[f64],
+        data: &IterationData,
+        operators: &mut OperatorCache,
+        parts: &Parts,
+    ) -> Result<Residuals, EstimateError> {
+        let (p, view, fields) = (self.p, self.view, self.fields);
+        let u: &[f64] = match (which, p.alpha) {
+            (Data::Glo, _) => &fields.u_tilde,
+            (Data::Fe, 1) => &fields.u_p,
+            (Data::Fe, _) => &fields.u_fe,
+        };
+        let out = match which {
+            Data::Glo => &mut self.est.glo,
+            Data::Fe => &mut self.est.fe,
+        };
+        let mut map = CreMap {
+            sub: self.sub,
+            mesh: &p.mesh,
+            kept: &self.kept,
+            u_p: &fields.u_p,
+            material: &p.material,
+            out,
+        };
+        let mut visit = |l: usize, c: &[f64; NC]| map.visit(l, c);
+        parts.run(Part::Recovery, || {
+            view.equilibrate(p, u, gc, data.recovery, operators, &mut visit)
+        })
+    }
+
+    /// The contact terms 2∫ t̂ (λ_p − g₀ − u²_n) ≥ 0 on the body-2 elements along Γc that
+    /// this rank estimates; the element contributions.
+    pub fn finish(
+        mut self,
+        iface: &Interface,
+        data: &IterationData,
+        parts: &Parts,
+    ) -> BodyEstimate {
+        let (p, mesh) = (self.p, &self.p.mesh);
+        if p.alpha == 2 {
+            parts.run(Part::ElementSums, || {
+                let u2n = p.normal_trace(&self.fields.u_p);
+                let obstacle = p.obstacle(data.lambda);
+                let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
+                let c_glo = iface.segment_products(data.t_glo, &gap);
+                let c_fe = iface.segment_products(data.t_fe, &gap);
+                let edges = edge_elements(mesh);
+                let m = gap.len();
+                let est = &mut self.est;
+                for k in 0..c_glo.len() {
+                    let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+                    let e = edges[&(a.min(b), a.max(b))];
+                    if !self.view.estimates(e) {
+                        continue;
+                    }
+                    if !data.fe_only {
+                        est.glo[e] += 2.0 * c_glo[k];
+                        est.nndd[e] += match data.nndd_variant {
+                            NnddVariant::Density => 2.0 * c_glo[k],
+                            // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's
+                            // element.
+                            NnddVariant::Discrete => [k, k + 1]
+                                .iter()
+                                .map(|&i| {
+                                    let w = if i == 0 || i == m - 1 { 1.0 } else { 0.5 };
+                                    -2.0 * w * data.mu_hat[i] * gap[i]
+                                })
+                                .sum::<f64>(),
+                        };
+                    }
+                    est.fe[e] += 2.0 * c_fe[k];
                 }
-                est.glo[e] += 2.0 * c_glo[k];
-                est.fe[e] += 2.0 * c_fe[k];
-                est.nndd[e] += match data.nndd_variant {
-                    NnddVariant::Density => 2.0 * c_glo[k],
-                    // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's element.
-                    NnddVariant::Discrete => [k, k + 1]
-                        .iter()
-                        .map(|&i| {
-                            let w = if i == 0 || i == m - 1 { 1.0 } else { 0.5 };
-                            -2.0 * w * data.mu_hat[i] * gap[i]
-                        })
-                        .sum::<f64>(),
-                };
-            }
-        });
+            });
+        }
+        self.est
     }
-    est.residuals = res;
-    Ok(est)
+}
+
+/// The data of one of an estimate's two recoveries.
+#[derive(Clone, Copy)]
+enum Data {
+    Glo,
+    Fe,
 }
 
 /// Largest relative change of the data (the displacement, in the energy norm) from one
@@ -321,22 +451,24 @@ fn relative_change(mesh: &Mesh, material: &crate::fem::Material, u: &[f64], v: &
     }
 }
 
-/// The element CREs of the fields a recovery visits: element `slot[l]` of `kept` for the
-/// sub-mesh element l (none: `u32::MAX`), into `out` by body element.
+/// The element CREs ‖σ̂ − Kε(u_p)‖² of the fields a recovery visits: sub-mesh element l is
+/// body element `kept[l]` (`u32::MAX`: not estimated here), into `out` by body element.
 struct CreMap<'a> {
     sub: &'a Mesh,
-    kept: &'a [(usize, usize)],
-    slot: &'a [u32],
-    sigma_p: &'a [[f64; 3]],
+    mesh: &'a Mesh,
+    kept: &'a [u32],
+    u_p: &'a [f64],
     material: &'a crate::fem::Material,
     out: &'a mut [f64],
 }
 
 impl CreMap<'_> {
     fn visit(&mut self, l: usize, coef: &[f64; NC]) {
-        let k = self.slot[l] as usize;
-        if let Some(&(_, e)) = self.kept.get(k) {
-            self.out[e] = element_cre(self.sub, l, coef, self.sigma_p[k], self.material);
+        let e = self.kept[l];
+        if e != u32::MAX {
+            let e = e as usize;
+            let sigma_p = element_stress(self.mesh, e, self.material, self.u_p);
+            self.out[e] = element_cre(self.sub, l, coef, sigma_p, self.material);
         }
     }
 }

@@ -32,6 +32,7 @@ pub mod cre;
 pub mod equilibrate;
 pub mod overlap;
 pub mod reference;
+pub mod share;
 pub mod traction;
 
 pub use reference::Reference;
@@ -39,12 +40,12 @@ pub use traction::Interface;
 
 use crate::dd::body::{Body, BodyError};
 use crate::dd::nndd::Iterate;
-use crate::estimate::cre::{estimate_body, worst, IterationData, View};
-use crate::estimate::equilibrate::{
-    vertex_colours, EquilibrationError, OperatorCache, Residuals, StarChoice,
+use crate::estimate::cre::{
+    body_fields, worst, BodyEstimate, BodyFields, ElementWork, IterationData,
 };
-use crate::estimate::overlap::{Halo, Overlap};
+use crate::estimate::equilibrate::{EquilibrationError, OperatorCache, Residuals, StarChoice};
 use crate::estimate::reference::interpolate_nested;
+use crate::estimate::share::{estimate_owners, Share};
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
 use crate::qp::dense::Cholesky;
@@ -156,9 +157,15 @@ pub struct Estimator<'a> {
     pub nndd_variant: NnddVariant,
     pub layout: &'a Layout,
     pub reference: Option<Reference>,
-    /// Per body, this rank's overlapping element set (built at the first estimate; `None`:
-    /// the body is on one rank and the recovery runs on its whole mesh).
-    pub overlaps: [std::cell::OnceCell<Option<(Overlap, Halo)>>; 2],
+    /// The two bodies' problems (every rank has both: any rank may estimate elements of
+    /// either, [`share`]).
+    pub problems: [std::rc::Rc<crate::problem::BodyProblem>; 2],
+    /// The world rank estimating each element of each body ([`share::estimate_owners`]),
+    /// and whether some of a body's elements are estimated outside its group (its fields
+    /// then travel); made at the first estimate.
+    pub owners: std::cell::OnceCell<([Vec<u32>; 2], [bool; 2])>,
+    /// Per body, this rank's share of the element work (built at the first estimate).
+    pub shares: [std::cell::OnceCell<Share>; 2],
     /// The time of each part of the estimates.
     pub parts: Parts,
     /// Per body, the recovery's local operators on this rank, kept across estimates.
@@ -186,28 +193,6 @@ fn nodal_contact_forces(it: &Iterate) -> Vec<f64> {
 }
 
 impl Estimator<'_> {
-    /// This rank's overlapping element set of `body`: its own elements and as many rings as
-    /// the recovery needs to be exact there.
-    fn overlap(&self, body: &Body) -> Option<(Overlap, Halo)> {
-        let part = &body.partition;
-        (part.size > 1).then(|| {
-            let mesh = &body.problem.mesh;
-            let colours = vertex_colours(mesh);
-            let count = crate::estimate::overlap::colour_count(&colours);
-            let own: Vec<bool> = (0..mesh.triangles.len())
-                .map(|e| part.owns_element(e))
-                .collect();
-            let overlap = Overlap::new(
-                mesh,
-                &own,
-                Overlap::rings_for(self.recovery, count),
-                &colours,
-            );
-            let halo = Halo::new(&overlap, &part.element_owner, self.layout);
-            (overlap, halo)
-        })
-    }
-
     /// Whether [`Estimator::eta_nndd`] can do without the fields of the iterate (every body
     /// has its interface Schur complement); the same answer on every rank.
     pub fn eta_nndd_without_fields(&self, bodies: [Option<&Body>; 2]) -> bool {
@@ -337,52 +322,126 @@ impl Estimator<'_> {
         let mut res = Residuals::default();
         let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
         let mut e_ref2 = 0.0;
+        let (owners, crosses) = self.owners.get_or_init(|| {
+            let owners = estimate_owners(
+                [&self.problems[0].mesh, &self.problems[1].mesh],
+                layout.size as usize,
+            );
+            let crosses = [0, 1].map(|k| {
+                let group = layout.group_ranks(k + 1);
+                owners[k].iter().any(|&r| !group.contains(&(r as usize)))
+            });
+            (owners, crosses)
+        });
+        // The re-solves on each body's group, their fields to the other ranks estimating
+        // elements of the body.
+        let mut fields: [BodyFields; 2] = Default::default();
         for (k, body) in bodies.iter().enumerate() {
             if let Some(b) = body {
-                let overlap = self.overlaps[k]
-                    .get_or_init(|| self.parts.run(Part::Recovery, || self.overlap(b)));
-                let view = overlap
-                    .as_ref()
-                    .map_or(View::Whole, |(o, h)| View::Overlap(o, h, layout));
-                let est = estimate_body(
-                    b,
-                    &it.u[k],
-                    &self.iface,
-                    &data,
-                    &view,
-                    &self.parts,
-                    &mut self.operators[k].borrow_mut(),
-                )?;
+                fields[k] = body_fields(b, &it.u[k], &self.iface, &data, &self.parts)?;
+            }
+            if crosses[k] {
+                let f = &mut fields[k];
+                self.parts.run(Part::Reduction, || {
+                    layout.share_vec(k + 1, f.u_p.to_mut());
+                    for v in [&mut f.u_tilde, &mut f.u_d, &mut f.u_fe] {
+                        layout.share_vec(k + 1, v);
+                    }
+                });
+            }
+        }
+        // The element work: each recovery prepared for both bodies before any is made (the
+        // warm-start exchanges are the only collectives in it, so no rank waits for another
+        // between them).
+        let shares = [0, 1].map(|k| {
+            self.shares[k].get_or_init(|| {
+                self.parts.run(Part::Recovery, || {
+                    Share::new(&self.problems[k].mesh, &owners[k], self.recovery, layout)
+                })
+            })
+        });
+        let views = shares.map(|s| s.view(layout));
+        let mut works: Vec<(usize, ElementWork)> = (0..2)
+            .filter_map(|k| {
+                let view = views[k].as_ref()?;
+                Some((k, ElementWork::new(&self.problems[k], &fields[k], view)))
+            })
+            .collect();
+        if !fe_only {
+            for (k, w) in &works {
+                let view = views[*k].as_ref().expect("a view");
+                let ops = &mut self.operators[*k].borrow_mut();
+                view.prepare(&self.problems[*k], w.glo_data(), self.recovery, ops);
+            }
+            for (k, w) in works.iter_mut() {
+                w.glo(&data, &mut self.operators[*k].borrow_mut(), &self.parts)?;
+            }
+        }
+        for (k, w) in &works {
+            let view = views[*k].as_ref().expect("a view");
+            let ops = &mut self.operators[*k].borrow_mut();
+            view.prepare(&self.problems[*k], w.fe_data(), self.recovery, ops);
+        }
+        for (k, w) in works.iter_mut() {
+            w.fe(
+                &self.iface,
+                &data,
+                &mut self.operators[*k].borrow_mut(),
+                &self.parts,
+            )?;
+        }
+        let mut done: [Option<BodyEstimate>; 2] = [None, None];
+        for (k, w) in works {
+            done[k] = Some(w.finish(&self.iface, &data, &self.parts));
+        }
+        for (k, body) in bodies.iter().enumerate() {
+            let ne = self.problems[k].mesh.triangles.len();
+            let mut map: [Vec<f64>; 3] = Default::default();
+            if let Some(est) = done[k].take() {
                 let t = est.totals();
                 for c in 0..3 {
                     sums[c] += t[c];
                 }
                 res = worst(res, est.residuals);
-                maps[k] = [&est.glo, &est.fe, &est.nndd]
-                    .map(|v| v.iter().map(|x| x.max(0.0).sqrt()).collect());
-                self.parts.run(Part::Reduction, || {
-                    for map in maps[k].iter_mut() {
-                        layout.group_sum(map); // each element from its owner
-                    }
-                });
-                if let Some(r) = self.reference.as_ref().filter(|_| !fe_only) {
-                    e_ref2 += self.parts.run(Part::ReferenceError, || {
-                        let fine = r.bodies[k]
-                            .as_ref()
-                            .expect("reference body on the same ranks");
-                        let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &it.u[k])?;
-                        let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
-                        let kd = fine.apply_k(&d)?;
-                        // Every rank of the group has it: count it once.
-                        Ok::<f64, EstimateError>(if b.is_root() {
-                            d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
-                        } else {
-                            0.0
-                        })
-                    })?;
+                map = [est.glo, est.fe, est.nndd];
+                for v in map.iter_mut().flatten() {
+                    *v = v.max(0.0).sqrt();
                 }
             }
+            // The element maps onto the body's ranks, each element from its estimating rank.
+            self.parts.run(Part::Reduction, || {
+                if crosses[k] {
+                    for m in map.iter_mut() {
+                        m.resize(ne, 0.0);
+                        layout.world_sum(m);
+                    }
+                } else if body.is_some() {
+                    for m in map.iter_mut() {
+                        layout.group_sum(m);
+                    }
+                }
+            });
+            if body.is_some() {
+                maps[k] = map;
+            }
+            if let (Some(b), Some(r)) = (body, self.reference.as_ref().filter(|_| !fe_only)) {
+                e_ref2 += self.parts.run(Part::ReferenceError, || {
+                    let fine = r.bodies[k]
+                        .as_ref()
+                        .expect("reference body on the same ranks");
+                    let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &it.u[k])?;
+                    let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
+                    let kd = fine.apply_k(&d)?;
+                    // Every rank of the group has it: count it once.
+                    Ok::<f64, EstimateError>(if b.is_root() {
+                        d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
+                    } else {
+                        0.0
+                    })
+                })?;
+            }
         }
+        drop(fields);
         let (sums, e_ref, res) = self.parts.run(Part::Reduction, || {
             let e_ref = self
                 .reference

@@ -43,34 +43,36 @@ pub struct Overlap {
 /// field's last ring) and the overlap needs the rings of one recovery's sweeps, however many
 /// recoveries the warm start has been carried through ([`Overlap::rings_for`]).
 pub struct Halo {
-    /// Per group rank: the sub-mesh indices of own elements that rank holds, in its order.
+    /// Per rank: the sub-mesh indices of own elements that rank holds, in its order.
     send: Vec<Vec<usize>>,
-    /// Per group rank: the sub-mesh indices of the elements that rank owns and this one
-    /// holds without owning them.
+    /// Per rank: the sub-mesh indices of the elements that rank owns and this one holds
+    /// without owning them.
     recv: Vec<Vec<usize>>,
 }
 
 impl Halo {
-    /// The exchange pattern of the sub-mesh `ov`; `owner`: the group rank owning each body
-    /// element. Collective over the body group.
-    pub fn new(ov: &Overlap, owner: &[u32], layout: &Layout) -> Halo {
-        let size = layout.group_size();
+    /// The exchange pattern of the sub-mesh `ov` (none: this rank holds none of the body's
+    /// elements); `owner`: the world rank estimating each body element. Collective over all
+    /// ranks.
+    pub fn new(ov: Option<&Overlap>, owner: &[u32], layout: &Layout) -> Halo {
+        let size = layout.size as usize;
         let (mut recv, mut ask) = (vec![Vec::new(); size], vec![Vec::new(); size]);
-        for (l, &e) in ov.elements.iter().enumerate() {
-            if !ov.owned[l] {
-                recv[owner[e] as usize].push(l);
-                ask[owner[e] as usize].push(e as u64);
+        if let Some(ov) = ov {
+            for (l, &e) in ov.elements.iter().enumerate() {
+                if !ov.owned[l] {
+                    recv[owner[e] as usize].push(l);
+                    ask[owner[e] as usize].push(e as u64);
+                }
             }
         }
-        let asked = layout.group_exchange(&ask);
+        let asked = layout.exchange(&ask);
         let send = asked
             .iter()
             .map(|ids| {
                 ids.iter()
                     .map(|&e| {
-                        ov.elements
-                            .binary_search(&(e as usize))
-                            .expect("the owner holds its elements")
+                        ov.and_then(|ov| ov.elements.binary_search(&(e as usize)).ok())
+                            .expect("only the owner is asked for an element")
                     })
                     .collect()
             })
@@ -79,15 +81,15 @@ impl Halo {
     }
 
     /// Give the elements this rank holds but does not own their owners' warm-start values
-    /// (`OperatorCache::warm_values`); nothing where no warm start is held (the ranks of a
-    /// group make the same recoveries, so they hold one alike). Collective over the group.
+    /// (`OperatorCache::warm_values`); nothing where no warm start is held (the ranks make
+    /// the same recoveries, so they hold one alike). Collective over all ranks.
     pub fn refresh(&self, layout: &Layout, cache: &mut OperatorCache) {
         let send: Vec<Vec<f64>> = self
             .send
             .iter()
             .map(|l| cache.warm_values(l).map_or(Vec::new(), |v| v.concat()))
             .collect();
-        let got = layout.group_exchange(&send);
+        let got = layout.exchange(&send);
         for (l, v) in self.recv.iter().zip(&got) {
             if !l.is_empty() && v.len() == l.len() * NT {
                 let values: Vec<[f64; NT]> = v

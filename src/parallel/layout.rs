@@ -121,15 +121,15 @@ impl Layout {
         }
     }
 
-    /// Personalised exchange within this rank's body group: `send[r]` goes to group rank r;
-    /// returns, per group rank r, what r sent here (collective over the group).
-    pub fn group_exchange<T: Equivalence + Copy + Default>(&self, send: &[Vec<T>]) -> Vec<Vec<T>> {
+    /// Personalised exchange over all ranks: `send[r]` goes to world rank r; returns, per
+    /// world rank r, what r sent here (collective over the world).
+    pub fn exchange<T: Equivalence + Copy + Default>(&self, send: &[Vec<T>]) -> Vec<Vec<T>> {
         use mpi::datatype::{Partition, PartitionMut};
-        let size = self.group_size();
-        assert_eq!(send.len(), size, "one send buffer per group rank");
+        let size = self.size as usize;
+        assert_eq!(send.len(), size, "one send buffer per rank");
         let counts: Vec<i32> = send.iter().map(|v| v.len() as i32).collect();
         let mut recv_counts = vec![0i32; size];
-        self.group
+        self.world
             .all_to_all_into(&counts[..], &mut recv_counts[..]);
         let displs = |c: &[i32]| -> Vec<i32> {
             c.iter()
@@ -143,13 +143,28 @@ impl Layout {
         let flat: Vec<T> = send.concat();
         let mut recv = vec![T::default(); recv_counts.iter().sum::<i32>() as usize];
         let (sd, rd) = (displs(&counts), displs(&recv_counts));
-        self.group.all_to_all_varcount_into(
+        self.world.all_to_all_varcount_into(
             &Partition::new(&flat[..], &counts[..], &sd[..]),
             &mut PartitionMut::new(&mut recv[..], &recv_counts[..], &rd[..]),
         );
         (0..size)
             .map(|r| recv[rd[r] as usize..(rd[r] + recv_counts[r]) as usize].to_vec())
             .collect()
+    }
+
+    /// Sum `data` element-wise over all ranks (in place).
+    pub fn world_sum(&self, data: &mut [f64]) {
+        if self.size > 1 {
+            let send = data.to_vec();
+            self.world
+                .all_reduce_into(&send[..], data, mpi::collective::SystemOperation::sum());
+        }
+    }
+
+    /// The world ranks of body `alpha`'s group.
+    pub fn group_ranks(&self, alpha: usize) -> std::ops::Range<usize> {
+        let first = self.roots[alpha - 1] as usize;
+        first..first + self.group_sizes[alpha - 1]
     }
 
     /// Does this rank take part in body `alpha`'s work?
