@@ -64,7 +64,7 @@ impl Share {
         let me = layout.rank as u32;
         let first = owner.first().copied().unwrap_or(0);
         let split = owner.iter().any(|&r| r != first);
-        let mine = owner.iter().any(|&r| r == me);
+        let mine = owner.contains(&me);
         match (split, mine) {
             (false, true) => Share::Whole,
             (false, false) => Share::Elsewhere,
