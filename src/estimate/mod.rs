@@ -2,13 +2,15 @@
 //! `docs/method.md` §3). [`traction`]: the admissible contact traction on Γc; [`cre`]: one
 //! body's constitutive relation error element by element; [`equilibrate`]: strictly
 //! equilibrated stresses (EET + Johnson–Mercier, patch relaxation); [`overlap`]: a rank's
-//! elements plus the rings its recovery needs; [`reference`]: the reference solution of (26).
+//! elements plus the rings its recovery needs; [`share`]: which rank estimates which
+//! elements; [`reference`]: the reference solution of (26).
 //!
 //! May use: `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`.
 //!
 //! The estimates:
 //! the global estimator η^glo (22) and the indicators η^FE (23) and η^NNDD (24), each a sum of
-//! element contributions, computed by the ranks that own the elements.
+//! element contributions, computed by the ranks that estimate the elements (all ranks in
+//! equal shares, [`share`]; the re-solves on each body's group).
 //!
 //! At iteration p, with û^α = u^α_p (step 1's fields: û¹_n = λ_p, û²_n ≥ λ_p on Γc):
 //! - η^glo² = Σ_α ‖σ̂^α − Kε(u^α_p)‖²_{K⁻¹} + 2∫_Γc t̂^c (λ_p − u²_{p,n}), with t̂^c the
@@ -356,7 +358,15 @@ impl Estimator<'_> {
         let shares = [0, 1].map(|k| {
             self.shares[k].get_or_init(|| {
                 self.parts.run(Part::Recovery, || {
-                    Share::new(&self.problems[k].mesh, &owners[k], self.recovery, layout)
+                    let p = &self.problems[k];
+                    Share::new(
+                        k + 1,
+                        &p.mesh,
+                        &owners[k],
+                        crosses[k],
+                        self.recovery,
+                        layout,
+                    )
                 })
             })
         });

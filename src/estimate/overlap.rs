@@ -43,6 +43,8 @@ pub struct Overlap {
 /// field's last ring) and the overlap needs the rings of one recovery's sweeps, however many
 /// recoveries the warm start has been carried through ([`Overlap::rings_for`]).
 pub struct Halo {
+    /// Over all ranks (a body estimated outside its group), else over its group.
+    world: bool,
     /// Per rank: the sub-mesh indices of own elements that rank holds, in its order.
     send: Vec<Vec<usize>>,
     /// Per rank: the sub-mesh indices of the elements that rank owns and this one holds
@@ -52,10 +54,14 @@ pub struct Halo {
 
 impl Halo {
     /// The exchange pattern of the sub-mesh `ov` (none: this rank holds none of the body's
-    /// elements); `owner`: the world rank estimating each body element. Collective over all
-    /// ranks.
-    pub fn new(ov: Option<&Overlap>, owner: &[u32], layout: &Layout) -> Halo {
-        let size = layout.size as usize;
+    /// elements); `owner`: the rank estimating each body element, in the world (`world`) or
+    /// in the body's group. Collective over that communicator.
+    pub fn new(ov: Option<&Overlap>, owner: &[u32], world: bool, layout: &Layout) -> Halo {
+        let size = if world {
+            layout.size as usize
+        } else {
+            layout.group_size()
+        };
         let (mut recv, mut ask) = (vec![Vec::new(); size], vec![Vec::new(); size]);
         if let Some(ov) = ov {
             for (l, &e) in ov.elements.iter().enumerate() {
@@ -65,7 +71,7 @@ impl Halo {
                 }
             }
         }
-        let asked = layout.exchange(&ask);
+        let asked = layout.exchange(world, &ask);
         let send = asked
             .iter()
             .map(|ids| {
@@ -77,19 +83,19 @@ impl Halo {
                     .collect()
             })
             .collect();
-        Halo { send, recv }
+        Halo { world, send, recv }
     }
 
     /// Give the elements this rank holds but does not own their owners' warm-start values
     /// (`OperatorCache::warm_values`); nothing where no warm start is held (the ranks make
-    /// the same recoveries, so they hold one alike). Collective over all ranks.
+    /// the same recoveries, so they hold one alike). Collective over its communicator.
     pub fn refresh(&self, layout: &Layout, cache: &mut OperatorCache) {
         let send: Vec<Vec<f64>> = self
             .send
             .iter()
             .map(|l| cache.warm_values(l).map_or(Vec::new(), |v| v.concat()))
             .collect();
-        let got = layout.exchange(&send);
+        let got = layout.exchange(self.world, &send);
         for (l, v) in self.recv.iter().zip(&got) {
             if !l.is_empty() && v.len() == l.len() * NT {
                 let values: Vec<[f64; NT]> = v

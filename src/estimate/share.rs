@@ -58,23 +58,43 @@ pub enum Share {
 }
 
 impl Share {
-    /// This rank's share of the body on `mesh` whose elements the ranks `owner` estimate;
-    /// collective over all ranks when the body is split over several.
-    pub fn new(mesh: &Mesh, owner: &[u32], recovery: StarChoice, layout: &Layout) -> Share {
-        let me = layout.rank as u32;
+    /// This rank's share of the body `alpha` on `mesh` whose elements the world ranks `owner`
+    /// estimate. When they are all in the body's group (`crosses` false), its halo exchanges
+    /// run on the group and the other ranks have nothing to do with it; else on all ranks
+    /// (which then all have the body's fields). Collective over that communicator when the
+    /// body is split over several ranks.
+    pub fn new(
+        alpha: usize,
+        mesh: &Mesh,
+        owner: &[u32],
+        crosses: bool,
+        recovery: StarChoice,
+        layout: &Layout,
+    ) -> Share {
+        let me = layout.rank as usize;
+        let group = layout.group_ranks(alpha);
+        if !crosses && !group.contains(&me) {
+            return Share::Elsewhere;
+        }
         let first = owner.first().copied().unwrap_or(0);
         let split = owner.iter().any(|&r| r != first);
-        let mine = owner.contains(&me);
+        let mine = owner.contains(&(me as u32));
+        // The halo's ranks: world ranks, or ranks in the group.
+        let scoped: Vec<u32> = if crosses {
+            owner.to_vec()
+        } else {
+            owner.iter().map(|&r| r - group.start as u32).collect()
+        };
         match (split, mine) {
             (false, true) => Share::Whole,
             (false, false) => Share::Elsewhere,
-            (true, false) => Share::Idle(Halo::new(None, owner, layout)),
+            (true, false) => Share::Idle(Halo::new(None, &scoped, crosses, layout)),
             (true, true) => {
                 let colours = vertex_colours(mesh);
-                let own: Vec<bool> = owner.iter().map(|&r| r == me).collect();
+                let own: Vec<bool> = owner.iter().map(|&r| r as usize == me).collect();
                 let rings = Overlap::rings_for(recovery, colour_count(&colours));
                 let overlap = Overlap::new(mesh, &own, rings, &colours);
-                let halo = Halo::new(Some(&overlap), owner, layout);
+                let halo = Halo::new(Some(&overlap), &scoped, crosses, layout);
                 Share::Part(overlap, halo)
             }
         }

@@ -124,7 +124,7 @@ pub struct Summary {
     /// The estimated iterations (η^glo, η^FE, η^NNDD, ratio (25), e_ref and effectivity (26)).
     pub estimates: Vec<IterationRecord>,
     pub timings: Timings,
-    /// Peak resident memory over ranks (MiB).
+    /// Peak resident memory over ranks (MiB): each process's high-water mark (getrusage).
     pub peak_memory_mib: f64,
     /// Peak resident memory of every rank (MiB), by world rank.
     pub peak_memory_mib_per_rank: Vec<f64>,

@@ -121,35 +121,19 @@ impl Layout {
         }
     }
 
-    /// Personalised exchange over all ranks: `send[r]` goes to world rank r; returns, per
-    /// world rank r, what r sent here (collective over the world).
-    pub fn exchange<T: Equivalence + Copy + Default>(&self, send: &[Vec<T>]) -> Vec<Vec<T>> {
-        use mpi::datatype::{Partition, PartitionMut};
-        let size = self.size as usize;
-        assert_eq!(send.len(), size, "one send buffer per rank");
-        let counts: Vec<i32> = send.iter().map(|v| v.len() as i32).collect();
-        let mut recv_counts = vec![0i32; size];
-        self.world
-            .all_to_all_into(&counts[..], &mut recv_counts[..]);
-        let displs = |c: &[i32]| -> Vec<i32> {
-            c.iter()
-                .scan(0, |acc, &n| {
-                    let d = *acc;
-                    *acc += n;
-                    Some(d)
-                })
-                .collect()
-        };
-        let flat: Vec<T> = send.concat();
-        let mut recv = vec![T::default(); recv_counts.iter().sum::<i32>() as usize];
-        let (sd, rd) = (displs(&counts), displs(&recv_counts));
-        self.world.all_to_all_varcount_into(
-            &Partition::new(&flat[..], &counts[..], &sd[..]),
-            &mut PartitionMut::new(&mut recv[..], &recv_counts[..], &rd[..]),
-        );
-        (0..size)
-            .map(|r| recv[rd[r] as usize..(rd[r] + recv_counts[r]) as usize].to_vec())
-            .collect()
+    /// Personalised exchange over all ranks (`world`) or over this rank's body group:
+    /// `send[r]` goes to rank r of that communicator; returns, per rank r, what r sent here
+    /// (collective over that communicator).
+    pub fn exchange<T: Equivalence + Copy + Default>(
+        &self,
+        world: bool,
+        send: &[Vec<T>],
+    ) -> Vec<Vec<T>> {
+        if world {
+            exchange_on(&self.world, send)
+        } else {
+            exchange_on(&self.group, send)
+        }
     }
 
     /// Sum `data` element-wise over all ranks (in place).
@@ -251,4 +235,36 @@ impl Layout {
         }
         out
     }
+}
+
+/// [`Layout::exchange`] on the communicator `comm`.
+fn exchange_on<T: Equivalence + Copy + Default>(
+    comm: &SimpleCommunicator,
+    send: &[Vec<T>],
+) -> Vec<Vec<T>> {
+    use mpi::datatype::{Partition, PartitionMut};
+    let size = comm.size() as usize;
+    assert_eq!(send.len(), size, "one send buffer per rank");
+    let counts: Vec<i32> = send.iter().map(|v| v.len() as i32).collect();
+    let mut recv_counts = vec![0i32; size];
+    comm.all_to_all_into(&counts[..], &mut recv_counts[..]);
+    let displs = |c: &[i32]| -> Vec<i32> {
+        c.iter()
+            .scan(0, |acc, &n| {
+                let d = *acc;
+                *acc += n;
+                Some(d)
+            })
+            .collect()
+    };
+    let flat: Vec<T> = send.concat();
+    let mut recv = vec![T::default(); recv_counts.iter().sum::<i32>() as usize];
+    let (sd, rd) = (displs(&counts), displs(&recv_counts));
+    comm.all_to_all_varcount_into(
+        &Partition::new(&flat[..], &counts[..], &sd[..]),
+        &mut PartitionMut::new(&mut recv[..], &recv_counts[..], &rd[..]),
+    );
+    (0..size)
+        .map(|r| recv[rd[r] as usize..(rd[r] + recv_counts[r]) as usize].to_vec())
+        .collect()
 }
