@@ -13,26 +13,10 @@ use runner::num;
 
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
-    // `--compare n,n,…`: the levels of the recovery comparison.
-    let mut compare_levels = vec![16, 64, 256, 512, 1024];
-    if let Some(k) = args.iter().position(|a| a == "--compare") {
-        let list = args.get(k + 1).expect("--compare n,n,…").clone();
-        compare_levels = list
-            .split(',')
-            .map(|a| a.parse().expect("integers"))
-            .collect();
-        args.drain(k..k + 2);
-    }
-    // `--every n,n,…`: the levels of the estimates-every-iteration comparison.
-    let mut every_levels = vec![256];
-    if let Some(k) = args.iter().position(|a| a == "--every") {
-        let list = args.get(k + 1).expect("--every n,n,…").clone();
-        every_levels = list
-            .split(',')
-            .map(|a| a.parse().expect("integers"))
-            .collect();
-        args.drain(k..k + 2);
-    }
+    // `--compare n,n,…`: the levels of the recovery comparison; `--every n,n,…`: those of the
+    // estimates-every-iteration comparison.
+    let compare_levels = take_list(&mut args, "--compare", &[16, 64, 256, 512, 1024]);
+    let every_levels = take_list(&mut args, "--every", &[256]);
     let levels: Vec<usize> = if args.is_empty() {
         vec![4, 8, 16, 32]
     } else {
@@ -160,6 +144,21 @@ fn every(dir: &std::path::Path, levels: &[usize]) {
         }
     }
     println!("(none_s, every1_s: the summaries' total times without estimates and with -nndd_estimate_every 1; ratio = every1_s / none_s; est: estimates made; estim_s: their total time, per_est_s: per estimate)");
+}
+
+/// The comma-separated levels after `flag` in `args` (both removed), or `default`.
+fn take_list(args: &mut Vec<String>, flag: &str, default: &[usize]) -> Vec<usize> {
+    let Some(k) = args.iter().position(|a| a == flag) else {
+        return default.to_vec();
+    };
+    let list = args
+        .get(k + 1)
+        .unwrap_or_else(|| panic!("{flag} n,n,…"))
+        .clone();
+    args.drain(k..k + 2);
+    list.split(',')
+        .map(|a| a.parse().expect("integers"))
+        .collect()
 }
 
 /// Issue 11's table: per n, the solve and one estimate of the final iterate (tol 1e-8, 2

@@ -151,8 +151,8 @@ impl OperatorCache {
         self
     }
 
-    /// The next recovery starts cold (the estimator calls it before each estimate's first
-    /// recovery, so that a warm start only follows a recovery of the same estimate).
+    /// The next recovery starts cold (the estimator calls it when the data moved too far
+    /// since the last recovery, `cre::WARM_CHANGE`).
     pub fn forget_warm_start(&mut self) {
         self.warm = None;
         self.warm_data = None;
