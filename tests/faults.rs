@@ -12,7 +12,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use common::{f, json, scratch, walk};
+use common::{f, json, mpirun_command, scratch, walk};
 
 /// The tests of this file run one at a time: their time limits assume the machine's cores.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -26,23 +26,12 @@ fn serial() -> std::sync::MutexGuard<'static, ()> {
 
 /// `mpirun -n np nndd args…` in its own process group, its output piped.
 fn spawn(np: usize, args: &[&str]) -> Child {
-    let mut cmd = Command::new("mpirun");
-    cmd.args([
-        "-n",
-        &np.to_string(),
-        "--oversubscribe",
-        "--bind-to",
-        "none",
-    ])
-    .arg(env!("CARGO_BIN_EXE_nndd"))
-    .args(args)
-    .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-    .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-    .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
-    .stdout(Stdio::piped())
-    .stderr(Stdio::piped())
-    .process_group(0);
-    cmd.spawn().expect("mpirun starts")
+    mpirun_command(np, args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .process_group(0)
+        .spawn()
+        .expect("mpirun starts")
 }
 
 /// Kill the job's whole process group (mpirun and the ranks).

@@ -13,8 +13,8 @@ pub fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// `mpirun -n np nndd args…` (oversubscribed when np exceeds the cores).
-pub fn mpirun(np: usize, args: &[&str]) -> Output {
+/// The command `mpirun -n np nndd args…` (oversubscribed when np exceeds the cores).
+pub fn mpirun_command(np: usize, args: &[&str]) -> Command {
     let mut cmd = Command::new("mpirun");
     cmd.args([
         "-n",
@@ -28,7 +28,12 @@ pub fn mpirun(np: usize, args: &[&str]) -> Output {
     .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
     .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
     .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
-    cmd.output().expect("mpirun runs")
+    cmd
+}
+
+/// Run `mpirun -n np nndd args…` to completion.
+pub fn mpirun(np: usize, args: &[&str]) -> Output {
+    mpirun_command(np, args).output().expect("mpirun runs")
 }
 
 /// Run and require success; returns the parsed JSON summary of `prefix`.
