@@ -101,23 +101,29 @@ impl Mesh {
     /// The boundary edges (edges of exactly one triangle), oriented as in their triangle
     /// (counter-clockwise: the body is on the left), in triangle order.
     pub fn boundary_edges(&self) -> Vec<[usize; 2]> {
-        let mut count: std::collections::HashMap<(usize, usize), u32> = Default::default();
-        for t in &self.triangles {
+        // Every triangle side keyed by its sorted end nodes, sorted: a side met once is on
+        // the boundary (no hashing: this runs at every recovery of large meshes).
+        let key = |a: usize, b: usize| ((a.min(b) as u128) << 64) | a.max(b) as u128;
+        let mut sides: Vec<(u128, usize)> = Vec::with_capacity(3 * self.triangles.len());
+        for (e, t) in self.triangles.iter().enumerate() {
             for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *count.entry((a.min(b), a.max(b))).or_default() += 1;
+                sides.push((key(t[k], t[(k + 1) % 3]), 3 * e + k));
             }
         }
-        let mut out = Vec::new();
-        for t in &self.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                if count[&(a.min(b), a.max(b))] == 1 {
-                    out.push([a, b]);
-                }
-            }
+        sides.sort_unstable();
+        let mut boundary = vec![false; sides.len()];
+        for (i, &(k, side)) in sides.iter().enumerate() {
+            let repeated =
+                (i > 0 && sides[i - 1].0 == k) || sides.get(i + 1).is_some_and(|s| s.0 == k);
+            boundary[side] = !repeated;
         }
-        out
+        (0..sides.len())
+            .filter(|&s| boundary[s])
+            .map(|s| {
+                let t = self.triangles[s / 3];
+                [t[s % 3], t[(s % 3 + 1) % 3]]
+            })
+            .collect()
     }
 
     pub fn node(&self, i: usize, j: usize) -> usize {

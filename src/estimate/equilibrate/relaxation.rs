@@ -131,23 +131,27 @@ impl Relaxation<'_> {
         }
         let g = *cache.operator(si, q);
         let w = triangle_area(q) / 9.0;
+        // Ĥ = Σ_points w Pᵀ C P (P = `point_map`, 3 × 12), its upper triangle then mirrored:
+        // exactly symmetric.
         let mut h = [0.0; NT * NT];
         for a in 0..3 {
             for pt in midpoints(q, a) {
                 let pm = point_map(&g, a, pt);
-                for r in 0..3 {
-                    for s in 0..3 {
-                        let c = w * self.cm[r][s];
-                        if c == 0.0 {
-                            continue;
-                        }
-                        for i in 0..NT {
-                            for j in 0..NT {
-                                h[i * NT + j] += c * pm[r][i] * pm[s][j];
-                            }
-                        }
+                let cp: [[f64; NT]; 3] = std::array::from_fn(|r| {
+                    std::array::from_fn(|j| {
+                        w * (0..3).map(|s| self.cm[r][s] * pm[s][j]).sum::<f64>()
+                    })
+                });
+                for i in 0..NT {
+                    for j in i..NT {
+                        h[i * NT + j] += (0..3).map(|r| pm[r][i] * cp[r][j]).sum::<f64>();
                     }
                 }
+            }
+        }
+        for i in 0..NT {
+            for j in 0..i {
+                h[i * NT + j] = h[j * NT + i];
             }
         }
         if si != NONE {
@@ -409,56 +413,63 @@ impl Relaxation<'_> {
             }
         }
         let (basis, d) = null_space(&c, 3 * m, nu);
-        // Normalised patch Hessian Σ_E (h_E/h_p)² (S_E N)ᵀ Ĥ_E (S_E N).
-        let mut h = crate::qp::dense::SymMatrix::new(d);
-        // Per element: (h_E/h_p)² Ĥ_E S_E N (12 × d), for the slot maps below.
-        let mut fhsn: Vec<Vec<f64>> = Vec::with_capacity(m);
+        // The patch Hessian in the unknowns, H_u = Σ_E (h_E/h_p)² S_Eᵀ Ĥ_E S_E (S_E: the
+        // signed selection `smap`), then NᵀH_uN.
+        let mut hu = vec![0.0; nu * nu];
+        let mut fh: Vec<(f64, [f64; NT * NT])> = Vec::with_capacity(m);
         for (row, (e, _)) in elems.iter().enumerate() {
-            let pts = self.mesh.triangle_points(e);
-            let (_, he, q) = local_frame(&pts);
+            let (_, he, q) = local_frame(&self.mesh.triangle_points(e));
             let hh = self.element_hessian(cache, e, &q);
             let f = (he / hp) * (he / hp);
-            let mut sn = vec![0.0; NT * d];
             for &(ti, u, s) in &smap[row] {
-                for j in 0..d {
-                    sn[ti * d + j] += s * basis[u * d + j];
+                for &(tj, v, s2) in &smap[row] {
+                    hu[u * nu + v] += f * s * s2 * hh[ti * NT + tj];
                 }
             }
-            // (S_E N)ᵀ Ĥ_E (S_E N), through Ĥ_E (S_E N) (12 × d).
-            let mut hsn = vec![0.0; NT * d];
-            for i in 0..NT {
-                for j in 0..NT {
-                    let hij = hh[i * NT + j];
-                    if hij == 0.0 {
-                        continue;
-                    }
-                    for b in 0..d {
-                        hsn[i * d + b] += hij * sn[j * d + b];
-                    }
-                }
-            }
-            for a in 0..d {
-                for b in 0..d {
-                    let acc: f64 = (0..NT).map(|i| sn[i * d + a] * hsn[i * d + b]).sum();
-                    h.set(a, b, h.get(a, b) + f * acc);
-                }
-            }
-            fhsn.push(hsn.iter().map(|v| f * v).collect());
+            fh.push((f, hh));
         }
-        h.symmetrize();
+        let mut hn = vec![0.0; nu * d];
+        for u in 0..nu {
+            for v in 0..nu {
+                let x = hu[u * nu + v];
+                if x != 0.0 {
+                    for b in 0..d {
+                        hn[u * d + b] += x * basis[v * d + b];
+                    }
+                }
+            }
+        }
+        let mut h = crate::qp::dense::SymMatrix::new(d);
+        for a in 0..d {
+            for b in a..d {
+                let acc: f64 = (0..nu).map(|u| basis[u * d + a] * hn[u * d + b]).sum();
+                h.set(a, b, acc);
+                h.set(b, a, acc);
+            }
+        }
         let hinv = match h.inverse_spd() {
             Ok(inv) => inv.data().to_vec(),
             Err(_) => return PatchOp::default(),
         };
-        // A_E = Hinv ((h_E/h_p)² Ĥ_E S_E N)ᵀ (d × 12) per element.
+        // A_E = Hinv Nᵀ S_Eᵀ (h_E/h_p)² Ĥ_E (d × 12), through W = Hinv Nᵀ (d × nu).
+        let mut w = vec![0.0; d * nu];
+        for j in 0..d {
+            for l in 0..d {
+                let x = hinv[j * d + l];
+                for u in 0..nu {
+                    w[j * nu + u] += x * basis[u * d + l];
+                }
+            }
+        }
         let mut slots = vec![0.0; m * d * NT];
-        for (row, x) in fhsn.iter().enumerate() {
+        for (row, (f, hh)) in fh.iter().enumerate() {
             let a = &mut slots[row * d * NT..(row + 1) * d * NT];
-            for j in 0..d {
-                for l in 0..d {
-                    let hjl = hinv[j * d + l];
-                    for i in 0..NT {
-                        a[j * NT + i] += hjl * x[i * d + l];
+            for &(ti, u, s) in &smap[row] {
+                let hrow = &hh[ti * NT..(ti + 1) * NT];
+                for j in 0..d {
+                    let x = f * s * w[j * nu + u];
+                    for (ai, hv) in a[j * NT..(j + 1) * NT].iter_mut().zip(hrow) {
+                        *ai += x * hv;
                     }
                 }
             }
@@ -477,20 +488,22 @@ impl Relaxation<'_> {
 /// numerical rank (|R_kk| ≤ 1e-7 |R_00|; the patch constraints are either independent or
 /// dependent to round-off). Returns the basis (cols × d, row-major) and d.
 pub(super) fn null_space(c: &[f64], rows: usize, cols: usize) -> (Vec<f64>, usize) {
-    // a = cᵀ, column-major: column r is row r of c.
+    // a = cᵀ, column-major: column r is row r of c. The Householder vector of step k
+    // overwrites a[k][k..] (its R entry is not needed).
     let (n, m) = (cols, rows);
     let mut a = c.to_vec();
-    let mut reflectors: Vec<(Vec<f64>, f64)> = Vec::new();
+    let sq = |x: &[f64]| -> f64 { x.iter().map(|v| v * v).sum() };
+    // Remaining squared column norms, downdated step by step and recomputed when the
+    // downdate has cancelled most of the value the norm had at its last computation.
+    let mut norms: Vec<f64> = (0..m).map(|r| sq(&a[r * n..(r + 1) * n])).collect();
+    let mut computed = norms.clone();
+    let mut taus: Vec<f64> = Vec::with_capacity(m.min(n));
     let mut first = 0.0;
     for k in 0..m.min(n) {
-        // The column of largest remaining norm (recomputed: no downdating drift).
-        let rest =
-            |a: &[f64], r: usize| -> f64 { a[r * n + k..(r + 1) * n].iter().map(|x| x * x).sum() };
-        let (p, np2) = (k..m)
-            .map(|r| (r, rest(&a, r)))
-            .max_by(|x, y| x.1.total_cmp(&y.1))
+        let p = (k..m)
+            .max_by(|&x, &y| norms[x].total_cmp(&norms[y]))
             .expect("k < m");
-        let np = np2.sqrt();
+        let np = sq(&a[p * n + k..(p + 1) * n]).sqrt();
         if k == 0 {
             first = np;
         }
@@ -501,30 +514,39 @@ pub(super) fn null_space(c: &[f64], rows: usize, cols: usize) -> (Vec<f64>, usiz
             for i in 0..n {
                 a.swap(k * n + i, p * n + i);
             }
+            norms.swap(k, p);
+            computed.swap(k, p);
         }
-        // Householder vector of a[k.., k].
-        let mut v: Vec<f64> = a[k * n + k..(k + 1) * n].to_vec();
+        let (done, rest) = a.split_at_mut((k + 1) * n);
+        let v = &mut done[k * n + k..];
         let alpha = if v[0] >= 0.0 { -np } else { np };
         v[0] -= alpha;
-        let vv: f64 = v.iter().map(|x| x * x).sum();
+        let vv = sq(v);
         let tau = if vv > 0.0 { 2.0 / vv } else { 0.0 };
-        for r in k..m {
-            let colr = &mut a[r * n + k..(r + 1) * n];
-            let dot: f64 = colr.iter().zip(&v).map(|(x, y)| x * y).sum();
-            for (x, y) in colr.iter_mut().zip(&v) {
+        for r in k + 1..m {
+            let colr = &mut rest[(r - k - 1) * n + k..(r - k) * n];
+            let dot: f64 = colr.iter().zip(v.iter()).map(|(x, y)| x * y).sum();
+            for (x, y) in colr.iter_mut().zip(v.iter()) {
                 *x -= tau * dot * y;
             }
+            norms[r] -= colr[0] * colr[0];
+            if norms[r] <= 1e-6 * computed[r] {
+                norms[r] = sq(&colr[1..]);
+                computed[r] = norms[r];
+            }
         }
-        reflectors.push((v, tau));
+        taus.push(tau);
     }
-    let rank = reflectors.len();
+    let rank = taus.len();
     let d = n - rank;
     let mut basis = vec![0.0; n * d];
+    let mut x = vec![0.0; n];
     for j in 0..d {
         // Q e_{rank + j} = H_0 ⋯ H_{rank−1} e_{rank + j}.
-        let mut x = vec![0.0; n];
+        x.fill(0.0);
         x[rank + j] = 1.0;
-        for (k, (v, tau)) in reflectors.iter().enumerate().rev() {
+        for (k, tau) in taus.iter().enumerate().rev() {
+            let v = &a[k * n + k..(k + 1) * n];
             let dot: f64 = x[k..].iter().zip(v).map(|(a, b)| a * b).sum();
             for (xi, vi) in x[k..].iter_mut().zip(v) {
                 *xi -= tau * dot * vi;
@@ -735,6 +757,39 @@ mod tests {
         }
         assert!(worst_eq < 1e-10, "self-equilibrium defect {worst_eq:e}");
         total_energy(mesh, &STEEL, &coef, &sig, None)
+    }
+
+    #[test]
+    fn null_space_of_a_rank_deficient_matrix() {
+        // 7 × 10 of rank 5: rows 5 and 6 are combinations of the first five (as the summed
+        // element equilibria of an interior patch are of the others). The basis must be
+        // orthonormal, annihilated by c, and of dimension 10 − 5.
+        let (rows, cols) = (7, 10);
+        let mut c = vec![0.0; rows * cols];
+        let mut seed = 7u64;
+        for v in c.iter_mut().take(5 * cols) {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+        }
+        for j in 0..cols {
+            c[5 * cols + j] = c[j] - 2.0 * c[3 * cols + j];
+            c[6 * cols + j] = (0..5).map(|r| c[r * cols + j]).sum::<f64>();
+        }
+        let (basis, d) = null_space(&c, rows, cols);
+        assert_eq!(d, 5);
+        for a in 0..d {
+            for b in 0..d {
+                let g: f64 = (0..cols).map(|u| basis[u * d + a] * basis[u * d + b]).sum();
+                let want = if a == b { 1.0 } else { 0.0 };
+                assert!((g - want).abs() < 1e-14, "NᵀN[{a}][{b}] = {g}");
+            }
+            for r in 0..rows {
+                let cn: f64 = (0..cols).map(|u| c[r * cols + u] * basis[u * d + a]).sum();
+                assert!(cn.abs() < 1e-14, "(cN)[{r}][{a}] = {cn}");
+            }
+        }
     }
 
     #[test]
