@@ -61,6 +61,11 @@ fn recovery_sweeps_out_of_range_are_refused() {
         &["-nndd_recovery_warm_sweeps", "-1"],
         "-nndd_recovery_warm_sweeps",
     );
+    refused(
+        1,
+        &["-nndd_recovery_warm_change", "-0.1"],
+        "-nndd_recovery_warm_change",
+    );
 }
 
 #[test]

@@ -277,6 +277,39 @@ fn estimates_agree_on_one_and_two_ranks_with(recovery: &str) {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `-nndd_recovery_warm_change`: at 0 no recovery starts warm (the data change between any
+/// two, the η^FE recovery's from the η^glo one's too), so the final iterate's estimates in a
+/// run with an estimate at every iteration are those of a run that estimates the final
+/// iterate only. At the default the recoveries of the later iterations start warm, and the
+/// final η^glo differs from (here: is below) the single estimate's.
+#[test]
+fn warm_change_zero_makes_every_recovery_cold() {
+    let dir = scratch("warm-change");
+    let base = ["-nndd_n", "8", "-nndd_theta", "0.25", "-nndd_estimate"];
+    let last = |name: &str, extra: &[&str]| {
+        let j = solve(2, &dir.join(name), &[&base[..], extra].concat());
+        estimates(&j).last().cloned().expect("an estimate")
+    };
+    let cold = ["-nndd_recovery_warm_change", "0"];
+    let single_cold = last(
+        "single-cold",
+        &[&["-nndd_estimate_every", "0"][..], &cold].concat(),
+    );
+    let chain_cold = last(
+        "chain-cold",
+        &[&["-nndd_estimate_every", "1"][..], &cold].concat(),
+    );
+    for k in ["eta_glo", "eta_fe", "eta_nndd"] {
+        let (s, c) = (g(&single_cold, k), g(&chain_cold, k));
+        assert!((s - c).abs() <= 1e-12 * s, "{k}: {c} (cold chain) vs {s}");
+    }
+    let single = last("single", &["-nndd_estimate_every", "0"]);
+    let chain = last("chain", &["-nndd_estimate_every", "1"]);
+    let (s, w) = (g(&single, "eta_glo"), g(&chain, "eta_glo"));
+    assert!(w < s * (1.0 - 1e-6), "eta_glo: {w} (warm chain) vs {s}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// docs/method.md §3.3 builds η^NNDD from the P1 density t̂^c of η^glo: at the converged discrete
 /// solution it does not vanish (the density of the nodal contact forces changes sign near the
 /// end of the contact zone, and its projection on t̂ ≤ 0 alters the loads). The discrete

@@ -78,6 +78,9 @@ pub struct Settings {
     pub reference_factor: usize,
     /// How the equilibrated stresses are recovered (see `estimate::equilibrate`).
     pub recovery: StarChoice,
+    /// Largest relative change of a body's displacement (energy norm) between two recoveries
+    /// for which the second starts warm (`estimate::cre::View::prepare`).
+    pub warm_change: f64,
     /// The reference problem of η^NNDD (see `estimate`).
     pub eta_nndd: NnddVariant,
     /// κ of the balanced stopping rule.
@@ -370,7 +373,7 @@ impl Settings {
         }
         let (warm_sweeps, _) = o.int(
             "-nndd_recovery_warm_sweeps",
-            "Sweeps of a -nndd_recovery patch recovery started from the change the previous recovery's sweeps made (the eta_FE one after the eta_glo one, and each estimate's after the previous estimate's, when the displacement changed by at most 1/32 in energy); 0: every recovery cold, with -nndd_recovery_sweeps",
+            "Sweeps of a -nndd_recovery patch recovery started from the change the previous recovery's sweeps made (the eta_FE one after the eta_glo one, and each estimate's after the previous estimate's, when the displacement changed by at most -nndd_recovery_warm_change); 0: every recovery cold, with -nndd_recovery_sweeps",
             1,
         )?;
         if !(0..=1000).contains(&warm_sweeps) {
@@ -379,6 +382,14 @@ impl Settings {
                 accepted: "an integer in [0, 1000]",
                 value: warm_sweeps.to_string(),
             });
+        }
+        let (warm_change, _) = o.real(
+            "-nndd_recovery_warm_change",
+            "Largest relative change of a body's displacement in the energy norm since the previous recovery for which a -nndd_recovery patch recovery starts warm (-nndd_recovery_warm_sweeps); further apart it starts cold",
+            crate::estimate::cre::WARM_CHANGE,
+        )?;
+        if !(warm_change >= 0.0 && warm_change.is_finite()) {
+            return Err(range("-nndd_recovery_warm_change", ">= 0", warm_change));
         }
         let (stop, _) = o.string(
             "-nndd_stop",
@@ -528,6 +539,7 @@ impl Settings {
             },
             reference_factor: reference as usize,
             recovery,
+            warm_change,
             eta_nndd,
             stop_ratio,
             body1_ranks: body1_ranks as usize,

@@ -66,8 +66,9 @@ pub enum View<'a> {
 }
 
 impl View<'_> {
-    /// Before a recovery of the data u: start it warm only from nearby data (see
-    /// `WARM_CHANGE`; every rank decides alike, from the whole-body displacement), and on a
+    /// Before a recovery of the data u: start it warm only from nearby data (a relative
+    /// change of at most `warm_change`, `-nndd_recovery_warm_change`, default
+    /// [`WARM_CHANGE`]; every rank decides alike, from the whole-body displacement), and on a
     /// split body refresh the warm start from the owners (collective over all ranks: the
     /// estimator prepares every body's recovery before making any, so that no rank waits for
     /// another's).
@@ -76,12 +77,13 @@ impl View<'_> {
         p: &BodyProblem,
         u: &[f64],
         choice: StarChoice,
+        warm_change: f64,
         operators: &mut OperatorCache,
     ) {
         let near = operators
             .warm_data
             .as_ref()
-            .is_some_and(|prev| relative_change(&p.mesh, &p.material, u, prev) <= WARM_CHANGE);
+            .is_some_and(|prev| relative_change(&p.mesh, &p.material, u, prev) <= warm_change);
         if !near {
             operators.forget_warm_start();
         }
@@ -413,8 +415,9 @@ enum Data {
     Fe,
 }
 
-/// Largest relative change of the data (the displacement, in the energy norm) from one
-/// recovery to the next for which the next starts warm, from the change the previous one's
+/// The default of `-nndd_recovery_warm_change`: the largest relative change of the data (the
+/// displacement, in the energy norm) from one recovery to the next for which the next starts
+/// warm, from the change the previous one's
 /// sweeps made (`StarChoice::PatchTraction`); further apart, it starts cold. The warm
 /// start's distance to the relaxed field is about this fraction of a cold start's. Measured
 /// on `paper` with one warm sweep against six cold ones: n = 256, θ auto, estimates every

@@ -156,6 +156,9 @@ pub struct Estimator<'a> {
     pub iface: Interface,
     pub qp: QpSettings,
     pub recovery: StarChoice,
+    /// `-nndd_recovery_warm_change`: the largest relative change of a body's displacement
+    /// for which a recovery starts warm ([`cre::View::prepare`]).
+    pub warm_change: f64,
     pub nndd_variant: NnddVariant,
     pub layout: &'a Layout,
     pub reference: Option<Reference>,
@@ -381,7 +384,13 @@ impl Estimator<'_> {
             for (k, w) in &works {
                 let view = views[*k].as_ref().expect("a view");
                 let ops = &mut self.operators[*k].borrow_mut();
-                view.prepare(&self.problems[*k], w.glo_data(), self.recovery, ops);
+                view.prepare(
+                    &self.problems[*k],
+                    w.glo_data(),
+                    self.recovery,
+                    self.warm_change,
+                    ops,
+                );
             }
             for (k, w) in works.iter_mut() {
                 w.glo(&data, &mut self.operators[*k].borrow_mut(), &self.parts)?;
@@ -390,7 +399,13 @@ impl Estimator<'_> {
         for (k, w) in &works {
             let view = views[*k].as_ref().expect("a view");
             let ops = &mut self.operators[*k].borrow_mut();
-            view.prepare(&self.problems[*k], w.fe_data(), self.recovery, ops);
+            view.prepare(
+                &self.problems[*k],
+                w.fe_data(),
+                self.recovery,
+                self.warm_change,
+                ops,
+            );
         }
         for (k, w) in works.iter_mut() {
             w.fe(
