@@ -344,7 +344,14 @@ pub fn equilibrate_restricted(
                 let fp = fingerprint(mesh_fp, &bc, restriction.map(|r| r.vertex_key));
                 let plan = match operators.plan.take() {
                     Some(p) if p.fingerprint() == fp => p,
-                    _ => Plan::new(&mut relax, &mut cache, &order(), fp),
+                    _ => {
+                        let plan = Plan::new(&mut relax, &mut cache, &order(), fp);
+                        // The element Hessians only build patch operators, and the plan's
+                        // are all built: on unstructured meshes (a Hessian per element)
+                        // they were 1152 bytes per element for nothing.
+                        relax.hhat = Default::default();
+                        plan
+                    }
                 };
                 let a = plan.loads(mesh, &mut cache, &shape_of, &sig, &relax.cm, &relax.ops);
                 let flat = trac.as_flattened_mut().as_flattened_mut();
