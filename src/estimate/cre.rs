@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use super::equilibrate::{
     element_cre, equilibrate_restricted, Boundary, BoundaryEdge, EdgeComponent, OperatorCache,
-    Residuals, StarChoice, NC,
+    Residuals, StarChoice, SweepValues, NC,
 };
 use super::overlap::{Halo, Overlap};
 use super::traction::Interface;
@@ -89,8 +89,9 @@ impl View<'_> {
         }
         let warm =
             matches!(choice, StarChoice::PatchTraction { warm_sweeps, .. } if warm_sweeps > 0);
-        if let (true, true, View::Overlap(_, halo, layout) | View::Idle(halo, layout)) =
-            (near, warm, self)
+        operators.starts_warm = near && warm;
+        if let (true, View::Overlap(_, halo, layout) | View::Idle(halo, layout)) =
+            (operators.starts_warm, self)
         {
             halo.refresh(layout, operators);
         }
@@ -125,17 +126,39 @@ impl View<'_> {
                 Some(operators),
                 Some(visit),
             )),
-            View::Overlap(o, ..) => Some(equilibrate_restricted(
-                &o.mesh,
-                &p.material,
-                &o.restrict_dofs(u),
-                &o.restrict_boundary(&b),
-                choice,
-                Some(&o.restriction()),
-                Some(operators),
-                Some(visit),
-            )),
+            View::Overlap(o, halo, layout) => {
+                // Between sweeps, the elements held but not owned take their owners' values.
+                let between = |v: &mut SweepValues| halo.exchange_sweep(layout, Some(v));
+                Some(equilibrate_restricted(
+                    &o.mesh,
+                    &p.material,
+                    &o.restrict_dofs(u),
+                    &o.restrict_boundary(&b),
+                    choice,
+                    Some(&o.restriction_with(Some(&between))),
+                    Some(operators),
+                    Some(visit),
+                ))
+            }
         };
+        if let (
+            View::Idle(halo, layout),
+            StarChoice::PatchTraction {
+                sweeps,
+                warm_sweeps,
+            },
+        ) = (self, choice)
+        {
+            // As many exchanges as the ranks that recover: one between two sweeps.
+            let made = if operators.starts_warm {
+                warm_sweeps
+            } else {
+                sweeps
+            };
+            for _ in 1..made {
+                halo.exchange_sweep(layout, None);
+            }
+        }
         let checked = match s {
             Some(s) => s.map_err(err)?.checked_residuals(),
             None => Residuals::default(),

@@ -6,7 +6,7 @@
 use std::collections::HashSet;
 
 use crate::estimate::equilibrate::{
-    sweep_key, Boundary, BoundaryEdge, OperatorCache, Restriction, StarChoice, NT,
+    sweep_key, Boundary, BoundaryEdge, OperatorCache, Restriction, StarChoice, SweepValues, NT,
 };
 use crate::fem::mesh::Mesh;
 use crate::parallel::layout::Layout;
@@ -103,6 +103,31 @@ impl Halo {
                     .map(|c| c.try_into().expect("NT values"))
                     .collect();
                 cache.set_warm_values(l, &values);
+            }
+        }
+    }
+}
+
+impl Halo {
+    /// Between two sweeps of a recovery on the sub-mesh: give the elements this rank holds
+    /// but does not own their owners' current traction values (`values`: the recovery's;
+    /// none on a rank that holds none of the body's elements, which only takes part).
+    /// Collective over the halo's communicator.
+    pub fn exchange_sweep(&self, layout: &Layout, values: Option<&mut SweepValues>) {
+        let send: Vec<Vec<f64>> = self
+            .send
+            .iter()
+            .map(|l| match &values {
+                Some(v) => l.iter().flat_map(|&e| v.get(e)).collect(),
+                None => Vec::new(),
+            })
+            .collect();
+        let got = layout.exchange(self.world, &send);
+        if let Some(v) = values {
+            for (l, vals) in self.recv.iter().zip(&got) {
+                for (&e, c) in l.iter().zip(vals.chunks_exact(NT)) {
+                    v.set(e, c.try_into().expect("NT values"));
+                }
             }
         }
     }
@@ -227,6 +252,19 @@ impl Overlap {
         }
     }
 
+    /// Rings of overlap for which the recovery is exact on the own elements when the
+    /// elements held but not owned take their owners' traction values between two sweeps
+    /// ([`Halo::exchange_sweep`]): `2 + colours` for `PatchTraction` (the argument of
+    /// [`Overlap::rings_for`] for one sweep: after each exchange the whole sub-mesh is exact
+    /// again, but for the star problems' outer ring), as `rings_for` otherwise (no
+    /// exchanges).
+    pub fn rings_exchanged(choice: StarChoice, colours: usize) -> usize {
+        match choice {
+            StarChoice::PatchTraction { .. } => 2 + colours,
+            _ => Self::rings_for(choice, colours),
+        }
+    }
+
     /// Sub-mesh index of the global node g.
     fn local_node(&self, g: usize) -> Option<usize> {
         self.nodes.binary_search(&g).ok()
@@ -278,9 +316,20 @@ impl Overlap {
 
     /// The restriction to pass to `equilibrate_restricted`.
     pub fn restriction(&self) -> Restriction<'_> {
+        self.restriction_with(None)
+    }
+
+    /// [`Overlap::restriction`] with a halo exchange between sweeps
+    /// ([`Restriction::between_sweeps`]; the overlap then needs
+    /// [`Overlap::rings_exchanged`] rings only).
+    pub fn restriction_with<'a>(
+        &'a self,
+        between_sweeps: Option<&'a dyn Fn(&mut SweepValues)>,
+    ) -> Restriction<'a> {
         Restriction {
             vertex_key: &self.vertex_key,
             owned: &self.owned,
+            between_sweeps,
         }
     }
 }

@@ -13,36 +13,59 @@ use crate::estimate::overlap::{colour_count, Halo, Overlap};
 use crate::fem::mesh::Mesh;
 use crate::parallel::layout::Layout;
 
-/// The world rank estimating each element of each body: the elements of body 1 then body 2,
-/// each body's in slabs along the longer side of its bounding box (by barycentre, then index),
-/// dealt in order into `ranks` shares of equal size. Two bodies of equal size on two ranks
-/// get one rank each; a larger body spills over into the other body's ranks.
+/// The world rank estimating each element of each body. Each body's elements in slabs along
+/// the longer side of its bounding box (by barycentre, then index): the elements of body 1
+/// then body 2 dealt in order into `ranks` shares of equal size, when no rank gets elements
+/// of both bodies (two bodies of equal size on an even number of ranks: each body on its own
+/// ranks); else each body dealt over all `ranks` in equal shares. The ranks that share a body
+/// recover it in step (their overlaps exchange values between sweeps, `Halo::exchange_sweep`),
+/// so each must hold an equal part of it: a rank with parts of two bodies would keep the
+/// others of one body waiting while it recovers the other.
 pub fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
+    let slabs = meshes.map(slab_order);
     let total: usize = meshes.iter().map(|m| m.triangles.len()).sum();
     let mut position = 0;
-    meshes.map(|mesh| {
-        let nt = mesh.triangles.len();
-        let centre = |e: usize| {
-            let p = mesh.triangle_points(e);
-            [0, 1].map(|c| (p[0][c] + p[1][c] + p[2][c]) / 3.0)
-        };
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in &mesh.points {
-            for c in 0..2 {
-                lo[c] = lo[c].min(p[c]);
-                hi[c] = hi[c].max(p[c]);
-            }
-        }
-        let axis = if hi[0] - lo[0] >= hi[1] - lo[1] { 0 } else { 1 };
-        let mut order: Vec<(f64, usize)> = (0..nt).map(|e| (centre(e)[axis], e)).collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut owner = vec![0u32; nt];
-        for (q, &(_, e)) in order.iter().enumerate() {
+    let dealt = slabs.clone().map(|order| {
+        let mut owner = vec![0u32; order.len()];
+        for (q, &e) in order.iter().enumerate() {
             owner[e] = ((position + q) * ranks / total.max(1)) as u32;
         }
-        position += nt;
+        position += order.len();
+        owner
+    });
+    let shared = dealt[0].iter().any(|r| dealt[1].contains(r));
+    if !shared {
+        return dealt;
+    }
+    slabs.map(|order| {
+        let mut owner = vec![0u32; order.len()];
+        for (q, &e) in order.iter().enumerate() {
+            owner[e] = (q * ranks / order.len().max(1)) as u32;
+        }
         owner
     })
+}
+
+/// The elements of `mesh` in slab order: by the barycentre's coordinate along the longer side
+/// of the bounding box, then by index.
+fn slab_order(mesh: &Mesh) -> Vec<usize> {
+    let centre = |e: usize| {
+        let p = mesh.triangle_points(e);
+        [0, 1].map(|c| (p[0][c] + p[1][c] + p[2][c]) / 3.0)
+    };
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in &mesh.points {
+        for c in 0..2 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let axis = if hi[0] - lo[0] >= hi[1] - lo[1] { 0 } else { 1 };
+    let mut order: Vec<(f64, usize)> = (0..mesh.triangles.len())
+        .map(|e| (centre(e)[axis], e))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    order.into_iter().map(|(_, e)| e).collect()
 }
 
 /// This rank's part in the estimates of one body.
@@ -92,7 +115,8 @@ impl Share {
             (true, true) => {
                 let colours = vertex_colours(mesh);
                 let own: Vec<bool> = owner.iter().map(|&r| r as usize == me).collect();
-                let rings = Overlap::rings_for(recovery, colour_count(&colours));
+                // The recovery exchanges the overlap's values between sweeps.
+                let rings = Overlap::rings_exchanged(recovery, colour_count(&colours));
                 let overlap = Overlap::new(mesh, &own, rings, &colours);
                 let halo = Halo::new(Some(&overlap), &scoped, crosses, layout);
                 Share::Part(overlap, halo)
@@ -116,20 +140,27 @@ mod tests {
     use super::*;
 
     #[test]
-    fn equal_bodies_get_a_rank_each_and_a_larger_one_spills_over() {
+    fn equal_bodies_get_ranks_of_their_own_else_every_body_is_dealt_over_all_ranks() {
         let a = Mesh::structured([0.0, 0.0], [1.0, 1.0], 8, 8);
         let b = Mesh::structured([0.0, 1.0], [1.0, 1.0], 8, 8);
         let [o1, o2] = estimate_owners([&a, &b], 2);
         assert!(o1.iter().all(|&r| r == 0) && o2.iter().all(|&r| r == 1));
         let [o1, o2] = estimate_owners([&a, &b], 1);
         assert!(o1.iter().chain(&o2).all(|&r| r == 0));
-        // Body 1 three times body 2's size on 2 ranks: rank 0 gets 2/3 of body 1, rank 1 the
-        // rest and body 2; the cut is a straight slab (by barycentre along x).
+        // 4 ranks: two per body, in halves.
+        let [o1, o2] = estimate_owners([&a, &b], 4);
+        for (o, ranks) in [(&o1, [0, 1]), (&o2, [2, 3])] {
+            for r in ranks {
+                assert_eq!(o.iter().filter(|&&x| x == r).count(), o.len() / 2);
+            }
+        }
+        // Body 1 three times body 2's size on 2 ranks: each body in halves, straight slabs
+        // (by barycentre along x).
         let big = Mesh::structured([0.0, 0.0], [3.0, 1.0], 24, 8);
         let [o1, o2] = estimate_owners([&big, &b], 2);
-        let on0 = o1.iter().filter(|&&r| r == 0).count();
-        assert_eq!(on0, (big.triangles.len() + b.triangles.len()) / 2);
-        assert!(o2.iter().all(|&r| r == 1));
+        for o in [&o1, &o2] {
+            assert_eq!(o.iter().filter(|&&r| r == 0).count(), o.len() / 2);
+        }
         let x = |e: usize| big.triangle_points(e).iter().map(|p| p[0]).sum::<f64>() / 3.0;
         let cut0 = (0..o1.len())
             .filter(|&e| o1[e] == 0)
@@ -140,15 +171,23 @@ mod tests {
             .map(x)
             .fold(f64::MAX, f64::min);
         assert!(cut0 <= cut1, "{cut0} > {cut1}");
-        // Any rank count: every rank gets its share to within one element.
-        for ranks in [3, 4, 6, 7] {
-            let [o1, o2] = estimate_owners([&big, &b], ranks);
-            let mut count = vec![0usize; ranks];
-            for &r in o1.iter().chain(&o2) {
-                count[r as usize] += 1;
+        // Any rank count: the ranks holding a body hold equal parts of it (to within one
+        // element: they recover it in step), and a rank holds two bodies only when every body
+        // is over all ranks (equal bodies on 3 ranks too: the middle rank would have both).
+        for (m1, ranks) in [(&big, 3), (&big, 4), (&big, 6), (&big, 7), (&a, 3)] {
+            let owners = estimate_owners([m1, &b], ranks);
+            let mut holds = vec![[0usize; 2]; ranks];
+            for (k, o) in owners.iter().enumerate() {
+                for &r in o.iter() {
+                    holds[r as usize][k] += 1;
+                }
+                let counts: Vec<usize> = holds.iter().map(|h| h[k]).filter(|&c| c > 0).collect();
+                let (lo, hi) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
+                assert!(hi - lo <= 1, "{ranks} ranks, body {}: {counts:?}", k + 1);
             }
-            let (lo, hi) = (count.iter().min().unwrap(), count.iter().max().unwrap());
-            assert!(hi - lo <= 1, "{ranks} ranks: {count:?}");
+            let both = holds.iter().any(|h| h[0] > 0 && h[1] > 0);
+            let everywhere = holds.iter().all(|h| h[0] > 0 && h[1] > 0);
+            assert!(!both || everywhere, "{ranks} ranks: {holds:?}");
         }
     }
 }

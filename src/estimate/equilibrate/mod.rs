@@ -135,6 +135,10 @@ pub struct OperatorCache {
     /// body's displacement there, to decide whether the next one is close enough to start
     /// warm).
     pub warm_data: Option<Vec<f64>>,
+    /// The caller's decision for the next recovery: it starts warm (near the last one's
+    /// data); a rank that holds none of a split body's elements makes as many exchanges
+    /// between sweeps as the others by it (`cre::View`).
+    pub starts_warm: bool,
     /// The material the operators were built for (they are rebuilt for another).
     material: Option<Material>,
 }
@@ -392,7 +396,7 @@ pub enum EquilibrationError {
 /// one ring): then every sub-mesh boundary edge of an owned element is a real boundary edge,
 /// and the residual checks of [`EquilibratedStress::residuals_restricted`] never see the
 /// artificial boundary.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy)]
 pub struct Restriction<'a> {
     /// Sweep-order key of every vertex of the sub-mesh: [`sweep_key`] of its colour in the
     /// FULL mesh ([`vertex_colours`]) and its global index.
@@ -401,6 +405,44 @@ pub struct Restriction<'a> {
     /// the FE-equilibrium defect, the point reactions and the energies of the statistics are
     /// measured only there.
     pub owned: &'a [bool],
+    /// Called between two sweeps of a `PatchTraction` recovery (not before the first): a
+    /// halo exchange that gives the elements the rank does not own their owners' traction
+    /// values ([`SweepValues`]), so that the overlap needs the rings of one sweep only
+    /// (`overlap::Overlap::rings_exchanged`). Collective: every rank of the exchange must
+    /// make as many calls.
+    pub between_sweeps: Option<&'a dyn Fn(&mut SweepValues)>,
+}
+
+/// The traction values of a `PatchTraction` recovery between two sweeps, element by element
+/// (the 12 values of a sub-mesh element in its own orientation, as [`plan`] gathers them):
+/// what [`Restriction::between_sweeps`] reads and overwrites. Writing an element's values
+/// moves the warm start's change δ with them (t − δ, the start, is kept).
+pub struct SweepValues<'a> {
+    plan: &'a plan::Plan,
+    topo: &'a topology::Topology,
+    trac: &'a mut [f64],
+    change: &'a mut [f64],
+}
+
+impl SweepValues<'_> {
+    /// The 12 traction values of sub-mesh element l.
+    pub fn get(&self, l: usize) -> [f64; NT] {
+        self.plan.element_values(self.topo, self.trac, l)
+    }
+
+    /// Overwrite the 12 traction values of sub-mesh element l (an edge shared with another
+    /// element changes for both).
+    pub fn set(&mut self, l: usize, v: &[f64; NT]) {
+        if !self.change.is_empty() {
+            let old = self.get(l);
+            let mut d = self.plan.element_values(self.topo, self.change, l);
+            for j in 0..NT {
+                d[j] += v[j] - old[j];
+            }
+            self.plan.set_element_values(self.topo, self.change, l, &d);
+        }
+        self.plan.set_element_values(self.topo, self.trac, l, v);
+    }
 }
 
 /// Equilibrium check of an [`EquilibratedStress`]; every entry is relative to max |σ̂| (the

@@ -283,7 +283,8 @@ impl Plan {
     /// `sweeps` symmetric Gauss–Seidel sweeps (forward in the even ones, backward in the
     /// odd ones) on the flat edge tractions `trac` (4 g + 2 end + k), with the step
     /// coefficients `a` ([`Plan::loads`]) and the patch operators `ops`; every change is
-    /// also added to `change` (a warm start's δ, [`Warm`]) unless it is empty.
+    /// also added to `change` (a warm start's δ, [`Warm`]) unless it is empty. `between`
+    /// is called between two sweeps ([`super::Restriction::between_sweeps`]).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn sweep(
         &self,
@@ -293,11 +294,20 @@ impl Plan {
         trac: &mut [f64],
         change: &mut [f64],
         sweeps: usize,
+        between: Option<&dyn Fn(&mut super::SweepValues)>,
     ) {
         let track = !change.is_empty();
         let nv = self.vop.len();
         let mut te: Vec<[f64; NT]> = Vec::with_capacity(16);
         for s in 0..sweeps {
+            if let (true, Some(f)) = (s > 0, between) {
+                f(&mut super::SweepValues {
+                    plan: self,
+                    topo,
+                    trac: &mut *trac,
+                    change: &mut *change,
+                });
+            }
             for v in 0..nv {
                 let v = if s % 2 == 0 { v } else { nv - 1 - v };
                 te.clear();

@@ -367,7 +367,8 @@ pub fn equilibrate_restricted(
                     warm = Some(Warm::zero(fp, flat.len()));
                 }
                 let change = warm.as_mut().map_or(&mut [][..], |w| w.delta_mut());
-                plan.sweep(&topo, &relax.ops, &a, flat, change, sweeps);
+                let between = restriction.and_then(|r| r.between_sweeps);
+                plan.sweep(&topo, &relax.ops, &a, flat, change, sweeps, between);
                 if warm_sweeps > 0 {
                     operators.warm = warm;
                 }
@@ -456,6 +457,7 @@ mod tests {
             .collect();
         let owned = vec![true; mesh.triangles.len()];
         let all = Restriction {
+            between_sweeps: None,
             vertex_key: &keys,
             owned: &owned,
         };
@@ -467,6 +469,7 @@ mod tests {
             Err(EquilibrationError::RestrictedMinimumEnergy)
         ));
         let short = Restriction {
+            between_sweeps: None,
             vertex_key: &keys[1..],
             ..all
         };
