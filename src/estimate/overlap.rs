@@ -35,13 +35,14 @@ pub struct Overlap {
     pub vertex_key: Vec<u64>,
 }
 
-/// The warm-start exchange of a body split over several ranks (issue 11). A warm recovery
+/// The exchanges of a body split over several ranks (issue 11). A warm recovery
 /// (`StarChoice::PatchTraction`) starts from the change δ of the previous recovery of the
 /// same cache; on a sub-mesh, δ is exact on the own elements only. Before a warm recovery,
 /// [`Halo::refresh`] gives every sub-mesh element that the rank does not own its owner's
 /// values of δ, so the start is exact on the whole sub-mesh (up to the averaged-traction
-/// field's last ring) and the overlap needs the rings of one recovery's sweeps, however many
-/// recoveries the warm start has been carried through ([`Overlap::rings_for`]).
+/// field's last ring), however many recoveries the warm start has been carried through.
+/// Between two sweeps [`Halo::exchange_sweep`] does the same with the traction values, so
+/// the overlap needs the rings of one sweep ([`Overlap::rings_exchanged`]).
 pub struct Halo {
     /// Over all ranks (a body estimated outside its group), else over its group.
     world: bool,

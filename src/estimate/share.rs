@@ -4,8 +4,9 @@
 //! rank busy while the other waits (Hertz level 6: 25 s of 40). The Neumann re-solves stay on
 //! each body's group; their fields go to the other ranks that estimate elements of the body
 //! (`cre::BodyFields`). Each rank recovers on its elements plus the overlap that makes the
-//! recovery there exactly the one-rank one ([`Overlap`]), so the estimates do not depend on
-//! the assignment.
+//! recovery there exactly the one-rank one ([`Overlap`], its values exchanged between sweeps,
+//! [`Halo::exchange_sweep`]), so the estimates do not depend on the assignment; the ranks
+//! that share a body recover it in step.
 
 use crate::estimate::cre::View;
 use crate::estimate::equilibrate::{vertex_colours, StarChoice};
