@@ -34,7 +34,13 @@ pub fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
         position += order.len();
         owner
     });
-    let shared = dealt[0].iter().any(|r| dealt[1].contains(r));
+    let mut holds = vec![[false; 2]; ranks];
+    for (k, owner) in dealt.iter().enumerate() {
+        for &r in owner {
+            holds[r as usize][k] = true;
+        }
+    }
+    let shared = holds.iter().any(|h| h[0] && h[1]);
     if !shared {
         return dealt;
     }
