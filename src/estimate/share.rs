@@ -26,7 +26,7 @@ pub fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
     let slabs = meshes.map(slab_order);
     let total: usize = meshes.iter().map(|m| m.triangles.len()).sum();
     let mut position = 0;
-    let dealt = slabs.clone().map(|order| {
+    let dealt = [&slabs[0], &slabs[1]].map(|order| {
         let mut owner = vec![0u32; order.len()];
         for (q, &e) in order.iter().enumerate() {
             owner[e] = ((position + q) * ranks / total.max(1)) as u32;
