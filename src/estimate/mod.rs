@@ -380,33 +380,22 @@ impl Estimator<'_> {
                 Some((k, ElementWork::new(&self.problems[k], &fields[k], view)))
             })
             .collect();
-        if !fe_only {
-            for (k, w) in &works {
+        // Before each recovery, every body's is prepared (η^FE's data when `fe`).
+        let prepare = |works: &[(usize, ElementWork)], fe: bool| {
+            for (k, w) in works {
                 let view = views[*k].as_ref().expect("a view");
+                let u = if fe { w.fe_data() } else { w.glo_data() };
                 let ops = &mut self.operators[*k].borrow_mut();
-                view.prepare(
-                    &self.problems[*k],
-                    w.glo_data(),
-                    self.recovery,
-                    self.warm_change,
-                    ops,
-                );
+                view.prepare(&self.problems[*k], u, self.recovery, self.warm_change, ops);
             }
+        };
+        if !fe_only {
+            prepare(&works, false);
             for (k, w) in works.iter_mut() {
                 w.glo(&data, &mut self.operators[*k].borrow_mut(), &self.parts)?;
             }
         }
-        for (k, w) in &works {
-            let view = views[*k].as_ref().expect("a view");
-            let ops = &mut self.operators[*k].borrow_mut();
-            view.prepare(
-                &self.problems[*k],
-                w.fe_data(),
-                self.recovery,
-                self.warm_change,
-                ops,
-            );
-        }
+        prepare(&works, true);
         for (k, w) in works.iter_mut() {
             w.fe(
                 &self.iface,

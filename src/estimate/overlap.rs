@@ -91,31 +91,25 @@ impl Halo {
     /// (`OperatorCache::warm_values`); nothing where no warm start is held (the ranks make
     /// the same recoveries, so they hold one alike). Collective over its communicator.
     pub fn refresh(&self, layout: &Layout, cache: &mut OperatorCache) {
-        let send: Vec<Vec<f64>> = self
+        let send = self
             .send
             .iter()
             .map(|l| cache.warm_values(l).map_or(Vec::new(), |v| v.concat()))
             .collect();
-        let got = layout.exchange(self.world, &send);
-        for (l, v) in self.recv.iter().zip(&got) {
+        for (l, v) in self.trade(layout, send) {
             if !l.is_empty() && v.len() == l.len() * NT {
-                let values: Vec<[f64; NT]> = v
-                    .chunks_exact(NT)
-                    .map(|c| c.try_into().expect("NT values"))
-                    .collect();
+                let values: Vec<[f64; NT]> = v.chunks_exact(NT).map(element_values).collect();
                 cache.set_warm_values(l, &values);
             }
         }
     }
-}
 
-impl Halo {
     /// Between two sweeps of a recovery on the sub-mesh: give the elements this rank holds
     /// but does not own their owners' current traction values (`values`: the recovery's;
     /// none on a rank that holds none of the body's elements, which only takes part).
-    /// Collective over the halo's communicator.
-    pub fn exchange_sweep(&self, layout: &Layout, values: Option<&mut SweepValues>) {
-        let send: Vec<Vec<f64>> = self
+    /// Collective over its communicator.
+    pub fn exchange_sweep(&self, layout: &Layout, mut values: Option<&mut SweepValues>) {
+        let send = self
             .send
             .iter()
             .map(|l| match &values {
@@ -123,15 +117,30 @@ impl Halo {
                 None => Vec::new(),
             })
             .collect();
-        let got = layout.exchange(self.world, &send);
-        if let Some(v) = values {
-            for (l, vals) in self.recv.iter().zip(&got) {
-                for (&e, c) in l.iter().zip(vals.chunks_exact(NT)) {
-                    v.set(e, c.try_into().expect("NT values"));
+        for (l, v) in self.trade(layout, send) {
+            if let Some(values) = values.as_mut() {
+                for (&e, c) in l.iter().zip(v.chunks_exact(NT)) {
+                    values.set(e, &element_values(c));
                 }
             }
         }
     }
+
+    /// Send each rank `send` (per rank, the 12 values of each element in its `send` list),
+    /// and pair each list of elements held but not owned with the values its owner sent.
+    fn trade<'h>(
+        &'h self,
+        layout: &Layout,
+        send: Vec<Vec<f64>>,
+    ) -> impl Iterator<Item = (&'h [usize], Vec<f64>)> {
+        let got = layout.exchange(self.world, &send);
+        self.recv.iter().map(Vec::as_slice).zip(got)
+    }
+}
+
+/// The 12 values of one element from an exchanged buffer.
+fn element_values(c: &[f64]) -> [f64; NT] {
+    c.try_into().expect("NT values")
 }
 
 /// Number of colours of a colouring (`equilibrate::vertex_colours`).
