@@ -226,6 +226,7 @@ fn iterative_and_out_of_core_options_on_three_ranks_agree_with_mumps() {
                 "12",
                 "-nndd_monitor",
                 "0",
+                "-nndd_estimate",
                 "-nndd_estimate_every",
                 "0",
                 "-nndd_reference_factor",
@@ -254,6 +255,17 @@ fn iterative_and_out_of_core_options_on_three_ranks_agree_with_mumps() {
     let ds = "/steps/0/body2/displacement";
     let d = rel_max_diff(&h5(&dir.join("gamg"), ds), &h5(&dir.join("mumps"), ds));
     assert!(d < 1e-8, "displacements differ by {d:e}");
+    // The estimates' re-solves: one multiple-right-hand-side solve with MUMPS (body 1 over
+    // two ranks), one solve per column with CG.
+    let last = |j: &serde_json::Value, k: &str| {
+        j["estimates"].as_array().unwrap().last().unwrap()[k]
+            .as_f64()
+            .unwrap()
+    };
+    for k in ["eta_glo", "eta_fe"] {
+        let (a, b) = (last(&cg, k), last(&direct, k));
+        assert!(((a - b) / b).abs() < 1e-9, "{k}: CG+GAMG {a} vs MUMPS {b}");
+    }
     // The low-memory variant: MUMPS with its factors out of core, the same solve.
     let ooc = run("petsc-options/out-of-core.opts", "ooc");
     assert_eq!(ooc["iterations"], direct["iterations"]);

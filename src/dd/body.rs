@@ -271,17 +271,15 @@ impl Body {
             .map_err(|source| BodyError::Schur { alpha, source })
     }
 
-    /// Solve `system` with right-hand side `load` (in the nodal frames) and prescribed values:
-    /// Γ_D data (or zero when `homogeneous`) and, for the Dirichlet system, `gc_values` on the
-    /// Γc normal dofs. The solution stays in the PETSc vector `x`; returns the prescribed
-    /// (dof, value) pairs (frame dofs).
-    fn solve(
+    /// The right-hand side (this rank's rows) of `load` (in the nodal frames) with prescribed
+    /// values: Γ_D data (or zero when `homogeneous`) and `gc_values` on the Γc normal dofs;
+    /// and the prescribed (dof, value) pairs (frame dofs).
+    fn right_hand_side(
         &self,
-        system: System,
         load: &[f64],
         homogeneous: bool,
         gc_values: Option<&[f64]>,
-    ) -> Result<Vec<(usize, f64)>, BodyError> {
+    ) -> Result<(Vec<f64>, Vec<(usize, f64)>), BodyError> {
         let ndof = load.len();
         // x_g: the prescribed values, zero elsewhere; rhs = load − K x_g, prescribed rows = diag·g.
         let mut g = vec![0.0; ndof];
@@ -309,6 +307,37 @@ impl Body {
         for &(dof, v) in &fixed {
             rhs[dof] = self.diag * v;
         }
+        Ok((self.partition.local_part(&rhs), fixed))
+    }
+
+    /// A failed solve of `system` as an error.
+    fn check_reason(&self, system: System, reason: i32) -> Result<(), BodyError> {
+        if reason < 0 {
+            return Err(BodyError::NotConverged {
+                alpha: self.alpha(),
+                system: if system == System::Neumann {
+                    "Neumann"
+                } else {
+                    "Dirichlet"
+                },
+                reason,
+            });
+        }
+        Ok(())
+    }
+
+    /// Solve `system` with right-hand side `load` (in the nodal frames) and prescribed values:
+    /// Γ_D data (or zero when `homogeneous`) and, for the Dirichlet system, `gc_values` on the
+    /// Γc normal dofs. The solution stays in the PETSc vector `x`; returns the prescribed
+    /// (dof, value) pairs (frame dofs).
+    fn solve(
+        &self,
+        system: System,
+        load: &[f64],
+        homogeneous: bool,
+        gc_values: Option<&[f64]>,
+    ) -> Result<Vec<(usize, f64)>, BodyError> {
+        let (rhs, fixed) = self.right_hand_side(load, homogeneous, gc_values)?;
         let ksp = match system {
             System::Neumann => &self.neumann,
             System::Dirichlet => self
@@ -318,20 +347,10 @@ impl Body {
         };
         let mut b = self.b.borrow_mut();
         let mut x = self.x.borrow_mut();
-        b.copy_from(&self.partition.local_part(&rhs))?;
+        b.copy_from(&rhs)?;
         let info = ksp.solve(&b, &mut x)?;
         self.solves.set(self.solves.get() + 1);
-        if info.reason < 0 {
-            return Err(BodyError::NotConverged {
-                alpha: self.alpha(),
-                system: if system == System::Neumann {
-                    "Neumann"
-                } else {
-                    "Dirichlet"
-                },
-                reason: info.reason,
-            });
-        }
+        self.check_reason(system, info.reason)?;
         Ok(fixed)
     }
 
@@ -405,6 +424,35 @@ impl Body {
         let load = self.neumann_load(gc_forces, with_data);
         let fixed = self.solve(System::Neumann, &load, !with_data, None)?;
         self.solution(&fixed)
+    }
+
+    /// [`Body::neumann_solve`] for several Γc force vectors at once, all with the body's data
+    /// (the estimates' re-solves): one multiple-right-hand-side solve, which with a
+    /// factorisation reads the factor once for all of them.
+    pub fn neumann_solve_many(&self, gc_forces: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, BodyError> {
+        let mut columns = Vec::with_capacity(gc_forces.len());
+        let mut fixed = Vec::new();
+        for f in gc_forces {
+            let (rhs, fx) = self.right_hand_side(&self.neumann_load(f, true), false, None)?;
+            columns.push(rhs);
+            fixed = fx;
+        }
+        if columns.len() < 2 {
+            return gc_forces
+                .iter()
+                .map(|f| self.neumann_solve(f, true))
+                .collect();
+        }
+        let (solved, reason) = self.neumann.solve_many(self.comm, &columns)?;
+        self.solves.set(self.solves.get() + solved.len());
+        self.check_reason(System::Neumann, reason)?;
+        solved
+            .iter()
+            .map(|x| {
+                self.x.borrow_mut().copy_from(x)?;
+                self.solution(&fixed)
+            })
+            .collect()
     }
 
     /// The normal Γc trace of [`Body::neumann_solve`]'s solution, gathered alone.

@@ -221,18 +221,29 @@ pub fn body_fields<'a>(
         u_p: std::borrow::Cow::Borrowed(u_p),
         ..Default::default()
     };
+    // One multiple-right-hand-side solve for all of them.
     parts.run(Part::Resolves, || {
+        let mut loads = Vec::with_capacity(3);
         if !data.fe_only {
             let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
-            f.u_tilde = body.neumann_solve(&iface.forces(&t_alpha), true)?;
+            loads.push(iface.forces(&t_alpha));
             if data.nndd_variant == NnddVariant::Discrete {
-                let m: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
-                f.u_d = body.neumann_solve(&m, true)?;
+                loads.push(data.mu_hat.iter().map(|m| -sign * m).collect());
             }
         }
         if alpha == 2 {
             let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
-            f.u_fe = body.neumann_solve(&iface.forces(&t2), true)?;
+            loads.push(iface.forces(&t2));
+        }
+        let mut solved = body.neumann_solve_many(&loads)?.into_iter();
+        if !data.fe_only {
+            f.u_tilde = solved.next().expect("ũ");
+            if data.nndd_variant == NnddVariant::Discrete {
+                f.u_d = solved.next().expect("ũ_d");
+            }
+        }
+        if alpha == 2 {
+            f.u_fe = solved.next().expect("ũ_FE");
         }
         Ok::<_, EstimateError>(())
     })?;

@@ -816,6 +816,75 @@ impl Ksp {
         Ok((out, reason))
     }
 
+    /// Whether the solver is a factorisation applied once (`preonly`).
+    pub fn is_direct(&self) -> Result<bool> {
+        let mut t: ffi::KSPType = ptr::null();
+        call!(KSPGetType(self.ksp, &mut t))?;
+        Ok(unsafe { CStr::from_ptr(t) }.to_bytes() == b"preonly")
+    }
+
+    /// Solve A X = B for the columns of B. A factorisation (`preonly`) solves them at once
+    /// (`KSPMatSolve`: one multiple-right-hand-side solve, which reads the factor once); an
+    /// iterative solver one by one, so that each column's convergence is checked. `columns`
+    /// are this rank's rows of B's columns, each `local` long; returns this rank's rows of X's
+    /// columns and the worst converged reason.
+    pub fn solve_many(&self, comm: Comm, columns: &[Vec<f64>]) -> Result<(Vec<Vec<f64>>, i32)> {
+        if !self.is_direct()? {
+            let mut reason = 1;
+            let mut out = Vec::with_capacity(columns.len());
+            for col in columns {
+                let mut b = Vector::new(comm, col.len())?;
+                b.copy_from(col)?;
+                let mut x = b.duplicate()?;
+                reason = reason.min(self.solve(&b, &mut x)?.reason);
+                out.push(x.to_vec()?);
+            }
+            return Ok((out, reason));
+        }
+        let nb = columns.len();
+        let local = columns.first().map_or(0, |c| c.len());
+        let dense = || -> Result<Matrix> {
+            let mut m: ffi::Mat = ptr::null_mut();
+            call!(MatCreateDense(
+                comm.0,
+                local as Int,
+                -1,
+                PETSC_DETERMINE,
+                nb as Int,
+                ptr::null_mut(),
+                &mut m
+            ))?;
+            Ok(Matrix(m))
+        };
+        let (b, x) = (dense()?, dense()?);
+        let mut a: *mut f64 = ptr::null_mut();
+        call!(MatDenseGetArray(b.0, &mut a))?;
+        // SAFETY: a dense matrix PETSc allocated with `local` rows and `nb` columns on this
+        // rank, column-major with leading dimension `local`, writable until the restore.
+        let values = unsafe { std::slice::from_raw_parts_mut(a, local * nb) };
+        for (c, col) in columns.iter().enumerate() {
+            assert_eq!(col.len(), local, "right-hand side length mismatch");
+            values[c * local..(c + 1) * local].copy_from_slice(col);
+        }
+        call!(MatDenseRestoreArray(b.0, &mut a))?;
+        call!(MatAssemblyBegin(b.0, ffi::MAT_FINAL_ASSEMBLY))?;
+        call!(MatAssemblyEnd(b.0, ffi::MAT_FINAL_ASSEMBLY))?;
+        call!(MatAssemblyBegin(x.0, ffi::MAT_FINAL_ASSEMBLY))?;
+        call!(MatAssemblyEnd(x.0, ffi::MAT_FINAL_ASSEMBLY))?;
+        call!(KSPMatSolve(self.ksp, b.0, x.0))?;
+        let mut reason = ffi::KSP_CONVERGED_ITERATING;
+        call!(KSPGetConvergedReason(self.ksp, &mut reason))?;
+        let mut r: *const f64 = ptr::null();
+        call!(MatDenseGetArrayRead(x.0, &mut r))?;
+        // SAFETY: as above, readable until the restore.
+        let values = unsafe { std::slice::from_raw_parts(r, local * nb) };
+        let out = (0..nb)
+            .map(|c| values[c * local..(c + 1) * local].to_vec())
+            .collect();
+        call!(MatDenseRestoreArrayRead(x.0, &mut r))?;
+        Ok((out, reason))
+    }
+
     /// Solve A x = b.
     pub fn solve(&self, b: &Vector, x: &mut Vector) -> Result<SolveInfo> {
         call!(KSPSolve(self.ksp, b.0, x.0))?;
