@@ -66,6 +66,9 @@ pub enum System {
     Dirichlet,
 }
 
+/// Prescribed (frame dof, value) pairs of a solve.
+type Prescribed = Vec<(usize, f64)>;
+
 pub struct Body {
     /// The body's problem, shared with the run (which keeps both bodies' geometry).
     pub problem: Rc<BodyProblem>,
@@ -279,7 +282,7 @@ impl Body {
         load: &[f64],
         homogeneous: bool,
         gc_values: Option<&[f64]>,
-    ) -> Result<(Vec<f64>, Vec<(usize, f64)>), BodyError> {
+    ) -> Result<(Vec<f64>, Prescribed), BodyError> {
         let ndof = load.len();
         // x_g: the prescribed values, zero elsewhere; rhs = load − K x_g, prescribed rows = diag·g.
         let mut g = vec![0.0; ndof];
