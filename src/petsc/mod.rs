@@ -146,6 +146,22 @@ impl Petsc {
         }
         r.ru_maxrss as f64 * 1024.0 // kilobytes on Linux
     }
+
+    /// Give the heap's free pages back to the system (glibc's `malloc_trim`) when at least
+    /// `min_bytes` are free in it. Arrays under glibc's mmap threshold (which grows to 32 MiB
+    /// as large blocks are freed) live in the heap and stay resident after they are freed, so
+    /// without this a phase's freed arrays still count when the next phase allocates others.
+    /// Below the threshold the pages are kept: faulting them in again costs more than they
+    /// weigh.
+    pub fn release_free_memory(min_bytes: usize) {
+        // SAFETY: mallinfo2 only reads the allocator's statistics, and malloc_trim only
+        // returns unused pages of its own heaps.
+        unsafe {
+            if libc::mallinfo2().fordblks >= min_bytes {
+                libc::malloc_trim(0);
+            }
+        }
+    }
 }
 
 impl Drop for Petsc {
