@@ -342,8 +342,15 @@ fn method_md_eta_nndd_does_not_vanish_the_discrete_one_does() {
         "density η^NNDD {}",
         g(&m, "eta_nndd")
     );
-    // η^glo and η^FE do not depend on the variant.
-    assert_eq!(g(&d, "eta_glo"), g(&m, "eta_glo"));
-    assert_eq!(g(&d, "eta_fe"), g(&m, "eta_fe"));
+    // η^glo and η^FE do not depend on the variant (to round-off: the discrete variant adds
+    // ũ_d to the body's multiple-right-hand-side re-solve, whose columns then come out of
+    // MUMPS a few ulps apart from those of a smaller batch).
+    for k in ["eta_glo", "eta_fe"] {
+        let (a, b) = (g(&d, k), g(&m, k));
+        assert!(
+            ((a - b) / b).abs() < 1e-12,
+            "{k}: discrete {a} vs density {b}"
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

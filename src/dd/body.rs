@@ -433,18 +433,18 @@ impl Body {
     /// (the estimates' re-solves): one multiple-right-hand-side solve, which with a
     /// factorisation reads the factor once for all of them.
     pub fn neumann_solve_many(&self, gc_forces: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, BodyError> {
+        if gc_forces.len() < 2 {
+            return gc_forces
+                .iter()
+                .map(|f| self.neumann_solve(f, true))
+                .collect();
+        }
         let mut columns = Vec::with_capacity(gc_forces.len());
         let mut fixed = Vec::new();
         for f in gc_forces {
             let (rhs, fx) = self.right_hand_side(&self.neumann_load(f, true), false, None)?;
             columns.push(rhs);
             fixed = fx;
-        }
-        if columns.len() < 2 {
-            return gc_forces
-                .iter()
-                .map(|f| self.neumann_solve(f, true))
-                .collect();
         }
         let (solved, reason) = self.neumann.solve_many(self.comm, &columns)?;
         self.solves.set(self.solves.get() + solved.len());
