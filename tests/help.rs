@@ -92,3 +92,33 @@ fn log_view_shows_the_stages() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `nndd -help | head -1`: the reader closes the pipe first; the process ends quietly by
+/// SIGPIPE, as `cat` does, not through PETSc's signal handler (a page of `PETSC ERROR` lines
+/// and MPI_ABORT, exit 59).
+#[test]
+fn a_closed_output_pipe_ends_the_process_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_nndd"))
+        .arg("-help")
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("nndd runs");
+    drop(child.stdout.take()); // the reader is gone before the first line
+    let out = child.wait_with_output().expect("nndd ends");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        out.status.signal(),
+        Some(libc::SIGPIPE),
+        "{:?}: {err}",
+        out.status
+    );
+    assert!(
+        !err.contains("PETSC ERROR") && !err.contains("MPI_ABORT"),
+        "{err}"
+    );
+}

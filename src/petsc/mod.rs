@@ -89,6 +89,15 @@ pub struct Petsc {
     _argv: Vec<CString>,
 }
 
+/// A failure to restore SIGPIPE's default disposition.
+fn pipe_error(e: std::io::Error) -> PetscError {
+    PetscError {
+        code: 0,
+        call: "signal(SIGPIPE, SIG_DFL)",
+        message: e.to_string(),
+    }
+}
+
 impl Petsc {
     /// `PetscInitialize` with the process arguments; `help` is printed by `-help`.
     pub fn initialize(args: &[String], help: &str) -> Result<Petsc> {
@@ -103,6 +112,19 @@ impl Petsc {
         let mut argc: c_int = args.len() as c_int;
         let mut argv: *mut *mut c_char = ptrs.as_mut_ptr();
         let help = Box::leak(cstr(help).into_boxed_c_str());
+        // `-help` prints inside PetscInitialize, after PETSc has trapped SIGPIPE: a listing
+        // piped into `head` would end in its handler. The listing does nothing else, so it
+        // runs without PETSc's signal handlers (the options database takes values before
+        // PetscInitialize).
+        if args.iter().any(|a| a == "-help") {
+            let flag = cstr("-no_signal_handler");
+            call!(PetscOptionsSetValue(
+                ptr::null_mut(),
+                flag.as_ptr(),
+                ptr::null()
+            ))?;
+            signals::default_broken_pipe().map_err(pipe_error)?;
+        }
         call!(PetscInitialize(
             &mut argc,
             &mut argv,
@@ -114,7 +136,9 @@ impl Petsc {
             Some(ffi::PetscReturnErrorHandler),
             ptr::null_mut()
         ))?;
-        Ok(Petsc { _argv: argv_owned })
+        let petsc = Petsc { _argv: argv_owned };
+        signals::default_broken_pipe().map_err(pipe_error)?;
+        Ok(petsc)
     }
 
     /// `MPI_COMM_SELF` (a macro in C, so taken from rsmpi).

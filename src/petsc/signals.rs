@@ -43,6 +43,19 @@ pub fn catch_stop_requests() -> std::io::Result<()> {
     Ok(())
 }
 
+/// A closed pipe on the output (`nndd -help | head`) ends the process quietly, as it ends
+/// `cat` or `grep` (killed by SIGPIPE, status 141), instead of PETSc's handler, which
+/// `PetscInitialize` installs for it, aborting the job with a page of messages (and instead of
+/// Rust's default, which ignores the signal and then fails on the write). Called right after
+/// `PetscInitialize`.
+pub fn default_broken_pipe() -> std::io::Result<()> {
+    // SAFETY: restoring a signal's default disposition.
+    if unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) } == libc::SIG_ERR {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(())
+}
+
 /// Whether a stop signal arrived on this rank.
 pub fn stop_requested() -> bool {
     REQUESTED.load(Ordering::SeqCst)
