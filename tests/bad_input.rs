@@ -99,3 +99,19 @@ fn body1_ranks_out_of_range_are_refused() {
     refused(2, &["-nndd_body1_ranks", "2"], "-nndd_body1_ranks");
     refused(1, &["-nndd_body1_ranks", "-1"], "-nndd_body1_ranks");
 }
+
+#[test]
+fn superlu_dist_refuses_a_second_factorisation_on_body_1() {
+    refused(
+        2,
+        &[
+            "-nndd_dirichlet_step",
+            "system",
+            "-body1_pc_type",
+            "lu",
+            "-body1_pc_factor_mat_solver_type",
+            "superlu_dist",
+        ],
+        "-nndd_dirichlet_step",
+    );
+}

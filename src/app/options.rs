@@ -309,7 +309,7 @@ impl Settings {
         )?;
         let (d, _) = o.string(
             "-nndd_dirichlet_step",
-            "Dirichlet step on body 1: auto (condensed with a MUMPS factorisation), system, condensed",
+            "Dirichlet step on body 1: auto (condensed when MUMPS forms S1 or with SuperLU_DIST), system, condensed",
             "auto",
         )?;
         let dirichlet_step = match d.as_str() {
@@ -324,6 +324,16 @@ impl Settings {
                 })
             }
         };
+        // A second SuperLU_DIST factorisation on body 1's communicator: see `setup_bodies`.
+        if dirichlet_step == DirichletChoice::System
+            && petsc::option_string("-body1_pc_factor_mat_solver_type")?.as_deref()
+                == Some("superlu_dist")
+        {
+            return Err(SettingsError::Named {
+                option: "-nndd_dirichlet_step".into(),
+                message: "system cannot be used with -body1_pc_factor_mat_solver_type superlu_dist (PETSc 3.18 frees the process grid of two SuperLU_DIST factorisations on one communicator twice); use auto or condensed".into(),
+            });
+        }
         let estimate_flag = o.flag(
             "-nndd_estimate",
             "Estimate eta_glo, eta_FE, eta_NNDD of the final iterate (paper (22)-(24))",

@@ -55,8 +55,16 @@ pub fn setup_bodies(
         if !layout.owns(alpha) {
             continue;
         }
+        // Two SuperLU_DIST factorisations on one communicator (a body's Dirichlet and
+        // Neumann systems) make PETSc 3.18 free the solver's process grid twice when they are
+        // destroyed (heap corruption, README "Use"): `auto` condenses the Dirichlet step
+        // then, with S¹ from back-solves.
+        let superlu_dist =
+            petsc::option_string(&format!("-body{alpha}_pc_factor_mat_solver_type"))?.as_deref()
+                == Some("superlu_dist");
         let schur = match (settings.solver, alpha, settings.dirichlet_step) {
             (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
+            (_, _, DirichletChoice::Auto) if superlu_dist => SchurMode::Always,
             (_, _, DirichletChoice::Auto) => SchurMode::IfFactored,
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::System) => SchurMode::None,
@@ -68,7 +76,7 @@ pub fn setup_bodies(
             layout.group_rank(),
             layout.group_sizes[alpha - 1],
         )?;
-        let mut body = Body::setup(problem, layout.body_comm(), partition, schur, stages)?;
+        let mut body = Body::setup(problem, layout.own_body_comm(), partition, schur, stages)?;
         if nndd_run && alpha == 1 && body.schur.is_none() {
             body.add_dirichlet_system(stages)?;
         }

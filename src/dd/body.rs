@@ -23,6 +23,7 @@ use std::cell::RefCell;
 
 use crate::fem::{element_dofs, element_stiffness};
 use crate::parallel::fault::{self, InjectedFault, Phase};
+use crate::parallel::layout::OwnComm;
 use crate::parallel::partition::Partition;
 use crate::petsc::{self, Comm, Gather, Ksp, Matrix, Vector};
 use std::rc::Rc;
@@ -103,6 +104,9 @@ pub struct Body {
     /// Gathers a whole vector (mesh order) and its Γc normal entries to every rank.
     whole: RefCell<Gather>,
     trace: RefCell<Gather>,
+    /// The body's own communicator (`comm`): the last field, so that it is freed after
+    /// every PETSc object on it.
+    _own_comm: OwnComm,
 }
 
 impl Body {
@@ -110,11 +114,12 @@ impl Body {
     /// `schur` says whether S^α is wanted.
     pub fn setup(
         problem: Rc<BodyProblem>,
-        comm: Comm,
+        own_comm: OwnComm,
         partition: Partition,
         schur: SchurMode,
         stages: &crate::petsc::log::Stages,
     ) -> Result<Body, BodyError> {
+        let comm = own_comm.petsc();
         let alpha = problem.alpha;
         let t0 = std::time::Instant::now();
         let frames = problem.frames();
@@ -164,6 +169,7 @@ impl Body {
             kx: RefCell::new(kx),
             whole: RefCell::new(whole),
             trace: RefCell::new(trace),
+            _own_comm: own_comm,
         };
         if schur == SchurMode::Always
             || (schur == SchurMode::IfFactored && body.neumann.schur_complement().is_some())

@@ -11,6 +11,17 @@ use mpi::traits::*;
 
 use crate::petsc::{comm_from_rsmpi, Comm};
 
+/// A duplicated communicator ([`Layout::own_body_comm`]), freed when dropped: its owner drops
+/// it after the PETSc objects on it.
+pub struct OwnComm(SimpleCommunicator);
+
+impl OwnComm {
+    /// The communicator, for PETSc.
+    pub fn petsc(&self) -> Comm {
+        comm_from_rsmpi(self.0.as_raw())
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum LayoutError {
     #[error("-nndd_body1_ranks: accepted 1 .. {max} on {size} ranks (body 2 needs at least one), got {got}")]
@@ -160,6 +171,15 @@ impl Layout {
     /// The communicator of the body group this rank belongs to.
     pub fn body_comm(&self) -> Comm {
         comm_from_rsmpi(self.group.as_raw())
+    }
+
+    /// A communicator of one body's own, a duplicate of its group's (collective over the
+    /// group). Each body's PETSc objects live on their own communicator, so two bodies on one
+    /// rank, or the reference problem's bodies beside the run's, never share a solver's
+    /// per-communicator state: PETSc 3.18 keeps one SuperLU_DIST process grid per
+    /// communicator and frees it twice when two factorisations shared it (heap corruption).
+    pub fn own_body_comm(&self) -> OwnComm {
+        OwnComm(self.group.duplicate())
     }
 
     pub fn is_root(&self) -> bool {

@@ -218,6 +218,27 @@ pub fn option_present(name: &str) -> bool {
         && set == ffi::PETSC_TRUE
 }
 
+/// The value of option `name` in the options database, if it is set.
+pub fn option_string(name: &str) -> Result<Option<String>> {
+    let mut buf = vec![0 as c_char; 256];
+    let mut set = ffi::PETSC_FALSE;
+    let n = cstr(name);
+    call!(PetscOptionsGetString(
+        ptr::null_mut(),
+        ptr::null(),
+        n.as_ptr(),
+        buf.as_mut_ptr(),
+        buf.len(),
+        &mut set
+    ))?;
+    if !to_bool(set) {
+        return Ok(None);
+    }
+    // SAFETY: PETSc wrote a NUL-terminated string into `buf`.
+    let v = unsafe { CStr::from_ptr(buf.as_ptr()) };
+    Ok(Some(v.to_string_lossy().into_owned()))
+}
+
 /// The names of every option in the database (`PetscOptionsGetAll`), e.g. to find the
 /// `-nndd_bc_…` options that name no boundary. The string PETSc allocates is left to it (a
 /// few bytes, once per run: `PetscFree` is a macro).
@@ -762,24 +783,7 @@ impl Ksp {
         }
         // PCFactorGetMatSolverType is not in the allowlist; read the option instead.
         let name = format!("-{}pc_factor_mat_solver_type", self.prefix);
-        let mut buf = vec![0 as c_char; 64];
-        let mut set = ffi::PETSC_FALSE;
-        let n = cstr(&name);
-        call!(PetscOptionsGetString(
-            ptr::null_mut(),
-            ptr::null(),
-            n.as_ptr(),
-            buf.as_mut_ptr(),
-            buf.len(),
-            &mut set
-        ))?;
-        if !to_bool(set) {
-            return Ok(true);
-        }
-        let v = unsafe { CStr::from_ptr(buf.as_ptr()) }
-            .to_string_lossy()
-            .into_owned();
-        Ok(v == "mumps")
+        Ok(option_string(&name)?.is_none_or(|v| v == "mumps"))
     }
 
     /// The dense Schur complement computed during factorisation (column-major, symmetric part
