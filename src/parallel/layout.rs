@@ -168,11 +168,6 @@ impl Layout {
         self.size == 1 || (first..first + self.group_sizes[alpha - 1] as i32).contains(&self.rank)
     }
 
-    /// The communicator of the body group this rank belongs to.
-    pub fn body_comm(&self) -> Comm {
-        comm_from_rsmpi(self.group.as_raw())
-    }
-
     /// A communicator of one body's own, a duplicate of its group's (collective over the
     /// group). Each body's PETSc objects live on their own communicator, so two bodies on one
     /// rank, or the reference problem's bodies beside the run's, never share a solver's
