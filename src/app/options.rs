@@ -325,10 +325,7 @@ impl Settings {
             }
         };
         // A second SuperLU_DIST factorisation on body 1's communicator: see `setup_bodies`.
-        if dirichlet_step == DirichletChoice::System
-            && petsc::option_string("-body1_pc_factor_mat_solver_type")?.as_deref()
-                == Some("superlu_dist")
-        {
+        if dirichlet_step == DirichletChoice::System && uses_superlu_dist(1)? {
             return Err(SettingsError::Named {
                 option: "-nndd_dirichlet_step".into(),
                 message: "system cannot be used with -body1_pc_factor_mat_solver_type superlu_dist (PETSc 3.18 frees the process grid of two SuperLU_DIST factorisations on one communicator twice); use auto or condensed".into(),
@@ -709,6 +706,14 @@ const OPTS_GRID: [&str; 4] = [
     "-nndd_body2_nx",
     "-nndd_body2_ny",
 ];
+
+/// Whether body α's factorisation is SuperLU_DIST (`-body<α>_pc_factor_mat_solver_type`).
+/// PETSc 3.18 keeps one SuperLU_DIST process grid per communicator and frees it twice when two
+/// factorisations shared it, so a body that uses it gets no second factorisation.
+pub fn uses_superlu_dist(alpha: usize) -> Result<bool, petsc::PetscError> {
+    let name = format!("-body{alpha}_pc_factor_mat_solver_type");
+    Ok(petsc::option_string(&name)?.as_deref() == Some("superlu_dist"))
+}
 
 fn range(option: &'static str, accepted: &'static str, value: f64) -> SettingsError {
     SettingsError::OutOfRange {

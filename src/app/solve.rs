@@ -5,7 +5,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use super::agreed;
-use super::options::{Settings, SolverKind};
+use super::options::{self, Settings, SolverKind};
 use super::AppError;
 use crate::dd::body::{Body, SchurMode};
 use crate::dd::contact::ContactStep;
@@ -55,13 +55,9 @@ pub fn setup_bodies(
         if !layout.owns(alpha) {
             continue;
         }
-        // Two SuperLU_DIST factorisations on one communicator (a body's Dirichlet and
-        // Neumann systems) make PETSc 3.18 free the solver's process grid twice when they are
-        // destroyed (heap corruption, README "Use"): `auto` condenses the Dirichlet step
-        // then, with S¹ from back-solves.
-        let superlu_dist =
-            petsc::option_string(&format!("-body{alpha}_pc_factor_mat_solver_type"))?.as_deref()
-                == Some("superlu_dist");
+        // With SuperLU_DIST, `auto` condenses the Dirichlet step (S¹ from back-solves) rather
+        // than factor a second system on the body's communicator (`uses_superlu_dist`).
+        let superlu_dist = options::uses_superlu_dist(alpha)?;
         let schur = match (settings.solver, alpha, settings.dirichlet_step) {
             (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
             (_, _, DirichletChoice::Auto) if superlu_dist => SchurMode::Always,
