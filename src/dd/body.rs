@@ -445,26 +445,13 @@ impl Body {
                 .map(|f| self.neumann_solve(f, true))
                 .collect();
         }
-        // The body's data (and the lifting of u_D) once; each column adds its Γc forces
-        // where the rows are not prescribed.
-        let (base, fixed) = self.right_hand_side(&self.load, false, None)?;
-        let mut free = vec![true; self.load.len()];
-        for &(dof, _) in &fixed {
-            free[dof] = false;
+        let mut columns = Vec::with_capacity(gc_forces.len());
+        let mut fixed = Vec::new();
+        for f in gc_forces {
+            let (rhs, fx) = self.right_hand_side(&self.neumann_load(f, true), false, None)?;
+            columns.push(rhs);
+            fixed = fx;
         }
-        let columns: Vec<Vec<f64>> = gc_forces
-            .iter()
-            .map(|f| {
-                let mut forces = vec![0.0; self.load.len()];
-                for (&d, &v) in self.gc.iter().zip(f) {
-                    if free[d] {
-                        forces[d] += v;
-                    }
-                }
-                let local = self.partition.local_part(&forces);
-                base.iter().zip(&local).map(|(b, l)| b + l).collect()
-            })
-            .collect();
         let (solved, reason) = self.neumann.solve_many(self.comm, &columns)?;
         self.solves.set(self.solves.get() + solved.len());
         self.check_reason(System::Neumann, reason)?;
