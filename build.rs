@@ -32,7 +32,10 @@ const FUNCTIONS: &[&str] = &[
     "VecScatter(Create|Begin|End|Destroy)",
     "MatSeqAIJSetPreallocation",
     "MatMPIAIJSetPreallocation",
-    "MatMumpsSetIcntl",
+    "MatMumps(SetIcntl|GetIcntl|GetRinfog|GetInverseTranspose)",
+    "MatCreateAIJ",
+    "Mat(GetRow|RestoreRow)",
+    "PetscGetFlops",
     "KSP(MatSolve|GetType|Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|SetReusePreconditioner)",
     "PC(SetType|FactorSetMatSolverType|FactorSetUpMatSolverType|FactorGetMatrix|GetType)",
 ];

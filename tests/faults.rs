@@ -318,9 +318,13 @@ fn ranks_of(child: &Child) -> Vec<i32> {
 fn sigterm_writes_a_restart_point_that_another_rank_count_continues() {
     let _s = serial();
     let dir = scratch("faults-sigterm");
+    // Back-solves in the Neumann steps keep an iteration a few milliseconds long (the
+    // condensed ones take microseconds), so that the signal arrives mid-run.
     let long = [
         "-nndd_n",
-        "64",
+        "128",
+        "-nndd_neumann_step",
+        "solve",
         "-nndd_theta",
         "0.02",
         "-nndd_estimate_every",
@@ -472,9 +476,12 @@ fn kill_9_of_one_rank_ends_the_job() {
     let _s = serial();
     let dir = scratch("faults-kill9");
     let prefix = dir.join("run");
+    // Back-solves in the Neumann steps keep the run going when the rank is killed.
     let args = [
         "-nndd_n",
-        "64",
+        "128",
+        "-nndd_neumann_step",
+        "solve",
         "-nndd_theta",
         "0.02",
         "-nndd_estimate_every",

@@ -50,9 +50,11 @@ fn log_view_shows_the_stages() {
     for stage in [
         "Assembly",
         "Factorisation",
+        "Interface operators",
         "Dirichlet step",
         "Contact step",
         "Neumann step",
+        "Fields",
         "Estimation",
         "Estimation/traction QP",
         "Estimation/re-solves",

@@ -245,10 +245,27 @@ fn iterative_and_out_of_core_options_on_three_ranks_agree_with_mumps() {
         json(&prefix)
     };
     let direct = run("petsc-options/paper.opts", "mumps");
+    // MUMPS: one factorisation per body, the interface operators from it on body 1's two
+    // ranks too, every step condensed.
+    assert_eq!(
+        direct["schur_source"],
+        serde_json::json!(["mumps_inverse", "mumps_schur"])
+    );
+    assert_eq!(direct["dirichlet_step"], "condensed");
+    assert_eq!(
+        direct["neumann_step"],
+        serde_json::json!(["condensed", "condensed"])
+    );
     let cg = run("petsc-options/iterative.opts", "gamg");
     assert_eq!(cg["body_ranks"], serde_json::json!([2, 1]));
-    assert_eq!(cg["schur_source"], "solves");
+    // CG + GAMG: body 2's operators from back-solves; body 1 solves its own Dirichlet system
+    // and its Neumann steps.
+    assert_eq!(cg["schur_source"], serde_json::json!(["none", "solves"]));
     assert_eq!(cg["dirichlet_step"], "system");
+    assert_eq!(
+        cg["neumann_step"],
+        serde_json::json!(["solve", "condensed"])
+    );
     assert_eq!(cg["iterations"], direct["iterations"]);
     let (a, b) = (f(&cg, "potential_energy"), f(&direct, "potential_energy"));
     assert!(((a - b) / b).abs() < 1e-10, "CG+GAMG {a} vs MUMPS {b}");
@@ -268,6 +285,7 @@ fn iterative_and_out_of_core_options_on_three_ranks_agree_with_mumps() {
     }
     // The low-memory variant: MUMPS with its factors out of core, the same solve.
     let ooc = run("petsc-options/out-of-core.opts", "ooc");
+    assert_eq!(ooc["schur_source"], direct["schur_source"]);
     assert_eq!(ooc["iterations"], direct["iterations"]);
     let c = f(&ooc, "potential_energy");
     assert!(

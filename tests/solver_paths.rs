@@ -1,8 +1,8 @@
 //! Capability: the subdomain solvers are PETSc KSPs configured by `-body1_`/`-body2_` options,
 //! and every alternative path computes the same discrete solution: the Dirichlet step by its
-//! own factorised system or condensed with S¹, the interface Schur complement from MUMPS or
-//! from back-solves, a Krylov solver instead of a factorisation, the contact QP with or without
-//! the certified warm start.
+//! own factorised system or condensed with S¹, the Neumann steps by back-solves or condensed
+//! with D^α, the interface operators from MUMPS or from back-solves, a Krylov solver instead of
+//! a factorisation.
 
 mod common;
 use common::*;
@@ -53,8 +53,28 @@ fn dirichlet_step_system_equals_condensed() {
 }
 
 #[test]
+fn neumann_step_solve_equals_condensed() {
+    let dir = scratch("paths-neumann");
+    let a = solve(2, &dir.join("c"), &BASE);
+    let b = solve(
+        2,
+        &dir.join("s"),
+        &[&BASE[..], &["-nndd_neumann_step", "solve"]].concat(),
+    );
+    assert_eq!(
+        a["neumann_step"],
+        serde_json::json!(["condensed", "condensed"])
+    );
+    assert_eq!(b["neumann_step"], serde_json::json!(["solve", "solve"]));
+    assert_eq!(a["iterations"], b["iterations"]);
+    same(&dir.join("c"), &dir.join("s"), 1e-10);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn schur_complement_from_mumps_equals_back_solves() {
-    // PETSc's own Cholesky has no Schur complement: S is formed from m back-solves.
+    // PETSc's own Cholesky has no Schur complement: body 2's S is formed from m back-solves,
+    // and body 1 (whose operators would cost back-solves too) solves its own systems.
     let dir = scratch("paths-schur");
     let a = solve(2, &dir.join("m"), &BASE);
     let native = [
@@ -64,12 +84,16 @@ fn schur_complement_from_mumps_equals_back_solves() {
         "petsc",
     ];
     let b = solve(2, &dir.join("p"), &[&BASE[..], &native[..]].concat());
-    assert_eq!(a["schur_source"], "mumps");
-    assert_eq!(b["schur_source"], "solves");
+    assert_eq!(
+        a["schur_source"],
+        serde_json::json!(["mumps_schur", "mumps_schur"])
+    );
+    assert_eq!(b["schur_source"], serde_json::json!(["none", "solves"]));
     assert_eq!(
         b["dirichlet_step"], "system",
-        "without a free S¹ the Dirichlet system is factored"
+        "without S¹ from the factorisation the Dirichlet system is factored"
     );
+    assert_eq!(b["neumann_step"], serde_json::json!(["solve", "condensed"]));
     same(&dir.join("m"), &dir.join("p"), 1e-10);
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -91,46 +115,8 @@ fn krylov_subdomain_solver_gives_the_same_solution() {
         }
     }
     let j = solve(1, &dir.join("k"), &args);
-    assert_eq!(j["schur_source"], "solves");
+    assert_eq!(j["schur_source"], serde_json::json!(["none", "solves"]));
     same(&dir.join("d"), &dir.join("k"), 1e-7);
-    std::fs::remove_dir_all(&dir).ok();
-}
-
-#[test]
-fn warm_start_is_exact_and_clarabel_solves_the_open_steps() {
-    let dir = scratch("paths-warm");
-    let a = solve(2, &dir.join("w"), &BASE);
-    let b = solve(
-        2,
-        &dir.join("c"),
-        &[&BASE[..], &["-nndd_qp_warm_start", "0"]].concat(),
-    );
-    same(&dir.join("c"), &dir.join("w"), 1e-12);
-    let its = |j: &serde_json::Value| -> Vec<u64> {
-        j["history"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|h| h["qp_iterations"].as_u64().unwrap())
-            .collect()
-    };
-    let (wa, wb) = (its(&a), its(&b));
-    assert!(
-        wb.iter().all(|&k| k > 0),
-        "without warm start Clarabel runs every step: {wb:?}"
-    );
-    assert!(wa[0] > 0, "the first contact step is Clarabel's: {wa:?}");
-    assert!(
-        wa.iter().filter(|&&k| k == 0).count() > wa.len() / 2,
-        "warm start certified too rarely: {wa:?}"
-    );
-    for j in [&a, &b] {
-        assert!(
-            f(j, "qp_kkt_residual") < 1e-12,
-            "KKT residual {}",
-            f(j, "qp_kkt_residual")
-        );
-    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -164,7 +150,11 @@ fn superlu_dist_gives_the_same_solution_and_estimates() {
         let name = format!("s{np}");
         let j = solve(np, &dir.join(&name), &args);
         assert_eq!(j["dirichlet_step"], "condensed", "{np} ranks");
-        assert_eq!(j["schur_source"], "solves", "{np} ranks");
+        assert_eq!(
+            j["schur_source"],
+            serde_json::json!(["solves", "solves"]),
+            "{np} ranks"
+        );
         same(&dir.join("m"), &dir.join(&name), 1e-10);
         for k in ["eta_glo", "eta_fe", "effectivity"] {
             let (a, b) = (last(&j, k), last(&direct, k));

@@ -17,6 +17,7 @@ use std::time::Instant;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::Communicator as _;
 
+use crate::dd;
 use crate::dd::body::BodyError;
 use crate::dd::contact::ContactError;
 use crate::dd::monolithic::MonolithicError;
@@ -157,6 +158,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     let dofs = [problems[0].mesh.num_dofs(), problems[1].mesh.num_dofs()];
     let layout = Layout::new(world, settings.body1_ranks, dofs)?;
     check_recovery(&settings, &layout)?;
+    check_schur(&settings, &layout)?;
     check_output(&settings, &layout)?;
     // The restart point this run continues from, checked against this problem.
     let identity = Identity::of(
@@ -221,7 +223,6 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         shares: Default::default(),
         parts: Parts::new(Some(stages.estimation_parts)),
         operators: Default::default(),
-        schur_factors: Default::default(),
         cheap_nndd: Default::default(),
     });
 
@@ -265,7 +266,11 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         }
         layout.sum(e)
     };
-    let schur_source = solve::schur_source(&layout, refs);
+    let solvers = solve::body_solvers(&layout, refs, &sol);
+    if settings.schur_view {
+        write_interface_operators(&settings, &layout, refs)?;
+    }
+    let logged_flops = layout.sum(Petsc::logged_flops());
     let reference_iterations = estimator
         .as_ref()
         .and_then(|e| e.reference.as_ref())
@@ -300,7 +305,8 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             &layout,
             &sol,
             energy,
-            schur_source,
+            &solvers,
+            logged_flops,
             reference_iterations,
             &results,
             timings.clone(),
@@ -384,6 +390,38 @@ fn results_of(
     fields::results([&problems[0], &problems[1]], &steps, have, attributes)
 }
 
+/// `-nndd_schur_view`: each body's S^α and D^α (row-major, exact in JSON) from its first rank,
+/// to `PREFIX.body<α>_schur.json` (the ranks agree on the writes).
+fn write_interface_operators(
+    settings: &Settings,
+    layout: &Layout,
+    refs: [Option<&dd::body::Body>; 2],
+) -> Result<(), AppError> {
+    let mut written = Ok(());
+    for (k, body) in refs.iter().enumerate() {
+        let Some(c) = body.and_then(|b| b.condensed()) else {
+            continue;
+        };
+        let view = serde_json::json!({
+            "alpha": k + 1,
+            "source": body.and_then(|b| b.schur_source).map(|s| s.name()),
+            "m": c.schur.n(),
+            "schur": c.schur.data(),
+            "delassus": c.delassus.data(),
+        });
+        let path = output::with_ext(&settings.output, &format!("body{}_schur.json", k + 1));
+        written = written.and_then(|()| {
+            output::write_atomic(&path, view.to_string().as_bytes()).map_err(AppError::from)
+        });
+    }
+    let failed = layout.max(written.is_err() as u8 as f64) > 0.0;
+    match (written, failed) {
+        (Err(e), _) => Err(e),
+        (Ok(()), true) => Err(AppError::ReportedElsewhere { code: 1 }),
+        (Ok(()), false) => Ok(()),
+    }
+}
+
 /// The `star` recovery solves one global problem per body: exact only with the body on one
 /// rank (the others are local and computed on overlapping element sets, see `overlap.rs`).
 fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
@@ -392,6 +430,33 @@ fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> 
     {
         return Err(LayoutError::GlobalRecovery {
             ranks: layout.group_sizes,
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// `-nndd_schur mumps_schur` needs each body on one rank and factored by MUMPS, and
+/// `mumps_inverse` a MUMPS factorisation (bad input, found alike on every rank).
+fn check_schur(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
+    use dd::body::SchurChoice;
+    let choice = settings.schur;
+    for alpha in [1, 2] {
+        let why = match choice {
+            SchurChoice::MumpsSchur | SchurChoice::MumpsInverse
+                if !options::uses_mumps(alpha)? =>
+            {
+                format!("body {alpha} is not factored by MUMPS (-body{alpha}_pc_factor_mat_solver_type mumps with -body{alpha}_pc_type cholesky or lu and -body{alpha}_ksp_type preonly); use auto or solves")
+            }
+            SchurChoice::MumpsSchur if layout.group_sizes[alpha - 1] > 1 => format!(
+                "body {alpha} is on {} ranks, and PETSc 3.18 forms MUMPS's Schur complement on one only; use auto or mumps_inverse",
+                layout.group_sizes[alpha - 1]
+            ),
+            _ => continue,
+        };
+        return Err(SettingsError::Named {
+            option: format!("-nndd_schur {}", choice.name()),
+            message: why,
         }
         .into());
     }

@@ -3,7 +3,10 @@
 
 use std::path::PathBuf;
 
+use crate::dd::body::SchurChoice;
+use crate::dd::contact::ContactSettings;
 use crate::dd::dirichlet::DirichletChoice;
+use crate::dd::neumann::NeumannChoice;
 use crate::dd::nndd::{NnddSettings, StopRule};
 use crate::estimate::equilibrate::StarChoice;
 use crate::estimate::NnddVariant;
@@ -13,7 +16,7 @@ use crate::parallel::fault::Phase;
 use crate::petsc::{self, Comm, OptionsBlock};
 use crate::problem::meshed::{CurveCondition, MeshSpec};
 use crate::problem::{ProblemKind, ProblemSettings};
-use crate::qp::QpSettings;
+use crate::qp::{QpMethod, QpSettings};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SolverKind {
@@ -62,10 +65,17 @@ pub struct Settings {
     pub solver: SolverKind,
     pub nndd: NnddSettings,
     pub dirichlet_step: DirichletChoice,
-    /// Clarabel's tolerances for the contact QPs.
+    /// Clarabel's tolerances for the QPs (the contact step's fallback, the monolithic check,
+    /// the estimates' admissible tractions).
     pub qp: QpSettings,
-    /// Try the previous contact set first in the contact step (certified, else Clarabel).
-    pub qp_warm_start: bool,
+    /// How the contact step solves its QP.
+    pub contact: ContactSettings,
+    /// How each body's interface operators S^α, D^α are formed.
+    pub schur: SchurChoice,
+    /// Write each body's S^α and D^α to `PREFIX.body<α>_schur.json`.
+    pub schur_view: bool,
+    /// How the Neumann steps are solved.
+    pub neumann_step: NeumannChoice,
     /// Print one line per NNDD iteration.
     pub monitor: bool,
     /// Output prefix: PREFIX.h5, PREFIX.xdmf, PREFIX.json.
@@ -304,12 +314,50 @@ impl Settings {
         }
         let qp_warm_start = o.flag(
             "-nndd_qp_warm_start",
-            "Contact step: try the previous contact set first, kept only if the KKT conditions certify it (else Clarabel)",
+            "Contact step: start the QP from the previous contact set (else from the unconstrained solution's; with -nndd_qp_solver clarabel: try the previous set, kept if the KKT conditions certify it)",
             true,
+        )?;
+        let qp_method = choice(
+            &mut o,
+            "-nndd_qp_solver",
+            "Contact step QP: active_set (primal-dual active set on S2 and D2, Clarabel if it does not certify), clarabel",
+            &[("active_set", QpMethod::ActiveSet), ("clarabel", QpMethod::Clarabel)],
+        )?;
+        let (qp_max_it, _) = o.int(
+            "-nndd_qp_max_it",
+            "Contact step: active-set steps before falling back to Clarabel",
+            50,
+        )?;
+        let qp_max_it = positive("-nndd_qp_max_it", qp_max_it)?;
+        let schur = choice(
+            &mut o,
+            "-nndd_schur",
+            "Interface operators S, D of each body: auto (MUMPS's Schur complement on one rank, MUMPS's entries of the inverse on several, back-solves without MUMPS), mumps_schur, mumps_inverse, solves",
+            &[
+                ("auto", SchurChoice::Auto),
+                ("mumps_schur", SchurChoice::MumpsSchur),
+                ("mumps_inverse", SchurChoice::MumpsInverse),
+                ("solves", SchurChoice::Solves),
+            ],
+        )?;
+        let schur_view = o.flag(
+            "-nndd_schur_view",
+            "Write each body's interface operators S and D to PREFIX.body<alpha>_schur.json",
+            false,
+        )?;
+        let neumann_step = choice(
+            &mut o,
+            "-nndd_neumann_step",
+            "Neumann steps: auto (condensed where the body has its interface operators), condensed (the trace D(-+R/2)), solve (a back-solve)",
+            &[
+                ("auto", NeumannChoice::Auto),
+                ("condensed", NeumannChoice::Condensed),
+                ("solve", NeumannChoice::Solve),
+            ],
         )?;
         let (d, _) = o.string(
             "-nndd_dirichlet_step",
-            "Dirichlet step on body 1: auto (condensed when MUMPS forms S1 or with SuperLU_DIST), system, condensed",
+            "Dirichlet step on body 1: auto (condensed when body 1 has its interface operators: MUMPS on any rank count, SuperLU_DIST), system, condensed",
             "auto",
         )?;
         let dirichlet_step = match d.as_str() {
@@ -533,7 +581,18 @@ impl Settings {
                 tol: qp_tol,
                 ..QpSettings::default()
             },
-            qp_warm_start,
+            contact: ContactSettings {
+                method: qp_method,
+                max_steps: qp_max_it,
+                warm_start: qp_warm_start,
+                clarabel: QpSettings {
+                    tol: qp_tol,
+                    ..QpSettings::default()
+                },
+            },
+            schur,
+            schur_view,
+            neumann_step,
             monitor,
             output: PathBuf::from(output),
             // A reference solution is only of use with an estimate to compare; balanced
@@ -707,12 +766,51 @@ const OPTS_GRID: [&str; 4] = [
     "-nndd_body2_ny",
 ];
 
+/// Whether body α's solver is a MUMPS factorisation (`-body<α>_ksp_type preonly`,
+/// `-body<α>_pc_type cholesky` or `lu`, `-body<α>_pc_factor_mat_solver_type mumps`: the
+/// defaults).
+pub fn uses_mumps(alpha: usize) -> Result<bool, petsc::PetscError> {
+    let get = |what: &str, default: &str| -> Result<String, petsc::PetscError> {
+        Ok(petsc::option_string(&format!("-body{alpha}_{what}"))?
+            .unwrap_or_else(|| default.to_string()))
+    };
+    Ok(get("ksp_type", "preonly")? == "preonly"
+        && matches!(get("pc_type", "cholesky")?.as_str(), "cholesky" | "lu")
+        && get("pc_factor_mat_solver_type", "mumps")? == "mumps")
+}
+
 /// Whether body α's factorisation is SuperLU_DIST (`-body<α>_pc_factor_mat_solver_type`).
 /// PETSc 3.18 keeps one SuperLU_DIST process grid per communicator and frees it twice when two
 /// factorisations shared it, so a body that uses it gets no second factorisation.
 pub fn uses_superlu_dist(alpha: usize) -> Result<bool, petsc::PetscError> {
     let name = format!("-body{alpha}_pc_factor_mat_solver_type");
     Ok(petsc::option_string(&name)?.as_deref() == Some("superlu_dist"))
+}
+
+/// An option whose value is one of `values` (the first is the default): registered with its
+/// help text, or refused naming the accepted values.
+fn choice<T: Copy>(
+    o: &mut OptionsBlock,
+    option: &'static str,
+    help: &str,
+    values: &[(&'static str, T)],
+) -> Result<T, SettingsError> {
+    let (given, _) = o.string(option, help, values[0].0)?;
+    values
+        .iter()
+        .find(|(name, _)| *name == given)
+        .map(|&(_, v)| v)
+        .ok_or_else(|| SettingsError::Named {
+            option: option.into(),
+            message: format!(
+                "unknown value '{given}' (accepted: {})",
+                values
+                    .iter()
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        })
 }
 
 fn range(option: &'static str, accepted: &'static str, value: f64) -> SettingsError {

@@ -2,7 +2,7 @@
 //! and memory over ranks.
 
 use super::options::Settings;
-use super::solve::Solution;
+use super::solve::{BodySolver, Solution};
 use crate::dd::nndd::{Iterate, IterationRecord};
 use crate::estimate::EstimateRecord;
 use crate::io::monitor::{self, sci};
@@ -20,7 +20,8 @@ pub fn summarise(
     layout: &Layout,
     sol: &Solution,
     energy: f64,
-    schur_source: &str,
+    solvers: &[BodySolver; 2],
+    logged_flops: f64,
     reference_iterations: Option<usize>,
     results: &Results,
     timings: Timings,
@@ -64,8 +65,11 @@ pub fn summarise(
         contact_zone: contact.zone,
         active_nodes: contact.active,
         contact_nodes: contact.nodes,
-        schur_source: schur_source.into(),
+        schur_source: solvers.each_ref().map(|s| s.schur_source.to_string()),
         dirichlet_step: sol.dirichlet_step.into(),
+        neumann_step: solvers.each_ref().map(|s| s.neumann_step.to_string()),
+        factorisation_flops: solvers.each_ref().map(|s| s.factorisation_flops),
+        logged_flops,
         qp_kkt_residual: sol.last.qp_kkt,
         estimates: sol.estimates.iter().map(summary_estimate).collect(),
         equilibrium_residuals: residuals,

@@ -7,11 +7,12 @@ use std::time::Instant;
 use super::agreed;
 use super::options::{self, Settings, SolverKind};
 use super::AppError;
-use crate::dd::body::{Body, SchurMode};
+use crate::dd::body::{Body, SchurMode, SchurSource};
 use crate::dd::contact::ContactStep;
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
-use crate::dd::nndd::{self, Iterate, IterationRecord, LoopState, Status, StopRule};
+use crate::dd::neumann::{NeumannChoice, NeumannStep};
+use crate::dd::nndd::{self, Iterate, IterationRecord, LoopState, Status, Steps, StopRule};
 use crate::estimate::{EstimateRecord, Estimator, NnddVariant, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
@@ -39,6 +40,9 @@ pub struct Solution {
     /// The estimates, in iteration order (the last one is of `last` when estimating).
     pub estimates: Vec<EstimateRecord>,
     pub dirichlet_step: &'static str,
+    /// Each body's Neumann step (on the ranks of its group; `None` elsewhere and for the
+    /// monolithic solve).
+    pub neumann_step: [Option<NeumannStep>; 2],
 }
 
 /// Meshes, assembly and factorisation of the bodies this rank owns.
@@ -55,15 +59,17 @@ pub fn setup_bodies(
         if !layout.owns(alpha) {
             continue;
         }
-        // With SuperLU_DIST, `auto` condenses the Dirichlet step (S¹ from back-solves) rather
-        // than factor a second system on the body's communicator (`uses_superlu_dist`).
+        // Every body forms its interface operators where its factorisation gives them (MUMPS,
+        // on any rank count), body 2 always (its contact step is condensed); with
+        // SuperLU_DIST, `auto` condenses body 1's Dirichlet step (S¹ from back-solves) rather
+        // than factor a second system on its communicator (`uses_superlu_dist`).
         let superlu_dist = options::uses_superlu_dist(alpha)?;
         let schur = match (settings.solver, alpha, settings.dirichlet_step) {
             (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
+            _ if settings.neumann_step == NeumannChoice::Condensed => SchurMode::Always,
             (_, _, DirichletChoice::Auto) if superlu_dist => SchurMode::Always,
-            (_, _, DirichletChoice::Auto) => SchurMode::IfFactored,
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
-            (_, _, DirichletChoice::System) => SchurMode::None,
+            (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
         };
         let problem = Rc::clone(&problems[alpha - 1]);
         let partition = Partition::new(
@@ -72,12 +78,21 @@ pub fn setup_bodies(
             layout.group_rank(),
             layout.group_sizes[alpha - 1],
         )?;
-        let mut body = Body::setup(problem, layout.own_body_comm(), partition, schur, stages)?;
-        if nndd_run && alpha == 1 && body.schur.is_none() {
+        let mut body = Body::setup(
+            problem,
+            layout.own_body_comm(),
+            partition,
+            schur,
+            settings.schur,
+            stages,
+        )?;
+        let system = settings.dirichlet_step == DirichletChoice::System || !body.has_condensed();
+        if nndd_run && alpha == 1 && system {
             body.add_dirichlet_system(stages)?;
         }
         timings.assembly += body.setup_seconds.0;
         timings.factorisation += body.setup_seconds.1;
+        timings.interface += body.setup_seconds.2;
         bodies[alpha - 1] = Some(body);
     }
     Ok(bodies)
@@ -287,10 +302,24 @@ pub fn solve_nndd(
     timings: &mut Timings,
     restart: Option<&Restart>,
 ) -> Result<Solution, AppError> {
-    let dirichlet = refs[0].map(DirichletStep::new).transpose()?;
-    let contact = refs[1]
-        .map(|b2| ContactStep::new(b2, settings.qp.clone(), settings.qp_warm_start))
-        .transpose()?;
+    let t = Instant::now();
+    let (dirichlet, contact) = {
+        let _s = stages.interface.enter();
+        let dirichlet = refs[0]
+            .map(|b1| DirichletStep::new(b1, settings.dirichlet_step))
+            .transpose()?;
+        let contact = refs[1]
+            .map(|b2| ContactStep::new(b2, settings.contact.clone()))
+            .transpose()?;
+        (dirichlet, contact)
+    };
+    timings.interface += t.elapsed().as_secs_f64();
+    let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.neumann_step)));
+    let steps = Steps {
+        dirichlet: dirichlet.as_ref(),
+        contact: contact.as_ref(),
+        neumann,
+    };
     let every = if estimator.is_some() && settings.estimate_every > 0 {
         Some(settings.estimate_every)
     } else {
@@ -318,8 +347,7 @@ pub fn solve_nndd(
         m,
         layout,
         refs,
-        dirichlet.as_ref(),
-        contact.as_ref(),
+        &steps,
         stages,
         every,
         from.map(|c| c.state),
@@ -349,6 +377,7 @@ pub fn solve_nndd(
     timings.contact_step = res.timers.contact_step.seconds();
     timings.neumann_step = res.timers.neumann_step.seconds();
     timings.exchange = res.timers.exchange.seconds();
+    timings.fields = res.timers.fields.seconds();
     let mut history = res.history;
     attach_estimates(&mut history, &estimates);
     attach_checks(&mut history, &checks);
@@ -365,6 +394,7 @@ pub fn solve_nndd(
         last: res.last,
         estimates,
         dirichlet_step: dirichlet.as_ref().map_or("", |d| d.name()),
+        neumann_step: neumann,
     })
 }
 
@@ -415,6 +445,7 @@ pub fn solve_monolithic(
         last,
         estimates,
         dirichlet_step: "",
+        neumann_step: [None, None],
     })
 }
 
@@ -440,13 +471,46 @@ fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord
     }
 }
 
-/// How body 2's interface Schur complement was formed (known on body 2's root).
-pub fn schur_source(layout: &Layout, refs: [Option<&Body>; 2]) -> &'static str {
-    let mut src = [refs[1].map_or(0.0, |b| (b.schur_source == "mumps") as u8 as f64)];
-    layout.share(2, &mut src);
-    if src[0] > 0.5 {
-        "mumps"
-    } else {
-        "solves"
-    }
+/// What the summary says of each body's solver, known on the body's ranks.
+pub struct BodySolver {
+    pub schur_source: &'static str,
+    pub neumann_step: &'static str,
+    pub factorisation_flops: Option<f64>,
+}
+
+/// Each body's [`BodySolver`], shared from its first rank to every rank (collective).
+pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -> [BodySolver; 2] {
+    const SOURCES: [SchurSource; 3] = [
+        SchurSource::MumpsSchur,
+        SchurSource::MumpsInverse,
+        SchurSource::Solves,
+    ];
+    const STEPS: [NeumannStep; 2] = [NeumannStep::Condensed, NeumannStep::Solve];
+    [1, 2].map(|alpha| {
+        let mut facts = [-1.0, -1.0, f64::NAN];
+        if let Some(b) = refs[alpha - 1] {
+            let source = b
+                .schur_source
+                .and_then(|s| SOURCES.iter().position(|&x| x == s));
+            let step = sol.neumann_step[alpha - 1].and_then(|s| STEPS.iter().position(|&x| x == s));
+            facts = [
+                source.map_or(-1.0, |k| k as f64),
+                step.map_or(-1.0, |k| k as f64),
+                b.factorisation_flops.unwrap_or(f64::NAN),
+            ];
+        }
+        layout.share(alpha, &mut facts);
+        let pick = |code: f64, names: &[&'static str], none: &'static str| {
+            names
+                .get(code as usize)
+                .copied()
+                .filter(|_| code >= 0.0)
+                .unwrap_or(none)
+        };
+        BodySolver {
+            schur_source: pick(facts[0], &SOURCES.map(SchurSource::name), "none"),
+            neumann_step: pick(facts[1], &STEPS.map(NeumannStep::name), ""),
+            factorisation_flops: facts[2].is_finite().then_some(facts[2]),
+        }
+    })
 }

@@ -6,18 +6,18 @@
 //! - the *Dirichlet* system (body 1, when step 1 is not condensed): Γ_D¹ and the Γc normal dofs
 //!   prescribed.
 //!
-//! Each is a PETSc KSP with prefix `body<α>_`, factored once at setup. With MUMPS, the
-//! factorisation of the Neumann system also yields the interface Schur complement S^α on the
-//! Γc normal dofs (everything else condensed), used by the contact step and the condensed
-//! Dirichlet step.
+//! Each is a PETSc KSP with prefix `body<α>_`, factored once at setup. From the factorisation
+//! of the Neumann system come the body's *interface operators* ([`Condensed`]): the interface
+//! Schur complement S^α on the Γc normal dofs (everything else condensed) and its inverse, the
+//! Delassus operator D^α = B K⁻¹ Bᵀ (m × m, m the Γc pairs), which the condensed Dirichlet,
+//! contact and Neumann steps use ([`SchurSource`] says how they were formed). They live on the
+//! group's first rank, where the interface algebra of the loop runs.
 //!
 //! A body spans the ranks of its group ([`Partition`]): each rank assembles its own elements
 //! into the distributed matrix (MPIAIJ) and owns a contiguous block of PETSc rows. Vectors cross
 //! this module's boundary in mesh numbering, whole, on every rank of the group: a solution is
 //! gathered from its owners (a `VecScatter`), or only its Γc normal entries when that is all the
-//! caller needs (the Neumann step, the Delassus operator). The interface Schur complement comes
-//! from MUMPS on one rank; PETSc 3.18's MUMPS interface computes it only sequentially, so a body
-//! on several ranks forms it from m back-solves.
+//! caller needs (the Neumann step by back-solves, the Delassus operator by back-solves).
 
 use std::cell::RefCell;
 
@@ -43,6 +43,12 @@ pub enum BodyError {
     },
     #[error("body {alpha}: interface Schur complement: {source}")]
     Schur { alpha: usize, source: DenseError },
+    #[error("-nndd_schur {choice}: body {alpha} {why}")]
+    SchurChoice {
+        alpha: usize,
+        choice: &'static str,
+        why: &'static str,
+    },
     #[error(transparent)]
     Fault(#[from] InjectedFault),
 }
@@ -50,14 +56,70 @@ pub enum BodyError {
 /// Unit right-hand sides per multiple-RHS solve when S^α comes from back-solves.
 const SCHUR_BATCH: usize = 64;
 
-/// Whether a body needs its interface Schur complement S^α.
+/// Whether a body needs its interface operators S^α, D^α.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SchurMode {
     None,
-    /// Only when the factorisation computes it at no extra cost (MUMPS).
+    /// Only when the factorisation gives them (MUMPS, on any rank count).
     IfFactored,
     /// Always: from MUMPS, else from m back-solves.
     Always,
+}
+
+/// How the interface operators are formed (`-nndd_schur`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SchurChoice {
+    /// MUMPS's Schur complement on one rank, MUMPS's entries of K⁻¹ on several, back-solves
+    /// without a MUMPS factorisation.
+    Auto,
+    MumpsSchur,
+    MumpsInverse,
+    Solves,
+}
+
+impl SchurChoice {
+    pub fn name(self) -> &'static str {
+        match self {
+            SchurChoice::Auto => "auto",
+            SchurChoice::MumpsSchur => "mumps_schur",
+            SchurChoice::MumpsInverse => "mumps_inverse",
+            SchurChoice::Solves => "solves",
+        }
+    }
+}
+
+/// Where a body's interface operators came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SchurSource {
+    /// MUMPS's Schur complement, formed during the factorisation (one rank: PETSc 3.18's
+    /// MUMPS interface refuses it on several): S^α, then D^α = (S^α)⁻¹.
+    MumpsSchur,
+    /// MUMPS's selected entries of K⁻¹ on the Γc normal dofs (ICNTL(30), sparse right-hand
+    /// sides on the pruned elimination tree of the one factorisation, any rank count): D^α,
+    /// then S^α = (D^α)⁻¹.
+    MumpsInverse,
+    /// m back-solves K X = Bᵀ (any KSP; `KSPMatSolve` in batches): D^α, then S^α.
+    Solves,
+}
+
+impl SchurSource {
+    pub fn name(self) -> &'static str {
+        match self {
+            SchurSource::MumpsSchur => "mumps_schur",
+            SchurSource::MumpsInverse => "mumps_inverse",
+            SchurSource::Solves => "solves",
+        }
+    }
+}
+
+/// A body's interface operators on the Γc normal dofs in pair order (docs/method.md §2):
+/// the Schur complement S^α of the Neumann system, and its inverse D^α = B K⁻¹ Bᵀ, the normal
+/// Γc displacement of unit Γc forces. With them each step of the NNDD is m × m algebra: the
+/// Dirichlet step's reaction S¹(λ − v¹*), the contact QP on S², and the Neumann step's trace
+/// D^α(∓½R).
+pub struct Condensed {
+    pub schur: SymMatrix,
+    pub delassus: SymMatrix,
 }
 
 /// Which factorised system to solve with.
@@ -88,14 +150,17 @@ pub struct Body {
     dirichlet: Option<Ksp>,
     /// Γc normal dofs in pair order.
     pub gc: Vec<usize>,
-    /// Interface Schur complement S^α of the Neumann system on the Γc normal dofs.
-    pub schur: Option<SymMatrix>,
-    /// How the Schur complement was obtained ("mumps" or "solves").
-    pub schur_source: &'static str,
+    /// How the interface operators were formed, on every rank of the group (`None`: the body
+    /// has none).
+    pub schur_source: Option<SchurSource>,
+    /// The interface operators, on the group's first rank only.
+    condensed: Option<Condensed>,
+    /// MUMPS's factorisation flops (RINFOG(3)) of the Neumann system, when MUMPS factors it.
+    pub factorisation_flops: Option<f64>,
     /// Counters of back-solves per system (for the summary).
     pub solves: std::cell::Cell<usize>,
-    /// Wall time of assembly and of factorisation (s).
-    pub setup_seconds: (f64, f64),
+    /// Wall time of assembly, of factorisation and of the interface operators (s).
+    pub setup_seconds: (f64, f64, f64),
     /// The body's distribution over its group.
     pub partition: Partition,
     x: RefCell<Vector>,
@@ -111,12 +176,13 @@ pub struct Body {
 
 impl Body {
     /// Assemble K^α (this rank's elements of `partition`) and factor its Neumann system;
-    /// `schur` says whether S^α is wanted.
+    /// `schur` says whether the interface operators are wanted, `choice` how to form them.
     pub fn setup(
         problem: Rc<BodyProblem>,
         own_comm: OwnComm,
         partition: Partition,
         schur: SchurMode,
+        choice: SchurChoice,
         stages: &crate::petsc::log::Stages,
     ) -> Result<Body, BodyError> {
         let comm = own_comm.petsc();
@@ -137,11 +203,15 @@ impl Body {
         let gc_rows: Vec<petsc::Int> = gc.iter().map(|&d| partition.row(d)).collect();
         let t_assembly = t0.elapsed().as_secs_f64();
         let t1 = std::time::Instant::now();
-        let _s = stages.factorisation.enter();
+        let factorisation = stages.factorisation.enter();
         // MUMPS forms S^α during the factorisation only on one rank (PETSc 3.18).
-        let want = (schur != SchurMode::None && partition.size == 1).then_some(&gc_rows[..]);
+        let want = (schur != SchurMode::None
+            && partition.size == 1
+            && matches!(choice, SchurChoice::Auto | SchurChoice::MumpsSchur))
+        .then_some(&gc_rows[..]);
         fault::check(Phase::Factorisation)?;
         let neumann = Ksp::new(comm, k_neu, &format!("body{alpha}_"), want)?;
+        let factorisation_flops = neumann.mumps_factorisation_flops()?;
         let x = Vector::new(comm, partition.local_rows())?;
         let whole = Gather::new(&x, &partition.rows_in_mesh_order())?;
         let trace = Gather::new(&x, &gc_rows)?;
@@ -159,10 +229,11 @@ impl Body {
             neumann,
             dirichlet: None,
             gc,
-            schur: None,
-            schur_source: "none",
+            schur_source: None,
+            condensed: None,
+            factorisation_flops,
             solves: std::cell::Cell::new(0),
-            setup_seconds: (t_assembly, 0.0),
+            setup_seconds: (t_assembly, 0.0, 0.0),
             partition,
             x: RefCell::new(x),
             b: RefCell::new(b),
@@ -171,13 +242,49 @@ impl Body {
             trace: RefCell::new(trace),
             _own_comm: own_comm,
         };
-        if schur == SchurMode::Always
-            || (schur == SchurMode::IfFactored && body.neumann.schur_complement().is_some())
-        {
-            body.schur = Some(body.compute_schur()?);
-        }
+        drop(factorisation);
         body.setup_seconds.1 = t1.elapsed().as_secs_f64();
+        let t2 = std::time::Instant::now();
+        if let Some(source) = body.schur_source_for(schur, choice)? {
+            let _s = stages.interface.enter();
+            body.condensed = body.interface_operators(source)?;
+            body.schur_source = Some(source);
+        }
+        body.setup_seconds.2 = t2.elapsed().as_secs_f64();
         Ok(body)
+    }
+
+    /// How to form the interface operators (after the factorisation), or `None` when they are
+    /// not wanted or, with [`SchurMode::IfFactored`], would cost back-solves.
+    fn schur_source_for(
+        &self,
+        mode: SchurMode,
+        choice: SchurChoice,
+    ) -> Result<Option<SchurSource>, BodyError> {
+        let refuse = |why| BodyError::SchurChoice {
+            alpha: self.alpha(),
+            choice: choice.name(),
+            why,
+        };
+        if mode == SchurMode::None {
+            return Ok(None);
+        }
+        let mumps = self.neumann.has_mumps_factor()?;
+        let schur = self.neumann.schur_complement().is_some();
+        Ok(Some(match choice {
+            SchurChoice::MumpsSchur if schur => SchurSource::MumpsSchur,
+            SchurChoice::MumpsSchur if !mumps => return Err(refuse("is not factored by MUMPS")),
+            SchurChoice::MumpsSchur => {
+                return Err(refuse(
+                    "is on several ranks (PETSc 3.18 forms MUMPS's Schur complement on one only)",
+                ))
+            }
+            SchurChoice::MumpsInverse if !mumps => return Err(refuse("is not factored by MUMPS")),
+            SchurChoice::Auto if schur => SchurSource::MumpsSchur,
+            SchurChoice::Auto | SchurChoice::MumpsInverse if mumps => SchurSource::MumpsInverse,
+            _ if mode == SchurMode::IfFactored && choice != SchurChoice::Solves => return Ok(None),
+            _ => SchurSource::Solves,
+        }))
     }
 
     /// The first rank of the body's group: the one that counts the body's replicated totals
@@ -225,59 +332,87 @@ impl Body {
         self.problem.alpha
     }
 
-    /// S^α from MUMPS's Schur complement when available, else from m back-solves
-    /// (the Delassus operator D = B K⁻¹ Bᵀ, S = D⁻¹).
-    fn compute_schur(&mut self) -> Result<SymMatrix, BodyError> {
+    /// The interface operators from `source`, on the group's first rank (`None` elsewhere).
+    fn interface_operators(&mut self, source: SchurSource) -> Result<Option<Condensed>, BodyError> {
         let m = self.gc.len();
         let alpha = self.alpha();
-        if let Some(s) = self.neumann.schur_complement() {
-            // Column-major; a symmetric factorisation may fill only one triangle.
-            let mut out = SymMatrix::new(m);
-            for j in 0..m {
-                for i in 0..m {
-                    let (a, b) = (s[j * m + i], s[i * m + j]);
-                    let v = if a == 0.0 {
-                        b
-                    } else if b == 0.0 {
-                        a
-                    } else {
-                        0.5 * (a + b)
-                    };
-                    out.set(i, j, v);
-                }
-            }
-            self.schur_source = "mumps";
-            return Ok(out);
-        }
-        // The Delassus operator D = B K⁻¹ Bᵀ from m unit solves, in batches.
-        let nodes = self.partition.owned_nodes();
-        let owned = (2 * nodes.start) as petsc::Int..(2 * nodes.end) as petsc::Int;
         let rows: Vec<petsc::Int> = self.gc.iter().map(|&d| self.partition.row(d)).collect();
-        let (cols, reason) = self.neumann.inverse_block(
-            self.comm,
-            owned,
-            &rows,
-            &mut self.trace.borrow_mut(),
-            SCHUR_BATCH,
-        )?;
-        self.solves.set(self.solves.get() + m);
-        if reason < 0 {
-            return Err(BodyError::NotConverged {
-                alpha,
-                system: "Neumann",
-                reason,
-            });
+        // One of S^α, D^α (column-major), the other its inverse.
+        let (block, is_schur) = match source {
+            SchurSource::MumpsSchur => (
+                self.neumann
+                    .schur_complement()
+                    .map(<[f64]>::to_vec)
+                    .expect("MUMPS formed the Schur complement"),
+                true,
+            ),
+            SchurSource::MumpsInverse => {
+                let root = self.is_root();
+                (
+                    self.neumann
+                        .mumps_inverse_block(self.comm, root, &rows)?
+                        .unwrap_or_default(),
+                    false,
+                )
+            }
+            SchurSource::Solves => {
+                let nodes = self.partition.owned_nodes();
+                let owned = (2 * nodes.start) as petsc::Int..(2 * nodes.end) as petsc::Int;
+                let (cols, reason) = self.neumann.inverse_block(
+                    self.comm,
+                    owned,
+                    &rows,
+                    &mut self.trace.borrow_mut(),
+                    SCHUR_BATCH,
+                )?;
+                self.solves.set(self.solves.get() + m);
+                self.check_reason(System::Neumann, reason)?;
+                (cols, false)
+            }
+        };
+        if !self.is_root() {
+            return Ok(None);
         }
-        let mut d = SymMatrix::new(m);
+        let mut a = SymMatrix::new(m);
         for j in 0..m {
             for i in 0..m {
-                d.set(i, j, cols[j * m + i]);
+                // A symmetric factorisation may fill only one triangle of MUMPS's Schur
+                // complement: take the other where one is zero.
+                let (x, y) = (block[j * m + i], block[i * m + j]);
+                let v = match (x == 0.0, y == 0.0) {
+                    (true, _) => y,
+                    (_, true) => x,
+                    _ => 0.5 * (x + y),
+                };
+                a.set(i, j, v);
             }
         }
-        d.symmetrize();
-        self.schur_source = "solves";
-        d.inverse_spd()
-            .map_err(|source| BodyError::Schur { alpha, source })
+        drop(block);
+        let inverse = a
+            .inverse_spd()
+            .map_err(|source| BodyError::Schur { alpha, source })?;
+        Ok(Some(if is_schur {
+            Condensed {
+                schur: a,
+                delassus: inverse,
+            }
+        } else {
+            Condensed {
+                schur: inverse,
+                delassus: a,
+            }
+        }))
+    }
+
+    /// The interface operators, on the group's first rank (`None` on the others, and on a
+    /// body without them).
+    pub fn condensed(&self) -> Option<&Condensed> {
+        self.condensed.as_ref()
+    }
+
+    /// Whether the body has its interface operators (on every rank of its group).
+    pub fn has_condensed(&self) -> bool {
+        self.schur_source.is_some()
     }
 
     /// The right-hand side (this rank's rows) of `load` (in the nodal frames) with prescribed

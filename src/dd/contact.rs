@@ -12,16 +12,21 @@
 //! needs only T² and the contact set, so the field is formed only where it is used (the
 //! reported iterate, the estimates).
 //!
-//! Clarabel solves the QP (an interior-point method, nonnegative cone, no penalty), and its
-//! point is polished to round-off by an exact solve on its contact set. The contact set
-//! settles after a few NNDD iterations; with the warm start (`-nndd_qp_warm_start`, default
-//! on) the previous contact set is tried first and accepted only when the KKT conditions
-//! certify it optimal, which makes later contact steps O(m²) instead of an interior-point
-//! solve. The history records Clarabel's iterations per step (0: certified warm start).
+//! The QP is solved by the primal–dual active-set method of [`crate::qp::active_set`]
+//! (`-nndd_qp_solver active_set`, the default), started from the previous contact step's
+//! contact set (`-nndd_qp_warm_start`; the first step starts from the unconstrained solution's):
+//! each of its steps is one dense solve on the smaller of the free set (with S²) and the
+//! contact set (with D² = (S²)⁻¹, made once per run with S²), and it ends when the KKT
+//! conditions certify its point, to round-off. Once the contact set has settled that is one
+//! step. Should it not certify within `-nndd_qp_max_it` steps (or cycle), Clarabel (an
+//! interior-point method, nonnegative cone, no penalty) solves the QP and its point is polished
+//! to round-off by exact solves on its contact set; `-nndd_qp_solver clarabel` uses Clarabel
+//! at every step (after the certified previous contact set, with the warm start). The history
+//! records, per step, which method gave the answer and its iterations.
 
 use crate::dd::body::{Body, BodyError};
-use crate::qp::dense::SymMatrix;
-use crate::qp::{solve_nonneg_qp, solve_with_active_set, QpError, QpSettings};
+use crate::qp::active_set::{self, Operator};
+use crate::qp::{solve_nonneg_qp, QpError, QpMethod, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ContactError {
@@ -41,24 +46,49 @@ pub struct ContactSolution {
     pub active: Vec<bool>,
     /// The gaps v − (λ_p − g₀) ≥ 0 (0 on the contact set).
     pub gaps: Vec<f64>,
-    /// Clarabel's iterations (0 when the previous contact set was certified optimal).
+    /// The active-set steps, or Clarabel's iterations ([`ContactSolution::method`]).
     pub qp_iterations: u32,
+    /// The method whose point this is (Clarabel: the fallback, or `-nndd_qp_solver clarabel`).
+    pub method: QpMethod,
     pub kkt_residual: f64,
+}
+
+/// How the contact step solves its QP (plain data, `-nndd_qp_*`).
+#[derive(Clone, Debug)]
+pub struct ContactSettings {
+    /// `ActiveSet` (with Clarabel as the fallback), or `Clarabel` at every step.
+    pub method: QpMethod,
+    /// Active-set steps before the fallback to Clarabel.
+    pub max_steps: usize,
+    /// Start from the previous step's contact set.
+    pub warm_start: bool,
+    /// Clarabel's settings.
+    pub clarabel: QpSettings,
+}
+
+impl Default for ContactSettings {
+    fn default() -> Self {
+        ContactSettings {
+            method: QpMethod::ActiveSet,
+            max_steps: 50,
+            warm_start: true,
+            clarabel: QpSettings::default(),
+        }
+    }
 }
 
 /// The condensed contact problem of body 2 (set up once).
 pub struct ContactStep {
     u0: Vec<f64>,
     v_star: Vec<f64>,
-    qp: QpSettings,
-    /// Try the previous contact set first (certified by the KKT conditions, else Clarabel).
-    warm_start: bool,
+    settings: ContactSettings,
     previous: std::cell::RefCell<Option<Vec<bool>>>,
 }
 
 impl ContactStep {
-    pub fn new(body: &Body, qp: QpSettings, warm_start: bool) -> Result<ContactStep, ContactError> {
-        if body.schur.is_none() {
+    /// u₀ and v* (collective over body 2's group).
+    pub fn new(body: &Body, settings: ContactSettings) -> Result<ContactStep, ContactError> {
+        if !body.has_condensed() {
             return Err(ContactError::NoSchur(body.alpha()));
         }
         let u0 = body.neumann_solve(&vec![0.0; body.gc.len()], true)?;
@@ -66,8 +96,7 @@ impl ContactStep {
         Ok(ContactStep {
             u0,
             v_star,
-            qp,
-            warm_start,
+            settings,
             previous: Default::default(),
         })
     }
@@ -104,11 +133,11 @@ impl ContactStep {
         *self.previous.borrow_mut() = Some(active);
     }
 
-    /// Solve the contact step for the interface position λ_p (obstacle λ_p − g₀).
+    /// Solve the contact step for the interface position λ_p (obstacle λ_p − g₀), on body 2's
+    /// first rank (which holds S² and D²).
     pub fn solve(&self, body: &Body, lambda: &[f64]) -> Result<ContactSolution, ContactError> {
-        let s: &SymMatrix = body
-            .schur
-            .as_ref()
+        let c = body
+            .condensed()
             .ok_or(ContactError::NoSchur(body.alpha()))?;
         let m = lambda.len();
         let diff: Vec<f64> = body
@@ -119,14 +148,28 @@ impl ContactStep {
             .map(|(l, v)| l - v)
             .collect();
         let mut q = vec![0.0; m];
-        s.matvec(&diff, &mut q);
-        let warm = match (self.warm_start, self.previous.borrow().as_deref()) {
-            (true, Some(guess)) => solve_with_active_set(s, &q, guess),
-            _ => None,
+        c.schur.matvec(&diff, &mut q);
+        let op = Operator {
+            p: &c.schur,
+            inverse: Some(&c.delassus),
         };
-        let sol = match warm {
+        let settings = &self.settings;
+        let previous = self
+            .previous
+            .borrow()
+            .clone()
+            .filter(|_| settings.warm_start);
+        let certified = match settings.method {
+            QpMethod::ActiveSet => {
+                let start = previous.unwrap_or_else(|| active_set::cold_start(op, &q));
+                active_set::solve_from(op, &q, &start, settings.max_steps)
+            }
+            // Clarabel at every step, after the previous contact set if it certifies at once.
+            QpMethod::Clarabel => previous.and_then(|p| active_set::solve_from(op, &q, &p, 1)),
+        };
+        let sol = match certified {
             Some(sol) => sol,
-            None => solve_nonneg_qp(s, &q, &self.qp)?,
+            None => solve_nonneg_qp(&c.schur, &q, &settings.clarabel)?,
         };
         *self.previous.borrow_mut() = Some(sol.active.clone());
         Ok(ContactSolution {
@@ -134,6 +177,7 @@ impl ContactStep {
             active: sol.active,
             gaps: sol.x,
             qp_iterations: sol.iterations,
+            method: sol.method,
             kkt_residual: sol.kkt_residual,
         })
     }

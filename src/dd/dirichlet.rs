@@ -5,8 +5,9 @@
 //! Two exact ways, the same discrete solution:
 //! - `System`: a KSP solve with the Dirichlet system (Γc normal dofs eliminated);
 //! - `Condensed`: static condensation with the interface Schur complement S¹ of the Neumann
-//!   system (free when MUMPS factors it): with u¹₀ the solution with free Γc and
-//!   v¹* = B u¹₀, the Γc force that puts the interface at λ_p is T¹_p = S¹(λ_p − v¹*), and
+//!   system (from its one factorisation, [`crate::dd::body::Condensed`]): with u¹₀ the solution
+//!   with free Γc and v¹* = B u¹₀, the Γc force that puts the interface at λ_p is
+//!   T¹_p = S¹(λ_p − v¹*), an m × m product on body 1's first rank, and
 //!   u¹_p = u¹₀ + K⁻¹BᵀT¹_p (one back-solve, only when the field is wanted). This saves the
 //!   second factorisation and a back-solve per iteration.
 
@@ -15,7 +16,8 @@ use crate::dd::body::{Body, BodyError};
 /// How the Dirichlet step on Ω¹ is solved (`-nndd_dirichlet_step`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DirichletChoice {
-    /// Condensed when the factorisation gives S¹ (MUMPS), else the Dirichlet system.
+    /// Condensed when body 1 has its interface operators (a MUMPS factorisation, on any rank
+    /// count, or SuperLU_DIST), else the Dirichlet system.
     Auto,
     System,
     Condensed,
@@ -27,9 +29,10 @@ pub enum DirichletStep {
 }
 
 impl DirichletStep {
-    /// Condensed when body 1 carries S¹, else the Dirichlet system (which must exist).
-    pub fn new(body: &Body) -> Result<DirichletStep, BodyError> {
-        if body.schur.is_some() {
+    /// Condensed when body 1 has its interface operators and `choice` is not `System`, else
+    /// the Dirichlet system (which must exist). Collective over body 1's group.
+    pub fn new(body: &Body, choice: DirichletChoice) -> Result<DirichletStep, BodyError> {
+        if body.has_condensed() && choice != DirichletChoice::System {
             let u0 = body.neumann_solve(&vec![0.0; body.gc.len()], true)?;
             let v_star = body.normal_trace(&u0);
             Ok(DirichletStep::Condensed { u0, v_star })
@@ -49,7 +52,8 @@ impl DirichletStep {
         }
     }
 
-    /// T¹_p for the interface position λ_p, and u¹_p when it came for free.
+    /// T¹_p for the interface position λ_p, and u¹_p when it came for free. Condensed, T¹_p is
+    /// known on body 1's first rank only (zero elsewhere: the loop shares the first rank's).
     pub fn solve(
         &self,
         body: &Body,
@@ -61,10 +65,11 @@ impl DirichletStep {
                 Ok((Some(u), t))
             }
             DirichletStep::Condensed { v_star, .. } => {
-                let s = body.schur.as_ref().expect("condensed step has S¹");
-                let d: Vec<f64> = lambda.iter().zip(v_star).map(|(l, v)| l - v).collect();
-                let mut t = vec![0.0; d.len()];
-                s.matvec(&d, &mut t);
+                let mut t = vec![0.0; lambda.len()];
+                if let Some(c) = body.condensed() {
+                    let d: Vec<f64> = lambda.iter().zip(v_star).map(|(l, v)| l - v).collect();
+                    c.schur.matvec(&d, &mut t);
+                }
                 Ok((None, t))
             }
         }

@@ -1,11 +1,11 @@
-//! The discrete global contact problem solved at once (issue 2 item 6): both bodies,
-//! u²_n − u¹_n ≥ −g₀ at every Γc node pair (g₀ the initial gap). The check of the NNDD, and later the reference
-//! problem of η^NNDD.
+//! The discrete global contact problem solved at once: both bodies, u²_n − u¹_n ≥ −g₀ at every
+//! Γc node pair (g₀ the initial gap). The check of the NNDD, and the reference problem of
+//! η^NNDD.
 //!
 //! Condensed exactly on Γc with the contact force μ ≥ 0 (body 2 receives +μ, body 1 −μ):
-//! u^α = u^α₀ ± K^α⁻¹Bᵀμ, so the gap is g(μ) = (v²* − v¹*) + (D¹ + D²) μ with the Delassus
-//! operators D^α = B K^α⁻¹ Bᵀ = (S^α)⁻¹ (with the initial gap, g(μ) = g₀ + (v²* − v¹*) +
-//! (D¹ + D²) μ). The problem is the QP
+//! u^α = u^α₀ ± K^α⁻¹Bᵀμ, so the gap is g(μ) = (v²* − v¹*) + (D¹ + D²) μ with the bodies'
+//! Delassus operators D^α = B K^α⁻¹ Bᵀ = (S^α)⁻¹ (with the initial gap, g(μ) = g₀ +
+//! (v²* − v¹*) + (D¹ + D²) μ). The problem is the QP
 //!   minimise ½ μᵀ(D¹ + D²)μ + μᵀ(g₀ + v²* − v¹*)  subject to μ ≥ 0
 //! (KKT: g ≥ 0, μ ≥ 0, μᵀg = 0), solved by Clarabel on world rank 0 and polished.
 
@@ -20,11 +20,6 @@ pub enum MonolithicError {
     Body(#[from] BodyError),
     #[error("monolithic QP: {0}")]
     Qp(#[from] QpError),
-    #[error("monolithic: Delassus operator of body {alpha}: {source}")]
-    Dense {
-        alpha: usize,
-        source: crate::qp::dense::DenseError,
-    },
 }
 
 pub struct MonolithicResult {
@@ -58,12 +53,10 @@ pub fn solve(
             let u0 = b.neumann_solve(&vec![0.0; b.gc.len()], true)?;
             v_star[k] = b.normal_trace(&u0);
             free[k] = u0;
-            let s = b.schur.as_ref().expect("monolithic bodies carry S");
-            let d = s.inverse_spd().map_err(|source| MonolithicError::Dense {
-                alpha: k + 1,
-                source,
-            })?;
-            delassus[k] = d.data().to_vec();
+            // D^α is on the body's first rank, which shares it below.
+            if let Some(c) = b.condensed() {
+                delassus[k] = c.delassus.data().to_vec();
+            }
         }
         layout.share_vec(k + 1, &mut v_star[k]);
         layout.share_vec(k + 1, &mut delassus[k]);

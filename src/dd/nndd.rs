@@ -8,11 +8,12 @@
 use crate::dd::body::{Body, BodyError};
 use crate::dd::contact::{ContactError, ContactStep};
 use crate::dd::dirichlet::DirichletStep;
-use crate::dd::neumann::neumann_step;
+use crate::dd::neumann::NeumannStep;
 use crate::dd::secant::SecantUpdate;
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::Layout;
 use crate::petsc::log::{Stages, Timer};
+use crate::qp::QpMethod;
 
 #[derive(Debug, thiserror::Error)]
 pub enum NnddError {
@@ -130,9 +131,13 @@ pub struct IterationRecord {
     pub residual: f64,
     /// Number of Γc nodes in contact at step p.
     pub active: usize,
-    /// Clarabel's iterations in the contact step (0: the previous contact set was certified
-    /// optimal by the KKT conditions).
+    /// The contact step's QP iterations: the active-set steps (1: the previous contact set
+    /// was certified optimal by the KKT conditions), or Clarabel's iterations.
     pub qp_iterations: u32,
+    /// The method that solved the contact step's QP: `active_set`, or `clarabel` (its
+    /// fallback, or `-nndd_qp_solver clarabel`).
+    #[serde(default)]
+    pub qp_solver: String,
     /// The relaxation θ of this iteration's update (with `-nndd_theta auto`, of its new
     /// direction).
     pub theta: f64,
@@ -166,6 +171,9 @@ pub struct LoopTimers {
     pub contact_step: Timer,
     pub neumann_step: Timer,
     pub exchange: Timer,
+    /// Forming the fields u¹_p, u²_p of the reported and the estimated iterates (a back-solve
+    /// per body where the steps are condensed), outside the loop's steps.
+    pub fields: Timer,
 }
 
 /// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
@@ -198,6 +206,43 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
+/// The steps of an iteration, as set up for this run: body 1's Dirichlet step (on its ranks),
+/// body 2's contact step (on its ranks), and each body's Neumann step (on its ranks).
+pub struct Steps<'a> {
+    pub dirichlet: Option<&'a DirichletStep>,
+    pub contact: Option<&'a ContactStep>,
+    pub neumann: [Option<NeumannStep>; 2],
+}
+
+/// What body 2's root shares of a contact step: the contact set, the QP's KKT residual,
+/// iterations and method, and the gaps, packed into one broadcast.
+struct ContactShare {
+    active: Vec<bool>,
+    kkt: f64,
+    iterations: u32,
+    clarabel: bool,
+    gaps: Vec<f64>,
+}
+
+impl ContactShare {
+    fn pack(&self) -> Vec<f64> {
+        let mut v: Vec<f64> = self.active.iter().map(|&a| a as u8 as f64).collect();
+        v.extend([self.kkt, self.iterations as f64, self.clarabel as u8 as f64]);
+        v.extend(&self.gaps);
+        v
+    }
+
+    fn unpack(v: &[f64], m: usize) -> ContactShare {
+        ContactShare {
+            active: v[..m].iter().map(|&a| a > 0.5).collect(),
+            kkt: v[m],
+            iterations: v[m + 1] as u32,
+            clarabel: v[m + 2] > 0.5,
+            gaps: v[m + 3..].to_vec(),
+        }
+    }
+}
+
 /// u²_n, the normal Γc trace of body 2's field `u2` (on its ranks), broadcast to every rank
 /// (collective).
 pub fn shared_trace2(layout: &Layout, body2: Option<&Body>, u2: &[f64], m: usize) -> Vec<f64> {
@@ -212,24 +257,23 @@ fn form_fields(
     layout: &Layout,
     it: &mut Iterate,
     bodies: [Option<&Body>; 2],
-    dirichlet: Option<&DirichletStep>,
-    contact: Option<&ContactStep>,
+    steps: &Steps,
     stages: &Stages,
     timers: &mut LoopTimers,
 ) -> Result<(), NnddError> {
+    let (dirichlet, contact) = (steps.dirichlet, steps.contact);
+    let _s = stages.fields.enter();
     if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
         if it.u[0].is_empty() {
-            let _s = stages.dirichlet_step.enter();
             it.u[0] = timers
-                .dirichlet_step
+                .fields
                 .time(|| d.field(b1, &it.lambda, &it.forces[0]))?;
         }
     }
     if let (Some(b2), Some(c)) = (bodies[1], contact) {
         if it.u[1].is_empty() {
-            let _s = stages.contact_step.enter();
             it.u[1] = timers
-                .contact_step
+                .fields
                 .time(|| c.field(b2, &it.forces[1], &it.lambda, &it.active))?;
         }
     }
@@ -280,7 +324,8 @@ pub trait Observer<E> {
 }
 
 /// Run the NNDD loop on `m` Γc node pairs. `bodies[α-1]` is `Some` on the ranks owning body
-/// α, with `dirichlet` on body 1's and `contact` on body 2's. Every `estimate_every`
+/// α, with `steps` set up there (the Dirichlet step on body 1's, the contact step on body 2's,
+/// each body's Neumann step on its own). Every `estimate_every`
 /// iterations (if set), the fields of step p are formed and `observer.estimate` is called
 /// with the iterate (collectively). A run continues from `start` (`-nndd_restart`) when
 /// given. Errors of type `E` (which the loop's own errors convert into) end the loop.
@@ -290,8 +335,7 @@ pub fn solve<E: From<NnddError>>(
     m: usize,
     layout: &Layout,
     bodies: [Option<&Body>; 2],
-    dirichlet: Option<&DirichletStep>,
-    contact: Option<&ContactStep>,
+    steps: &Steps,
     stages: &Stages,
     estimate_every: Option<usize>,
     start: Option<LoopState>,
@@ -323,6 +367,7 @@ pub fn solve<E: From<NnddError>>(
         mut best_at,
         mut growth,
     } = start.unwrap_or(fresh);
+    let (dirichlet, contact) = (steps.dirichlet, steps.contact);
     if let (Some(c), true) = (contact, resumed && !warm.is_empty()) {
         c.set_warm_start(warm);
     }
@@ -340,8 +385,15 @@ pub fn solve<E: From<NnddError>>(
             t1 = t;
         }
         let mut t2 = vec![0.0; m];
-        // Body 2's contact set, the QP's KKT residual and iterations, and the gaps.
-        let mut act = vec![0.0; 2 * m + 2];
+        // Body 2's contact set, the QP's KKT residual, iterations and method, and the gaps.
+        let mut act = ContactShare {
+            active: vec![false; m],
+            kkt: 0.0,
+            iterations: 0,
+            clarabel: false,
+            gaps: vec![0.0; m],
+        }
+        .pack();
         fault::check(Phase::Qp).map_err(NnddError::from)?;
         // The contact QP lives on Γc: body 2's root solves it, the broadcast below shares it.
         if let (Some(b2), Some(c)) = (bodies[1].filter(|b| b.is_root()), contact) {
@@ -351,16 +403,21 @@ pub fn solve<E: From<NnddError>>(
                 .time(|| c.solve(b2, &lambda))
                 .map_err(NnddError::from)?;
             t2 = sol.forces;
-            act = sol.active.iter().map(|&a| a as u8 as f64).collect();
-            act.push(sol.kkt_residual);
-            act.push(sol.qp_iterations as f64);
-            act.extend(&sol.gaps);
+            act = ContactShare {
+                active: sol.active,
+                kkt: sol.kkt_residual,
+                iterations: sol.qp_iterations,
+                clarabel: sol.method == QpMethod::Clarabel,
+                gaps: sol.gaps,
+            }
+            .pack();
         }
         timers.exchange.time(|| {
             layout.share(1, &mut t1);
             layout.share(2, &mut t2);
             layout.share(2, &mut act);
         });
+        let act = ContactShare::unpack(&act, m);
         // Step 3: equilibrium defect.
         let r: Vec<f64> = t1.iter().zip(&t2).map(|(a, b)| a + b).collect();
         // Step 4: two Neumann problems.
@@ -369,16 +426,16 @@ pub fn solve<E: From<NnddError>>(
         {
             let _s = stages.neumann_step.enter();
             fault::check(Phase::Ksp).map_err(NnddError::from)?;
-            if let Some(b1) = bodies[0] {
+            if let (Some(b1), Some(n)) = (bodies[0], steps.neumann[0]) {
                 w1 = timers
                     .neumann_step
-                    .time(|| neumann_step(b1, &r))
+                    .time(|| n.solve(b1, &r))
                     .map_err(NnddError::from)?;
             }
-            if let Some(b2) = bodies[1] {
+            if let (Some(b2), Some(n)) = (bodies[1], steps.neumann[1]) {
                 w2 = timers
                     .neumann_step
-                    .time(|| neumann_step(b2, &r))
+                    .time(|| n.solve(b2, &r))
                     .map_err(NnddError::from)?;
             }
         }
@@ -388,7 +445,7 @@ pub fn solve<E: From<NnddError>>(
         });
         // Step 5: update, λ + θ d or the secant update of `-nndd_theta auto`.
         let d: Vec<f64> = (0..m).map(|i| w1[i] - w2[i]).collect();
-        let active_now: Vec<bool> = act[..m].iter().map(|&a| a > 0.5).collect();
+        let active_now = act.active.clone();
         let (new, theta, columns, fraction) = match secant.as_mut() {
             Some(s) => {
                 if p == 1 {
@@ -397,7 +454,7 @@ pub fn solve<E: From<NnddError>>(
                 // The sign conditions of the contact step: T² ≥ 0 on the contact set, gap ≥ 0
                 // off it (each affine in λ while the set stays).
                 let signs: Vec<f64> = (0..m)
-                    .map(|i| if active_now[i] { t2[i] } else { act[m + 2 + i] })
+                    .map(|i| if active_now[i] { t2[i] } else { act.gaps[i] })
                     .collect();
                 let step = s.step(&lambda, &d, &active_now, &signs);
                 (
@@ -421,8 +478,15 @@ pub fn solve<E: From<NnddError>>(
             iteration: p,
             lambda_change: change,
             residual: norm(&r),
-            active: act[..m].iter().filter(|&&a| a > 0.5).count(),
-            qp_iterations: act[m + 1] as u32,
+            active: act.active.iter().filter(|&&a| a).count(),
+            qp_iterations: act.iterations,
+            qp_solver: if act.clarabel {
+                QpMethod::Clarabel
+            } else {
+                QpMethod::ActiveSet
+            }
+            .name()
+            .into(),
             theta,
             secant_columns: columns,
             secant_fraction: fraction,
@@ -439,20 +503,12 @@ pub fn solve<E: From<NnddError>>(
             forces: [t1, t2],
             trace2: Vec::new(),
             active: active_now,
-            qp_kkt: act[m],
+            qp_kkt: act.kkt,
             iteration: p,
         };
         let mut balanced = false;
         if estimate_every.is_some_and(|k| p % k == 0) && observer.wants_estimate(&it)? {
-            form_fields(
-                layout,
-                &mut it,
-                bodies,
-                dirichlet,
-                contact,
-                stages,
-                &mut timers,
-            )?;
+            form_fields(layout, &mut it, bodies, steps, stages, &mut timers)?;
             balanced = observer.estimate(&it)?;
         }
         observer.monitor(&record);
@@ -522,15 +578,7 @@ pub fn solve<E: From<NnddError>>(
     let iterations = history.len();
     let mut last = last.expect("the loop runs at least once (checked by the restart)");
     // The fields of the reported step (the loop needs only the Γc forces).
-    form_fields(
-        layout,
-        &mut last,
-        bodies,
-        dirichlet,
-        contact,
-        stages,
-        &mut timers,
-    )?;
+    form_fields(layout, &mut last, bodies, steps, stages, &mut timers)?;
     Ok(NnddResult {
         status,
         iterations,

@@ -50,7 +50,6 @@ use crate::estimate::reference::interpolate_nested;
 use crate::estimate::share::{estimate_owners, Share};
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
-use crate::qp::dense::Cholesky;
 use crate::qp::{QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -175,9 +174,6 @@ pub struct Estimator<'a> {
     pub parts: Parts,
     /// Per body, the recovery's local operators on this rank, kept across estimates.
     pub operators: [std::cell::RefCell<OperatorCache>; 2],
-    /// Per body, the Cholesky factor of its interface Schur complement S^α (when the body
-    /// has one), for the recovery-free η^NNDD ([`Estimator::eta_nndd`]); made at its first use.
-    pub schur_factors: [std::cell::OnceCell<Option<Cholesky>>; 2],
     /// [`Estimator::eta_nndd_without_fields`], agreed over the ranks at its first use.
     pub cheap_nndd: std::cell::OnceCell<bool>,
 }
@@ -203,20 +199,12 @@ fn nodal_contact_forces(it: &Iterate) -> Vec<f64> {
 
 impl Estimator<'_> {
     /// Whether [`Estimator::eta_nndd`] can do without the fields of the iterate (every body
-    /// has its interface Schur complement); the same answer on every rank.
+    /// has its interface operators); the same answer on every rank.
     pub fn eta_nndd_without_fields(&self, bodies: [Option<&Body>; 2]) -> bool {
         *self.cheap_nndd.get_or_init(|| {
-            let missing =
-                (0..2).any(|k| bodies[k].is_some_and(|b| self.schur_factor(k, b).is_none()));
+            let missing = bodies.iter().flatten().any(|b| !b.has_condensed());
             self.layout.max(missing as u8 as f64) == 0.0
         })
-    }
-
-    /// The Cholesky factor of body k's S^α (made at the first use; none without S^α).
-    fn schur_factor(&self, k: usize, b: &Body) -> Option<&Cholesky> {
-        self.schur_factors[k]
-            .get_or_init(|| b.schur.as_ref().and_then(|s| s.cholesky().ok()))
-            .as_ref()
     }
 
     /// η^NNDD alone, discrete variant, without any stress recovery: what the balanced
@@ -224,9 +212,9 @@ impl Estimator<'_> {
     /// gives. Per body, ũ − u_p solves the Neumann system with loads on the Γc normal dofs
     /// only: the re-solve's nodal forces ∓μ̂ less the iterate's Γc forces T^α_p (u¹_p, the
     /// Dirichlet step's solution, is the Neumann solution with its reaction T¹_p). So
-    /// (ũ − u_p)ᵀK(ũ − u_p) = Δᵀ (S^α)⁻¹ Δ, Δ = ∓μ̂ − T^α_p, with the body's interface Schur
-    /// complement S^α (m × m, factored once): no back-solve. A body without S^α (its Dirichlet
-    /// step not condensed) makes the Neumann re-solve and (ũ − u_p)ᵀK(ũ − u_p) instead.
+    /// (ũ − u_p)ᵀK(ũ − u_p) = Δᵀ D^α Δ, Δ = ∓μ̂ − T^α_p, with the body's Delassus operator
+    /// D^α = (S^α)⁻¹ (m × m, on its first rank): no back-solve. A body without its interface
+    /// operators makes the Neumann re-solve and (ũ − u_p)ᵀK(ũ − u_p) instead.
     /// Plus the nodal contact pairing of body 2, 2 μ̂ᵀ(u²_n − λ + g₀), when body 2's field is
     /// formed; it is zero anyway (μ̂ vanishes off the contact set, and on it the contact step
     /// puts u²_n = λ − g₀ exactly), so the check needs the Γc forces only when every body
@@ -238,15 +226,16 @@ impl Estimator<'_> {
             if let Some(b) = body {
                 let sign = if k == 0 { 1.0 } else { -1.0 };
                 let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
-                let energy = match self.schur_factor(k, b) {
-                    Some(ch) => self.parts.run(Part::ElementSums, || {
+                let energy = match (b.has_condensed(), b.condensed()) {
+                    (true, None) => 0.0, // another rank of the group holds D^α
+                    (true, Some(c)) => self.parts.run(Part::ElementSums, || {
                         let delta: Vec<f64> =
                             f.iter().zip(&it.forces[k]).map(|(a, t)| a - t).collect();
-                        let mut x = delta.clone();
-                        ch.solve_in_place(&mut x);
+                        let mut x = vec![0.0; delta.len()];
+                        c.delassus.matvec(&delta, &mut x);
                         delta.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>()
                     }),
-                    None => {
+                    (false, _) => {
                         let u_d = self
                             .parts
                             .run(Part::Resolves, || b.neumann_solve(&f, true))?;

@@ -15,8 +15,14 @@ pub fn monitor_line(r: &IterationRecord, contact_nodes: usize, est: Option<&Esti
             r.secant_fraction.unwrap_or(1.0)
         )
     });
+    // The contact QP's iterations, and the method when Clarabel solved it.
+    let clarabel = if r.qp_solver == "clarabel" {
+        " (clarabel)"
+    } else {
+        ""
+    };
     println!(
-        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}{secant}",
+        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}{clarabel}{secant}",
         r.iteration,
         sci(r.lambda_change, 12),
         sci(r.residual, 6),

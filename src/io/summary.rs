@@ -12,10 +12,15 @@ pub struct Timings {
     pub input: f64,
     pub assembly: f64,
     pub factorisation: f64,
+    /// Each body's interface operators S^α, D^α, and the free solutions u^α₀ of the condensed
+    /// steps.
+    pub interface: f64,
     pub dirichlet_step: f64,
     pub contact_step: f64,
     pub neumann_step: f64,
     pub exchange: f64,
+    /// The fields of the reported and the estimated iterates (a back-solve per body).
+    pub fields: f64,
     pub monolithic: f64,
     pub estimation: f64,
     /// The estimation's parts (each also a `-log_view` stage nested in Estimation).
@@ -115,10 +120,18 @@ pub struct Summary {
     pub contact_zone: Option<[f64; 2]>,
     pub active_nodes: usize,
     pub contact_nodes: usize,
-    /// How the interface Schur complements were formed ("mumps" or "solves").
-    pub schur_source: String,
+    /// How each body's interface operators S^α, D^α were formed: "mumps_schur",
+    /// "mumps_inverse", "solves", or "none".
+    pub schur_source: [String; 2],
     /// How the Dirichlet step was solved: "condensed" or "system" ("" for monolithic).
     pub dirichlet_step: String,
+    /// How each body's Neumann steps were solved: "condensed" (the trace D^α(∓½R)) or "solve"
+    /// (a back-solve); "" for monolithic.
+    pub neumann_step: [String; 2],
+    /// MUMPS's count of each body's factorisation flops (RINFOG(3); null without MUMPS).
+    pub factorisation_flops: [Option<f64>; 2],
+    /// The flops PETSc logged, summed over the ranks (what `-log_view` totals).
+    pub logged_flops: f64,
     /// Largest relative KKT violation of the contact QPs of the reported step.
     pub qp_kkt_residual: f64,
     /// The estimated iterations (η^glo, η^FE, η^NNDD, ratio (25), e_ref and effectivity (26)).

@@ -8,9 +8,13 @@ use crate::petsc::{LogStage, PetscError};
 pub struct Stages {
     pub assembly: LogStage,
     pub factorisation: LogStage,
+    /// The condensed steps' setup: each body's S^α and D^α, and the free solutions u^α₀.
+    pub interface: LogStage,
     pub dirichlet_step: LogStage,
     pub contact_step: LogStage,
     pub neumann_step: LogStage,
+    /// The fields of the reported and the estimated iterates (a back-solve per body).
+    pub fields: LogStage,
     pub monolithic: LogStage,
     pub estimation: LogStage,
     /// The parts of the estimation, nested in it (their time is theirs, not Estimation's).
@@ -35,9 +39,11 @@ impl Stages {
         let stages = Stages {
             assembly: LogStage::register("Assembly")?,
             factorisation: LogStage::register("Factorisation")?,
+            interface: LogStage::register("Interface operators")?,
             dirichlet_step: LogStage::register("Dirichlet step")?,
             contact_step: LogStage::register("Contact step")?,
             neumann_step: LogStage::register("Neumann step")?,
+            fields: LogStage::register("Fields")?,
             monolithic: LogStage::register("Monolithic QP")?,
             estimation: LogStage::register("Estimation")?,
             estimation_parts: {
@@ -55,9 +61,11 @@ impl Stages {
         for s in [
             stages.assembly,
             stages.factorisation,
+            stages.interface,
             stages.dirichlet_step,
             stages.contact_step,
             stages.neumann_step,
+            stages.fields,
             stages.monolithic,
             stages.estimation,
             stages.reference,

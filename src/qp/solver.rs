@@ -45,9 +45,10 @@
 //! solve it by dense Cholesky and check that it is feasible (`x_F ≥ 0`,
 //! `y_A ≥ 0` up to round-off). If it is not (a wrongly identified index),
 //! the violating indices are moved to the other set and the linear solve is
-//! repeated a few times; if that still fails, Clarabel's point is returned
-//! with `polished = false`.
+//! repeated a few times (the steps of [`crate::qp::active_set`]); if that still
+//! fails, Clarabel's point is returned with `polished = false`.
 
+use crate::qp::active_set;
 use crate::qp::dense::{DenseError, SymMatrix};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -56,7 +57,7 @@ use clarabel::solver::{
 
 /// Relative tolerance for accepting a polished point: `x_F ≥ −ε‖x‖∞` and
 /// `y_A ≥ −ε·max(‖y‖∞, ‖q‖∞)`.
-const POLISH_EPS: f64 = 1e-12;
+pub(crate) const POLISH_EPS: f64 = 1e-12;
 
 /// Number of linear solves tried while polishing (the first uses Clarabel's
 /// active set, the others move violating indices between the sets).
@@ -106,8 +107,27 @@ pub struct QpSolution {
     pub polished: bool,
     /// Relative KKT violation of (`x`, `y`), see [`kkt_residual`].
     pub kkt_residual: f64,
-    /// Whether the point came from [`solve_with_active_set`] (Clarabel not called).
-    pub warm: bool,
+    /// The method whose point this is.
+    pub method: QpMethod,
+}
+
+/// Which method produced a [`QpSolution`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum QpMethod {
+    /// The primal–dual active-set method ([`crate::qp::active_set`]), certified by the KKT
+    /// conditions (`iterations` counts its steps).
+    ActiveSet,
+    /// Clarabel's interior-point method (`iterations` counts its iterations), polished.
+    Clarabel,
+}
+
+impl QpMethod {
+    pub fn name(self) -> &'static str {
+        match self {
+            QpMethod::ActiveSet => "active_set",
+            QpMethod::Clarabel => "clarabel",
+        }
+    }
 }
 
 /// Errors of [`solve_nonneg_qp`].
@@ -181,7 +201,7 @@ pub fn solve_nonneg_qp(
             iterations: 0,
             polished: true,
             kkt_residual: 0.0,
-            warm: false,
+            method: QpMethod::Clarabel,
         });
     }
     let d = p.diag_mean();
@@ -208,16 +228,12 @@ pub fn solve_nonneg_qp(
         .collect();
 
     if settings.polish {
-        if let Some((xp, yp, ap)) = polish(p, q, active.clone(), MAX_POLISH_ROUNDS) {
-            let kkt = kkt_residual(p, q, &xp, &yp);
+        let op = active_set::Operator { p, inverse: None };
+        if let Some(polished) = active_set::solve_from(op, q, &active, MAX_POLISH_ROUNDS) {
             return Ok(QpSolution {
-                x: xp,
-                y: yp,
-                active: ap,
                 iterations,
-                polished: true,
-                kkt_residual: kkt,
-                warm: false,
+                method: QpMethod::Clarabel,
+                ..polished
             });
         }
     }
@@ -229,29 +245,7 @@ pub fn solve_nonneg_qp(
         iterations,
         polished: false,
         kkt_residual: kkt,
-        warm: false,
-    })
-}
-
-/// Certified warm start: try the active set `guess` (e.g. the contact set of the previous
-/// NNDD iteration). Solves `P_FF x_F = −q_F` exactly on its free set and accepts the point
-/// only if the KKT conditions hold to round-off (`x_F ≥ 0`, `y_A = (Px + q)_A ≥ 0`, with the
-/// polish tolerance). `P` being positive definite, such a point *is* the unique solution;
-/// otherwise `None`, and the caller solves with Clarabel.
-pub fn solve_with_active_set(p: &SymMatrix, q: &[f64], guess: &[bool]) -> Option<QpSolution> {
-    if guess.len() != p.n() || q.len() != p.n() || inf_norm(q) == 0.0 {
-        return None;
-    }
-    let (x, y, active) = polish(p, q, guess.to_vec(), 1)?;
-    let kkt = kkt_residual(p, q, &x, &y);
-    Some(QpSolution {
-        x,
-        y,
-        active,
-        iterations: 0,
-        polished: true,
-        kkt_residual: kkt,
-        warm: true,
+        method: QpMethod::Clarabel,
     })
 }
 
@@ -345,56 +339,7 @@ fn clarabel_solve(
     }
 }
 
-/// Exact solve on an active set, with up to `rounds` attempts (after a
-/// rejected attempt, indices with `x_i < 0` join `A`, those with `y_i < 0`
-/// join `F`). Returns (`x`, `y`, `active`) of the accepted point, or `None`.
-fn polish(
-    p: &SymMatrix,
-    q: &[f64],
-    mut active: Vec<bool>,
-    rounds: usize,
-) -> Option<(Vec<f64>, Vec<f64>, Vec<bool>)> {
-    let m = q.len();
-    let qinf = inf_norm(q);
-    for _ in 0..rounds {
-        let free: Vec<usize> = (0..m).filter(|&i| !active[i]).collect();
-        let mut x = vec![0.0; m];
-        if !free.is_empty() {
-            let mut pff = p.submatrix(&free);
-            pff.symmetrize();
-            let chol = pff.cholesky().ok()?;
-            let mut xf: Vec<f64> = free.iter().map(|&i| -q[i]).collect();
-            chol.solve_in_place(&mut xf);
-            for (&i, v) in free.iter().zip(&xf) {
-                x[i] = *v;
-            }
-        }
-        let xtol = POLISH_EPS * inf_norm(&x);
-        let bad_x: Vec<usize> = free.iter().copied().filter(|&i| x[i] < -xtol).collect();
-        // Clamp round-off negatives, then y = P x + q with the clamped x.
-        x.iter_mut().for_each(|v| *v = v.max(0.0));
-        let mut y = vec![0.0; m];
-        p.matvec(&x, &mut y);
-        y.iter_mut().zip(q).for_each(|(yi, qi)| *yi += qi);
-        let ytol = POLISH_EPS * inf_norm(&y).max(qinf);
-        let bad_y: Vec<usize> = (0..m).filter(|&i| active[i] && y[i] < -ytol).collect();
-        if bad_x.is_empty() && bad_y.is_empty() {
-            for i in 0..m {
-                y[i] = if active[i] { y[i].max(0.0) } else { 0.0 };
-            }
-            return Some((x, y, active));
-        }
-        for i in bad_x {
-            active[i] = true;
-        }
-        for i in bad_y {
-            active[i] = false;
-        }
-    }
-    None
-}
-
-fn inf_norm(v: &[f64]) -> f64 {
+pub(crate) fn inf_norm(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |a, &b| a.max(b.abs()))
 }
 
@@ -410,7 +355,7 @@ fn norm2(v: &[f64]) -> f64 {
 
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     use crate::testutil::Lcg;
@@ -556,15 +501,19 @@ mod tests {
         // solve gives x = (1, -1).
         let p = SymMatrix::from_rows(2, vec![2.0, 1.0, 1.0, 2.0]);
         let q = [-1.0, 1.0];
-        assert!(polish(&p, &q, vec![false, false], 1).is_none());
-        let (x, y, a) = polish(&p, &q, vec![false, false], 2).unwrap();
-        assert_eq!(a, vec![false, true]);
-        assert_eq!((x[1], y[0]), (0.0, 0.0));
-        assert!((x[0] - 0.5).abs() < 1e-15 && (y[1] - 1.5).abs() < 1e-15);
+        let op = active_set::Operator {
+            p: &p,
+            inverse: None,
+        };
+        assert!(active_set::solve_from(op, &q, &[false, false], 1).is_none());
+        let s = active_set::solve_from(op, &q, &[false, false], 2).unwrap();
+        assert_eq!(s.active, vec![false, true]);
+        assert_eq!((s.x[1], s.y[0]), (0.0, 0.0));
+        assert!((s.x[0] - 0.5).abs() < 1e-15 && (s.y[1] - 1.5).abs() < 1e-15);
         // Starting from "all active" (y = q has y₀ = -1 < 0) also recovers.
-        let (x2, _, a2) = polish(&p, &q, vec![true, true], 2).unwrap();
-        assert_eq!(a2, vec![false, true]);
-        assert_eq!(x2, x);
+        let s2 = active_set::solve_from(op, &q, &[true, true], 2).unwrap();
+        assert_eq!(s2.active, vec![false, true]);
+        assert_eq!(s2.x, s.x);
     }
 
     #[test]
@@ -689,7 +638,7 @@ mod tests {
 
     /// A known strictly complementary solution with about half of the
     /// constraints active (alternating blocks of 10); returns (q, x*, y*).
-    fn designed_rhs(p: &SymMatrix, xs: f64, ys: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    pub(crate) fn designed_rhs(p: &SymMatrix, xs: f64, ys: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let n = p.n();
         let mut x = vec![0.0; n];
         let mut y = vec![0.0; n];
