@@ -72,12 +72,7 @@ pub fn setup_bodies(
             (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
         };
         let problem = Rc::clone(&problems[alpha - 1]);
-        let partition = Partition::new(
-            &problem.mesh,
-            alpha,
-            layout.group_rank(),
-            layout.group_sizes[alpha - 1],
-        )?;
+        let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
         let mut body = Body::setup(
             problem,
             layout.own_body_comm(),

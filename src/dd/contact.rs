@@ -25,7 +25,7 @@
 //! records, per step, which method gave the answer and its iterations.
 
 use crate::dd::body::{Body, BodyError};
-use crate::qp::active_set::{self, Operator};
+use crate::qp::active_set::{self, ActiveSet, Operator};
 use crate::qp::{solve_nonneg_qp, QpError, QpMethod, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -83,6 +83,9 @@ pub struct ContactStep {
     v_star: Vec<f64>,
     settings: ContactSettings,
     previous: std::cell::RefCell<Option<Vec<bool>>>,
+    /// The active-set method, with the factorisation of its last step (reused while the
+    /// contact set stays).
+    active_set: std::cell::RefCell<ActiveSet>,
 }
 
 impl ContactStep {
@@ -98,6 +101,7 @@ impl ContactStep {
             v_star,
             settings,
             previous: Default::default(),
+            active_set: Default::default(),
         })
     }
 
@@ -147,6 +151,8 @@ impl ContactStep {
             .zip(&self.v_star)
             .map(|(l, v)| l - v)
             .collect();
+        // q = S²(o − v*), and D² q = o − v* (D² = (S²)⁻¹): the dual form's right-hand side
+        // without a product.
         let mut q = vec![0.0; m];
         c.schur.matvec(&diff, &mut q);
         let op = Operator {
@@ -159,13 +165,14 @@ impl ContactStep {
             .borrow()
             .clone()
             .filter(|_| settings.warm_start);
+        let mut method = self.active_set.borrow_mut();
         let certified = match settings.method {
             QpMethod::ActiveSet => {
                 let start = previous.unwrap_or_else(|| active_set::cold_start(op, &q));
-                active_set::solve_from(op, &q, &start, settings.max_steps)
+                method.solve(op, &q, Some(&diff), &start, settings.max_steps)
             }
             // Clarabel at every step, after the previous contact set if it certifies at once.
-            QpMethod::Clarabel => previous.and_then(|p| active_set::solve_from(op, &q, &p, 1)),
+            QpMethod::Clarabel => previous.and_then(|p| method.solve(op, &q, Some(&diff), &p, 1)),
         };
         let sol = match certified {
             Some(sol) => sol,

@@ -147,6 +147,14 @@ impl Layout {
         }
     }
 
+    /// Broadcast `data` (sized alike on every rank) from the first rank of this rank's body
+    /// group to the group.
+    pub fn group_broadcast(&self, data: &mut [u32]) {
+        if self.group.size() > 1 {
+            self.group.process_at_rank(0).broadcast_into(data);
+        }
+    }
+
     /// Sum `data` element-wise over all ranks (in place).
     pub fn world_sum(&self, data: &mut [f64]) {
         if self.size > 1 {

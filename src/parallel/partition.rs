@@ -4,13 +4,14 @@
 //! gives every node an owner. PETSc distributes a matrix by contiguous row ranges, so the nodes
 //! are renumbered: the nodes of rank 0 first, then those of rank 1, …, each rank's in mesh
 //! order. The rest of the code keeps the mesh numbering; this type translates (a dof `2 i + k`
-//! of mesh node i is PETSc row `2 petsc_node[i] + k`). Every rank of the group runs METIS on
-//! the same mesh with the same (default, seeded) options, so all agree on the partition
-//! without communication.
+//! of mesh node i is PETSc row `2 petsc_node[i] + k`). The group's first rank runs METIS and
+//! broadcasts its element and node parts ([`Partition::on_group`]): one METIS run per body
+//! whatever the rank count.
 
 use std::ops::Range;
 
 use crate::fem::mesh::Mesh;
+use crate::parallel::layout::Layout;
 use crate::petsc::Int;
 
 #[derive(Debug, thiserror::Error)]
@@ -39,7 +40,53 @@ pub struct Partition {
 }
 
 impl Partition {
-    /// METIS partition of `mesh` over `size` ranks, seen from group rank `rank`.
+    /// The METIS partition of body `alpha`'s `mesh` over this rank's body group (collective
+    /// over the group): its first rank partitions, the others receive the parts.
+    pub fn on_group(
+        mesh: &Mesh,
+        alpha: usize,
+        layout: &Layout,
+    ) -> Result<Partition, PartitionError> {
+        let (rank, size) = (layout.group_rank(), layout.group_size());
+        if size == 1 {
+            return Partition::new(mesh, alpha, rank, size);
+        }
+        let (ne, nn) = (mesh.triangles.len(), mesh.num_nodes());
+        // [ok, element parts …, node parts …], so that a METIS failure ends every rank.
+        let mut parts = vec![0u32; 1 + ne + nn];
+        let mut failure = None;
+        if rank == 0 {
+            match metis_parts(mesh, alpha, size) {
+                Ok((epart, npart)) => {
+                    parts[0] = 1;
+                    parts[1..=ne].copy_from_slice(&epart);
+                    parts[1 + ne..].copy_from_slice(&npart);
+                }
+                Err(e) => failure = Some(e),
+            }
+        }
+        layout.group_broadcast(&mut parts);
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        if parts[0] == 0 {
+            return Err(PartitionError::Metis {
+                alpha,
+                elements: ne,
+                parts: size,
+                message: "reported by the group's first rank".into(),
+            });
+        }
+        Ok(Partition::from_parts(
+            rank,
+            size,
+            &parts[1..=ne],
+            &parts[1 + ne..],
+        ))
+    }
+
+    /// METIS partition of `mesh` over `size` ranks, seen from group rank `rank` (every rank
+    /// that calls it runs METIS; [`Partition::on_group`] runs it once per group).
     pub fn new(
         mesh: &Mesh,
         alpha: usize,
@@ -56,30 +103,15 @@ impl Partition {
                 node_start: vec![0, nn],
             });
         }
-        let eptr: Vec<metis::Idx> = (0..=ne).map(|e| (3 * e) as metis::Idx).collect();
-        let eind: Vec<metis::Idx> = mesh
-            .triangles
-            .iter()
-            .flat_map(|t| t.map(|v| v as metis::Idx))
-            .collect();
-        let mut epart = vec![0 as metis::Idx; ne];
-        let mut npart = vec![0 as metis::Idx; nn];
-        let metis_err = |message: String| PartitionError::Metis {
-            alpha,
-            elements: ne,
-            parts: size,
-            message,
-        };
-        metis::Mesh::new(size as metis::Idx, &eptr, &eind)
-            .map_err(|e| metis_err(e.to_string()))?
-            .part_dual(&mut epart, &mut npart)
-            .map_err(|e| metis_err(e.to_string()))?;
+        let (epart, npart) = metis_parts(mesh, alpha, size)?;
+        Ok(Partition::from_parts(rank, size, &epart, &npart))
+    }
+
+    /// The partition with element parts `epart` and node parts `npart` (METIS's).
+    fn from_parts(rank: usize, size: usize, epart: &[u32], npart: &[u32]) -> Partition {
         let mut count = vec![0usize; size];
-        for &p in &npart {
+        for &p in npart {
             count[p as usize] += 1;
-        }
-        if let Some(r) = count.iter().position(|&c| c == 0) {
-            return Err(metis_err(format!("part {r} received no node")));
         }
         let mut node_start = vec![0usize; size + 1];
         for r in 0..size {
@@ -94,13 +126,13 @@ impl Partition {
                 i as u32
             })
             .collect();
-        Ok(Partition {
+        Partition {
             rank,
             size,
-            element_owner: epart.iter().map(|&p| p as u32).collect(),
+            element_owner: epart.to_vec(),
             petsc_node,
             node_start,
-        })
+        }
     }
 
     /// This rank's PETSc nodes.
@@ -163,6 +195,45 @@ impl Partition {
             .filter(|&&o| o as usize == self.rank)
             .count()
     }
+}
+
+/// METIS's element and node parts of `mesh` in `size` parts (`METIS_PartMeshDual`), every
+/// part with at least one node.
+fn metis_parts(
+    mesh: &Mesh,
+    alpha: usize,
+    size: usize,
+) -> Result<(Vec<u32>, Vec<u32>), PartitionError> {
+    let (ne, nn) = (mesh.triangles.len(), mesh.num_nodes());
+    let eptr: Vec<metis::Idx> = (0..=ne).map(|e| (3 * e) as metis::Idx).collect();
+    let eind: Vec<metis::Idx> = mesh
+        .triangles
+        .iter()
+        .flat_map(|t| t.map(|v| v as metis::Idx))
+        .collect();
+    let mut epart = vec![0 as metis::Idx; ne];
+    let mut npart = vec![0 as metis::Idx; nn];
+    let metis_err = |message: String| PartitionError::Metis {
+        alpha,
+        elements: ne,
+        parts: size,
+        message,
+    };
+    metis::Mesh::new(size as metis::Idx, &eptr, &eind)
+        .map_err(|e| metis_err(e.to_string()))?
+        .part_dual(&mut epart, &mut npart)
+        .map_err(|e| metis_err(e.to_string()))?;
+    let mut count = vec![0usize; size];
+    for &p in &npart {
+        count[p as usize] += 1;
+    }
+    if let Some(r) = count.iter().position(|&c| c == 0) {
+        return Err(metis_err(format!("part {r} received no node")));
+    }
+    Ok((
+        epart.iter().map(|&p| p as u32).collect(),
+        npart.iter().map(|&p| p as u32).collect(),
+    ))
 }
 
 #[cfg(test)]

@@ -26,14 +26,17 @@
 //!     x = D (y − q),  y_F = 0,  x_A = 0   ⇒   D_AA y_A = (D q)_A,   x = D_{:,A} y_A − D q,
 //! ```
 //!
-//! (|A|³/6), plus two products with P or D (m²). The method may cycle on matrices that are not
-//! M-matrices; a set met before, or `max_steps` steps without a certificate, end it without
-//! an answer, and the caller falls back to Clarabel ([`crate::qp::solve_nonneg_qp`]).
+//! (|A|³/6), plus two products with P or D (m²). An [`ActiveSet`] solver keeps its last
+//! factorisation: a step on the set of the previous QP's answer (the NNDD's contact step once
+//! its contact set has settled) reuses it, and costs two products and two triangular solves.
+//! The method may cycle on matrices that are not M-matrices; a set met before, or `max_steps`
+//! steps without a certificate, end it without an answer, and the caller falls back to
+//! Clarabel ([`crate::qp::solve_nonneg_qp`]).
 
 use std::collections::HashSet;
 
-use crate::qp::dense::SymMatrix;
-use crate::qp::solver::{inf_norm, kkt_residual, QpMethod, QpSolution, POLISH_EPS};
+use crate::qp::dense::{Cholesky, SymMatrix};
+use crate::qp::solver::{inf_norm, kkt_residual_with, QpMethod, QpSolution, POLISH_EPS};
 
 /// The QP's operator P, and its inverse when the caller has it.
 #[derive(Clone, Copy)]
@@ -43,124 +46,193 @@ pub struct Operator<'a> {
     pub inverse: Option<&'a SymMatrix>,
 }
 
-/// The outcome of one step on the set `active`: the point (x, y = P x + q) when it satisfies
-/// the KKT conditions to round-off, else the set of the next step.
+/// The factorisation of one step: of P_FF (`dual` false) or D_AA (`dual` true) on `set`.
+struct Factor {
+    set: Vec<bool>,
+    dual: bool,
+    chol: Cholesky,
+}
+
+/// The primal–dual active-set method, keeping the factorisation of its last step for the next
+/// QP with the same operator (reset it with [`ActiveSet::forget`] when the operator changes).
+#[derive(Default)]
+pub struct ActiveSet {
+    last: Option<Factor>,
+}
+
+/// The outcome of one step on the set `active`: the point (x, y = P x + q, and P x) when it
+/// satisfies the KKT conditions to round-off, else the set of the next step.
 enum Step {
     Certified {
         x: Vec<f64>,
         y: Vec<f64>,
+        px: Vec<f64>,
     },
     Next(Vec<bool>),
     /// A Cholesky factorisation failed (P not positive definite to round-off).
     Failed,
 }
 
-/// x with x_A = 0 and y_F = 0: the exact minimiser on the face of the active set.
-fn solve_on_set(op: Operator, q: &[f64], dq: Option<&[f64]>, active: &[bool]) -> Option<Vec<f64>> {
-    let m = q.len();
-    let free: Vec<usize> = (0..m).filter(|&i| !active[i]).collect();
-    let on: Vec<usize> = (0..m).filter(|&i| active[i]).collect();
-    let mut x = vec![0.0; m];
-    if free.is_empty() {
-        return Some(x);
+impl ActiveSet {
+    /// Drop the kept factorisation.
+    pub fn forget(&mut self) {
+        self.last = None;
     }
-    if let (Some(d), Some(dq), true) = (op.inverse, dq, on.len() < free.len()) {
-        // Dual form on A: D_AA y_A = (D q)_A, x = D_{:,A} y_A − D q.
-        let mut y_a: Vec<f64> = on.iter().map(|&i| dq[i]).collect();
-        if !on.is_empty() {
-            let mut daa = d.submatrix(&on);
-            daa.symmetrize();
-            daa.cholesky().ok()?.solve_in_place(&mut y_a);
-        }
-        for &i in &free {
-            let row = &d.data()[i * m..(i + 1) * m];
-            let s: f64 = on.iter().zip(&y_a).map(|(&j, y)| row[j] * y).sum();
-            x[i] = s - dq[i];
-        }
-        return Some(x);
-    }
-    let mut pff = op.p.submatrix(&free);
-    pff.symmetrize();
-    let chol = pff.cholesky().ok()?;
-    let mut xf: Vec<f64> = free.iter().map(|&i| -q[i]).collect();
-    chol.solve_in_place(&mut xf);
-    for (&i, v) in free.iter().zip(&xf) {
-        x[i] = *v;
-    }
-    Some(x)
-}
 
-/// One step: the exact point on `active`, and the KKT verdict on it (the tolerance of
-/// [`POLISH_EPS`], relative to ‖x‖∞ and max(‖y‖∞, ‖q‖∞)).
-fn step(op: Operator, q: &[f64], dq: Option<&[f64]>, active: &[bool]) -> Step {
-    let m = q.len();
-    let Some(mut x) = solve_on_set(op, q, dq, active) else {
-        return Step::Failed;
-    };
-    let xtol = POLISH_EPS * inf_norm(&x);
-    let bad_x: Vec<usize> = (0..m).filter(|&i| !active[i] && x[i] < -xtol).collect();
-    // Clamp round-off negatives, then y = P x + q with the clamped x.
-    x.iter_mut().for_each(|v| *v = v.max(0.0));
-    let mut y = vec![0.0; m];
-    op.p.matvec(&x, &mut y);
-    y.iter_mut().zip(q).for_each(|(yi, qi)| *yi += qi);
-    let ytol = POLISH_EPS * inf_norm(&y).max(inf_norm(q));
-    let bad_y: Vec<usize> = (0..m).filter(|&i| active[i] && y[i] < -ytol).collect();
-    if bad_x.is_empty() && bad_y.is_empty() {
-        for i in 0..m {
-            y[i] = if active[i] { y[i].max(0.0) } else { 0.0 };
+    /// The Cholesky factor of `a[idx, idx]` on `set` (`dual`: of D_AA, else of P_FF), the
+    /// kept one when it is of the same set and side.
+    fn factor(
+        &mut self,
+        a: &SymMatrix,
+        idx: &[usize],
+        set: &[bool],
+        dual: bool,
+    ) -> Option<&Cholesky> {
+        let kept = self
+            .last
+            .as_ref()
+            .is_some_and(|f| f.dual == dual && f.set == set);
+        if !kept {
+            self.last = None;
+            let mut sub = a.submatrix(idx);
+            sub.symmetrize();
+            let chol = sub.cholesky().ok()?;
+            self.last = Some(Factor {
+                set: set.to_vec(),
+                dual,
+                chol,
+            });
         }
-        return Step::Certified { x, y };
+        self.last.as_ref().map(|f| &f.chol)
     }
-    let mut next = active.to_vec();
-    for i in bad_x {
-        next[i] = true;
-    }
-    for i in bad_y {
-        next[i] = false;
-    }
-    Step::Next(next)
-}
 
-/// Run the active-set method from the active set `start` for at most `max_steps` steps.
-/// Returns the certified solution (`iterations` = the steps taken, `method` =
-/// [`QpMethod::ActiveSet`]), or `None` when it did not certify one: a factorisation failed,
-/// a set came back (a cycle), or the steps ran out.
-pub fn solve_from(op: Operator, q: &[f64], start: &[bool], max_steps: usize) -> Option<QpSolution> {
-    let m = q.len();
-    if start.len() != m || op.p.n() != m || op.inverse.is_some_and(|d| d.n() != m) {
-        return None;
-    }
-    // D q, once: the dual-form steps need it.
-    let dq = op.inverse.map(|d| {
-        let mut v = vec![0.0; m];
-        d.matvec(q, &mut v);
-        v
-    });
-    let mut seen: HashSet<Vec<bool>> = HashSet::new();
-    let mut active = start.to_vec();
-    for k in 1..=max_steps {
-        if !seen.insert(active.clone()) {
-            return None; // a cycle
+    /// x with x_A = 0 and y_F = 0: the exact minimiser on the face of the active set.
+    fn solve_on_set(
+        &mut self,
+        op: Operator,
+        q: &[f64],
+        dq: Option<&[f64]>,
+        active: &[bool],
+    ) -> Option<Vec<f64>> {
+        let m = q.len();
+        let free: Vec<usize> = (0..m).filter(|&i| !active[i]).collect();
+        let on: Vec<usize> = (0..m).filter(|&i| active[i]).collect();
+        let mut x = vec![0.0; m];
+        if free.is_empty() {
+            return Some(x);
         }
-        match step(op, q, dq.as_deref(), &active) {
-            Step::Certified { x, y } => {
-                let kkt_residual = kkt_residual(op.p, q, &x, &y);
-                return Some(QpSolution {
-                    x,
-                    y,
-                    active,
-                    iterations: k as u32,
-                    polished: true,
-                    kkt_residual,
-                    method: QpMethod::ActiveSet,
-                });
+        if let (Some(d), Some(dq), true) = (op.inverse, dq, on.len() < free.len()) {
+            // Dual form on A: D_AA y_A = (D q)_A, x = D_{:,A} y_A − D q.
+            let mut y_a: Vec<f64> = on.iter().map(|&i| dq[i]).collect();
+            if !on.is_empty() {
+                self.factor(d, &on, active, true)?.solve_in_place(&mut y_a);
             }
-            Step::Next(next) => active = next,
-            Step::Failed => return None,
+            for &i in &free {
+                let row = &d.data()[i * m..(i + 1) * m];
+                let s: f64 = on.iter().zip(&y_a).map(|(&j, y)| row[j] * y).sum();
+                x[i] = s - dq[i];
+            }
+            return Some(x);
         }
+        let mut xf: Vec<f64> = free.iter().map(|&i| -q[i]).collect();
+        self.factor(op.p, &free, active, false)?
+            .solve_in_place(&mut xf);
+        for (&i, v) in free.iter().zip(&xf) {
+            x[i] = *v;
+        }
+        Some(x)
     }
-    None
+
+    /// One step: the exact point on `active`, and the KKT verdict on it (the tolerance of
+    /// [`POLISH_EPS`], relative to ‖x‖∞ and max(‖y‖∞, ‖q‖∞)).
+    fn step(&mut self, op: Operator, q: &[f64], dq: Option<&[f64]>, active: &[bool]) -> Step {
+        let m = q.len();
+        let Some(mut x) = self.solve_on_set(op, q, dq, active) else {
+            return Step::Failed;
+        };
+        let xtol = POLISH_EPS * inf_norm(&x);
+        let bad_x: Vec<usize> = (0..m).filter(|&i| !active[i] && x[i] < -xtol).collect();
+        // Clamp round-off negatives, then y = P x + q with the clamped x.
+        x.iter_mut().for_each(|v| *v = v.max(0.0));
+        let mut px = vec![0.0; m];
+        op.p.matvec(&x, &mut px);
+        let mut y: Vec<f64> = px.iter().zip(q).map(|(a, b)| a + b).collect();
+        let ytol = POLISH_EPS * inf_norm(&y).max(inf_norm(q));
+        let bad_y: Vec<usize> = (0..m).filter(|&i| active[i] && y[i] < -ytol).collect();
+        if bad_x.is_empty() && bad_y.is_empty() {
+            for i in 0..m {
+                y[i] = if active[i] { y[i].max(0.0) } else { 0.0 };
+            }
+            return Step::Certified { x, y, px };
+        }
+        let mut next = active.to_vec();
+        for i in bad_x {
+            next[i] = true;
+        }
+        for i in bad_y {
+            next[i] = false;
+        }
+        Step::Next(next)
+    }
+
+    /// Run the method from the active set `start` for at most `max_steps` steps; `dq` is D q
+    /// when the caller knows it (else it is formed when D is given). Returns the certified
+    /// solution (`iterations` = the steps taken, `method` = [`QpMethod::ActiveSet`]), or `None`
+    /// when it did not certify one: a factorisation failed, a set came back (a cycle), or the
+    /// steps ran out.
+    pub fn solve(
+        &mut self,
+        op: Operator,
+        q: &[f64],
+        dq: Option<&[f64]>,
+        start: &[bool],
+        max_steps: usize,
+    ) -> Option<QpSolution> {
+        let m = q.len();
+        if start.len() != m || op.p.n() != m || op.inverse.is_some_and(|d| d.n() != m) {
+            return None;
+        }
+        let formed;
+        let dq = match (dq, op.inverse) {
+            (Some(v), _) => Some(v),
+            (None, Some(d)) => {
+                let mut v = vec![0.0; m];
+                d.matvec(q, &mut v);
+                formed = v;
+                Some(&formed[..])
+            }
+            (None, None) => None,
+        };
+        let mut seen: HashSet<Vec<bool>> = HashSet::new();
+        let mut active = start.to_vec();
+        for k in 1..=max_steps {
+            if !seen.insert(active.clone()) {
+                return None; // a cycle
+            }
+            match self.step(op, q, dq, &active) {
+                Step::Certified { x, y, px } => {
+                    let kkt_residual = kkt_residual_with(&px, q, &x, &y);
+                    return Some(QpSolution {
+                        x,
+                        y,
+                        active,
+                        iterations: k as u32,
+                        polished: true,
+                        kkt_residual,
+                        method: QpMethod::ActiveSet,
+                    });
+                }
+                Step::Next(next) => active = next,
+                Step::Failed => return None,
+            }
+        }
+        None
+    }
+}
+
+/// [`ActiveSet::solve`] without a kept factorisation or a known D q.
+pub fn solve_from(op: Operator, q: &[f64], start: &[bool], max_steps: usize) -> Option<QpSolution> {
+    ActiveSet::default().solve(op, q, None, start, max_steps)
 }
 
 /// The active set of the unconstrained minimiser x = −D q where it is negative (the cold start
@@ -276,6 +348,32 @@ mod tests {
             }
         }
         assert!(certified >= 190, "certified only {certified} of 200");
+    }
+
+    /// A solver that keeps its factorisation gives the same answers as a fresh one, and
+    /// certifies the next QP on the same set in one step (the NNDD's settled contact step).
+    #[test]
+    fn the_kept_factorisation_gives_the_same_answers() {
+        let n = 300;
+        let stiff = contact_like(n, 2e11);
+        let d = stiff.inverse_spd().unwrap();
+        let op = Operator {
+            p: &stiff,
+            inverse: Some(&d),
+        };
+        let (q, _, _) = designed_rhs(&stiff, 1e-4, 1e8);
+        let mut kept = ActiveSet::default();
+        let first = kept.solve(op, &q, None, &cold_start(op, &q), 50).unwrap();
+        // A second QP with the same solution's contact set: q scaled.
+        let q2: Vec<f64> = q.iter().map(|v| 1.5 * v).collect();
+        let again = kept.solve(op, &q2, None, &first.active, 50).unwrap();
+        let fresh = solve_from(op, &q2, &first.active, 50).unwrap();
+        assert_eq!(again.iterations, 1);
+        assert_eq!(again.active, fresh.active);
+        for i in 0..n {
+            assert!((again.x[i] - fresh.x[i]).abs() <= 1e-12 * 3.8e-4, "x[{i}]");
+            assert!((again.y[i] - fresh.y[i]).abs() <= 1e-12 * 3.3e8, "y[{i}]");
+        }
     }
 
     /// A step budget too small to reach the solution gives no answer (the contact step then

@@ -266,10 +266,15 @@ pub fn solve_nonneg_qp(
 /// `Px + q` in floating point has an error of order `ε‖Px‖`. A polished
 /// solution of a well-posed problem has a residual of a few 1e-16 to 1e-14.
 pub fn kkt_residual(p: &SymMatrix, q: &[f64], x: &[f64], y: &[f64]) -> f64 {
+    let mut px = vec![0.0; q.len()];
+    p.matvec(x, &mut px);
+    kkt_residual_with(&px, q, x, y)
+}
+
+/// [`kkt_residual`] with the product `px` = P x already made.
+pub(crate) fn kkt_residual_with(px: &[f64], q: &[f64], x: &[f64], y: &[f64]) -> f64 {
     let m = q.len();
     let tiny = f64::MIN_POSITIVE;
-    let mut px = vec![0.0; m];
-    p.matvec(x, &mut px);
     let xinf = inf_norm(x);
     let yinf = inf_norm(y);
     let qinf = inf_norm(q);
@@ -281,7 +286,7 @@ pub fn kkt_residual(p: &SymMatrix, q: &[f64], x: &[f64], y: &[f64]) -> f64 {
     let r_s = (0..m)
         .map(|i| (y[i] - (px[i] + q[i])).abs())
         .fold(0.0f64, f64::max)
-        / qinf.max(inf_norm(&px)).max(tiny);
+        / qinf.max(inf_norm(px)).max(tiny);
     r_x.max(r_y).max(r_c).max(r_s)
 }
 
