@@ -301,7 +301,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     if layout.is_root() {
         let summary = report::summarise(
             &settings,
-            &problems[0],
+            [&problems[0], &problems[1]],
             &layout,
             &sol,
             energy,

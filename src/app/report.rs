@@ -16,7 +16,7 @@ use crate::problem::BodyProblem;
 #[allow(clippy::too_many_arguments)]
 pub fn summarise(
     settings: &Settings,
-    body1: &BodyProblem,
+    [body1, body2]: [&BodyProblem; 2],
     layout: &Layout,
     sol: &Solution,
     energy: f64,
@@ -69,6 +69,8 @@ pub fn summarise(
         dirichlet_step: sol.dirichlet_step.into(),
         neumann_step: solvers.each_ref().map(|s| s.neumann_step.to_string()),
         factorisation_flops: solvers.each_ref().map(|s| s.factorisation_flops),
+        body_setup_seconds: solvers.each_ref().map(|s| s.setup_seconds),
+        body_dofs: [body1.mesh.num_dofs(), body2.mesh.num_dofs()],
         logged_flops,
         qp_kkt_residual: sol.last.qp_kkt,
         estimates: sol.estimates.iter().map(summary_estimate).collect(),

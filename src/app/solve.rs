@@ -471,6 +471,8 @@ pub struct BodySolver {
     pub schur_source: &'static str,
     pub neumann_step: &'static str,
     pub factorisation_flops: Option<f64>,
+    /// Assembly, factorisation and interface operators on the body's first rank (s).
+    pub setup_seconds: f64,
 }
 
 /// Each body's [`BodySolver`], shared from its first rank to every rank (collective).
@@ -482,16 +484,18 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
     ];
     const STEPS: [NeumannStep; 2] = [NeumannStep::Condensed, NeumannStep::Solve];
     [1, 2].map(|alpha| {
-        let mut facts = [-1.0, -1.0, f64::NAN];
+        let mut facts = [-1.0, -1.0, f64::NAN, 0.0];
         if let Some(b) = refs[alpha - 1] {
             let source = b
                 .schur_source
                 .and_then(|s| SOURCES.iter().position(|&x| x == s));
             let step = sol.neumann_step[alpha - 1].and_then(|s| STEPS.iter().position(|&x| x == s));
+            let (a, f, i) = b.setup_seconds;
             facts = [
                 source.map_or(-1.0, |k| k as f64),
                 step.map_or(-1.0, |k| k as f64),
                 b.factorisation_flops.unwrap_or(f64::NAN),
+                a + f + i,
             ];
         }
         layout.share(alpha, &mut facts);
@@ -506,6 +510,7 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
             schur_source: pick(facts[0], &SOURCES.map(SchurSource::name), "none"),
             neumann_step: pick(facts[1], &STEPS.map(NeumannStep::name), ""),
             factorisation_flops: facts[2].is_finite().then_some(facts[2]),
+            setup_seconds: facts[3],
         }
     })
 }

@@ -132,6 +132,11 @@ pub struct Summary {
     pub factorisation_flops: [Option<f64>; 2],
     /// The flops PETSc logged, summed over the ranks (what `-log_view` totals).
     pub logged_flops: f64,
+    /// Each body's setup on its first rank: assembly, factorisation and interface operators
+    /// (s); the groups run them at the same time, so the shorter waits for the longer.
+    pub body_setup_seconds: [f64; 2],
+    /// Each body's dofs.
+    pub body_dofs: [usize; 2],
     /// Largest relative KKT violation of the contact QPs of the reported step.
     pub qp_kkt_residual: f64,
     /// The estimated iterations (η^glo, η^FE, η^NNDD, ratio (25), e_ref and effectivity (26)).

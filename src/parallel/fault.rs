@@ -175,7 +175,7 @@ fn first_failure<C: Communicator>(
         let mut req =
             comm.immediate_all_reduce_into(scope, &mine, &mut first, SystemOperation::min());
         if !failed {
-            req.wait();
+            crate::parallel::wait::politely(req);
             return;
         }
         loop {

@@ -1,14 +1,15 @@
 //! Which MPI ranks own which body, and the interface exchanges between the bodies.
 //!
 //! `-n 1`: both bodies on rank 0. `-n N`, N ≥ 2: the ranks split into two groups, one per body
-//! (sized by the bodies' dof counts, or `-nndd_body1_ranks`), so the two step-1 problems (and
-//! the two Neumann problems) run at the same time; each body lives on its group's communicator,
+//! (sized by the bodies' factorisation work, or `-nndd_body1_ranks`), so the two bodies' setups
+//! and their steps run at the same time; each body lives on its group's communicator,
 //! partitioned over it by METIS (`partition.rs`). Interface data (λ, the Γc forces, the contact
 //! set) are small: each group's root broadcasts them to every rank.
 
 use mpi::topology::{Color, Communicator, SimpleCommunicator};
 use mpi::traits::*;
 
+use crate::parallel::wait::politely;
 use crate::petsc::{comm_from_rsmpi, Comm};
 
 /// A duplicated communicator ([`Layout::own_body_comm`]), freed when dropped: its owner drops
@@ -37,6 +38,10 @@ pub enum LayoutError {
     },
 }
 
+/// The growth of a sparse direct factorisation's work with the dofs of a 2D mesh under a
+/// nested-dissection ordering (George 1973: O(N^1.5) flops): what sizes the body groups.
+pub const FACTOR_WORK_EXPONENT: f64 = 1.5;
+
 pub struct Layout {
     pub world: SimpleCommunicator,
     pub rank: i32,
@@ -51,8 +56,9 @@ pub struct Layout {
 
 impl Layout {
     /// Split the world into two groups: world ranks 0 .. n₁ for body 1 and n₁ .. N for body 2,
-    /// n₁ = `body1_ranks` if given, else in proportion to the bodies' dof counts `dofs`
-    /// (at least one rank each). With one rank both bodies share it.
+    /// n₁ = `body1_ranks` if given, else in proportion to the bodies' factorisation work,
+    /// which dominates a run and grows as dofs^1.5 in 2D ([`FACTOR_WORK_EXPONENT`]; at least
+    /// one rank each). With one rank both bodies share it.
     pub fn new(
         world: SimpleCommunicator,
         body1_ranks: usize,
@@ -78,7 +84,8 @@ impl Layout {
             }
             body1_ranks
         } else {
-            let share = size as f64 * dofs[0] as f64 / (dofs[0] + dofs[1]) as f64;
+            let work = dofs.map(|d| (d as f64).powf(FACTOR_WORK_EXPONENT));
+            let share = size as f64 * (work[0] / (work[0] + work[1]));
             (share.round() as usize).clamp(1, size as usize - 1)
         };
         let (roots, group_sizes) = if size == 1 {
@@ -151,7 +158,8 @@ impl Layout {
     /// group to the group.
     pub fn group_broadcast(&self, data: &mut [u32]) {
         if self.group.size() > 1 {
-            self.group.process_at_rank(0).broadcast_into(data);
+            let root = self.group.process_at_rank(0);
+            mpi::request::scope(|scope| politely(root.immediate_broadcast_into(scope, data)));
         }
     }
 
@@ -189,12 +197,12 @@ impl Layout {
         self.rank == 0
     }
 
-    /// Broadcast `data` (sized alike on every rank) from body `alpha`'s root to all ranks.
+    /// Broadcast `data` (sized alike on every rank) from body `alpha`'s root to all ranks
+    /// (waiting [`politely`] for the root, which may still be computing).
     pub fn share(&self, alpha: usize, data: &mut [f64]) {
         if self.size > 1 {
-            self.world
-                .process_at_rank(self.roots[alpha - 1])
-                .broadcast_into(data);
+            let root = self.world.process_at_rank(self.roots[alpha - 1]);
+            mpi::request::scope(|scope| politely(root.immediate_broadcast_into(scope, data)));
         }
     }
 
@@ -230,11 +238,14 @@ impl Layout {
         ];
         let mut out = mine;
         if self.size > 1 {
-            self.world.all_reduce_into(
-                &mine[..],
-                &mut out[..],
-                mpi::collective::SystemOperation::max(),
-            );
+            mpi::request::scope(|scope| {
+                politely(self.world.immediate_all_reduce_into(
+                    scope,
+                    &mine[..],
+                    &mut out[..],
+                    mpi::collective::SystemOperation::max(),
+                ))
+            });
         }
         (out[0], out[1] != 0)
     }

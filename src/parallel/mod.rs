@@ -1,10 +1,12 @@
 //! Layer `parallel`: how the MPI ranks share the work. [`layout`]: the two rank groups (one
 //! per body), their communicators and the interface exchanges between them; [`partition`]: a
 //! body's mesh split over its group by METIS, and the PETSc row numbering; [`fault`]: how the
-//! ranks agree that a phase failed, and the test-only injection of a failure.
+//! ranks agree that a phase failed, and the test-only injection of a failure; [`wait`]:
+//! waiting for other ranks without taking their core.
 //!
 //! May use: `qp`, `fem`, `petsc`.
 
 pub mod fault;
 pub mod layout;
 pub mod partition;
+pub mod wait;
