@@ -46,13 +46,15 @@ pub fn num(v: &serde_json::Value, key: &str) -> f64 {
     v[key].as_f64().unwrap_or(f64::NAN)
 }
 
-/// The solve's time in a summary: assembly + factorisation + the NNDD loop (its steps and
-/// exchanges), each a maximum over the ranks.
+/// The solve's time in a summary: assembly + factorisation + interface operators + the NNDD
+/// loop (its steps and exchanges) + the fields, each a maximum over the ranks.
 pub fn solve_seconds(summary: &serde_json::Value) -> f64 {
     let t = &summary["timings"];
     [
         "assembly",
         "factorisation",
+        "interface",
+        "fields",
         "dirichlet_step",
         "contact_step",
         "neumann_step",

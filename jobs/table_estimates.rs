@@ -1,9 +1,9 @@
-//! Issue 3's table: for `paper` at n = 4, 8, 16, 32 (default), at iteration 6 and converged,
+//! The table of estimates: for `paper` at n = 4, 8, 16, 32 (default), at iteration 6 and converged,
 //! η^glo, η^FE, η^NNDD, e_ref (reference mesh 8n), the effectivity and the ratio (25), for the
 //! recoveries `eet` (plain EET + Johnson–Mercier) and `patch` (with patch-wise complementary
 //! energy minimisation); then the largest equilibrium residuals and the estimation time as a
 //! fraction of the solve time, per n (`--compare 16,64,256,512,1024` by default), for the
-//! default recovery and the one it replaced (issue 11); then the cost of estimates at every
+//! default recovery and the one it replaced; then the cost of estimates at every
 //! iteration against none, per n (`--every 256` by default) and θ. Run through
 //! `jobs/table-estimates [--compare n,n,…] [--every n,n,…] [n …]`.
 
@@ -88,10 +88,10 @@ fn main() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Issue 11 item 3: per n and θ (auto, the default, and the paper's 0.25), a run without
-/// estimates against one with `-nndd_estimate_every 1` (tol 1e-8, 2 ranks, one run each):
-/// the summaries' total times, their ratio, the estimates' total and mean time, and the last
-/// η^glo.
+/// The cost of estimates at every iteration: per n and θ (auto, the default, and the paper's
+/// 0.25), a run without estimates against one with `-nndd_estimate_every 1` (tol 1e-8, 2
+/// ranks, one run each): the summaries' total times, their ratio, the estimates' total and
+/// mean time, and the last η^glo.
 fn every(dir: &std::path::Path, levels: &[usize]) {
     println!(
         "\n{:>5} {:>6} {:>4} {:>10} {:>10} {:>7} {:>4} {:>10} {:>10} {:>10}",
@@ -161,10 +161,10 @@ fn take_list(args: &mut Vec<String>, flag: &str, default: &[usize]) -> Vec<usize
         .collect()
 }
 
-/// Issue 11's table: per n, the solve and one estimate of the final iterate (tol 1e-8, 2
-/// ranks) with the default recovery (`patch`) and the one it replaced (`patch-classic`), one
-/// run each: the solve time, the estimate's time, their ratio, the effectivity (against the
-/// reference on the mesh 8n, for n ≤ 64) and the peak memory per rank.
+/// The comparison of recoveries: per n, the solve and one estimate of the final iterate (tol 1e-8,
+/// 2 ranks) with the default recovery (`patch`) and the one it replaced (`patch-classic`), one run
+/// each: the solve time, the estimate's time, their ratio, the effectivity (against the reference
+/// on the mesh 8n, for n ≤ 64) and the peak memory per rank.
 fn compare(dir: &std::path::Path, levels: &[usize]) {
     println!(
         "\n{:>5} {:>8} {:>14} {:>4} {:>9} {:>9} {:>7} {:>8} {:>16}",

@@ -1,6 +1,6 @@
 //! `nndd`: see `nndd -help` and README.md.
 //!
-//! How a run ends (issue 12, README "Exit codes"): every failure ends every rank, with one
+//! How a run ends (README "Exit codes"): every failure ends every rank, with one
 //! line naming the cause. Failures that all ranks meet at the same point (bad input, an
 //! unwritable output, a failure at the end of a setup phase) are agreed on and reported once,
 //! and the ranks exit together; a failure of one rank in the middle of the solve, where the

@@ -1,4 +1,4 @@
-//! Capability: body 1's contact side need not be horizontal (issue 10 item 4). The contact
+//! Capability: body 1's contact side need not be horizontal. The contact
 //! direction of a pair is body 1's outward normal at its node; where it is not (0, 1) the pair's
 //! nodes get rotated nodal frames.
 //! - `paper` turned by an angle φ (its mesh file's nodes rotated, its data rotated) is the same

@@ -173,7 +173,7 @@ fn the_bound_holds_with(recovery: &str) {
             );
             assert!((g(e, "eta_glo") / g(e, "e_ref") - gamma).abs() < 1e-12 * gamma);
         }
-        // The target of issue 3: a sharp bound with the NNDD converged.
+        // The target of the estimator: a sharp bound with the NNDD converged.
         let gamma = g(est.last().unwrap(), "effectivity");
         assert!(
             gamma <= 1.2,

@@ -1,4 +1,4 @@
-//! Faults end every rank, promptly, with one line (issue 12); a run stopped by a signal
+//! Faults end every rank, promptly, with one line; a run stopped by a signal
 //! writes a restart point that any rank count continues from. Every run here is under a
 //! time limit, so that a hang fails the test instead of CI: the process group is killed and
 //! the test says how long it waited.
@@ -17,7 +17,7 @@ use common::{f, json, mpirun_command, scratch, walk};
 /// The tests of this file run one at a time: their time limits assume the machine's cores.
 static SERIAL: Mutex<()> = Mutex::new(());
 
-/// How long a failing job may take to end (issue 12).
+/// How long a failing job may take to end.
 const LIMIT: Duration = Duration::from_secs(10);
 
 fn serial() -> std::sync::MutexGuard<'static, ()> {

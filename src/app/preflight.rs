@@ -1,4 +1,4 @@
-//! What is checked before PETSc starts (issue 12). PETSc reads an `-options_file` on rank 0
+//! What is checked before PETSc starts. PETSc reads an `-options_file` on rank 0
 //! and broadcasts its content: a file that rank 0 cannot read stops rank 0 inside
 //! `PetscInitialize` while the other ranks wait for the broadcast for ever. So every rank
 //! first checks, itself, that each options file of the command line can be read, and the

@@ -99,7 +99,7 @@ pub struct EstimateRecord {
     pub t_hat: Vec<f64>,
 }
 
-/// The parts of an estimate (issue 11 item 4), each a `-log_view` stage nested in Estimation
+/// The parts of an estimate, each a `-log_view` stage nested in Estimation
 /// (`petsc::log::ESTIMATION_PARTS`) and a timer for the summary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Part {

@@ -35,7 +35,7 @@ pub struct Overlap {
     pub vertex_key: Vec<u64>,
 }
 
-/// The exchanges of a body split over several ranks (issue 11). A warm recovery
+/// The exchanges of a body split over several ranks. A warm recovery
 /// (`StarChoice::PatchTraction`) starts from the change δ of the previous recovery of the
 /// same cache; on a sub-mesh, δ is exact on the own elements only. Before a warm recovery,
 /// [`Halo::refresh`] gives every sub-mesh element that the rank does not own its owner's

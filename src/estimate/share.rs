@@ -1,4 +1,4 @@
-//! Who estimates which elements (issue 11). The element work of an estimate (the stress
+//! Who estimates which elements. The element work of an estimate (the stress
 //! recoveries and the element sums) is spread evenly over all ranks, whatever the sizes of the
 //! two bodies: with one rank per body, a body twice the other's size would otherwise keep its
 //! rank busy while the other waits (Hertz level 6: 25 s of 40). The Neumann re-solves stay on

@@ -1,4 +1,4 @@
-//! Restart points (issue 12): what `-nndd_checkpoint_every` and a signal write, and what
+//! Restart points: what `-nndd_checkpoint_every` and a signal write, and what
 //! `-nndd_restart` reads. A checkpoint holds the NNDD loop's state ([`LoopState`]: λ_{p+1},
 //! the iteration count, the history, the secant update and the last contact set), the
 //! balanced stopping rule's state, and the identity of the discrete problem it belongs to,

@@ -1,4 +1,4 @@
-//! Faults (issue 12): how ranks agree that a phase failed, and the test-only injection of a
+//! Faults: how ranks agree that a phase failed, and the test-only injection of a
 //! failure on one rank (`-nndd_fault RANK:PHASE`).
 //!
 //! Every collective of a run is reached by all ranks in the same order, so a rank that fails

@@ -1,4 +1,4 @@
-//! A body's mesh over the ranks of its group (issue 5).
+//! A body's mesh over the ranks of its group.
 //!
 //! METIS (`METIS_PartMeshDual`) splits the elements into one part per rank of the group, and
 //! gives every node an owner. PETSc distributes a matrix by contiguous row ranges, so the nodes

@@ -1,4 +1,4 @@
-//! The signals that ask a run to stop (issue 12): SIGTERM (a batch system's time limit, or
+//! The signals that ask a run to stop: SIGTERM (a batch system's time limit, or
 //! `kill`), SIGINT (Ctrl-C) and SIGUSR1 (which `mpirun` forwards to every rank, where it ends
 //! the job on SIGTERM itself). `PetscInitialize` installs PETSc's own handler for SIGTERM,
 //! which aborts; [`catch_stop_requests`] replaces it (and is therefore called after PETSc's

@@ -70,7 +70,7 @@
 //! took 386 s instead of 78 s). An [`OperatorCache`] keeps them from one recovery to the next
 //! (the estimator holds one per body: 57.5 s).
 //!
-//! `PatchTraction` (issue 11, the default of `-nndd_recovery patch`) makes the same sweeps
+//! `PatchTraction` (the default of `-nndd_recovery patch`) makes the same sweeps
 //! on the edge tractions with a per-mesh plan (`plan.rs`): one sweep of the 256 × 256 mesh
 //! takes 0.05 s instead of about 0.5 s, the patch kernels come from a pivoted QR instead of a
 //! Jacobi eigen-decomposition, the plan, the topology and the operators are built once per
@@ -114,7 +114,7 @@ pub use topology::{sweep_key, vertex_colours};
 
 /// The local operators of the recovery, which depend on the mesh and the material only (the
 /// JM element operators per triangle shape, the patch operators per vertex-patch pattern and
-/// the element Hessians), kept from one recovery to the next (issue 11: the later estimates
+/// the element Hessians), kept from one recovery to the next (the later estimates
 /// reuse everything that does not depend on the iterate). One per body and rank; its
 /// capacities are those of the per-call caches.
 #[derive(Default)]
@@ -164,7 +164,7 @@ impl OperatorCache {
 
     /// The warm start's 12 traction values of each sub-mesh element in `elements`, each in
     /// the element's own orientation (so the same numbers on every sub-mesh holding the
-    /// element), or none if no warm start is held (issue 11: the halo exchange of
+    /// element), or none if no warm start is held (for the halo exchange of
     /// `overlap::Halo`).
     pub fn warm_values(&mut self, elements: &[usize]) -> Option<Vec<[f64; NT]>> {
         let (plan, warm) = (self.plan.as_ref()?, self.warm.as_mut()?);

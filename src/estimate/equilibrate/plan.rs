@@ -1,6 +1,6 @@
 //! `PatchTraction`: the block Gauss–Seidel steps of `PatchRelaxation` carried out in the
 //! space of the edge-traction values, with everything that depends on the mesh only computed
-//! once and kept from one recovery to the next (issue 11).
+//! once and kept from one recovery to the next.
 //!
 //! The complementary energy of an element is a quadratic form of its 12 traction values t_E
 //! (the JM coefficients are G_E t_E, `johnson_mercier`):

@@ -77,7 +77,7 @@ pub(super) struct FinalPass<'a> {
 
 impl FinalPass<'_> {
     /// Every element's JM field from its edge tractions, handed to `out` (the caller stores
-    /// it or uses it at once: the estimator keeps no coefficients, issue 11), with, over
+    /// it or uses it at once: the estimator keeps no coefficients), with, over
     /// the owned elements, the complementary energy Σ_E ‖σ̂ − σ̃_E‖²_{K⁻¹,E} and the
     /// equilibrium check (relative to max |σ̂|; boundary terms to max(|σ̂|, |g|); the point
     /// reactions are the caller's): divergence and internal traction jumps of each field,

@@ -183,7 +183,7 @@ pub(super) fn owned_vertices(mesh: &Mesh, owned: Option<&[bool]>) -> Option<Vec<
 }
 
 /// Edges of the mesh (sorted node pairs), their elements and geometry, and vertex stars.
-/// Indices are stored in 32 bits (issue 11: half the memory); the accessors give `usize`.
+/// Indices are stored in 32 bits (half the memory); the accessors give `usize`.
 pub(super) struct Topology {
     /// Nodes of each edge, n0 < n1.
     edge_nodes: Vec<[u32; 2]>,
