@@ -96,16 +96,8 @@ fn active_set_equals_clarabel_on_paper_at_every_stiffness_ratio() {
     let dir = scratch("qp-paper");
     // E¹/E² = 1000, 1, 0.001 (body 2 keeps E = 2.1e11).
     for (tag, e1) in [("1000", "2.1e14"), ("1", "2.1e11"), ("0.001", "2.1e8")] {
-        let args = [
-            "-nndd_problem",
-            "paper",
-            "-nndd_n",
-            "16",
-            "-nndd_tol",
-            "1e-11",
-            "-nndd_body1_E",
-            e1,
-        ];
+        let mut args = PAPER_16_TIGHT.to_vec();
+        args.extend(["-nndd_body1_E", e1]);
         compare(&dir, &format!("ratio{tag}"), 2, &args);
     }
     std::fs::remove_dir_all(&dir).ok();
@@ -138,14 +130,7 @@ fn active_set_equals_clarabel_on_hertz_and_the_pin() {
 #[test]
 fn a_step_that_does_not_certify_falls_back_to_clarabel() {
     let dir = scratch("qp-fallback");
-    let base = [
-        "-nndd_problem",
-        "paper",
-        "-nndd_n",
-        "16",
-        "-nndd_tol",
-        "1e-11",
-    ];
+    let base = PAPER_16_TIGHT;
     let (a, b) = (dir.join("default"), dir.join("fallback"));
     let ja = solve(2, &a, &base);
     let mut args = base.to_vec();

@@ -132,16 +132,7 @@ fn paper_operators_from_the_factorisation_equal_back_solves() {
     let dir = scratch("iface-paper");
     let case = Case {
         name: "paper",
-        args: [
-            "-nndd_problem",
-            "paper",
-            "-nndd_n",
-            "16",
-            "-nndd_tol",
-            "1e-11",
-        ]
-        .map(String::from)
-        .to_vec(),
+        args: PAPER_16_TIGHT.map(String::from).to_vec(),
     };
     check(&case, &dir);
     std::fs::remove_dir_all(&dir).ok();

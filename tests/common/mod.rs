@@ -5,6 +5,16 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// `paper` at n = 16 solved to a tolerance tight enough that two solution paths agree to 1e-10.
+pub const PAPER_16_TIGHT: [&str; 6] = [
+    "-nndd_problem",
+    "paper",
+    "-nndd_n",
+    "16",
+    "-nndd_tol",
+    "1e-11",
+];
+
 /// A fresh, empty directory for one test's output.
 pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("nndd-test-{}-{}", name, std::process::id()));
