@@ -27,7 +27,7 @@ const FUNCTIONS: &[&str] = &[
     "ISCreateGeneral",
     "ISDestroy",
     "Vec(Create|CreateMPI|CreateSeq|Destroy|Duplicate|Set|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|GetArray|RestoreArray|GetArrayRead|RestoreArrayRead|Norm|AXPY|Copy|SetUp)",
-    "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|ZeroRowsColumns|SetOption|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|DenseGetArray|DenseRestoreArray|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo|SetValues|SetNearNullSpace|CreateDense|DenseGetColumnVecRead|DenseRestoreColumnVecRead)",
+    "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|ZeroRowsColumns|SetOption|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|DenseGetArray|DenseRestoreArray|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo|SetValues|SetNearNullSpace|CreateDense|DenseGetColumnVecRead|DenseRestoreColumnVecRead|Norm|MatMult|AXPY|GetColumnNorms)",
     "MatNullSpace(Create|Destroy)",
     "VecScatter(Create|Begin|End|Destroy)",
     "MatSeqAIJSetPreallocation",
@@ -36,8 +36,8 @@ const FUNCTIONS: &[&str] = &[
     "MatCreateAIJ",
     "Mat(GetRow|RestoreRow)",
     "PetscGetFlops",
-    "KSP(MatSolve|GetType|Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|SetReusePreconditioner)",
-    "PC(SetType|FactorSetMatSolverType|FactorSetUpMatSolverType|FactorGetMatrix|GetType)",
+    "KSP(MatSolve|GetType|Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|GetTolerances|SetReusePreconditioner)",
+    "PC(SetType|FactorSetMatSolverType|FactorGetMatSolverType|FactorSetUpMatSolverType|FactorGetMatrix|GetType)",
 ];
 const VARS: &[&str] = &["PETSC_COMM_WORLD", "PetscOptionsPublish"];
 const TYPES: &[&str] = &[
@@ -51,6 +51,8 @@ const TYPES: &[&str] = &[
     "MatInfoType",
     "MatAssemblyType",
     "ScatterMode",
+    "MatReuse",
+    "MatStructure",
 ];
 
 fn main() {

@@ -87,7 +87,8 @@ pub enum AppError {
 }
 
 impl AppError {
-    /// Errors every rank detects alike (bad input): only rank 0 prints them.
+    /// Errors every rank detects alike (bad input, the final check of the NNDD's solution):
+    /// only rank 0 prints them.
     pub fn is_collective(&self) -> bool {
         matches!(
             self,
@@ -99,6 +100,7 @@ impl AppError {
                 | AppError::Checkpoint(_)
                 | AppError::Fault(_)
                 | AppError::Agreed(_)
+                | AppError::Nndd(NnddError::CheckFailed { .. })
         )
     }
 
@@ -108,6 +110,8 @@ impl AppError {
         match self {
             AppError::Agreed(inner) => inner.exit_code(),
             AppError::ReportedElsewhere { code } => *code,
+            // Every rank finds it (the check is shared), but it is a failure of the solve.
+            AppError::Nndd(NnddError::CheckFailed { .. }) => 2,
             e if e.is_collective() => 1,
             _ => 2,
         }
@@ -142,6 +146,11 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     if petsc::option_present("-help") {
         list_solver_options()?;
         return Ok(Outcome::Help);
+    }
+    if world.rank() == 0 {
+        for w in &settings.warnings {
+            eprintln!("nndd: warning: {w}");
+        }
     }
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
     // the whole geometry, for the interface and the output).
@@ -358,11 +367,17 @@ pub(crate) fn end_job_on_local_failure<T>(r: Result<T, AppError>) -> Result<T, A
     }
 }
 
-/// Print this rank's error (if any) and end the job (every rank).
+/// Print this rank's error (if any) and end the job (every rank). A failure that another rank
+/// of the body's group reports ([`dd::body::BodyError::Echo`]) is not printed twice: this rank
+/// gives that rank time to print and end the job, and ends it itself only if it did not.
 pub fn abort_with(message: Option<&str>) -> ! {
     let world = SimpleCommunicator::world();
-    if let Some(m) = message {
-        eprintln!("nndd: error (rank {}): {m}", world.rank());
+    match message {
+        Some(m) if m.starts_with(dd::body::ECHO) => {
+            std::thread::sleep(std::time::Duration::from_secs(5));
+        }
+        Some(m) => eprintln!("nndd: error (rank {}): {m}", world.rank()),
+        None => {}
     }
     world.abort(2)
 }

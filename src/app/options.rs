@@ -106,6 +106,8 @@ pub struct Settings {
     pub restart: Option<PathBuf>,
     /// Test only: fail on one rank at one phase (`-nndd_fault RANK:PHASE`).
     pub fault: Option<(i32, Phase)>,
+    /// What the settings allow but the user should know (printed once, and in the summary).
+    pub warnings: Vec<String>,
 }
 
 impl Settings {
@@ -194,9 +196,10 @@ impl Settings {
         }
         // Per body: -nndd_body{1,2}_{E,nu} override -nndd_E / -nndd_nu.
         let mut materials = [Material { young, poisson }; 2];
+        let (mut e_given, mut nu_given) = ([false; 2], [false; 2]);
         for (b, m) in materials.iter_mut().enumerate() {
             let (e_opt, nu_opt) = OPTS_MATERIAL[b];
-            let (e, _) = o.real(
+            let (e, given) = o.real(
                 e_opt,
                 &format!("Young's modulus of body {} (Pa; default -nndd_E)", b + 1),
                 young,
@@ -204,7 +207,8 @@ impl Settings {
             if !(e > 0.0 && e.is_finite()) {
                 return Err(range(e_opt, "> 0", e));
             }
-            let (nu, _) = o.real(
+            e_given[b] = given;
+            let (nu, nu_set) = o.real(
                 nu_opt,
                 &format!(
                     "Poisson's ratio of body {}, in (-1, 0.5) (default -nndd_nu)",
@@ -215,11 +219,13 @@ impl Settings {
             if !(nu > -1.0 && nu < 0.5) {
                 return Err(range(nu_opt, "in (-1, 0.5)", nu));
             }
+            nu_given[b] = nu_set;
             *m = Material {
                 young: e,
                 poisson: nu,
             };
         }
+        let warnings = check_materials(&materials, e_given, nu_given)?;
         let mesh = if mesh_given {
             Some(mesh_spec(&mut o, &mesh_file, &contact)?)
         } else {
@@ -613,6 +619,7 @@ impl Settings {
             checkpoint_every: checkpoint_every as usize,
             restart: restart_given.then(|| PathBuf::from(restart)),
             fault,
+            warnings,
         })
     }
 
@@ -752,6 +759,67 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
 /// step normally takes θ = 1/μ₀ from the first Neumann corrections instead (src/dd/secant.rs);
 /// this value is used only when they are zero.
 const AUTO_THETA_PROBE: f64 = 1e-3;
+
+/// The largest λ/μ = 2ν/(1 − 2ν) (plane strain) accepted: ν ≤ 0.499999995. Nearly
+/// incompressible P1 triangles lock, and the stiffness matrix carries λ/μ as a condition
+/// factor on top of the mesh's: on `paper` n = 16 the NNDD equals the monolithic solve to
+/// 1e−8 at ν = 0.49999999 (λ/μ = 5e7) but is 1.6 % off at ν = 0.4999999999 (5e9).
+pub const MAX_LAME_RATIO: f64 = 1e8;
+/// λ/μ above which a warning says so (ν > 0.4995): the locking of P1 triangles makes the
+/// displacements visibly too small.
+pub const WARN_LAME_RATIO: f64 = 1e3;
+/// The largest ratio of the two bodies' Young's moduli accepted. Beyond it the stiffer body's
+/// deformation is below the round-off of its displacement, and its energy is noise (on
+/// `paper`, E¹/E² = 1e289 gives 1.1e285 J/m against 1290.7).
+pub const MAX_STIFFNESS_RATIO: f64 = 1e16;
+
+/// Refuse materials whose solve would lose its digits; return the warnings for those that
+/// cost some. `e_given`, `nu_given`: whether `-nndd_body<α>_E`, `-nndd_body<α>_nu` were
+/// given (else a message names `-nndd_E`, `-nndd_nu`).
+fn check_materials(
+    materials: &[Material; 2],
+    e_given: [bool; 2],
+    nu_given: [bool; 2],
+) -> Result<Vec<String>, SettingsError> {
+    let mut warnings = Vec::new();
+    for (b, m) in materials.iter().enumerate() {
+        let nu_opt = if nu_given[b] {
+            OPTS_MATERIAL[b].1
+        } else {
+            "-nndd_nu"
+        };
+        let lame = 2.0 * m.poisson / (1.0 - 2.0 * m.poisson);
+        if lame > MAX_LAME_RATIO {
+            return Err(SettingsError::Named {
+                option: format!("{nu_opt} {}", m.poisson),
+                message: format!(
+                    "body {} is too nearly incompressible for a displacement formulation (λ/μ = {lame:.1e}; at most {MAX_LAME_RATIO:.0e}, ν ≤ 0.499999995, keeps 8 of the 16 digits)",
+                    b + 1
+                ),
+            });
+        }
+        if lame > WARN_LAME_RATIO {
+            warnings.push(format!(
+                "{nu_opt} {}: body {} is nearly incompressible (λ/μ = {lame:.1e}): P1 triangles lock, so its displacements are too small, and the solve loses about {:.0} digits",
+                m.poisson,
+                b + 1,
+                lame.log10()
+            ));
+        }
+    }
+    let (e1, e2) = (materials[0].young, materials[1].young);
+    let ratio = e1.max(e2) / e1.min(e2);
+    if ratio > MAX_STIFFNESS_RATIO {
+        let b = if e_given[0] { 0 } else { 1 };
+        return Err(SettingsError::Named {
+            option: format!("{} {:e}", OPTS_MATERIAL[b].0, materials[b].young),
+            message: format!(
+                "the bodies' stiffness ratio {ratio:.1e} is beyond {MAX_STIFFNESS_RATIO:.0e}: the stiffer body deforms less than the round-off of its displacement; bring the moduli closer, or model the stiffer body as rigid (a displacement condition on the other body's contact curve)"
+            ),
+        });
+    }
+    Ok(warnings)
+}
 
 const OPTS_MATERIAL: [(&str, &str); 2] = [
     ("-nndd_body1_E", "-nndd_body1_nu"),

@@ -43,14 +43,64 @@ fn check_tokens(
                 ));
             }
             let text = String::from_utf8_lossy(&text);
-            let mut words = text
-                .lines()
-                .map(|l| l.split('#').next().unwrap_or(""))
-                .flat_map(str::split_whitespace);
-            check_tokens(&mut words, Some(&path), depth + 1)?;
+            let mut words = Vec::new();
+            for (k, line) in text.lines().enumerate() {
+                let tokens = line_tokens(line);
+                check_line(&tokens)
+                    .map_err(|why| format!("{option} {name}{place}: line {}: {why}", k + 1))?;
+                words.extend(tokens);
+            }
+            check_tokens(&mut words.into_iter(), Some(&path), depth + 1)?;
         }
     }
     Ok(())
+}
+
+/// The words of one line of an options file as PETSc 3.18 splits them
+/// (`PetscOptionsInsertFilePetsc`): the text after `#` is a comment, words are separated by
+/// blanks, and a word in double quotes may contain blanks.
+fn line_tokens(line: &str) -> Vec<&str> {
+    let line = line.split('#').next().unwrap_or("");
+    let mut tokens = Vec::new();
+    let mut rest = line.trim_start();
+    while !rest.is_empty() {
+        let end = if let Some(quoted) = rest.strip_prefix('"') {
+            quoted.find('"').map_or(rest.len(), |e| e + 2)
+        } else {
+            rest.find(char::is_whitespace).unwrap_or(rest.len())
+        };
+        tokens.push(rest[..end].trim_matches('"'));
+        rest = rest[end..].trim_start();
+    }
+    tokens
+}
+
+/// PETSc's rule for a line of an options file: `-name [value]`, or `alias NAME VALUE`.
+/// PETSc stops at anything else on rank 0 alone, with a page of errors, after the other ranks
+/// went on; here every rank finds it first.
+fn check_line(tokens: &[&str]) -> Result<(), String> {
+    let Some(first) = tokens.first() else {
+        return Ok(());
+    };
+    let most = if first.eq_ignore_ascii_case("alias") {
+        if tokens.len() < 3 {
+            return Err("must be 'alias NAME VALUE'".into());
+        }
+        3
+    } else if first.starts_with('-') && first.len() > 1 {
+        2
+    } else {
+        return Err(format!(
+            "'{first}' is not an option (a line is '-name value', e.g. '-nndd_tol 1e-8')"
+        ));
+    };
+    match tokens.get(most) {
+        Some(extra) => Err(format!(
+            "extra word '{extra}' after '{}' (a line is one option and at most one value, e.g. '-nndd_tol 1e-8', without '=')",
+            tokens[..most].join(" ")
+        )),
+        None => Ok(()),
+    }
 }
 
 /// `~/…` as PETSc reads it (the home directory).
@@ -115,6 +165,33 @@ mod tests {
         );
         let e = options_files(&args(&["-options_file", cyclic.to_str().unwrap()])).unwrap_err();
         assert!(e.contains("nested more than 16 deep"), "{e}");
+
+        // PETSc's line syntax: one option and at most one value per line.
+        let bad = dir.join("bad.opts");
+        for (text, line, word) in [
+            (
+                "-nndd_problem paper\n-nndd_tol = 1e-8\n",
+                2,
+                "extra word '1e-8'",
+            ),
+            ("-nndd_n 8 -nndd_tol 1e-8\n", 1, "extra word '-nndd_tol'"),
+            ("# c\n\nnndd_tol 1e-8\n", 3, "'nndd_tol' is not an option"),
+            ("alias -a\n", 1, "alias NAME VALUE"),
+        ] {
+            std::fs::write(&bad, text).unwrap();
+            let e = options_files(&args(&["-options_file", bad.to_str().unwrap()])).unwrap_err();
+            assert!(e.contains(&format!("bad.opts: line {line}: ")), "{e}");
+            assert!(e.contains(word), "{e}");
+        }
+        std::fs::write(
+            &bad,
+            "-a -1 # -b 2\n  -c \"x y\"\nalias -d -e\n-f\n\n-g -2.5e3\n",
+        )
+        .unwrap();
+        assert_eq!(
+            options_files(&args(&["-options_file", bad.to_str().unwrap()])),
+            Ok(())
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

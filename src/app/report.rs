@@ -88,6 +88,8 @@ pub fn summarise(
             .display()
             .to_string(),
         fields: fields::describe(results),
+        warnings: settings.warnings.clone(),
+        solution_check: sol.check,
     }
 }
 

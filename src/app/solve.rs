@@ -43,6 +43,8 @@ pub struct Solution {
     /// Each body's Neumann step (on the ranks of its group; `None` elsewhere and for the
     /// monolithic solve).
     pub neumann_step: [Option<NeumannStep>; 2],
+    /// The NNDD's a-posteriori check of the reported iterate (`None` for the monolithic solve).
+    pub check: Option<nndd::SolutionCheck>,
 }
 
 /// Meshes, assembly and factorisation of the bodies this rank owns.
@@ -390,6 +392,7 @@ pub fn solve_nndd(
         estimates,
         dirichlet_step: dirichlet.as_ref().map_or("", |d| d.name()),
         neumann_step: neumann,
+        check: Some(res.check),
     })
 }
 
@@ -441,6 +444,7 @@ pub fn solve_monolithic(
         estimates,
         dirichlet_step: "",
         neumann_step: [None, None],
+        check: None,
     })
 }
 

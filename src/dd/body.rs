@@ -41,6 +41,18 @@ pub enum BodyError {
         system: &'static str,
         reason: i32,
     },
+    #[error("body {alpha}: the {system} solve is inaccurate (backward error {error:.1e}; {limit:.0e} at most is accepted): {advice}")]
+    Inaccurate {
+        alpha: usize,
+        system: &'static str,
+        error: f64,
+        limit: f64,
+        advice: String,
+    },
+    /// A failed check that every rank of the group meets at once: the group's first rank
+    /// reports it, the others end quietly ([`ECHO`]).
+    #[error("{ECHO} {alpha}'s first rank")]
+    Echo { alpha: usize },
     #[error("body {alpha}: interface Schur complement: {source}")]
     Schur { alpha: usize, source: DenseError },
     #[error("-nndd_schur {choice}: body {alpha} {why}")]
@@ -52,6 +64,15 @@ pub enum BodyError {
     #[error(transparent)]
     Fault(#[from] InjectedFault),
 }
+
+/// The largest backward error accepted from a factorisation applied once (`preonly`): a
+/// stable factorisation gives about 1e−16 whatever the condition of the matrix, a singular
+/// factor or a preconditioner that is no solver (`-bodyα_pc_type gamg` with `preonly`) gives
+/// 1e−6 and more. An iterative KSP is held to its own `-bodyα_ksp_rtol` when that is looser.
+pub const BACKWARD_ERROR_LIMIT: f64 = 1e-10;
+
+/// How the message of [`BodyError::Echo`] starts.
+pub const ECHO: &str = "(reported by body";
 
 /// Unit right-hand sides per multiple-RHS solve when S^α comes from back-solves.
 const SCHUR_BATCH: usize = 64;
@@ -358,7 +379,7 @@ impl Body {
             SchurSource::Solves => {
                 let nodes = self.partition.owned_nodes();
                 let owned = (2 * nodes.start) as petsc::Int..(2 * nodes.end) as petsc::Int;
-                let (cols, reason) = self.neumann.inverse_block(
+                let (cols, reason, backward) = self.neumann.inverse_block(
                     self.comm,
                     owned,
                     &rows,
@@ -366,7 +387,7 @@ impl Body {
                     SCHUR_BATCH,
                 )?;
                 self.solves.set(self.solves.get() + m);
-                self.check_reason(System::Neumann, reason)?;
+                self.check_solve(System::Neumann, reason, backward)?;
                 (cols, false)
             }
         };
@@ -454,20 +475,80 @@ impl Body {
         Ok((self.partition.local_part(&rhs), fixed))
     }
 
-    /// A failed solve of `system` as an error.
-    fn check_reason(&self, system: System, reason: i32) -> Result<(), BodyError> {
-        if reason < 0 {
-            return Err(BodyError::NotConverged {
-                alpha: self.alpha(),
-                system: if system == System::Neumann {
-                    "Neumann"
-                } else {
-                    "Dirichlet"
-                },
-                reason,
-            });
+    fn ksp(&self, system: System) -> &Ksp {
+        match system {
+            System::Neumann => &self.neumann,
+            System::Dirichlet => self
+                .dirichlet
+                .as_ref()
+                .expect("body 1 has a Dirichlet system"),
         }
-        Ok(())
+    }
+
+    /// A failed or inaccurate solve of `system` as an error: a negative converged reason, or a
+    /// backward error above [`BACKWARD_ERROR_LIMIT`] (or the KSP's own relative tolerance,
+    /// when looser) or not finite. Every rank of the group finds it (the norms are global);
+    /// the group's first rank reports it, the others return [`BodyError::Echo`].
+    fn check_solve(&self, system: System, reason: i32, backward: f64) -> Result<(), BodyError> {
+        let alpha = self.alpha();
+        let failed = self.solve_failure(system, reason, backward)?;
+        match failed {
+            Some(_) if !self.is_root() => Err(BodyError::Echo { alpha }),
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// The error of a failed or inaccurate solve, if it failed (see [`Body::check_solve`]).
+    fn solve_failure(
+        &self,
+        system: System,
+        reason: i32,
+        backward: f64,
+    ) -> Result<Option<BodyError>, BodyError> {
+        let alpha = self.alpha();
+        let name = if system == System::Neumann {
+            "Neumann"
+        } else {
+            "Dirichlet"
+        };
+        if reason < 0 {
+            return Ok(Some(BodyError::NotConverged {
+                alpha,
+                system: name,
+                reason,
+            }));
+        }
+        let ksp = self.ksp(system);
+        let direct = ksp.is_direct()?;
+        let rtol = ksp.rtol()?;
+        let limit = if direct {
+            BACKWARD_ERROR_LIMIT
+        } else {
+            BACKWARD_ERROR_LIMIT.max(rtol)
+        };
+        if backward <= limit {
+            return Ok(None);
+        }
+        let (ksp_type, pc_type) = ksp.types()?;
+        let p = format!("-body{alpha}_");
+        let factored = matches!(pc_type.as_str(), "cholesky" | "lu");
+        let advice = if !backward.is_finite() {
+            format!("the solution is not finite: body {alpha}'s matrix is singular or its data overflow (check its Dirichlet conditions, E and ν, and the mesh)")
+        } else if direct && !factored {
+            format!("{p}ksp_type {ksp_type} applies {p}pc_type {pc_type} once, which does not solve the system; use a factorisation ({p}pc_type cholesky) or iterate ({p}ksp_type cg {p}ksp_rtol 1e-12)")
+        } else if direct {
+            format!("the factorisation ({p}pc_type {pc_type}) is not accurate: body {alpha}'s matrix is singular or nearly so (check its Dirichlet conditions, E and ν, and the mesh)")
+        } else {
+            format!("{p}ksp_type {ksp_type} stopped at {p}ksp_rtol {rtol:.0e} without an accurate solution; tighten {p}ksp_rtol (1e-12) or use a factorisation ({p}ksp_type preonly {p}pc_type cholesky)")
+        };
+        Ok(Some(BodyError::Inaccurate {
+            alpha,
+            system: name,
+            error: backward,
+            limit,
+            advice,
+        }))
     }
 
     /// Solve `system` with right-hand side `load` (in the nodal frames) and prescribed values:
@@ -482,19 +563,13 @@ impl Body {
         gc_values: Option<&[f64]>,
     ) -> Result<Vec<(usize, f64)>, BodyError> {
         let (rhs, fixed) = self.right_hand_side(load, homogeneous, gc_values)?;
-        let ksp = match system {
-            System::Neumann => &self.neumann,
-            System::Dirichlet => self
-                .dirichlet
-                .as_ref()
-                .expect("body 1 has a Dirichlet system"),
-        };
+        let ksp = self.ksp(system);
         let mut b = self.b.borrow_mut();
         let mut x = self.x.borrow_mut();
         b.copy_from(&rhs)?;
         let info = ksp.solve(&b, &mut x)?;
         self.solves.set(self.solves.get() + 1);
-        self.check_reason(system, info.reason)?;
+        self.check_solve(system, info.reason, info.backward_error)?;
         Ok(fixed)
     }
 
@@ -530,6 +605,34 @@ impl Body {
         let mut ku = self.apply_k_local(&self.local(u))?;
         self.frames.to_global(&mut ku);
         Ok(ku)
+    }
+
+    /// The discrete equilibrium of `u` (global components, whole) with the Γc nodal forces
+    /// `gc_forces` as a normwise backward error: ‖K u − f − Bᵀt‖∞ over the dofs not on Γ_D,
+    /// over ‖K‖∞ ‖u‖∞ + ‖f‖∞ + ‖t‖∞; round-off (1e−16) for a field solved with these forces.
+    /// Collective over the body's group.
+    pub fn equilibrium_residual(&self, u: &[f64], gc_forces: &[f64]) -> Result<f64, BodyError> {
+        let u = self.local(u);
+        let mut r = self.apply_k_local(&u)?;
+        for (ri, fi) in r.iter_mut().zip(&self.load) {
+            *ri -= fi;
+        }
+        for (&d, &t) in self.gc.iter().zip(gc_forces) {
+            r[d] -= t;
+        }
+        for &(dof, _) in &self.problem.dirichlet {
+            r[dof] = 0.0;
+        }
+        let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let scale = self.k.norm_inf()? * inf(&u) + inf(&self.load) + inf(gc_forces);
+        let num = inf(&r);
+        Ok(if !(num.is_finite() && scale.is_finite()) {
+            f64::NAN
+        } else if scale > 0.0 {
+            num / scale
+        } else {
+            0.0
+        })
     }
 
     /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs: the force the other
@@ -587,9 +690,9 @@ impl Body {
             columns.push(rhs);
             fixed = fx;
         }
-        let (solved, reason) = self.neumann.solve_many(self.comm, &columns)?;
+        let (solved, reason, backward) = self.neumann.solve_many(self.comm, &columns)?;
         self.solves.set(self.solves.get() + solved.len());
-        self.check_reason(System::Neumann, reason)?;
+        self.check_solve(System::Neumann, reason, backward)?;
         solved
             .iter()
             .map(|x| {

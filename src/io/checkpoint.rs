@@ -5,7 +5,9 @@
 //! which a restart compares with its own before anything else.
 //!
 //! The file is JSON (`PREFIX.checkpoint.json`), replaced atomically (a temporary, synced,
-//! renamed), so a run killed while writing leaves the previous checkpoint whole. Floating
+//! renamed), so a run killed while writing leaves the previous checkpoint whole. It carries a
+//! checksum of its contents: a file edited or damaged after it was written (one λ changed, a
+//! line lost) is refused instead of continued from. Floating
 //! point numbers are written with the shortest representation that reads back to the same
 //! bits, so a restart continues from exactly the checkpointed λ: the iterates it computes are
 //! the uninterrupted run's, up to the round-off differences between rank counts.
@@ -19,7 +21,7 @@ use crate::io::output::{write_atomic, OutputError};
 use crate::problem::BodyProblem;
 
 /// The format tag of the files this version writes and reads.
-pub const FORMAT: &str = "nndd-checkpoint-1";
+pub const FORMAT: &str = "nndd-checkpoint-2";
 
 /// What cannot be restarted from, naming `-nndd_restart` and the file.
 #[derive(Debug, thiserror::Error)]
@@ -31,6 +33,8 @@ pub enum CheckpointError {
     },
     #[error("-nndd_restart {}: not an nndd checkpoint ({reason})", .path.display())]
     Format { path: PathBuf, reason: String },
+    #[error("-nndd_restart {}: the checkpoint's contents do not match its checksum (edited or damaged after it was written); restart from an intact checkpoint, or run without -nndd_restart", .path.display())]
+    Checksum { path: PathBuf },
     #[error("-nndd_restart {}: the checkpoint does not match this run: {what}", .path.display())]
     Differs { path: PathBuf, what: String },
     #[error("-nndd_restart {}: the checkpoint is at iteration {iteration}, not below -nndd_max_it {max_it}", .path.display())]
@@ -170,14 +174,36 @@ pub fn path_for(output: &Path) -> PathBuf {
     crate::io::output::with_ext(output, "checkpoint.json")
 }
 
-/// Write `cp` to `path` atomically (the caller is one rank).
+/// The key of the checksum in the file.
+const CHECKSUM: &str = "checksum";
+
+/// The checksum of a checkpoint's JSON value (without its `checksum` key): a 64-bit hash
+/// ([`mix`]) of its canonical text (keys sorted, numbers in their shortest exact form, which
+/// reading and writing again leaves as they are), in hexadecimal.
+fn checksum(value: &serde_json::Value) -> String {
+    let text = serde_json::to_vec(value).unwrap_or_default();
+    let mut h = mix(text.len() as u64, 0x6e6e_6464);
+    for chunk in text.chunks(8) {
+        let mut word = [0u8; 8];
+        word[..chunk.len()].copy_from_slice(chunk);
+        h = mix(h, u64::from_le_bytes(word));
+    }
+    format!("{h:016x}")
+}
+
+/// Write `cp` to `path` atomically, with its checksum (the caller is one rank).
 pub fn write(path: &Path, cp: &Checkpoint) -> Result<(), OutputError> {
-    let json = serde_json::to_vec(cp).map_err(|e| OutputError::Io {
+    let fail = |e: serde_json::Error| OutputError::Io {
         path: path.to_path_buf(),
         action: "serialise the checkpoint",
         source: std::io::Error::other(e.to_string()),
-    })?;
-    write_atomic(path, &json)
+    };
+    let mut value = serde_json::to_value(cp).map_err(fail)?;
+    let sum = checksum(&value);
+    if let Some(map) = value.as_object_mut() {
+        map.insert(CHECKSUM.into(), sum.into());
+    }
+    write_atomic(path, &serde_json::to_vec(&value).map_err(fail)?)
 }
 
 /// Read the checkpoint `path` and check it against this run's `identity` and `max_it`.
@@ -194,7 +220,7 @@ pub fn read(
         path: path.to_path_buf(),
         reason,
     };
-    let value: serde_json::Value =
+    let mut value: serde_json::Value =
         serde_json::from_slice(&bytes).map_err(|e| format(e.to_string()))?;
     match value.get("format").and_then(|f| f.as_str()) {
         Some(FORMAT) => {}
@@ -204,6 +230,15 @@ pub fn read(
             )))
         }
         None => return Err(format("no 'format' field".into())),
+    }
+    let stored = value
+        .as_object_mut()
+        .and_then(|m| m.remove(CHECKSUM))
+        .and_then(|c| c.as_str().map(str::to_string));
+    if stored.as_deref() != Some(checksum(&value).as_str()) {
+        return Err(CheckpointError::Checksum {
+            path: path.to_path_buf(),
+        });
     }
     let cp: Checkpoint = serde_json::from_value(value).map_err(|e| format(e.to_string()))?;
     if let Some(what) = cp.identity.difference(identity) {
@@ -238,4 +273,25 @@ fn inconsistency(state: &LoopState) -> Option<String> {
         ));
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The checksum survives writing and reading the text back (the numbers keep their
+    /// shortest exact form), and changes with any edited number.
+    #[test]
+    fn checksum_reads_back_and_sees_an_edit() {
+        let value = serde_json::json!({
+            "format": FORMAT,
+            "lambda": [1.2345678901234567e-5, -3.0e-300, 0.1, 1e300],
+            "iteration": 17,
+        });
+        let text = serde_json::to_string(&value).unwrap();
+        let back: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(checksum(&value), checksum(&back));
+        let edited: serde_json::Value = serde_json::from_str(&text.replace("0.1", "0.11")).unwrap();
+        assert_ne!(checksum(&value), checksum(&edited));
+    }
 }

@@ -160,4 +160,10 @@ pub struct Summary {
     pub h5: String,
     pub xdmf: String,
     pub fields: Vec<FieldInfo>,
+    /// The warnings the run printed (`nndd: warning: …`), in order.
+    pub warnings: Vec<String>,
+    /// The NNDD's check of the reported iterate: each body's equilibrium residual and the
+    /// relative penetration, tension and complementarity on Γc (absent for `monolithic`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solution_check: Option<crate::dd::nndd::SolutionCheck>,
 }
