@@ -375,6 +375,12 @@ pub fn solve_nndd(
     timings.neumann_step = res.timers.neumann_step.seconds();
     timings.exchange = res.timers.exchange.seconds();
     timings.fields = res.timers.fields.seconds();
+    timings.checks = res.timers.check.seconds()
+        + refs
+            .iter()
+            .flatten()
+            .map(|b| b.check_seconds())
+            .sum::<f64>();
     let mut history = res.history;
     attach_estimates(&mut history, &estimates);
     attach_checks(&mut history, &checks);

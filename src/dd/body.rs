@@ -475,6 +475,11 @@ impl Body {
         Ok((self.partition.local_part(&rhs), fixed))
     }
 
+    /// Seconds this rank spent checking the body's solves (their backward errors).
+    pub fn check_seconds(&self) -> f64 {
+        self.neumann.check_seconds() + self.dirichlet.as_ref().map_or(0.0, Ksp::check_seconds)
+    }
+
     fn ksp(&self, system: System) -> &Ksp {
         match system {
             System::Neumann => &self.neumann,

@@ -274,6 +274,8 @@ pub struct LoopTimers {
     /// Forming the fields u¹_p, u²_p of the reported and the estimated iterates (a back-solve
     /// per body where the steps are condensed), outside the loop's steps.
     pub fields: Timer,
+    /// The final check of the reported iterate ([`SolutionCheck`]).
+    pub check: Timer,
 }
 
 /// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
@@ -681,7 +683,9 @@ pub fn solve<E: From<NnddError>>(
     let mut last = last.expect("the loop runs at least once (checked by the restart)");
     // The fields of the reported step (the loop needs only the Γc forces), checked.
     form_fields(layout, &mut last, bodies, steps, stages, &mut timers)?;
-    let check = check_solution(layout, &last, bodies)?;
+    let check = timers
+        .check
+        .time(|| check_solution(layout, &last, bodies))?;
     if status.succeeded() {
         if let Some(what) = check.failure() {
             return Err(NnddError::CheckFailed {

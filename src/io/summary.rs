@@ -21,6 +21,9 @@ pub struct Timings {
     pub exchange: f64,
     /// The fields of the reported and the estimated iterates (a back-solve per body).
     pub fields: f64,
+    /// The checks of the results: each subdomain solve's backward error and the final check
+    /// of the reported iterate (equilibrium and contact conditions).
+    pub checks: f64,
     pub monolithic: f64,
     pub estimation: f64,
     /// The estimation's parts (each also a `-log_view` stage nested in Estimation).
