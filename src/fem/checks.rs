@@ -79,18 +79,54 @@ pub fn segments_cross(p: [[f64; 2]; 2], q: [[f64; 2]; 2], tol: f64) -> bool {
     lp > 0.0 && lq > 0.0 && sides(p, lp, q) && sides(q, lq, p)
 }
 
-/// Every side of every triangle, keyed by its (smaller, larger) nodes, sorted: (key, 3 e + k)
-/// for side k (from node k to node k + 1) of triangle e.
-fn sorted_sides(mesh: &Mesh) -> Vec<(u64, u32)> {
-    let key = |a: usize, b: usize| ((a.min(b) as u64) << 32) | a.max(b) as u64;
-    let mut sides: Vec<(u64, u32)> = Vec::with_capacity(3 * mesh.triangles.len());
-    for (e, t) in mesh.triangles.iter().enumerate() {
+/// Every side of every triangle as (larger node, 3 e + k) for side k (from node k to node
+/// k + 1) of triangle e, grouped by the smaller node (compressed rows, a counting sort) and
+/// sorted within each group: the runs of equal entries are the sides met more than once.
+fn side_groups(mesh: &Mesh) -> (Vec<u32>, Vec<(u32, u32)>) {
+    let n = mesh.points.len();
+    let mut start = vec![0u32; n + 1];
+    for t in &mesh.triangles {
         for k in 0..3 {
-            sides.push((key(t[k], t[(k + 1) % 3]), (3 * e + k) as u32));
+            start[t[k].min(t[(k + 1) % 3]) + 1] += 1;
         }
     }
-    sides.sort_unstable();
-    sides
+    for a in 0..n {
+        start[a + 1] += start[a];
+    }
+    let mut fill = start.clone();
+    let mut sides = vec![(0u32, 0u32); 3 * mesh.triangles.len()];
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let lo = a.min(b);
+            sides[fill[lo] as usize] = (a.max(b) as u32, (3 * e + k) as u32);
+            fill[lo] += 1;
+        }
+    }
+    for a in 0..n {
+        sides[start[a] as usize..start[a + 1] as usize].sort_unstable();
+    }
+    (start, sides)
+}
+
+/// Calls `f` on each run of sides with the same two nodes (3 e + k of each, at least one).
+fn for_each_side(mesh: &Mesh, mut f: impl FnMut(&[(u32, u32)]) -> bool) -> bool {
+    let (start, sides) = side_groups(mesh);
+    for a in 0..mesh.points.len() {
+        let group = &sides[start[a] as usize..start[a + 1] as usize];
+        let mut i = 0;
+        while i < group.len() {
+            let mut j = i + 1;
+            while j < group.len() && group[j].0 == group[i].0 {
+                j += 1;
+            }
+            if f(&group[i..j]) {
+                return true;
+            }
+            i = j;
+        }
+    }
+    false
 }
 
 /// Two triangles that fold over each other: the first pair (e, f) of a mesh of
@@ -98,22 +134,20 @@ fn sorted_sides(mesh: &Mesh) -> Vec<(u64, u32)> {
 /// they lie on the same side of it (consistent neighbours go through it in opposite
 /// directions); also a side of three or more triangles, or a triangle given twice.
 pub fn fold(mesh: &Mesh) -> Option<(usize, usize)> {
-    let sides = sorted_sides(mesh);
     let from = |s: u32| mesh.triangles[s as usize / 3][s as usize % 3];
-    let mut i = 0;
-    while i < sides.len() {
-        let mut j = i + 1;
-        while j < sides.len() && sides[j].0 == sides[i].0 {
-            j += 1;
+    let mut found = None;
+    for_each_side(mesh, |run| {
+        let bad = match run.len() {
+            1 => false,
+            2 => from(run[0].1) == from(run[1].1),
+            _ => true,
+        };
+        if bad {
+            found = Some((run[0].1 as usize / 3, run[1].1 as usize / 3));
         }
-        match j - i {
-            1 => {}
-            2 if from(sides[i].1) != from(sides[i + 1].1) => {}
-            _ => return Some((sides[i].1 as usize / 3, sides[i + 1].1 as usize / 3)),
-        }
-        i = j;
-    }
-    None
+        bad
+    });
+    found
 }
 
 /// The pieces of a mesh: its triangles grouped by sides they share (two triangles that share
@@ -129,9 +163,8 @@ pub fn pieces(mesh: &Mesh) -> (usize, Vec<usize>) {
         }
         a
     }
-    let sides = sorted_sides(mesh);
-    for w in sides.windows(2) {
-        if w[0].0 == w[1].0 {
+    for_each_side(mesh, |run| {
+        for w in run.windows(2) {
             let (a, b) = (
                 root(&mut parent, w[0].1 as usize / 3),
                 root(&mut parent, w[1].1 as usize / 3),
@@ -140,7 +173,8 @@ pub fn pieces(mesh: &Mesh) -> (usize, Vec<usize>) {
                 parent[a.max(b)] = a.min(b);
             }
         }
-    }
+        false
+    });
     let mut number = vec![usize::MAX; n];
     let mut count = 0;
     let mut piece = vec![0; n];
@@ -291,15 +325,19 @@ pub fn overlap(meshes: [&Mesh; 2]) -> Option<Overlap> {
     }
     let tri_box = |m: &Mesh, e: usize| bbox(&m.triangle_points(e));
     // Points of body `a` in triangles of body `b`: the nodes both ways, then the centroids.
-    let grids: Vec<Option<Grid>> = meshes
+    // The triangles that meet the common box, with their boxes.
+    let near: Vec<Vec<(u32, BBox)>> = meshes
         .iter()
         .map(|m| {
-            let items: Vec<(u32, BBox)> = (0..m.triangles.len())
+            (0..m.triangles.len())
                 .map(|e| (e as u32, tri_box(m, e)))
                 .filter(|(_, bx)| meets(*bx, common))
-                .collect();
-            (!items.is_empty()).then(|| Grid::new(common, items.len(), &items))
+                .collect()
         })
+        .collect();
+    let grids: Vec<Option<Grid>> = near
+        .iter()
+        .map(|items| (!items.is_empty()).then(|| Grid::new(common, items.len(), items)))
         .collect();
     let inside = |p: [f64; 2], b: usize| -> Option<usize> {
         let grid = grids[b].as_ref()?;
@@ -328,7 +366,7 @@ pub fn overlap(meshes: [&Mesh; 2]) -> Option<Overlap> {
         }
     }
     for (a, mesh) in meshes.iter().enumerate() {
-        for inner in 0..mesh.triangles.len() {
+        for inner in near[a].iter().map(|&(e, _)| e as usize) {
             let t = mesh.triangle_points(inner);
             let c = [
                 (t[0][0] + t[1][0] + t[2][0]) / 3.0,
@@ -344,8 +382,19 @@ pub fn overlap(meshes: [&Mesh; 2]) -> Option<Overlap> {
         }
     }
     // Boundary edges that cross.
-    let edges = meshes.map(|m| {
-        m.boundary_edges()
+    // (An edge that meets the common box is on the boundary of the body exactly when it is on
+    // the boundary of the triangles that meet the box: its triangles' boxes contain its own.)
+    let edges = [0, 1].map(|k| {
+        let m = meshes[k];
+        let part = Mesh {
+            triangles: near[k]
+                .iter()
+                .map(|&(e, _)| m.triangles[e as usize])
+                .collect(),
+            points: Vec::new(),
+            ..*m
+        };
+        part.boundary_edges()
             .into_iter()
             .filter(|e| meets(bbox(&[m.points[e[0]], m.points[e[1]]]), common))
             .collect::<Vec<_>>()

@@ -97,8 +97,10 @@ pub fn build(settings: &ProblemSettings) -> Result<[Rc<BodyProblem>; 2], meshed:
     }
 }
 
-/// The mesh checks of [`crate::fem::checks`] on the built-in meshes (Gmsh meshes are checked
-/// as they are read): no degenerate or folded triangle, no overlap of the bodies.
+/// The mesh checks of [`crate::fem::checks`] that apply to the built-in meshes (Gmsh meshes
+/// are checked as they are read): no degenerate or inverted triangle (the grids are written
+/// counter-clockwise, so a negative relative area is an inverted, folded triangle), no overlap
+/// of the bodies.
 fn check_meshes(bodies: &[Rc<BodyProblem>; 2]) -> Result<(), meshed::MeshedError> {
     use crate::fem::checks;
     let err = |option: String, message: String| meshed::MeshedError::Option { option, message };
@@ -112,17 +114,8 @@ fn check_meshes(bodies: &[Rc<BodyProblem>; 2]) -> Result<(), meshed::MeshedError
             return Err(err(
                 format!("-nndd_body{}_nx, -nndd_body{}_ny", b.alpha, b.alpha),
                 format!(
-                    "body {}'s grid has a degenerate triangle ({:.6e}, {:.6e}), ({:.6e}, {:.6e}), ({:.6e}, {:.6e}): relative area 2·area/(longest edge)² = {q:.3e}, below {:e}",
+                    "body {}'s grid has a degenerate or inverted triangle ({:.6e}, {:.6e}), ({:.6e}, {:.6e}), ({:.6e}, {:.6e}): relative area 2·area/(longest edge)² = {q:.3e}, below {:e}",
                     b.alpha, p[0][0], p[0][1], p[1][0], p[1][1], p[2][0], p[2][1], checks::MIN_QUALITY
-                ),
-            ));
-        }
-        if let Some((e, f)) = checks::fold(mesh) {
-            return Err(err(
-                "-nndd_problem".into(),
-                format!(
-                    "body {}'s mesh is folded at its triangles {e} and {f}",
-                    b.alpha
                 ),
             ));
         }
