@@ -850,6 +850,53 @@ mod tests {
     }
 
     #[test]
+    fn element_tags_nan_and_node_tags_given_twice() {
+        let m = parse(SQUARE.as_bytes(), "x.msh").unwrap();
+        assert_eq!(m.triangle_tags, vec![2, 3]);
+        assert!(m
+            .describe(1)
+            .starts_with("element 3 (0.000000e0, 0.000000e0)"));
+        let err = |text: &str| parse(text.as_bytes(), "x.msh").unwrap_err().to_string();
+        let nan = SQUARE.replace("1 1 0\n0 1 0\n$EndNodes", "1 NaN 0\n0 1 0\n$EndNodes");
+        let e = err(&nan);
+        assert!(
+            e.contains("node 30 has a coordinate that is not a finite number"),
+            "{e}"
+        );
+        let inf = SQUARE.replace("1 1 0\n0 1 0\n$EndNodes", "1 1 0\n-inf 1 0\n$EndNodes");
+        assert!(err(&inf).contains("node 40 has a coordinate"));
+        // Node 40 given tag 10 (at another place): refused; at the same place: accepted.
+        let twice = SQUARE.replace("30\n40\n", "30\n10\n");
+        let e = err(&twice);
+        assert!(e.contains("node tag 10 is given twice"), "{e}");
+        let same = twice.replace("1 1 0\n0 1 0\n$EndNodes", "1 1 0\n0 0 0\n$EndNodes");
+        assert!(
+            parse(same.as_bytes(), "x.msh").is_err(),
+            "element on the missing node 40"
+        );
+        assert!(scan_nodes(same.as_bytes()).is_some());
+    }
+
+    #[test]
+    fn bodies_with_flat_or_folded_triangles_are_refused() {
+        let m = parse(SQUARE.as_bytes(), "x.msh").unwrap();
+        let mut flat = m.clone();
+        // Node 40 = (0, 1) onto the diagonal from (0, 0) to (1, 1).
+        flat.points[3] = [0.5, 0.5 + 1e-9];
+        let e = flat.body("body1").unwrap_err().to_string();
+        assert!(
+            e.contains("'body1' has a degenerate triangle, element 3"),
+            "{e}"
+        );
+        let mut folded = m.clone();
+        // Node 40 across the diagonal: both triangles below it.
+        folded.points[3] = [0.9, 0.2];
+        let e = folded.body("body1").unwrap_err().to_string();
+        assert!(e.contains("'body1' is folded: element 2"), "{e}");
+        assert!(e.contains("(inverted: element"), "{e}");
+    }
+
+    #[test]
     fn refuses_what_it_cannot_read() {
         let err = |bytes: &[u8]| parse(bytes, "x.msh").unwrap_err().to_string();
         assert!(err(b"hello").contains("not a Gmsh MSH 4.1 file"));

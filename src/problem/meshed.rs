@@ -235,48 +235,27 @@ fn invalid(gmsh: &GmshMesh, reason: String) -> MeshedError {
     })
 }
 
-/// No triangle may be in both bodies: neither one element in both physical surfaces (a
-/// surface in both groups) nor two elements on the same three nodes, one in each.
+/// No element may be in both bodies (a surface in both physical groups). (Two elements on the
+/// same three nodes, one in each body, are found by [`overlap`].)
 fn shared_triangles(gmsh: &GmshMesh) -> Result<(), MeshedError> {
     let tags = BODY_NAMES.map(|n| gmsh.tag(2, n));
     let [Some(t1), Some(t2)] = tags else {
         return Ok(()); // (cutting the bodies out names the missing surface)
     };
-    let key = |t: [usize; 3]| {
-        let mut t = t;
-        t.sort_unstable();
-        t
-    };
-    let mut first: std::collections::HashMap<[usize; 3], usize> = Default::default();
-    for (i, (t, phys)) in gmsh.triangles.iter().enumerate() {
-        if phys.contains(&t1) && phys.contains(&t2) {
-            return Err(invalid(
-                gmsh,
-                format!(
-                    "{} is in both body1 and body2 (its surface is in both physical groups?)",
-                    gmsh.describe(i)
-                ),
-            ));
-        }
-        if phys.contains(&t1) {
-            first.insert(key(*t), i);
-        }
+    match gmsh
+        .triangles
+        .iter()
+        .position(|(_, phys)| phys.contains(&t1) && phys.contains(&t2))
+    {
+        Some(i) => Err(invalid(
+            gmsh,
+            format!(
+                "{} is in both body1 and body2 (its surface is in both physical groups?)",
+                gmsh.describe(i)
+            ),
+        )),
+        None => Ok(()),
     }
-    for (i, (t, phys)) in gmsh.triangles.iter().enumerate() {
-        if phys.contains(&t2) {
-            if let Some(&j) = first.get(&key(*t)) {
-                return Err(invalid(
-                    gmsh,
-                    format!(
-                        "a triangle is in both body1 and body2: {} of body1 and element {} of body2",
-                        gmsh.describe(j),
-                        gmsh.element_tag(i)
-                    ),
-                ));
-            }
-        }
-    }
-    Ok(())
 }
 
 /// The bodies may touch but not overlap ([`checks::overlap`]).
@@ -301,6 +280,25 @@ fn overlap(gmsh: &GmshMesh, bodies: &[GmshBody]) -> Result<(), MeshedError> {
             body,
             inner,
             element,
+        } if same_points(
+            bodies[body].mesh.triangle_points(inner),
+            bodies[1 - body].mesh.triangle_points(element),
+        ) =>
+        {
+            let (e1, e2) = match body {
+                0 => (inner, element),
+                _ => (element, inner),
+            };
+            format!(
+                "a triangle is in both body1 and body2: {} of body1 and element {} of body2",
+                gmsh.describe(bodies[0].elements[e1]),
+                gmsh.element_tag(bodies[1].elements[e2])
+            )
+        }
+        Overlap::Triangle {
+            body,
+            inner,
+            element,
         } => format!(
             "the bodies overlap: body {}'s element {} is inside body {}'s {}",
             body + 1,
@@ -320,6 +318,11 @@ fn overlap(gmsh: &GmshMesh, bodies: &[GmshBody]) -> Result<(), MeshedError> {
         }
     };
     Err(invalid(gmsh, reason))
+}
+
+/// Whether two triangles have the same three vertices (in any order).
+fn same_points(a: [[f64; 2]; 3], b: [[f64; 2]; 3]) -> bool {
+    a.iter().all(|p| b.contains(p))
 }
 
 /// Every piece of a body ([`checks::pieces`]) must be held: a body in one piece as
