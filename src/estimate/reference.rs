@@ -162,6 +162,7 @@ mod tests {
             path: "quad".into(),
             points,
             triangles: vec![([0, 1, 2], vec![1]), ([0, 3, 2], vec![1])],
+            triangle_tags: vec![],
             lines: vec![],
             names: [((2, 1), "body1".to_string())].into_iter().collect(),
         };

@@ -15,6 +15,7 @@ use std::path::Path;
 
 use mshio::mshfile::ElementType;
 
+use crate::fem::checks;
 use crate::fem::mesh::Mesh;
 
 /// What is wrong with a mesh file, in the words the user needs (the caller names the option).
@@ -44,6 +45,8 @@ pub struct GmshMesh {
     pub points: Vec<[f64; 2]>,
     /// 3-node triangles and the physical surface tags of their entity.
     pub triangles: Vec<([usize; 3], Vec<i32>)>,
+    /// The Gmsh element tag of each triangle (empty when not known: a mesh built in code).
+    pub triangle_tags: Vec<u64>,
     /// 2-node lines and the physical curve tags of their entity.
     pub lines: Vec<([usize; 2], Vec<i32>)>,
     /// Physical names by (dimension, tag).
@@ -54,6 +57,8 @@ pub struct GmshMesh {
 #[derive(Clone, Debug)]
 pub struct GmshBody {
     pub mesh: Mesh,
+    /// Each triangle's index in [`GmshMesh::triangles`].
+    pub elements: Vec<usize>,
     /// Physical curve name → the body's edges on it (body node numbers).
     pub curves: BTreeMap<String, Vec<[usize; 2]>>,
 }
@@ -87,6 +92,10 @@ impl GmshMesh {
         for (t, tags) in &self.triangles {
             cells(&mut b, t, tags);
         }
+        int(&mut b, self.triangle_tags.len() as u64);
+        for &t in &self.triangle_tags {
+            int(&mut b, t);
+        }
         int(&mut b, self.lines.len() as u64);
         for (l, tags) in &self.lines {
             cells(&mut b, l, tags);
@@ -110,6 +119,9 @@ impl GmshMesh {
         let triangles = (0..r.int()?)
             .map(|_| Some(([r.int()?, r.int()?, r.int()?], r.tags()?)))
             .collect::<Option<Vec<_>>>()?;
+        let triangle_tags = (0..r.int()?)
+            .map(|_| Some(r.int()? as u64))
+            .collect::<Option<Vec<_>>>()?;
         let lines = (0..r.int()?)
             .map(|_| Some(([r.int()?, r.int()?], r.tags()?)))
             .collect::<Option<Vec<_>>>()?;
@@ -120,6 +132,7 @@ impl GmshMesh {
             path,
             points,
             triangles,
+            triangle_tags,
             lines,
             names,
         })
@@ -196,6 +209,36 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
     if version != "4.1" {
         return Err(not_msh(format!("format version {version}, not 4.1")));
     }
+    // The node tags and coordinates as the file gives them (mshio keeps no tags when they are
+    // dense, and a tag given twice would be lost): non-finite coordinates and a tag given
+    // twice at two places are refused here, naming the node.
+    let scanned = scan_nodes(bytes);
+    if let Some(list) = &scanned {
+        let mut at: HashMap<u64, [f64; 3]> = HashMap::with_capacity(list.len());
+        for &(tag, p) in list {
+            if p.iter().any(|c| !c.is_finite()) {
+                return Err(GmshError::Invalid {
+                    path: path.to_string(),
+                    reason: format!(
+                        "node {tag} has a coordinate that is not a finite number ({}, {}, {})",
+                        p[0], p[1], p[2]
+                    ),
+                });
+            }
+            if let Some(q) = at.insert(tag, p) {
+                if q != p {
+                    return Err(GmshError::Invalid {
+                        path: path.to_string(),
+                        reason: format!(
+                            "node tag {tag} is given twice, at ({:e}, {:e}) and at ({:e}, {:e}); renumber the nodes (Gmsh: Coherence Mesh; or merge the files again)",
+                            q[0], q[1], p[0], p[1]
+                        ),
+                    });
+                }
+            }
+        }
+    }
+
     let msh = mshio::parse_msh_bytes(bytes).map_err(|e| {
         let text = e.to_string();
         not_msh(text.lines().next().unwrap_or("parse error").to_string())
@@ -232,18 +275,25 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
     let mut index: HashMap<u64, usize> = HashMap::new();
     let mut points = Vec::new();
     let mut next_tag = nodes.min_node_tag;
+    let total: usize = nodes.node_blocks.iter().map(|b| b.nodes.len()).sum();
+    let file_tags = scanned.filter(|l| l.len() == total);
     for block in &nodes.node_blocks {
         if block.entity_dim == 3 {
             return Err(unsupported("a 3D mesh (nodes on volumes)".into()));
         }
         let mut tags = vec![0u64; block.nodes.len()];
-        match &block.node_tags {
-            Some(map) => {
+        match (&file_tags, &block.node_tags) {
+            (Some(list), _) => {
+                for (k, t) in tags.iter_mut().enumerate() {
+                    *t = list[points.len() + k].0;
+                }
+            }
+            (None, Some(map)) => {
                 for (&t, &k) in map {
                     tags[k] = t;
                 }
             }
-            None => {
+            (None, None) => {
                 for t in tags.iter_mut() {
                     *t = next_tag;
                     next_tag += 1;
@@ -251,6 +301,15 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
             }
         }
         for (node, &tag) in block.nodes.iter().zip(&tags) {
+            if !(node.x.is_finite() && node.y.is_finite() && node.z.is_finite()) {
+                return Err(GmshError::Invalid {
+                    path: path.to_string(),
+                    reason: format!(
+                        "node {tag} has a coordinate that is not a finite number ({}, {}, {})",
+                        node.x, node.y, node.z
+                    ),
+                });
+            }
             if node.z.abs() > 1e-12 * (1.0 + node.x.abs().max(node.y.abs())) {
                 return Err(unsupported(format!(
                     "node {tag} has z = {:e}: nndd reads 2D meshes in the plane z = 0",
@@ -269,6 +328,7 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
         .as_ref()
         .ok_or_else(|| not_msh("no $Elements section".into()))?;
     let mut triangles = Vec::new();
+    let mut triangle_tags = Vec::new();
     let mut lines = Vec::new();
     let lookup = |tag: &u64| {
         index.get(tag).copied().ok_or_else(|| GmshError::Invalid {
@@ -290,6 +350,7 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
                         lookup(&e.nodes[2])?,
                     ];
                     triangles.push((t, phys.clone()));
+                    triangle_tags.push(e.element_tag);
                 }
             }
             ElementType::Lin2 => {
@@ -325,9 +386,85 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
         path: path.to_string(),
         points,
         triangles,
+        triangle_tags,
         lines,
         names: physical_names(bytes),
     })
+}
+
+/// The `$Nodes` section read directly: every node's tag and (x, y, z) in the file's order
+/// (ASCII or binary MSH 4.1); `None` where the section is not as expected (parametric nodes,
+/// a damaged file: mshio's parse then decides).
+fn scan_nodes(bytes: &[u8]) -> Option<Vec<(u64, [f64; 3])>> {
+    let header = bytes.split(|&b| b == b'\n').nth(1)?;
+    let header = String::from_utf8_lossy(header);
+    let mut h = header.split_whitespace().skip(1);
+    let binary = h.next()? == "1";
+    let size_t: usize = h.next()?.parse().ok()?;
+    let start = find(bytes, b"\n$Nodes")? + "\n$Nodes".len();
+    let mut at = start + bytes[start..].iter().position(|&b| b == b'\n')? + 1;
+    let mut out = Vec::new();
+    if binary {
+        if size_t != 8 {
+            return None;
+        }
+        let mut take = |n: usize| -> Option<&[u8]> {
+            let b = bytes.get(at..at + n)?;
+            at += n;
+            Some(b)
+        };
+        let u = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap());
+        let head = take(32)?;
+        let blocks = u(&head[..8]);
+        let count = u(&head[8..16]) as usize;
+        out.reserve(count.min(bytes.len() / 32));
+        for _ in 0..blocks {
+            let b = take(20)?;
+            let parametric = i32::from_le_bytes(b[8..12].try_into().unwrap());
+            let n = u(&b[12..20]) as usize;
+            if parametric != 0 {
+                return None;
+            }
+            let tags = take(n.checked_mul(8)?)?.to_vec();
+            let xyz = take(n.checked_mul(24)?)?;
+            for k in 0..n {
+                let c = |i: usize| {
+                    f64::from_le_bytes(xyz[24 * k + 8 * i..24 * k + 8 * i + 8].try_into().unwrap())
+                };
+                out.push((u(&tags[8 * k..8 * k + 8]), [c(0), c(1), c(2)]));
+            }
+        }
+    } else {
+        let end = start + find(&bytes[start..], b"$EndNodes")?;
+        let text = std::str::from_utf8(&bytes[at..end]).ok()?;
+        let mut lines = text.lines();
+        let nums = |l: &str| -> Option<Vec<u64>> {
+            l.split_whitespace().map(|w| w.parse().ok()).collect()
+        };
+        let head = nums(lines.next()?)?;
+        for _ in 0..*head.first()? {
+            let b = nums(lines.next()?)?;
+            if b.len() != 4 || b[2] != 0 {
+                return None;
+            }
+            let n = b[3] as usize;
+            let tags: Vec<u64> = (0..n)
+                .map(|_| lines.next()?.trim().parse().ok())
+                .collect::<Option<_>>()?;
+            for tag in tags {
+                let v: Vec<f64> = lines
+                    .next()?
+                    .split_whitespace()
+                    .map(|w| w.parse().ok())
+                    .collect::<Option<_>>()?;
+                if v.len() != 3 {
+                    return None;
+                }
+                out.push((tag, [v[0], v[1], v[2]]));
+            }
+        }
+    }
+    Some(out)
 }
 
 /// The `$PhysicalNames` section: (dimension, tag) → name.
@@ -362,6 +499,26 @@ impl GmshMesh {
             .iter()
             .find(|((d, _), n)| *d == dim && n.as_str() == name)
             .map(|((_, t), _)| *t)
+    }
+
+    /// The Gmsh tag of triangle `i` (its number from 1 where the tags are not known).
+    pub fn element_tag(&self, i: usize) -> u64 {
+        self.triangle_tags.get(i).copied().unwrap_or(i as u64 + 1)
+    }
+
+    /// Triangle `i` for a message: "element TAG (x, y), (x, y), (x, y)".
+    pub fn describe(&self, i: usize) -> String {
+        let p = self.triangles[i].0.map(|a| self.points[a]);
+        format!(
+            "element {} ({:.6e}, {:.6e}), ({:.6e}, {:.6e}), ({:.6e}, {:.6e})",
+            self.element_tag(i),
+            p[0][0],
+            p[0][1],
+            p[1][0],
+            p[1][1],
+            p[2][0],
+            p[2][1]
+        )
     }
 
     /// The names of the physical groups of dimension `dim`, comma separated.
@@ -476,10 +633,17 @@ impl GmshMesh {
                 lines.push(([p, q], phys.clone()));
             }
         }
+        // The r² triangles of triangle t keep its Gmsh tag.
+        let triangle_tags = self
+            .triangle_tags
+            .iter()
+            .flat_map(|&t| std::iter::repeat_n(t, r * r))
+            .collect();
         GmshMesh {
             path: format!("{} refined {r}x", self.path),
             points,
             triangles,
+            triangle_tags,
             lines,
             names: self.names.clone(),
         }
@@ -498,7 +662,7 @@ impl GmshMesh {
         let mut local = vec![NONE; self.points.len()];
         let mut used: Vec<usize> = Vec::new();
         let mut tris = Vec::new();
-        for (t, phys) in &self.triangles {
+        for (i, (t, phys)) in self.triangles.iter().enumerate() {
             if phys.contains(&tag) {
                 for &a in t {
                     if local[a] == NONE {
@@ -506,7 +670,7 @@ impl GmshMesh {
                         used.push(a);
                     }
                 }
-                tris.push(*t);
+                tris.push(i);
             }
         }
         if tris.is_empty() {
@@ -520,21 +684,62 @@ impl GmshMesh {
             local[a] = i;
         }
         let points: Vec<[f64; 2]> = used.iter().map(|&a| self.points[a]).collect();
+        // Flat triangles are refused; the others are turned counter-clockwise (Gmsh writes a
+        // surface's triangles in one orientation: those of the other one are inverted).
         let mut triangles = Vec::with_capacity(tris.len());
-        for t in tris {
+        let mut clockwise = Vec::with_capacity(tris.len());
+        for &i in &tris {
+            let t = self.triangles[i].0;
             let mut l = t.map(|a| local[a]);
-            let (p, q, r) = (points[l[0]], points[l[1]], points[l[2]]);
-            let area2 = (q[0] - p[0]) * (r[1] - p[1]) - (r[0] - p[0]) * (q[1] - p[1]);
-            if area2 == 0.0 {
+            let q = checks::quality(l.map(|a| points[a]));
+            if checks::degenerate(q) {
                 return Err(GmshError::Invalid {
                     path: self.path.clone(),
-                    reason: format!("a triangle of '{name}' has zero area (nodes {t:?})"),
+                    reason: format!(
+                        "'{name}' has a degenerate triangle, {}: relative area 2·area/(longest edge)² = {q:.3e}, below {:e}",
+                        self.describe(i),
+                        checks::MIN_QUALITY
+                    ),
                 });
             }
-            if area2 < 0.0 {
+            if q < 0.0 {
                 l.swap(1, 2);
             }
+            clockwise.push(q < 0.0);
             triangles.push(l);
+        }
+        let mesh = Mesh::unstructured(points, triangles);
+        // Counter-clockwise neighbours go through their common side in opposite directions.
+        if let Some((e, f)) = checks::fold(&mesh) {
+            let (a, b) = (tris[e], tris[f]);
+            let same = {
+                let mut x = self.triangles[a].0;
+                let mut y = self.triangles[b].0;
+                x.sort_unstable();
+                y.sort_unstable();
+                x == y
+            };
+            let reason = if same {
+                format!(
+                    "'{name}' has the same triangle twice: {} and {}",
+                    self.describe(a),
+                    self.describe(b)
+                )
+            } else {
+                // The inverted one: of the orientation fewer triangles of the surface have.
+                let minority = 2 * clockwise.iter().filter(|&&c| c).count() < clockwise.len();
+                let inverted = if clockwise[f] == minority { b } else { a };
+                format!(
+                    "'{name}' is folded: {} and {} lie on the same side of their common edge (inverted: element {})",
+                    self.describe(a),
+                    self.describe(b),
+                    self.element_tag(inverted)
+                )
+            };
+            return Err(GmshError::Invalid {
+                path: self.path.clone(),
+                reason,
+            });
         }
         let mut curves: BTreeMap<String, Vec<[usize; 2]>> = BTreeMap::new();
         for (l, phys) in &self.lines {
@@ -551,7 +756,8 @@ impl GmshMesh {
             }
         }
         Ok(GmshBody {
-            mesh: Mesh::unstructured(points, triangles),
+            mesh,
+            elements: tris,
             curves,
         })
     }
@@ -641,6 +847,53 @@ mod tests {
             assert!((q[0] - (k + 1) as f64 / r as f64).abs() < 1e-15 && q[1] == 0.0);
         }
         assert_eq!(b.mesh.boundary_edges().len(), 4 * r);
+    }
+
+    #[test]
+    fn element_tags_nan_and_node_tags_given_twice() {
+        let m = parse(SQUARE.as_bytes(), "x.msh").unwrap();
+        assert_eq!(m.triangle_tags, vec![2, 3]);
+        assert!(m
+            .describe(1)
+            .starts_with("element 3 (0.000000e0, 0.000000e0)"));
+        let err = |text: &str| parse(text.as_bytes(), "x.msh").unwrap_err().to_string();
+        let nan = SQUARE.replace("1 1 0\n0 1 0\n$EndNodes", "1 NaN 0\n0 1 0\n$EndNodes");
+        let e = err(&nan);
+        assert!(
+            e.contains("node 30 has a coordinate that is not a finite number"),
+            "{e}"
+        );
+        let inf = SQUARE.replace("1 1 0\n0 1 0\n$EndNodes", "1 1 0\n-inf 1 0\n$EndNodes");
+        assert!(err(&inf).contains("node 40 has a coordinate"));
+        // Node 40 given tag 10 (at another place): refused; at the same place: accepted.
+        let twice = SQUARE.replace("30\n40\n", "30\n10\n");
+        let e = err(&twice);
+        assert!(e.contains("node tag 10 is given twice"), "{e}");
+        let same = twice.replace("1 1 0\n0 1 0\n$EndNodes", "1 1 0\n0 0 0\n$EndNodes");
+        assert!(
+            parse(same.as_bytes(), "x.msh").is_err(),
+            "element on the missing node 40"
+        );
+        assert!(scan_nodes(same.as_bytes()).is_some());
+    }
+
+    #[test]
+    fn bodies_with_flat_or_folded_triangles_are_refused() {
+        let m = parse(SQUARE.as_bytes(), "x.msh").unwrap();
+        let mut flat = m.clone();
+        // Node 40 = (0, 1) onto the diagonal from (0, 0) to (1, 1).
+        flat.points[3] = [0.5, 0.5 + 1e-9];
+        let e = flat.body("body1").unwrap_err().to_string();
+        assert!(
+            e.contains("'body1' has a degenerate triangle, element 3"),
+            "{e}"
+        );
+        let mut folded = m.clone();
+        // Node 40 across the diagonal: both triangles below it.
+        folded.points[3] = [0.9, 0.2];
+        let e = folded.body("body1").unwrap_err().to_string();
+        assert!(e.contains("'body1' is folded: element 2"), "{e}");
+        assert!(e.contains("(inverted: element"), "{e}");
     }
 
     #[test]

@@ -1,9 +1,11 @@
 //! Layer `fem`: the finite-element basics every other layer builds on: triangle meshes
-//! ([`mesh`]; [`gmsh`] reads them from Gmsh MSH 4.1 files) and P1 plane-strain elasticity ([`elasticity`]: element stiffness, stresses,
+//! ([`mesh`]; [`gmsh`] reads them from Gmsh MSH 4.1 files; [`checks`] finds flat, folded
+//! and overlapping triangles) and P1 plane-strain elasticity ([`elasticity`]: element stiffness, stresses,
 //! edge loads, CSR assembly).
 //!
 //! May use: `petsc` (today it uses nothing of the crate).
 
+pub mod checks;
 pub mod elasticity;
 pub mod gmsh;
 pub mod mesh;

@@ -14,6 +14,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::rc::Rc;
 
 use super::{BodyProblem, NeumannEdge};
+use crate::fem::checks::{self, Overlap};
 use crate::fem::gmsh::{GmshBody, GmshError, GmshMesh};
 use crate::fem::Material;
 
@@ -101,10 +102,12 @@ pub fn chain(edges: &[[usize; 2]], curve: &str, option: &str) -> Result<Vec<usiz
 
 /// Both bodies of a meshed problem.
 pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 2], MeshedError> {
+    shared_triangles(&spec.gmsh)?;
     let bodies: Vec<GmshBody> = BODY_NAMES
         .iter()
         .map(|n| spec.gmsh.body(n))
         .collect::<Result<_, _>>()?;
+    overlap(&spec.gmsh, &bodies)?;
     // Every curve named by an option must lie on a body.
     for c in &spec.conditions {
         if !bodies.iter().any(|b| b.curves.contains_key(&c.curve)) {
@@ -122,7 +125,7 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
     let body = |k: usize| -> Result<BodyProblem, MeshedError> {
         let alpha = k + 1;
         let (dirichlet, neumann) = conditions(spec, &bodies[k], alpha)?;
-        check_rigid_motions(&bodies[k], &dirichlet, alpha)?;
+        check_pieces(&spec.gmsh, &bodies[k], &dirichlet, alpha)?;
         // A rotated frame's dofs are not x and y: no prescribed component there.
         for (&node, n) in pairing.sides[k].iter().zip(&pairing.normals) {
             if *n != super::UP && dirichlet.iter().any(|&(d, _)| d / 2 == node) {
@@ -225,21 +228,191 @@ fn conditions(
     ))
 }
 
-/// A body's prescribed dofs must remove its three rigid motions (two translations and the
-/// rotation): the rigid modes restricted to the prescribed dofs have rank 3.
-fn check_rigid_motions(
+fn invalid(gmsh: &GmshMesh, reason: String) -> MeshedError {
+    MeshedError::Mesh(GmshError::Invalid {
+        path: gmsh.path.clone(),
+        reason,
+    })
+}
+
+/// No element may be in both bodies (a surface in both physical groups). (Two elements on the
+/// same three nodes, one in each body, are found by [`overlap`].)
+fn shared_triangles(gmsh: &GmshMesh) -> Result<(), MeshedError> {
+    let tags = BODY_NAMES.map(|n| gmsh.tag(2, n));
+    let [Some(t1), Some(t2)] = tags else {
+        return Ok(()); // (cutting the bodies out names the missing surface)
+    };
+    match gmsh
+        .triangles
+        .iter()
+        .position(|(_, phys)| phys.contains(&t1) && phys.contains(&t2))
+    {
+        Some(i) => Err(invalid(
+            gmsh,
+            format!(
+                "{} is in both body1 and body2 (its surface is in both physical groups?)",
+                gmsh.describe(i)
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The bodies may touch but not overlap ([`checks::overlap`]).
+fn overlap(gmsh: &GmshMesh, bodies: &[GmshBody]) -> Result<(), MeshedError> {
+    let Some(o) = checks::overlap([&bodies[0].mesh, &bodies[1].mesh]) else {
+        return Ok(());
+    };
+    let pt = |p: [f64; 2]| format!("({:.6e}, {:.6e})", p[0], p[1]);
+    let reason = match o {
+        Overlap::Node {
+            body,
+            node,
+            element,
+        } => format!(
+            "the bodies overlap: body {}'s node {} is inside body {}'s {}",
+            body + 1,
+            pt(bodies[body].mesh.points[node]),
+            2 - body,
+            gmsh.describe(bodies[1 - body].elements[element])
+        ),
+        Overlap::Triangle {
+            body,
+            inner,
+            element,
+        } if same_points(
+            bodies[body].mesh.triangle_points(inner),
+            bodies[1 - body].mesh.triangle_points(element),
+        ) =>
+        {
+            let (e1, e2) = match body {
+                0 => (inner, element),
+                _ => (element, inner),
+            };
+            format!(
+                "a triangle is in both body1 and body2: {} of body1 and element {} of body2",
+                gmsh.describe(bodies[0].elements[e1]),
+                gmsh.element_tag(bodies[1].elements[e2])
+            )
+        }
+        Overlap::Triangle {
+            body,
+            inner,
+            element,
+        } => format!(
+            "the bodies overlap: body {}'s element {} is inside body {}'s {}",
+            body + 1,
+            gmsh.element_tag(bodies[body].elements[inner]),
+            2 - body,
+            gmsh.describe(bodies[1 - body].elements[element])
+        ),
+        Overlap::Edges { edges: [e, f] } => {
+            let (p, q) = (&bodies[0].mesh.points, &bodies[1].mesh.points);
+            format!(
+                "the bodies overlap: body 1's boundary edge {}–{} crosses body 2's {}–{}",
+                pt(p[e[0]]),
+                pt(p[e[1]]),
+                pt(q[f[0]]),
+                pt(q[f[1]])
+            )
+        }
+    };
+    Err(invalid(gmsh, reason))
+}
+
+/// Whether two triangles have the same three vertices (in any order).
+fn same_points(a: [[f64; 2]; 3], b: [[f64; 2]; 3]) -> bool {
+    a.iter().all(|p| b.contains(p))
+}
+
+/// Every piece of a body ([`checks::pieces`]) must be held: a body in one piece as
+/// [`rigid_motions_fixed`] says, and each piece of a body in several pieces on its own nodes.
+fn check_pieces(
+    gmsh: &GmshMesh,
     body: &GmshBody,
     dirichlet: &[(usize, f64)],
     alpha: usize,
 ) -> Result<(), MeshedError> {
-    let pts = &body.mesh.points;
+    let mesh = &body.mesh;
+    let (count, piece) = checks::pieces(mesh);
+    if count == 1 {
+        return match rigid_motions_fixed(&mesh.points, dirichlet) {
+            true => Ok(()),
+            false => Err(opt_err(
+                "-nndd_bc_*",
+                format!(
+                    "body {alpha} can move as a rigid body: prescribe displacements (-nndd_bc_NAME_ux, -nndd_bc_NAME_uy) that fix both translations and the rotation"
+                ),
+            )),
+        };
+    }
+    // Each piece's nodes, and the prescribed dofs on them.
+    let mut nodes: Vec<Vec<usize>> = vec![Vec::new(); count];
+    let mut seen = vec![usize::MAX; mesh.points.len()];
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        for &a in t {
+            if seen[a] != piece[e] {
+                seen[a] = piece[e];
+                nodes[piece[e]].push(a);
+            }
+        }
+    }
+    let mut fixed: Vec<Vec<(usize, f64)>> = vec![Vec::new(); mesh.points.len()];
+    for &d in dirichlet {
+        fixed[d.0 / 2].push(d);
+    }
+    for (k, list) in nodes.iter().enumerate() {
+        let mut local = Vec::new();
+        let mut pts = Vec::with_capacity(list.len());
+        for (i, &a) in list.iter().enumerate() {
+            pts.push(mesh.points[a]);
+            local.extend(fixed[a].iter().map(|&(d, v)| (2 * i + d % 2, v)));
+        }
+        if !rigid_motions_fixed(&pts, &local) {
+            let e = piece
+                .iter()
+                .position(|&p| p == k)
+                .expect("a piece has a triangle");
+            let t = mesh.triangle_points(e);
+            let c = [
+                (t[0][0] + t[1][0] + t[2][0]) / 3.0,
+                (t[0][1] + t[1][1] + t[2][1]) / 3.0,
+            ];
+            let what = if local.is_empty() {
+                "has no Dirichlet condition"
+            } else {
+                "has Dirichlet conditions that do not fix both translations and the rotation"
+            };
+            return Err(invalid(
+                gmsh,
+                format!(
+                    "body {alpha} is in {count} pieces and its piece around ({:.6e}, {:.6e}) ({} triangles, element {} among them) {what}: it can move as a rigid body; prescribe displacements on a curve of it or join it to the body",
+                    c[0],
+                    c[1],
+                    piece.iter().filter(|&&p| p == k).count(),
+                    gmsh.element_tag(body.elements[e])
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether prescribed dofs (`2 node + component`, of `pts`) remove the three rigid motions
+/// (two translations and the rotation): the rigid modes restricted to them have rank 3.
+fn rigid_motions_fixed(pts: &[[f64; 2]], dirichlet: &[(usize, f64)]) -> bool {
     let n = pts.len() as f64;
     let c = pts
         .iter()
         .fold([0.0; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
-    let scale = body.mesh.size[0]
-        .max(body.mesh.size[1])
-        .max(f64::MIN_POSITIVE);
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in pts {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let scale = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(f64::MIN_POSITIVE);
     // Gram matrix of the modes (1,0), (0,1), (−y, x) on the prescribed dofs.
     let mut g = [[0.0f64; 3]; 3];
     for &(d, _) in dirichlet {
@@ -261,15 +434,7 @@ fn check_rigid_motions(
         + g[0][2] * (g[1][0] * g[2][1] - g[1][1] * g[2][0]);
     let trace = g[0][0] + g[1][1] + g[2][2];
     // (No prescribed dof at all gives trace = det = 0: refused too.)
-    if det.is_nan() || det <= 1e-10 * trace.powi(3) {
-        return Err(opt_err(
-            "-nndd_bc_*",
-            format!(
-                "body {alpha} can move as a rigid body: prescribe displacements (-nndd_bc_NAME_ux, -nndd_bc_NAME_uy) that fix both translations and the rotation"
-            ),
-        ));
-    }
-    Ok(())
+    !(det.is_nan() || det <= 1e-10 * trace.powi(3))
 }
 
 /// Γc as paired by [`pair_interface`]: both sides' nodes in pair order, and per pair g₀, the
@@ -495,12 +660,82 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
         }
         gap.push(g.max(0.0));
     }
+    facing(spec, &bodies[1], &sides[1], &side1, &s2, &normals, p2)?;
     Ok(Pairing {
         sides: [s1, s2],
         gap,
         normals,
         lengths,
     })
+}
+
+/// The contact curves must face each other: at every pair, body 2's outward normal at its
+/// node (the mean of its curve's segments' normals there) must not point the way body 1's
+/// does (n¹ · n² ≤ 0); else body 2 is reached from its inside and the contact condition holds
+/// nothing back (a curve on the far side of body 2, for instance).
+fn facing(
+    spec: &MeshSpec,
+    body2: &GmshBody,
+    chain2: &[usize],
+    side1: &[[f64; 2]],
+    s2: &[usize],
+    normals: &[[f64; 2]],
+    p2: &[[f64; 2]],
+) -> Result<(), MeshedError> {
+    const OPT: &str = "-nndd_contact";
+    let curve = &spec.contact[1];
+    let pts = &body2.mesh.points;
+    let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = chain2
+        .windows(2)
+        .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
+        .collect();
+    for t in &body2.mesh.triangles {
+        for i in 0..3 {
+            let (a, b, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
+            if let Some(list) = opposite.get_mut(&(a.min(b), a.max(b))) {
+                list.push(c);
+            }
+        }
+    }
+    // The outward unit normal of each segment of body 2's curve.
+    let mut segments = Vec::with_capacity(chain2.len() - 1);
+    for w in chain2.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let [c] = opposite[&(a.min(b), a.max(b))][..] else {
+            return Err(opt_err(
+                OPT,
+                format!(
+                    "body 2's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
+                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
+                ),
+            ));
+        };
+        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
+        let h = t0.hypot(t1);
+        let n = [-t1 / h, t0 / h];
+        let inward = n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]) > 0.0;
+        segments.push(if inward { [-n[0], -n[1]] } else { n });
+    }
+    let node_normal: BTreeMap<usize, [f64; 2]> = chain2
+        .iter()
+        .copied()
+        .zip(node_normals(&segments))
+        .collect();
+    for (k, &b) in s2.iter().enumerate() {
+        let (n1, n2) = (normals[k], node_normal[&b]);
+        let dot = n1[0] * n2[0] + n1[1] * n2[1];
+        if dot > 0.0 {
+            return Err(opt_err(
+                OPT,
+                format!(
+                    "the curves '{}' and '{curve}' do not face each other: at body 1's node ({:.6e}, {:.6e}) and its partner ({:.6e}, {:.6e}) the outward normals ({:.4}, {:.4}) and ({:.4}, {:.4}) point the same way (n1·n2 = {dot:.3}); name the curve of body 2 that faces body 1's",
+                    spec.contact[0],
+                    side1[k][0], side1[k][1], p2[b][0], p2[b][1], n1[0], n1[1], n2[0], n2[1]
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -89,8 +89,44 @@ impl ProblemSettings {
 pub fn build(settings: &ProblemSettings) -> Result<[Rc<BodyProblem>; 2], meshed::MeshedError> {
     match &settings.mesh {
         Some(spec) => Ok(meshed::build(spec, settings.materials)?.map(Rc::new)),
-        None => Ok([1, 2].map(|alpha| Rc::new(benchmarks::body(settings, alpha)))),
+        None => {
+            let bodies = [1, 2].map(|alpha| Rc::new(benchmarks::body(settings, alpha)));
+            check_meshes(&bodies)?;
+            Ok(bodies)
+        }
     }
+}
+
+/// The mesh checks of [`crate::fem::checks`] that apply to the built-in meshes (Gmsh meshes
+/// are checked as they are read): no degenerate or inverted triangle (the grids are written
+/// counter-clockwise, so a negative relative area is an inverted, folded triangle), no overlap
+/// of the bodies.
+fn check_meshes(bodies: &[Rc<BodyProblem>; 2]) -> Result<(), meshed::MeshedError> {
+    use crate::fem::checks;
+    let err = |option: String, message: String| meshed::MeshedError::Option { option, message };
+    for b in bodies {
+        let mesh = &b.mesh;
+        let q = (0..mesh.triangles.len())
+            .map(|e| (e, checks::quality(mesh.triangle_points(e))))
+            .min_by(|x, y| x.1.total_cmp(&y.1));
+        if let Some((e, q)) = q.filter(|(_, q)| *q < checks::MIN_QUALITY || q.is_nan()) {
+            let p = mesh.triangle_points(e);
+            return Err(err(
+                format!("-nndd_body{}_nx, -nndd_body{}_ny", b.alpha, b.alpha),
+                format!(
+                    "body {}'s grid has a degenerate or inverted triangle ({:.6e}, {:.6e}), ({:.6e}, {:.6e}), ({:.6e}, {:.6e}): relative area 2·area/(longest edge)² = {q:.3e}, below {:e}",
+                    b.alpha, p[0][0], p[0][1], p[1][0], p[1][1], p[2][0], p[2][1], checks::MIN_QUALITY
+                ),
+            ));
+        }
+    }
+    if let Some(o) = checks::overlap([&bodies[0].mesh, &bodies[1].mesh]) {
+        return Err(err(
+            "-nndd_problem".into(),
+            format!("the bodies' meshes overlap ({o:?})"),
+        ));
+    }
+    Ok(())
 }
 
 /// A linear traction on a boundary edge: the two end nodes and the traction at each.
