@@ -16,6 +16,10 @@ fn main() {
     std::panic::set_hook(Box::new(|info| {
         eprintln!("nndd: internal error: {info}");
     }));
+    if let Err(e) = nndd::petsc::signals::ignore_file_size_limit() {
+        eprintln!("nndd: error: cannot ignore SIGXFSZ: {e}");
+        std::process::exit(1);
+    }
     let Some(universe) = mpi::initialize() else {
         eprintln!("nndd: error: MPI could not be initialised");
         std::process::exit(1);
@@ -57,10 +61,26 @@ fn main() {
         Ok(Outcome::Interrupted) => 4,
         Err(e) => report(&e, rank, &agreement),
     };
+    if nndd::io::output::file_left_open() {
+        // A result file failed part-way and is still open in HDF5, which would close it
+        // (and flush into it again) inside MPI_Finalize: end here (every rank agreed on the
+        // failure and arrives here), without finalising.
+        end_at_once(code);
+    }
     drop(petsc); // PetscFinalize before MPI_Finalize
     drop(agreement);
     drop(universe);
     std::process::exit(code);
+}
+
+/// End the process now with `code`, after our own output, running no exit handler
+/// (neither HDF5's nor MPI's finalisation).
+fn end_at_once(code: i32) -> ! {
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    let _ = std::io::stderr().flush();
+    // SAFETY: _exit ends the process; nothing of it is used afterwards.
+    unsafe { libc::_exit(code) }
 }
 
 /// Before the run: whether any rank failed (`failure` is this rank's reason); the lowest

@@ -56,6 +56,19 @@ pub fn default_broken_pipe() -> std::io::Result<()> {
     Ok(())
 }
 
+/// Ignore SIGXFSZ, which the kernel sends to a process that writes past the file-size limit
+/// (`ulimit -f`) and which would kill it at once (status 153), leaving the other ranks of the
+/// job waiting and a temporary file behind. Ignored, the write fails with `EFBIG` instead, and
+/// the output's error handling reports it (one line naming the file, every rank ends).
+/// Called first thing in `main`, before MPI or HDF5 write anything.
+pub fn ignore_file_size_limit() -> std::io::Result<()> {
+    // SAFETY: setting a signal's disposition to ignored.
+    if unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) } == libc::SIG_ERR {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(())
+}
+
 /// Whether a stop signal arrived on this rank.
 pub fn stop_requested() -> bool {
     REQUESTED.load(Ordering::SeqCst)
