@@ -26,6 +26,7 @@ fn main() {
     };
     let world = universe.world();
     let rank = world.rank();
+    nndd::petsc::signals::set_rank(rank);
     let agreement = Agreement::new(&world);
     let args: Vec<String> = std::env::args().collect();
     // PETSc reads the options files on rank 0 only and broadcasts them: every rank checks
@@ -55,6 +56,9 @@ fn main() {
         std::process::exit(1);
     }
     let petsc = petsc.expect("agreed");
+    // From here a stop signal ends the setup at once (src/petsc/signals.rs), instead of
+    // PETSc's handler; `app::run` reports a failure to install it.
+    let _ = nndd::petsc::signals::catch_stop_requests();
     let code = match app::run(world, &agreement) {
         Ok(Outcome::Solved) | Ok(Outcome::Help) => 0,
         Ok(Outcome::NotConverged) => 3,

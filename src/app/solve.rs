@@ -22,6 +22,7 @@ use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
 use crate::petsc;
 use crate::petsc::log::Stages;
+use crate::petsc::signals::{self, StopPhase};
 use crate::problem::{self, BodyProblem};
 
 /// What a solver hands to post-processing.
@@ -102,6 +103,8 @@ pub fn solve_reference(
     timings: &mut Timings,
 ) -> Result<Reference, AppError> {
     let t = Instant::now();
+    // A stop signal ends the reference solve at once (nothing of it is worth keeping).
+    let before = signals::enter(StopPhase::Reference);
     let fine = settings.refined(r);
     let mut scratch = Timings::default();
     let bodies = setup_bodies(
@@ -124,6 +127,7 @@ pub fn solve_reference(
             None,
         ))?
     };
+    signals::enter(before);
     timings.reference = t.elapsed().as_secs_f64();
     if layout.is_root() && settings.monitor {
         println!(
@@ -337,6 +341,11 @@ pub fn solve_nndd(
         seconds: 0.0,
         restart,
     };
+    // The run's own loop stops at the end of an iteration on a signal (the reference
+    // solve's, without restart points, ends at once: its phase stays).
+    if restart.is_some() {
+        signals::enter(StopPhase::Deferred);
+    }
     let res = nndd::solve::<AppError>(
         &settings.nndd,
         m,
@@ -359,7 +368,9 @@ pub fn solve_nndd(
         if estimates.last().map(|e| e.iteration) != Some(res.iterations) {
             let t = Instant::now();
             let _s = stages.estimation.enter();
+            let before = signals::enter(StopPhase::FinalEstimate);
             let rec = est.estimate(refs, &res.last)?;
+            signals::enter(before);
             t_est += t.elapsed().as_secs_f64();
             if settings.monitor && root {
                 println!("{}", monitor::estimate_text(&rec));
@@ -405,6 +416,7 @@ pub fn solve_monolithic(
     let t = Instant::now();
     let res = {
         let _s = stages.monolithic.enter();
+        signals::enter(StopPhase::Monolithic);
         monolithic::solve(layout, refs, &settings.qp)?
     };
     timings.monolithic = t.elapsed().as_secs_f64();
@@ -426,9 +438,12 @@ pub fn solve_monolithic(
     if let Some(est) = estimator {
         let t = Instant::now();
         let _s = stages.estimation.enter();
+        signals::enter(StopPhase::FinalEstimate);
         estimates.push(est.estimate(refs, &last)?);
         timings.estimation = t.elapsed().as_secs_f64();
     }
+    // Post-processing and output: a signal is read once the files are complete.
+    signals::enter(StopPhase::Deferred);
     Ok(Solution {
         status: "solved".into(),
         stop_reason: "direct",
