@@ -5,6 +5,11 @@
 //! unwritable output, a failure at the end of a setup phase) are agreed on and reported once,
 //! and the ranks exit together; a failure of one rank in the middle of the solve, where the
 //! others wait in a collective, is reported by that rank, which then aborts the job.
+//! A result file that failed once created is left open (HDF5 would close it inside
+//! `MPI_Finalize`, flushing into the failed file again): after the agreed line, the ranks end
+//! without finalising. A stop signal outside the NNDD loop ends the process in its handler
+//! (exit 5, `src/petsc/signals.rs`); SIGXFSZ is ignored, so that a write past the file-size
+//! limit fails with an error instead of killing the rank.
 
 use nndd::app::{self, preflight, AppError, Outcome};
 use nndd::parallel::fault::{self, Agreement, Phase};

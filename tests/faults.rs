@@ -555,6 +555,18 @@ fn converged_line(line: &str) -> bool {
             .is_some_and(|v| v <= 1e-8)
 }
 
+/// One case of [`sigterm_outside_the_nndd_loop_ends_the_run_at_once`]: the run, the monitor
+/// line after which (and `delay_ms` later) the signal goes to every rank or to the last only,
+/// and the phases its line may name.
+struct PhaseCase<'a> {
+    case: &'static str,
+    args: &'a [&'a str],
+    at: fn(&str) -> bool,
+    delay_ms: u64,
+    phases: &'static [&'static str],
+    every_rank: bool,
+}
+
 /// SIGTERM in a phase with nothing worth keeping (the reference solve, the monolithic solve,
 /// the final estimate), to every rank or to one: the run ends at once with exit 5 and one
 /// line saying in which phase, and writes no file. (The NNDD loop's own stop, with results
@@ -592,48 +604,53 @@ fn sigterm_outside_the_nndd_loop_ends_the_run_at_once() {
         "-nndd_monitor",
     ];
     let setup_done = |l: &str| l.contains(" setup ");
-    // (case, arguments, when to signal, the delay after it, the phases the line may name,
-    // every rank or only the last).
-    type At = fn(&str) -> bool;
-    let cases: [(&str, &[&str], At, u64, &[&str], bool); 4] = [
+    let cases = [
         // The reference solve takes seconds after the setup's monitor line.
-        (
-            "reference solve",
-            &reference,
-            setup_done,
-            500,
-            &["the reference solve"],
-            true,
-        ),
-        (
-            "reference solve, one rank signalled",
-            &reference,
-            setup_done,
-            500,
-            &["the reference solve"],
-            false,
-        ),
+        PhaseCase {
+            case: "reference solve",
+            args: &reference,
+            at: setup_done,
+            delay_ms: 500,
+            phases: &["the reference solve"],
+            every_rank: true,
+        },
+        PhaseCase {
+            case: "reference solve, one rank signalled",
+            args: &reference,
+            at: setup_done,
+            delay_ms: 500,
+            phases: &["the reference solve"],
+            every_rank: false,
+        },
         // The monolithic QP right after the setup, then the estimate of its solution.
-        (
-            "monolithic run",
-            &monolithic,
-            setup_done,
-            0,
-            &["the setup", "the monolithic solve", "the final estimate"],
-            true,
-        ),
+        PhaseCase {
+            case: "monolithic run",
+            args: &monolithic,
+            at: setup_done,
+            delay_ms: 0,
+            phases: &["the setup", "the monolithic solve", "the final estimate"],
+            every_rank: true,
+        },
         // The estimate of the reported iterate follows the last iteration's line.
-        (
-            "final estimate",
-            &estimate,
-            converged_line,
-            0,
-            &["the final estimate"],
-            true,
-        ),
+        PhaseCase {
+            case: "final estimate",
+            args: &estimate,
+            at: converged_line,
+            delay_ms: 0,
+            phases: &["the final estimate"],
+            every_rank: true,
+        },
     ];
     let mut table = Vec::new();
-    for (case, args, at, delay_ms, phases, every_rank) in cases {
+    for PhaseCase {
+        case,
+        args,
+        at,
+        delay_ms,
+        phases,
+        every_rank,
+    } in cases
+    {
         for np in [1, 2, 3] {
             if !every_rank && np == 1 {
                 continue;
