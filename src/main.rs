@@ -73,7 +73,9 @@ fn main() {
     if nndd::io::output::file_left_open() {
         // A result file failed part-way and is still open in HDF5, which would close it
         // (and flush into it again) inside MPI_Finalize: end here (every rank agreed on the
-        // failure and arrives here), without finalising.
+        // failure and arrives here), without finalising, once every rank is here (so after
+        // the line of the failure is printed).
+        agreement.gather_within_deadline();
         end_at_once(code);
     }
     drop(petsc); // PetscFinalize before MPI_Finalize
