@@ -13,7 +13,7 @@ use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
 use crate::dd::nndd::{self, Iterate, IterationRecord, LoopState, Status, Steps, StopRule};
-use crate::estimate::{EstimateRecord, Estimator, NnddVariant, Reference};
+use crate::estimate::{EstimateError, EstimateRecord, Estimator, NnddVariant, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
 use crate::io::summary::Timings;
@@ -216,7 +216,11 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
             let fe = match self.last_fe {
                 Some(fe) => fe,
                 None => {
-                    let fe = est.eta_fe(self.refs, it)?;
+                    let fe = match est.eta_fe(self.refs, it) {
+                        // A stop signal: no estimate; the loop stops at this iteration's end.
+                        Err(EstimateError::Stopped) => return Ok(false),
+                        r => r?,
+                    };
                     self.last_fe = Some(fe);
                     fe
                 }
@@ -228,7 +232,14 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
                 return Ok(false);
             }
         }
-        let rec = est.estimate(self.refs, it)?;
+        let rec = match est.estimate(self.refs, it) {
+            // A stop signal: no estimate; the loop stops at this iteration's end.
+            Err(EstimateError::Stopped) => {
+                self.seconds += t.elapsed().as_secs_f64();
+                return Ok(false);
+            }
+            r => r?,
+        };
         self.seconds += t.elapsed().as_secs_f64();
         self.last_fe = Some(rec.eta_fe);
         let balanced = settings.nndd.stop == StopRule::Balanced
