@@ -628,7 +628,11 @@ fn sigterm_outside_the_nndd_loop_ends_the_run_at_once() {
             args: &monolithic,
             at: setup_done,
             delay_ms: 0,
-            phases: &["the setup", "the monolithic solve", "the final estimate"],
+            phases: &[
+                "the setup",
+                "the monolithic solve",
+                "the estimate of the monolithic solution",
+            ],
             every_rank: true,
         },
         // The estimate of the reported iterate follows the last iteration's line.

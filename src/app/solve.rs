@@ -449,7 +449,7 @@ pub fn solve_monolithic(
     if let Some(est) = estimator {
         let t = Instant::now();
         let _s = stages.estimation.enter();
-        signals::enter(StopPhase::FinalEstimate);
+        signals::enter(StopPhase::MonolithicEstimate);
         estimates.push(est.estimate(refs, &last)?);
         timings.estimation = t.elapsed().as_secs_f64();
     }

@@ -48,17 +48,20 @@ pub enum StopPhase {
     Reference = 2,
     /// The monolithic solve: end at once.
     Monolithic = 3,
-    /// The estimate of the reported iterate after the solve: end at once.
+    /// The estimate of the reported iterate after the NNDD loop: end at once.
     FinalEstimate = 4,
+    /// The estimate of the monolithic solution: end at once.
+    MonolithicEstimate = 5,
 }
 
 impl StopPhase {
-    const ALL: [StopPhase; 5] = [
+    const ALL: [StopPhase; 6] = [
         StopPhase::Deferred,
         StopPhase::Setup,
         StopPhase::Reference,
         StopPhase::Monolithic,
         StopPhase::FinalEstimate,
+        StopPhase::MonolithicEstimate,
     ];
 
     /// The line's words for the phase (after "during "), and what was kept.
@@ -71,6 +74,10 @@ impl StopPhase {
             StopPhase::FinalEstimate => (
                 "the final estimate",
                 "; no results written (restart points of -nndd_checkpoint_every remain)",
+            ),
+            StopPhase::MonolithicEstimate => (
+                "the estimate of the monolithic solution",
+                "; no results written",
             ),
         }
     }
