@@ -5,6 +5,11 @@
 //! unwritable output, a failure at the end of a setup phase) are agreed on and reported once,
 //! and the ranks exit together; a failure of one rank in the middle of the solve, where the
 //! others wait in a collective, is reported by that rank, which then aborts the job.
+//! A result file that failed once created is left open (HDF5 would close it inside
+//! `MPI_Finalize`, flushing into the failed file again): after the agreed line, the ranks end
+//! without finalising. A stop signal outside the NNDD loop ends the process in its handler
+//! (exit 5, `src/petsc/signals.rs`); SIGXFSZ is ignored, so that a write past the file-size
+//! limit fails with an error instead of killing the rank.
 
 use nndd::app::{self, preflight, AppError, Outcome};
 use nndd::parallel::fault::{self, Agreement, Phase};
@@ -16,12 +21,17 @@ fn main() {
     std::panic::set_hook(Box::new(|info| {
         eprintln!("nndd: internal error: {info}");
     }));
+    if let Err(e) = nndd::petsc::signals::ignore_file_size_limit() {
+        eprintln!("nndd: error: cannot ignore SIGXFSZ: {e}");
+        std::process::exit(1);
+    }
     let Some(universe) = mpi::initialize() else {
         eprintln!("nndd: error: MPI could not be initialised");
         std::process::exit(1);
     };
     let world = universe.world();
     let rank = world.rank();
+    nndd::petsc::signals::set_rank(rank);
     let agreement = Agreement::new(&world);
     let args: Vec<String> = std::env::args().collect();
     // PETSc reads the options files on rank 0 only and broadcasts them: every rank checks
@@ -51,16 +61,37 @@ fn main() {
         std::process::exit(1);
     }
     let petsc = petsc.expect("agreed");
+    // From here a stop signal ends the setup at once (src/petsc/signals.rs), instead of
+    // PETSc's handler; `app::run` reports a failure to install it.
+    let _ = nndd::petsc::signals::catch_stop_requests();
     let code = match app::run(world, &agreement) {
         Ok(Outcome::Solved) | Ok(Outcome::Help) => 0,
         Ok(Outcome::NotConverged) => 3,
         Ok(Outcome::Interrupted) => 4,
         Err(e) => report(&e, rank, &agreement),
     };
+    if nndd::io::output::file_left_open() {
+        // A result file failed part-way and is still open in HDF5, which would close it
+        // (and flush into it again) inside MPI_Finalize: end here (every rank agreed on the
+        // failure and arrives here), without finalising, once every rank is here (so after
+        // the line of the failure is printed).
+        agreement.gather_within_deadline();
+        end_at_once(code);
+    }
     drop(petsc); // PetscFinalize before MPI_Finalize
     drop(agreement);
     drop(universe);
     std::process::exit(code);
+}
+
+/// End the process now with `code`, after our own output, running no exit handler
+/// (neither HDF5's nor MPI's finalisation).
+fn end_at_once(code: i32) -> ! {
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    let _ = std::io::stderr().flush();
+    // SAFETY: _exit ends the process; nothing of it is used afterwards.
+    unsafe { libc::_exit(code) }
 }
 
 /// Before the run: whether any rank failed (`failure` is this rank's reason); the lowest

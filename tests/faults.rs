@@ -509,3 +509,207 @@ fn kill_9_of_one_rank_ends_the_job() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Start a long run; return the child once its monitor has printed a line for which `at`
+/// holds (the lines so far).
+fn started_at(np: usize, args: &[&str], at: impl Fn(&str) -> bool) -> (Child, Vec<String>) {
+    let mut child = spawn(np, args);
+    let out = child.stdout.take().unwrap();
+    let mut lines = Vec::new();
+    let mut reader = BufReader::new(out);
+    let t0 = Instant::now();
+    loop {
+        let mut line = String::new();
+        if reader.read_line(&mut line).unwrap() == 0 {
+            panic!(
+                "the run ended before the line looked for:\n{}",
+                lines.join("")
+            );
+        }
+        let found = at(&line);
+        lines.push(line);
+        if found {
+            break;
+        }
+        assert!(
+            t0.elapsed() < 6 * LIMIT,
+            "no such line yet:\n{}",
+            lines.join("")
+        );
+    }
+    let drain = std::thread::spawn(move || {
+        let mut rest = String::new();
+        std::io::Read::read_to_string(&mut reader, &mut rest).ok();
+    });
+    std::mem::forget(drain);
+    (child, lines)
+}
+
+/// The monitor line of an NNDD iteration that meets the tolerance 1e-8 (the last one).
+fn converged_line(line: &str) -> bool {
+    let mut words = line.split_whitespace();
+    words.any(|w| w == "dlambda/lambda")
+        && words
+            .next()
+            .and_then(|v| v.parse::<f64>().ok())
+            .is_some_and(|v| v <= 1e-8)
+}
+
+/// One case of [`sigterm_outside_the_nndd_loop_ends_the_run_at_once`]: the run, the monitor
+/// line after which (and `delay_ms` later) the signal goes to every rank or to the last only,
+/// and the phases its line may name.
+struct PhaseCase<'a> {
+    case: &'static str,
+    args: &'a [&'a str],
+    at: fn(&str) -> bool,
+    delay_ms: u64,
+    phases: &'static [&'static str],
+    every_rank: bool,
+}
+
+/// SIGTERM in a phase with nothing worth keeping (the reference solve, the monolithic solve,
+/// the final estimate), to every rank or to one: the run ends at once with exit 5 and one
+/// line saying in which phase, and writes no file. (The NNDD loop's own stop, with results
+/// and a restart point, is the test above.)
+#[test]
+fn sigterm_outside_the_nndd_loop_ends_the_run_at_once() {
+    let _s = serial();
+    let dir = scratch("faults-phase-signals");
+    let reference = [
+        "-nndd_problem",
+        "paper",
+        "-nndd_n",
+        "48",
+        "-nndd_estimate",
+        "-nndd_reference_factor",
+        "8",
+        "-nndd_monitor",
+    ];
+    let monolithic = [
+        "-nndd_problem",
+        "paper",
+        "-nndd_n",
+        "256",
+        "-nndd_solver",
+        "monolithic",
+        "-nndd_estimate",
+        "-nndd_monitor",
+    ];
+    let estimate = [
+        "-nndd_problem",
+        "paper",
+        "-nndd_n",
+        "256",
+        "-nndd_estimate",
+        "-nndd_monitor",
+    ];
+    let setup_done = |l: &str| l.contains(" setup ");
+    let cases = [
+        // The reference solve takes seconds after the setup's monitor line.
+        PhaseCase {
+            case: "reference solve",
+            args: &reference,
+            at: setup_done,
+            delay_ms: 500,
+            phases: &["the reference solve"],
+            every_rank: true,
+        },
+        PhaseCase {
+            case: "reference solve, one rank signalled",
+            args: &reference,
+            at: setup_done,
+            delay_ms: 500,
+            phases: &["the reference solve"],
+            every_rank: false,
+        },
+        // The monolithic QP right after the setup, then the estimate of its solution.
+        PhaseCase {
+            case: "monolithic run",
+            args: &monolithic,
+            at: setup_done,
+            delay_ms: 0,
+            phases: &[
+                "the setup",
+                "the monolithic solve",
+                "the estimate of the monolithic solution",
+            ],
+            every_rank: true,
+        },
+        // The estimate of the reported iterate follows the last iteration's line.
+        PhaseCase {
+            case: "final estimate",
+            args: &estimate,
+            at: converged_line,
+            delay_ms: 0,
+            phases: &["the final estimate"],
+            every_rank: true,
+        },
+    ];
+    let mut table = Vec::new();
+    for PhaseCase {
+        case,
+        args,
+        at,
+        delay_ms,
+        phases,
+        every_rank,
+    } in cases
+    {
+        for np in [1, 2, 3] {
+            if !every_rank && np == 1 {
+                continue;
+            }
+            let prefix = dir.join(format!("run-{np}"));
+            let mut all: Vec<&str> = args.to_vec();
+            all.extend(["-nndd_output", prefix.to_str().unwrap()]);
+            let what = format!("SIGTERM during the {case} on {np} rank(s)");
+            let (child, _) = started_at(np, &all, at);
+            std::thread::sleep(Duration::from_millis(delay_ms));
+            let ranks = ranks_of(&child);
+            assert_eq!(ranks.len(), np, "{ranks:?}");
+            let signalled = if every_rank {
+                &ranks[..]
+            } else {
+                &ranks[np - 1..]
+            };
+            for pid in signalled {
+                // SAFETY: kill(2) on the job's own processes.
+                unsafe {
+                    libc::kill(*pid, libc::SIGTERM);
+                }
+            }
+            let e = wait_within(child, LIMIT, &what);
+            assert_eq!(e.code, Some(5), "{what}: exit status\n{}", e.stderr);
+            let ours = our_lines(&e.stderr);
+            assert_eq!(
+                ours.len(),
+                1,
+                "{what}: expected one line, got:\n{}",
+                e.stderr
+            );
+            assert!(
+                phases.iter().any(|p| ours[0].starts_with(&format!(
+                    "nndd: stopped by SIGTERM during {p}; no results written"
+                ))),
+                "{what}: '{}' names none of {phases:?}",
+                ours[0]
+            );
+            for bad in [
+                "panicked",
+                "RUST_BACKTRACE",
+                "PETSC ERROR",
+                "internal error",
+            ] {
+                assert!(!e.stderr.contains(bad), "{what}: '{bad}' in\n{}", e.stderr);
+            }
+            let left = walk(&dir);
+            assert!(left.is_empty(), "{what}: left {left:?}");
+            table.push(format!(
+                "{what}: exit {:?} {:.1} s after the signal: {}",
+                e.code, e.seconds, ours[0]
+            ));
+        }
+    }
+    println!("{}", table.join("\n"));
+    std::fs::remove_dir_all(&dir).ok();
+}

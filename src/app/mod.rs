@@ -331,6 +331,13 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         }
     }
     agreed(agreement, written)?;
+    if petsc::signals::stop_requested() && !sol.interrupted && layout.is_root() {
+        // The output is not interrupted: a signal during it is read once the files exist.
+        eprintln!(
+            "nndd: {} arrived while the results were written; they are complete",
+            petsc::signals::received_name()
+        );
+    }
     Ok(if sol.interrupted {
         Outcome::Interrupted
     } else if sol.requested {

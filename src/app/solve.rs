@@ -13,7 +13,7 @@ use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
 use crate::dd::nndd::{self, Iterate, IterationRecord, LoopState, Status, Steps, StopRule};
-use crate::estimate::{EstimateRecord, Estimator, NnddVariant, Reference};
+use crate::estimate::{EstimateError, EstimateRecord, Estimator, NnddVariant, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
 use crate::io::summary::Timings;
@@ -22,6 +22,7 @@ use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
 use crate::petsc;
 use crate::petsc::log::Stages;
+use crate::petsc::signals::{self, StopPhase};
 use crate::problem::{self, BodyProblem};
 
 /// What a solver hands to post-processing.
@@ -104,6 +105,8 @@ pub fn solve_reference(
     timings: &mut Timings,
 ) -> Result<Reference, AppError> {
     let t = Instant::now();
+    // A stop signal ends the reference solve at once (nothing of it is worth keeping).
+    let before = signals::enter(StopPhase::Reference);
     let fine = settings.refined(r);
     let mut scratch = Timings::default();
     let bodies = setup_bodies(
@@ -126,6 +129,7 @@ pub fn solve_reference(
             None,
         ))?
     };
+    signals::enter(before);
     timings.reference = t.elapsed().as_secs_f64();
     if layout.is_root() && settings.monitor {
         println!(
@@ -214,7 +218,11 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
             let fe = match self.last_fe {
                 Some(fe) => fe,
                 None => {
-                    let fe = est.eta_fe(self.refs, it)?;
+                    let fe = match est.eta_fe(self.refs, it) {
+                        // A stop signal: no estimate; the loop stops at this iteration's end.
+                        Err(EstimateError::Stopped) => return Ok(false),
+                        r => r?,
+                    };
                     self.last_fe = Some(fe);
                     fe
                 }
@@ -226,7 +234,14 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
                 return Ok(false);
             }
         }
-        let rec = est.estimate(self.refs, it)?;
+        let rec = match est.estimate(self.refs, it) {
+            // A stop signal: no estimate; the loop stops at this iteration's end.
+            Err(EstimateError::Stopped) => {
+                self.seconds += t.elapsed().as_secs_f64();
+                return Ok(false);
+            }
+            r => r?,
+        };
         self.seconds += t.elapsed().as_secs_f64();
         self.last_fe = Some(rec.eta_fe);
         let balanced = settings.nndd.stop == StopRule::Balanced
@@ -339,6 +354,11 @@ pub fn solve_nndd(
         seconds: 0.0,
         restart,
     };
+    // The run's own loop stops at the end of an iteration on a signal (the reference
+    // solve's, without restart points, ends at once: its phase stays).
+    if restart.is_some() {
+        signals::enter(StopPhase::Deferred);
+    }
     let res = nndd::solve::<AppError>(
         &settings.nndd,
         m,
@@ -361,7 +381,9 @@ pub fn solve_nndd(
         if estimates.last().map(|e| e.iteration) != Some(res.iterations) {
             let t = Instant::now();
             let _s = stages.estimation.enter();
+            let before = signals::enter(StopPhase::FinalEstimate);
             let rec = est.estimate(refs, &res.last)?;
+            signals::enter(before);
             t_est += t.elapsed().as_secs_f64();
             if settings.monitor && root {
                 println!("{}", monitor::estimate_text(&rec));
@@ -414,6 +436,7 @@ pub fn solve_monolithic(
     let t = Instant::now();
     let res = {
         let _s = stages.monolithic.enter();
+        signals::enter(StopPhase::Monolithic);
         monolithic::solve(layout, refs, &settings.qp)?
     };
     timings.monolithic = t.elapsed().as_secs_f64();
@@ -435,9 +458,12 @@ pub fn solve_monolithic(
     if let Some(est) = estimator {
         let t = Instant::now();
         let _s = stages.estimation.enter();
+        signals::enter(StopPhase::MonolithicEstimate);
         estimates.push(est.estimate(refs, &last)?);
         timings.estimation = t.elapsed().as_secs_f64();
     }
+    // Post-processing and output: a signal is read once the files are complete.
+    signals::enter(StopPhase::Deferred);
     Ok(Solution {
         status: "solved".into(),
         stop_reason: "direct",

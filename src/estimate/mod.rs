@@ -67,6 +67,10 @@ pub enum EstimateError {
     NotNested { coarse: String, fine: String },
     #[error(transparent)]
     Fault(#[from] crate::parallel::fault::InjectedFault),
+    /// A stop signal arrived on some rank: every rank left the estimate at the same point
+    /// ([`Estimator::stop_point`]); the NNDD loop then stops at the end of its iteration.
+    #[error("the estimate was left for a stop signal")]
+    Stopped,
 }
 
 /// Which reference problem η^NNDD is measured against (see the module docs).
@@ -279,6 +283,18 @@ impl Estimator<'_> {
         Ok(self.run(bodies, it, true)?.eta_fe)
     }
 
+    /// Whether a stop signal arrived on any rank (`Err(Stopped)` on every rank then): one
+    /// reduction over all ranks, at points every rank passes in the same order. Between the
+    /// estimate's parts, so that a signal during an estimate of the NNDD loop is acted on
+    /// before the next part rather than after the whole estimate.
+    fn stop_point(&self) -> Result<(), EstimateError> {
+        let mine = crate::petsc::signals::stop_requested() as u8 as f64;
+        if self.layout.max(mine) > 0.0 {
+            return Err(EstimateError::Stopped);
+        }
+        Ok(())
+    }
+
     /// The estimates of `it`; with `fe_only`, η^FE alone (the other totals are zero, and
     /// there is no e_ref).
     fn run(
@@ -288,6 +304,7 @@ impl Estimator<'_> {
         fe_only: bool,
     ) -> Result<EstimateRecord, EstimateError> {
         crate::parallel::fault::check(crate::parallel::fault::Phase::Estimate)?;
+        self.stop_point()?;
         let layout = self.layout;
         // The admissible Γc tractions (the same small QPs on every rank).
         let target: Vec<f64> = it.forces[0]
@@ -348,6 +365,7 @@ impl Estimator<'_> {
                 });
             }
         }
+        self.stop_point()?;
         // The element work: each recovery prepared for both bodies before any is made (the
         // warm-start exchanges are the only collectives in it, so no rank waits for another
         // between them).
@@ -392,6 +410,7 @@ impl Estimator<'_> {
         // its own (the first estimate's high-water mark on large meshes: paper n = 1024 out of
         // core, 3018 / 3055 → 2921 / 2971 MiB).
         crate::petsc::Petsc::release_free_memory(TRIM_BYTES);
+        self.stop_point()?;
         prepare(&works, true);
         for (k, w) in works.iter_mut() {
             w.fe(

@@ -130,6 +130,29 @@ impl Agreement {
         }
     }
 
+    /// Wait until every rank arrives here, at most [`DEADLINE`] (collective; used before
+    /// ranks end without `MPI_Finalize`, so that none ends before the line of the failure is
+    /// printed).
+    pub fn gather_within_deadline(&self) {
+        if self.comm.size() == 1 {
+            return;
+        }
+        let t0 = Instant::now();
+        let mut req = self.comm.immediate_barrier();
+        loop {
+            match req.test() {
+                Ok(_) => return,
+                Err(r) => req = r,
+            }
+            if t0.elapsed() > DEADLINE {
+                // Left pending: the process ends right after.
+                std::mem::forget(req);
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
     /// The lowest failed rank and its code (None: none failed); `code` is this rank's failure
     /// (a small code, the exit code). Every rank calls it at the same point; `on_timeout`
     /// (which must end the job) is called on a failed rank whose partners do not arrive

@@ -37,6 +37,14 @@
 //! `.h5` between the two renames). The destination directory is not created by the writers: call
 //! [`check_writable`] first (it creates it).
 //!
+//! Parallel files are created in two walks: every group, attribute and dataset first
+//! (contiguous datasets get their space at creation), then rank 0 reserves the file's extent
+//! on disk (`posix_fallocate` to the end of the last dataset), then the datasets are written;
+//! so a full disk or the file-size limit fails the reservation, before HDF5 writes anything.
+//! A file that fails after its creation is left open, never closed, and
+//! [`file_left_open`] says so: the process must then end without `MPI_Finalize` (where HDF5
+//! would close it, flushing into the failed file again).
+//!
 //! [`write_results_parallel`] keeps the same contract. Every rank validates
 //! its `Results` and shares before anything is created; rank 0 picks the
 //! temporary name and broadcasts it; the temporary is closed collectively,
@@ -129,6 +137,7 @@ use std::path::{Path, PathBuf};
 
 pub use atomic::write_atomic;
 use atomic::{commit_pair, parent_dir, unique_suffix, with_suffix};
+pub use h5::file_left_open;
 use h5::write_h5;
 use team::{agree, check_team, Alone, Team, Writers};
 use validate::{prefix_name, validate};
