@@ -12,7 +12,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use common::{f, json, mpirun_command, scratch, walk};
+use common::{f, json, mpirun_command, scratch, wait_within, walk, Ended};
 
 /// The tests of this file run one at a time: their time limits assume the machine's cores.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -32,62 +32,6 @@ fn spawn(np: usize, args: &[&str]) -> Child {
         .process_group(0)
         .spawn()
         .expect("mpirun starts")
-}
-
-/// Kill the job's whole process group (mpirun and the ranks).
-fn kill_group(child: &Child) {
-    // SAFETY: kill(2) on our own child's process group.
-    unsafe {
-        libc::kill(-(child.id() as i32), libc::SIGKILL);
-    }
-}
-
-struct Ended {
-    code: Option<i32>,
-    seconds: f64,
-    stdout: String,
-    stderr: String,
-}
-
-/// Wait for `child` at most `limit` (else kill it and fail: a hang).
-fn wait_within(mut child: Child, limit: Duration, what: &str) -> Ended {
-    let t0 = Instant::now();
-    // Drain the pipes on threads (a full pipe would block the job).
-    // (`started_until` has taken stdout already.)
-    let out = child.stdout.take();
-    let mut err = child.stderr.take().unwrap();
-    let t_out = std::thread::spawn(move || {
-        let mut s = String::new();
-        if let Some(mut out) = out {
-            std::io::Read::read_to_string(&mut out, &mut s).ok();
-        }
-        s
-    });
-    let t_err = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut err, &mut s).ok();
-        s
-    });
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            return Ended {
-                code: status.code(),
-                seconds: t0.elapsed().as_secs_f64(),
-                stdout: t_out.join().unwrap(),
-                stderr: t_err.join().unwrap(),
-            };
-        }
-        if t0.elapsed() > limit {
-            kill_group(&child);
-            let _ = child.wait();
-            panic!(
-                "{what}: still running after {:.0} s (a hang); killed. stderr so far:\n{}",
-                limit.as_secs_f64(),
-                t_err.join().unwrap()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 /// `base` then `extra` on `np` ranks, required to succeed within `limit`.

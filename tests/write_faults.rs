@@ -10,9 +10,9 @@ mod common;
 use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use common::{scratch, walk};
+use common::{scratch, wait_within, walk};
 
 /// The file-size limit of the failing runs, in KiB: what mpirun's own shared-memory files
 /// need (below about 8 MiB mpirun itself fails), and below the size of the runs' `.h5`.
@@ -50,56 +50,6 @@ fn spawn(np: usize, args: &[&str], limit_kib: Option<u64>) -> Child {
         .process_group(0)
         .spawn()
         .expect("bash and mpirun start")
-}
-
-struct Ended {
-    code: Option<i32>,
-    signal: Option<i32>,
-    seconds: f64,
-    stdout: String,
-    stderr: String,
-}
-
-/// Wait for `child` at most [`HANG`] (else kill its process group and fail).
-fn wait_within(mut child: Child, what: &str) -> Ended {
-    use std::os::unix::process::ExitStatusExt as _;
-    let t0 = Instant::now();
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let t_out = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut out, &mut s).ok();
-        s
-    });
-    let t_err = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut err, &mut s).ok();
-        s
-    });
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            return Ended {
-                code: status.code(),
-                signal: status.signal(),
-                seconds: t0.elapsed().as_secs_f64(),
-                stdout: t_out.join().unwrap(),
-                stderr: t_err.join().unwrap(),
-            };
-        }
-        if t0.elapsed() > HANG {
-            // SAFETY: kill(2) on our own child's process group.
-            unsafe {
-                libc::kill(-(child.id() as i32), libc::SIGKILL);
-            }
-            let _ = child.wait();
-            panic!(
-                "{what}: still running after {:.0} s (a hang); killed. stderr so far:\n{}",
-                HANG.as_secs_f64(),
-                t_err.join().unwrap()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 /// The result files of `prefix` and their bytes.
@@ -140,7 +90,11 @@ fn a_write_past_the_file_size_limit_ends_every_rank_with_one_line() {
         let mut all: Vec<&str> = vec!["-nndd_problem", "paper", "-nndd_output", p];
         all.extend(args.iter().copied());
         // An earlier run writes the files the failing runs must leave as they are.
-        let first = wait_within(spawn(2, &all, None), &format!("{case}: the first run"));
+        let first = wait_within(
+            spawn(2, &all, None),
+            HANG,
+            &format!("{case}: the first run"),
+        );
         assert_eq!(first.code, Some(0), "{case}:\n{}", first.stderr);
         let before = results_of(&prefix);
         let h5_size = before[0].1.len() as u64;
@@ -151,7 +105,7 @@ fn a_write_past_the_file_size_limit_ends_every_rank_with_one_line() {
         let files_before = sorted(walk(&dir));
         for np in [1, 2, 3] {
             let what = format!("{case} on {np} rank(s) under ulimit -f {LIMIT_KIB}");
-            let e = wait_within(spawn(np, &all, Some(LIMIT_KIB)), &what);
+            let e = wait_within(spawn(np, &all, Some(LIMIT_KIB)), HANG, &what);
             assert!(
                 e.signal.is_none() && e.code.is_some_and(|c| c != 0 && c < 128),
                 "{what}: ended by {:?} / signal {:?} (139: a crash, 153: SIGXFSZ):\n{}",

@@ -3,7 +3,8 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output};
+use std::time::{Duration, Instant};
 
 /// `paper` at n = 16 solved to a tolerance tight enough that two solution paths agree to 1e-10.
 pub const PAPER_16_TIGHT: [&str; 6] = [
@@ -204,4 +205,62 @@ pub fn solve_meshed(
         String::from_utf8_lossy(&out.stderr)
     );
     json(prefix)
+}
+
+/// A job that ended: its exit code (or the signal that ended it), how long it took from
+/// [`wait_within`]'s start, and its output.
+pub struct Ended {
+    pub code: Option<i32>,
+    pub signal: Option<i32>,
+    pub seconds: f64,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+/// Kill a job's whole process group (mpirun and the ranks; the job was spawned with
+/// `process_group(0)`).
+pub fn kill_group(child: &Child) {
+    // SAFETY: kill(2) on our own child's process group.
+    unsafe {
+        libc::kill(-(child.id() as i32), libc::SIGKILL);
+    }
+}
+
+/// Wait for `child` at most `limit`, else kill its process group and fail the test as a hang.
+/// The pipes it still has are drained on threads (a full pipe would block the job).
+pub fn wait_within(mut child: Child, limit: Duration, what: &str) -> Ended {
+    use std::os::unix::process::ExitStatusExt as _;
+    let t0 = Instant::now();
+    let drain = |pipe: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            if let Some(mut p) = pipe {
+                p.read_to_string(&mut s).ok();
+            }
+            s
+        })
+    };
+    let t_out = drain(child.stdout.take().map(|p| Box::new(p) as _));
+    let t_err = drain(child.stderr.take().map(|p| Box::new(p) as _));
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return Ended {
+                code: status.code(),
+                signal: status.signal(),
+                seconds: t0.elapsed().as_secs_f64(),
+                stdout: t_out.join().unwrap(),
+                stderr: t_err.join().unwrap(),
+            };
+        }
+        if t0.elapsed() > limit {
+            kill_group(&child);
+            let _ = child.wait();
+            panic!(
+                "{what}: still running after {:.0} s (a hang); killed. stderr so far:\n{}",
+                limit.as_secs_f64(),
+                t_err.join().unwrap()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
