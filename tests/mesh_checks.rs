@@ -372,18 +372,29 @@ fn a_surface_in_both_bodies_is_refused() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `paper.geo` with a square of side `side` from `corner` added to body 2, its side
+/// `Line(curve)` (20: bottom, 21: right) the physical curve `name`.
+fn with_square_in_body2(corner: [f64; 2], side: f64, name: &str, curve: usize) -> String {
+    let [x, y] = corner;
+    let (x1, y1) = (x + side, y + side);
+    std::fs::read_to_string(GEO).unwrap().replace(
+        "Physical Surface(\"body2\") = {2};",
+        &format!(
+            "Point(20) = {{{x}, {y}, 0}};\nPoint(21) = {{{x1}, {y}, 0}};\n\
+             Point(22) = {{{x1}, {y1}, 0}};\nPoint(23) = {{{x}, {y1}, 0}};\n\
+             Line(20) = {{20, 21}};\nLine(21) = {{21, 22}};\nLine(22) = {{22, 23}};\n\
+             Line(23) = {{23, 20}};\nCurve Loop(20) = {{20, 21, 22, 23}};\n\
+             Plane Surface(20) = {{20}};\nPhysical Curve(\"{name}\") = {{{curve}}};\n\
+             Physical Surface(\"body2\") = {{2, 20}};"
+        ),
+    )
+}
+
 /// A small square of body 2 inside body 1, away from the contact curves.
 #[test]
 fn a_piece_of_body2_inside_body1_is_refused() {
     let dir = scratch("mc-inside");
-    let geo = std::fs::read_to_string(GEO).unwrap().replace(
-        "Physical Surface(\"body2\") = {2};",
-        "Point(20) = {0.4, 0.3, 0};\nPoint(21) = {0.6, 0.3, 0};\nPoint(22) = {0.6, 0.5, 0};\n\
-         Point(23) = {0.4, 0.5, 0};\nLine(20) = {20, 21};\nLine(21) = {21, 22};\n\
-         Line(22) = {22, 23};\nLine(23) = {23, 20};\nCurve Loop(20) = {20, 21, 22, 23};\n\
-         Plane Surface(20) = {20};\nPhysical Curve(\"inner_base\") = {20};\n\
-         Physical Surface(\"body2\") = {2, 20};",
-    );
+    let geo = with_square_in_body2([0.4, 0.3], 0.2, "inner_base", 20);
     let bad = paper_mesh(&dir, "inside", Some(&geo), 4);
     // Even with the piece held (so that only the overlap is wrong).
     for np in [1, 3] {
@@ -406,14 +417,7 @@ fn a_piece_of_body2_inside_body1_is_refused() {
 #[test]
 fn a_floating_piece_is_refused_loaded_or_not() {
     let dir = scratch("mc-float");
-    let geo = std::fs::read_to_string(GEO).unwrap().replace(
-        "Physical Surface(\"body2\") = {2};",
-        "Point(20) = {2, 1, 0};\nPoint(21) = {2.5, 1, 0};\nPoint(22) = {2.5, 1.5, 0};\n\
-         Point(23) = {2, 1.5, 0};\nLine(20) = {20, 21};\nLine(21) = {21, 22};\n\
-         Line(22) = {22, 23};\nLine(23) = {23, 20};\nCurve Loop(20) = {20, 21, 22, 23};\n\
-         Plane Surface(20) = {20};\nPhysical Curve(\"float_side\") = {21};\n\
-         Physical Surface(\"body2\") = {2, 20};",
-    );
+    let geo = with_square_in_body2([2.0, 1.0], 0.5, "float_side", 21);
     let bad = paper_mesh(&dir, "float", Some(&geo), 4);
     let loaded = paper_args(
         &bad,
