@@ -229,8 +229,8 @@ fn materials_that_lose_the_digits_are_refused() {
 }
 
 /// The reported iterate's fields, formed by solves with its Γc forces, are in equilibrium to
-/// round-off and satisfy the contact conditions, on 1, 2 and 3 ranks (paper) and on a curved
-/// interface (Hertz); the summary gives the check.
+/// round-off and satisfy the contact conditions, NNDD and monolithic, on 1, 2 and 3 ranks
+/// (paper) and on a curved interface (Hertz); the summary gives the check.
 #[test]
 fn the_reported_iterate_passes_its_check_on_every_rank_count() {
     let dir = scratch("checked-final");
@@ -238,6 +238,10 @@ fn the_reported_iterate_passes_its_check_on_every_rank_count() {
     for np in [1, 2, 3] {
         let j = solve(np, &dir.join(format!("p{np}")), &PAPER_16_TIGHT);
         runs.push((format!("paper on {np}"), j));
+        let mut mono = PAPER_16_TIGHT.to_vec();
+        mono.extend(["-nndd_solver", "monolithic"]);
+        let j = solve(np, &dir.join(format!("m{np}")), &mono);
+        runs.push((format!("monolithic paper on {np}"), j));
     }
     let msh = gmsh_level(HERTZ_GEO, &dir, "hertz", 1);
     // (-nndd_output after the options file, which sets its own)

@@ -8,11 +8,14 @@ use super::agreed;
 use super::options::{self, Settings, SolverKind};
 use super::AppError;
 use crate::dd::body::{Body, SchurMode, SchurSource};
+use crate::dd::check::check_solution;
 use crate::dd::contact::ContactStep;
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
-use crate::dd::nndd::{self, Iterate, IterationRecord, LoopState, Status, Steps, StopRule};
+use crate::dd::nndd::{
+    self, Iterate, IterationRecord, LoopState, NnddError, Status, Steps, StopRule,
+};
 use crate::estimate::{EstimateError, EstimateRecord, Estimator, NnddVariant, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
@@ -44,8 +47,8 @@ pub struct Solution {
     /// Each body's Neumann step (on the ranks of its group; `None` elsewhere and for the
     /// monolithic solve).
     pub neumann_step: [Option<NeumannStep>; 2],
-    /// The NNDD's a-posteriori check of the reported iterate (`None` for the monolithic solve).
-    pub check: Option<nndd::SolutionCheck>,
+    /// The a-posteriori check of the reported iterate.
+    pub check: Option<crate::dd::check::SolutionCheck>,
 }
 
 /// Meshes, assembly and factorisation of the bodies this rank owns.
@@ -454,6 +457,14 @@ pub fn solve_monolithic(
         qp_kkt: res.kkt_residual,
         iteration: 0,
     };
+    let check = check_solution(layout, &last, refs)?;
+    if let Some(what) = check.failure() {
+        return Err(NnddError::CheckFailed {
+            run: "the monolithic solve succeeded".into(),
+            what,
+        }
+        .into());
+    }
     let mut estimates = Vec::new();
     if let Some(est) = estimator {
         let t = Instant::now();
@@ -476,7 +487,7 @@ pub fn solve_monolithic(
         estimates,
         dirichlet_step: "",
         neumann_step: [None, None],
-        check: None,
+        check: Some(check),
     })
 }
 

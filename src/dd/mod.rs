@@ -3,11 +3,13 @@
 //! [`dirichlet`] (step 1 on Ω¹, (8)–(10)), [`contact`] (step 1 on Ω², (11)–(14)), [`neumann`]
 //! (step 2, (15)–(16)); [`nndd`]: the loop and its update of λ; [`secant`]: the self-tuning
 //! update of `-nndd_theta auto`; [`monolithic`]: the discrete
-//! global contact problem solved at once, the check of the NNDD.
+//! global contact problem solved at once, the check of the NNDD; [`check`]: the final check
+//! of a reported solution.
 //!
 //! May use: `problem`, `parallel`, `qp`, `fem`, `petsc`.
 
 pub mod body;
+pub mod check;
 pub mod contact;
 pub mod dirichlet;
 pub mod monolithic;

@@ -165,8 +165,8 @@ pub struct Summary {
     pub fields: Vec<FieldInfo>,
     /// The warnings the run printed (`nndd: warning: …`), in order.
     pub warnings: Vec<String>,
-    /// The NNDD's check of the reported iterate: each body's equilibrium residual and the
-    /// relative penetration, tension and complementarity on Γc (absent for `monolithic`).
+    /// The check of the reported iterate: each body's equilibrium residual and the relative
+    /// penetration, tension and complementarity on Γc (`src/dd/check.rs`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub solution_check: Option<crate::dd::nndd::SolutionCheck>,
+    pub solution_check: Option<crate::dd::check::SolutionCheck>,
 }

@@ -1,0 +1,137 @@
+//! The final check of a reported solution, NNDD or monolithic: its fields, formed by solves
+//! with the iterate's Γc forces, must be in the discrete equilibrium of each body with those
+//! forces, and body 2's Γc trace must satisfy the contact conditions against body 1's
+//! (no penetration, no tension, complementarity). What the iteration computed by condensed
+//! algebra (S^α, D^α, the contact QP) is thus checked against the bodies' own systems.
+
+use crate::dd::body::{Body, BodyError};
+use crate::dd::nndd::Iterate;
+use crate::parallel::layout::Layout;
+
+/// The largest equilibrium residual (a normwise backward error) of the final fields accepted.
+pub const EQUILIBRIUM_LIMIT: f64 = 1e-9;
+/// The largest penetration, tension and complementarity product of the final fields accepted,
+/// relative to the displacements' and the Γc forces' scales.
+pub const CONTACT_LIMIT: f64 = 1e-8;
+
+/// The a-posteriori check of a reported iterate (its fields formed by solves, not by the
+/// iteration's condensed algebra), before it is called converged or solved.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct SolutionCheck {
+    /// Each body's discrete equilibrium with its Γc forces ([`Body::equilibrium_residual`]).
+    pub equilibrium: [f64; 2],
+    /// The largest penetration of body 2 into body 1's Γc trace, max(0, λ − g₀ − u²_n),
+    /// over the largest |λ|, |u²_n|, |g₀|.
+    pub penetration: f64,
+    /// The largest tensile Γc force, max(0, −T²), over the largest |T²|.
+    pub tension: f64,
+    /// The largest |T²_k| · gap_k over the largest |T²| times the displacement scale.
+    pub complementarity: f64,
+}
+
+impl SolutionCheck {
+    /// The first failed check, as a phrase (`None`: all hold).
+    pub fn failure(&self) -> Option<String> {
+        for (k, r) in self.equilibrium.iter().enumerate() {
+            if r.is_nan() || *r > EQUILIBRIUM_LIMIT {
+                return Some(format!(
+                    "body {b}'s equilibrium residual {r:.1e} > {EQUILIBRIUM_LIMIT:.0e} (its solves: -body{b}_ksp_rtol, -body{b}_pc_type)",
+                    b = k + 1
+                ));
+            }
+        }
+        for (name, v) in [
+            ("penetration", self.penetration),
+            ("tensile contact force", self.tension),
+            ("complementarity product", self.complementarity),
+        ] {
+            if v.is_nan() || v > CONTACT_LIMIT {
+                return Some(format!("relative {name} {v:.1e} > {CONTACT_LIMIT:.0e}"));
+            }
+        }
+        None
+    }
+
+    fn pack(&self) -> Vec<f64> {
+        vec![
+            self.equilibrium[1],
+            self.penetration,
+            self.tension,
+            self.complementarity,
+        ]
+    }
+}
+
+/// Check the reported iterate `it` (fields formed): each body's equilibrium on its ranks, and
+/// the contact conditions on body 2's; shared with every rank (collective).
+pub fn check_solution(
+    layout: &Layout,
+    it: &Iterate,
+    bodies: [Option<&Body>; 2],
+) -> Result<SolutionCheck, BodyError> {
+    let mut check = SolutionCheck::default();
+    let mut r1 = [0.0];
+    if let Some(b1) = bodies[0] {
+        r1[0] = b1.equilibrium_residual(&it.u[0], &it.forces[0])?;
+    }
+    layout.share(1, &mut r1);
+    check.equilibrium[0] = r1[0];
+    if let Some(b2) = bodies[1] {
+        check.equilibrium[1] = b2.equilibrium_residual(&it.u[1], &it.forces[1])?;
+        let gap0 = &b2.problem.gap;
+        let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let u_scale = inf(&it.lambda).max(inf(&it.trace2)).max(inf(gap0));
+        let t = &it.forces[1];
+        let t_scale = inf(t);
+        let rel = |v: f64, s: f64| if s > 0.0 { v / s } else { v };
+        for k in 0..it.lambda.len() {
+            let gap = it.trace2[k] - (it.lambda[k] - gap0[k]);
+            check.penetration = check.penetration.max(rel((-gap).max(0.0), u_scale));
+            check.tension = check.tension.max(rel((-t[k]).max(0.0), t_scale));
+            check.complementarity = check
+                .complementarity
+                .max(rel((t[k] * gap).abs(), t_scale * u_scale));
+        }
+    }
+    let mut packed = check.pack();
+    layout.share(2, &mut packed);
+    check.equilibrium[1] = packed[0];
+    check.penetration = packed[1];
+    check.tension = packed[2];
+    check.complementarity = packed[3];
+    Ok(check)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_solution_check_names_its_first_failure() {
+        let ok = SolutionCheck {
+            equilibrium: [2e-16, 1e-15],
+            penetration: 1e-14,
+            tension: 0.0,
+            complementarity: 3e-15,
+        };
+        assert_eq!(ok.failure(), None);
+        let bad = SolutionCheck {
+            equilibrium: [2e-16, 2e-2],
+            ..ok
+        };
+        assert!(bad
+            .failure()
+            .unwrap()
+            .starts_with("body 2's equilibrium residual 2.0e-2"));
+        let nan = SolutionCheck {
+            equilibrium: [f64::NAN, 0.0],
+            ..ok
+        };
+        assert!(nan.failure().unwrap().starts_with("body 1's"));
+        let through = SolutionCheck {
+            penetration: 1e-6,
+            ..ok
+        };
+        assert!(through.failure().unwrap().contains("penetration 1.0e-6"));
+    }
+}
