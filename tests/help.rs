@@ -29,6 +29,35 @@ fn help_lists_options() {
     assert!(!text.contains("converged after"), "-help must not solve");
 }
 
+/// `-version` prints nndd's version (after PETSc's) and exits 0 without solving or writing.
+#[test]
+fn version_prints_and_exits() {
+    let dir = scratch("version");
+    let prefix = dir.join("out/run");
+    let out = mpirun(
+        2,
+        &[
+            "-version",
+            "-nndd_n",
+            "4",
+            "-nndd_output",
+            prefix.to_str().unwrap(),
+        ],
+    );
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let ours: Vec<&str> = text.lines().filter(|l| l.starts_with("nndd ")).collect();
+    assert_eq!(
+        ours,
+        [format!("nndd {}", env!("CARGO_PKG_VERSION"))],
+        "{text}"
+    );
+    assert!(text.contains("Petsc Release Version"), "{text}");
+    assert!(!text.contains("converged after"), "-version must not solve");
+    assert!(walk(&dir).is_empty(), "-version wrote {:?}", walk(&dir));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn log_view_shows_the_stages() {
     let dir = scratch("logview");

@@ -147,6 +147,13 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         list_solver_options()?;
         return Ok(Outcome::Help);
     }
+    // `-version`: PETSc has printed its own version; add nndd's and stop before any work.
+    if petsc::option_present("-version") {
+        if world.rank() == 0 {
+            println!("nndd {}", env!("CARGO_PKG_VERSION"));
+        }
+        return Ok(Outcome::Help);
+    }
     if world.rank() == 0 {
         for w in &settings.warnings {
             eprintln!("nndd: warning: {w}");

@@ -111,6 +111,14 @@ pub fn solve_reference(
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
     let fine = settings.refined(r);
+    if layout.is_root() && settings.monitor {
+        // Word before the long phase: the reference mesh has r² times the dofs.
+        println!(
+            "nndd: solving the reference solution of e_ref on mesh {} ({} dofs, -nndd_reference_factor {r})",
+            fine.problem.n,
+            fine.problem.dofs(),
+        );
+    }
     let mut scratch = Timings::default();
     let bodies = setup_bodies(
         &fine,
@@ -178,6 +186,8 @@ struct RunObserver<'a> {
     last_fe: Option<f64>,
     seconds: f64,
     restart: Option<&'a Restart<'a>>,
+    /// When the loop started (the monitor's elapsed time).
+    started: Instant,
 }
 
 impl nndd::Observer<AppError> for RunObserver<'_> {
@@ -258,6 +268,7 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
             monitor::monitor_line(
                 r,
                 self.m,
+                self.started.elapsed().as_secs_f64(),
                 self.estimates.last().filter(|e| e.iteration == r.iteration),
             );
         }
@@ -356,6 +367,7 @@ pub fn solve_nndd(
         last_fe: from.as_ref().and_then(|c| c.balanced_fe),
         seconds: 0.0,
         restart,
+        started: Instant::now(),
     };
     // The run's own loop stops at the end of an iteration on a signal (the reference
     // solve's, without restart points, ends at once: its phase stays).

@@ -5,8 +5,13 @@ use crate::dd::nndd::IterationRecord;
 use crate::estimate::EstimateRecord;
 
 /// One line per NNDD iteration (`-nndd_monitor`), and the estimates of an estimated one.
-/// `contact_nodes`: the number of Γc node pairs.
-pub fn monitor_line(r: &IterationRecord, contact_nodes: usize, est: Option<&EstimateRecord>) {
+/// `contact_nodes`: the number of Γc node pairs; `elapsed`: seconds since the loop started.
+pub fn monitor_line(
+    r: &IterationRecord,
+    contact_nodes: usize,
+    elapsed: f64,
+    est: Option<&EstimateRecord>,
+) {
     // `-nndd_theta auto` adds the θ of the update's new direction and its secant columns.
     let secant = r.secant_columns.map_or(String::new(), |k| {
         format!(
@@ -22,13 +27,14 @@ pub fn monitor_line(r: &IterationRecord, contact_nodes: usize, est: Option<&Esti
         ""
     };
     println!(
-        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}{clarabel}{secant}",
+        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}{clarabel}{secant} time {:.3} s",
         r.iteration,
         sci(r.lambda_change, 12),
         sci(r.residual, 6),
         r.active,
         contact_nodes,
-        r.qp_iterations
+        r.qp_iterations,
+        elapsed
     );
     if let Some(e) = est {
         println!("{}", estimate_text(e));
