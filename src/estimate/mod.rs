@@ -289,7 +289,8 @@ impl Estimator<'_> {
     /// before the next part rather than after the whole estimate.
     fn stop_point(&self) -> Result<(), EstimateError> {
         let mine = crate::petsc::signals::stop_requested() as u8 as f64;
-        if self.layout.max(mine) > 0.0 {
+        // (an agreement over the ranks: part of the reductions, with its waits)
+        if self.parts.run(Part::Reduction, || self.layout.max(mine)) > 0.0 {
             return Err(EstimateError::Stopped);
         }
         Ok(())
