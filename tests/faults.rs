@@ -210,36 +210,12 @@ fn a_fault_on_one_rank_in_any_phase_ends_the_job() {
 
 /// Start a long run; return the child once its monitor has printed `iteration`.
 fn started_until(np: usize, args: &[&str], iteration: usize) -> (Child, Vec<String>) {
-    let mut child = spawn(np, args);
-    let out = child.stdout.take().unwrap();
-    let mut lines = Vec::new();
-    let mut reader = BufReader::new(out);
-    let t0 = Instant::now();
-    loop {
-        let mut line = String::new();
-        if reader.read_line(&mut line).unwrap() == 0 {
-            panic!(
-                "the run ended before iteration {iteration}:\n{}",
-                lines.join("")
-            );
-        }
-        let it = line
-            .split_whitespace()
+    started_at(np, args, |line| {
+        line.split_whitespace()
             .next()
-            .and_then(|w| w.parse::<usize>().ok());
-        lines.push(line);
-        if it.is_some_and(|i| i >= iteration) {
-            break;
-        }
-        assert!(t0.elapsed() < 3 * LIMIT, "no iteration {iteration} yet");
-    }
-    // Keep draining stdout (a full pipe would block the job).
-    let drain = std::thread::spawn(move || {
-        let mut rest = String::new();
-        std::io::Read::read_to_string(&mut reader, &mut rest).ok();
-    });
-    std::mem::forget(drain);
-    (child, lines)
+            .and_then(|w| w.parse::<usize>().ok())
+            .is_some_and(|i| i >= iteration)
+    })
 }
 
 /// The rank processes of a job (mpirun's children).

@@ -44,48 +44,14 @@ fn paper_args(msh: &Path, contact: &str, extra: &[&str]) -> Vec<String> {
 /// `nndd: error: …` naming `option` and every word of `cause`, no panic or PETSc traceback,
 /// and no file written under the output directory. The error line.
 fn refused_with(np: usize, args: &[String], option: &str, cause: &[&str]) -> String {
-    let dir = scratch(&format!("mc-run-{np}-{:x}", fxhash(&args.join(" "))));
-    let prefix = dir.join("out/run");
-    let mut all = vec!["-nndd_output", prefix.to_str().unwrap()];
-    all.extend(args.iter().map(String::as_str));
-    let out = mpirun(np, &all);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(
-        out.status.code(),
-        Some(1),
-        "{np} ranks, {args:?}: exit {:?}\n{stdout}\n{stderr}",
-        out.status
-    );
-    let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
-    assert_eq!(
-        ours.len(),
-        1,
-        "{np} ranks: expected one error line:\n{stderr}"
-    );
-    let line = ours[0].to_string();
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let needles: Vec<&str> = std::iter::once(option)
+        .chain(cause.iter().copied())
+        .collect();
+    let line = fails_with(np, &args, Some(1), &needles);
     assert!(line.starts_with("nndd: error: "), "{line}");
-    assert!(line.contains(option), "'{line}' does not name {option}");
-    for w in cause {
-        assert!(line.contains(w), "'{line}' does not say '{w}'");
-    }
-    for bad in ["panicked", "backtrace", "PETSC ERROR", "internal error"] {
-        assert!(
-            !stderr.contains(bad) && !stdout.contains(bad),
-            "'{bad}' in\n{stderr}"
-        );
-    }
-    let left = walk(&dir);
-    assert!(left.is_empty(), "{args:?} left files behind: {left:?}");
-    std::fs::remove_dir_all(&dir).ok();
     println!("{np} ranks: {line}");
     line
-}
-
-fn fxhash(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
-    })
 }
 
 /// The paper mesh at level n, written by Gmsh from `geo` (paper.geo or an edited copy).

@@ -95,30 +95,41 @@ pub fn f(v: &serde_json::Value, key: &str) -> f64 {
         .unwrap_or_else(|| panic!("{key} missing in summary"))
 }
 
-/// Run with bad input and require: a non-zero exit, exactly one line `nndd: error: …` naming
-/// `option`, no panic or PETSc traceback, and no file left under the output directory.
-pub fn refused(np: usize, args: &[&str], option: &str) {
-    let dir = scratch(&format!("bad{}", option.replace(['-', ' '], "")));
+/// Run `args` (output into a fresh directory) and require a failure: exit `code` (any non-zero
+/// exit when `None`), exactly one `nndd: error` line, containing each of `needles`, no panic,
+/// backtrace or PETSc traceback, and no file left under the output directory. Returns the line.
+pub fn fails_with(np: usize, args: &[&str], code: Option<i32>, needles: &[&str]) -> String {
+    let key = format!("{np} {}", args.join(" "));
+    let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    });
+    let dir = scratch(&format!("fails-{hash:x}"));
     let prefix = dir.join("out/run");
-    let p = prefix.to_str().unwrap();
-    let mut all = vec!["-nndd_n", "4", "-nndd_output", p];
+    let mut all = vec!["-nndd_output", prefix.to_str().unwrap()];
     all.extend_from_slice(args);
     let out = mpirun(np, &all);
     let stderr = String::from_utf8_lossy(&out.stderr);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(!out.status.success(), "{args:?} was accepted:\n{stdout}");
-    let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
-    assert_eq!(
-        ours.len(),
-        1,
-        "{args:?}: expected one error line, got:\n{stderr}"
-    );
-    assert!(ours[0].starts_with("nndd: error: "), "{}", ours[0]);
-    assert!(
-        ours[0].contains(option),
-        "{args:?}: '{}' does not name {option}",
-        ours[0]
-    );
+    match code {
+        Some(c) => assert_eq!(
+            out.status.code(),
+            Some(c),
+            "{args:?} on {np}:\n{stdout}\n{stderr}"
+        ),
+        None => assert!(!out.status.success(), "{args:?} was accepted:\n{stdout}"),
+    }
+    let ours: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("nndd: error"))
+        .collect();
+    assert_eq!(ours.len(), 1, "{args:?} on {np}: one error line:\n{stderr}");
+    for n in needles {
+        assert!(
+            ours[0].contains(n),
+            "{args:?} on {np}: no '{n}' in {}",
+            ours[0]
+        );
+    }
     for bad in [
         "panicked",
         "backtrace",
@@ -131,9 +142,19 @@ pub fn refused(np: usize, args: &[&str], option: &str) {
             "{args:?}: '{bad}' in\n{stderr}"
         );
     }
-    let left: Vec<_> = walk(&dir);
+    let left = walk(&dir);
     assert!(left.is_empty(), "{args:?} left files behind: {left:?}");
     std::fs::remove_dir_all(&dir).ok();
+    ours[0].to_string()
+}
+
+/// Bad input at `paper` n = 4: [`fails_with`] any non-zero exit, the line `nndd: error: …`
+/// naming `option`.
+pub fn refused(np: usize, args: &[&str], option: &str) {
+    let mut all = vec!["-nndd_n", "4"];
+    all.extend_from_slice(args);
+    let line = fails_with(np, &all, None, &[option]);
+    assert!(line.starts_with("nndd: error: "), "{line}");
 }
 
 pub fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
