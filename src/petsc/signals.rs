@@ -108,10 +108,7 @@ fn stop_now(sig: libc::c_int, phase: u8) -> ! {
         // SAFETY: _exit is async-signal-safe.
         unsafe { libc::_exit(EXIT_STOPPED) }
     }
-    let name = STOP_SIGNALS
-        .iter()
-        .find(|(s, _)| *s == sig)
-        .map_or("a signal", |(_, n)| n);
+    let name = name_of(sig);
     let (during, kept) = StopPhase::ALL
         .get(phase as usize)
         .copied()
@@ -150,8 +147,8 @@ extern "C" fn on_stop_signal(sig: libc::c_int) {
 /// Catch [`STOP_SIGNALS`] (replacing PETSc's handler).
 pub fn catch_stop_requests() -> std::io::Result<()> {
     for (sig, _) in STOP_SIGNALS {
-        // SAFETY: a zeroed sigaction with an async-signal-safe handler (atomics, nanosleep,
-        // write and _exit) and an emptied mask is a valid argument.
+        // SAFETY: a zeroed sigaction with an async-signal-safe handler (atomics, write
+        // and _exit) and an emptied mask is a valid argument.
         let rc = unsafe {
             let mut action: libc::sigaction = std::mem::zeroed();
             action.sa_sigaction = on_stop_signal as extern "C" fn(libc::c_int) as usize;
@@ -194,7 +191,11 @@ pub fn ignore_file_size_limit() -> std::io::Result<()> {
 
 /// The name of the stop signal that arrived (SIGTERM if none did).
 pub fn received_name() -> &'static str {
-    let sig = RECEIVED.load(Ordering::SeqCst);
+    name_of(RECEIVED.load(Ordering::SeqCst))
+}
+
+/// The name of one of [`STOP_SIGNALS`] (async-signal-safe: no allocation).
+fn name_of(sig: libc::c_int) -> &'static str {
     STOP_SIGNALS
         .iter()
         .find(|(s, _)| *s == sig)
