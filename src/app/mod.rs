@@ -240,6 +240,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         parts: Parts::new(Some(stages.estimation_parts)),
         operators: Default::default(),
         cheap_nndd: Default::default(),
+        cold: Default::default(),
     });
 
     // Solve: the NNDD (paper §3) or the monolithic check.

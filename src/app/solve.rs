@@ -391,17 +391,24 @@ pub fn solve_nndd(
         seconds: mut t_est,
         ..
     } = observer;
-    // The reported iterate's estimate (not when a signal stopped the run: it must end soon).
+    // The reported iterate's estimate (not when a signal stopped the run: it must end soon),
+    // from cold recoveries: one bound per iterate, whichever iterates were estimated before
+    // (an estimate of it in the loop may have started warm: it is made again).
     if let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) {
-        if estimates.last().map(|e| e.iteration) != Some(res.iterations) {
+        let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
+        if !in_loop || est.starts_warm() {
             let t = Instant::now();
             let _s = stages.estimation.enter();
             let before = signals::enter(StopPhase::FinalEstimate);
-            let rec = est.estimate(refs, &res.last)?;
+            let rec = est.estimate_cold(refs, &res.last)?;
             signals::enter(before);
             t_est += t.elapsed().as_secs_f64();
             if settings.monitor && root {
-                println!("{}", monitor::estimate_text(&rec));
+                let again = if in_loop { " (cold recovery)" } else { "" };
+                println!("{}{again}", monitor::estimate_text(&rec));
+            }
+            if in_loop {
+                estimates.pop();
             }
             estimates.push(rec);
         }
