@@ -279,7 +279,8 @@ impl Estimator<'_> {
         self.run(bodies, it, false)
     }
 
-    /// [`Estimator::estimate`] with every recovery started cold, whatever the estimates before:
+    /// [`Estimator::estimate`] with its η^glo recovery started cold, whatever the estimates
+    /// before (its η^FE recovery may start from that one, as in any estimate):
     /// the bound of an iterate that does not depend on which iterates were estimated before it
     /// (the warm start of `-nndd_recovery_warm_change` changes the recovered stress, and η^glo
     /// by up to a few per cent: `paper` n = 16, 2.9514 warm against 3.0217 cold).
@@ -422,8 +423,9 @@ impl Estimator<'_> {
                 let view = views[*k].as_ref().expect("a view");
                 let u = if fe { w.fe_data() } else { w.glo_data() };
                 let ops = &mut self.operators[*k].borrow_mut();
-                // (a negative change bound: no earlier recovery is near enough to start from)
-                let warm_change = if self.cold.get() {
+                // (a negative change bound: no earlier recovery is near enough to start from;
+                // a cold estimate's η^FE recovery may start from its own η^glo recovery)
+                let warm_change = if self.cold.get() && !fe {
                     -1.0
                 } else {
                     self.warm_change
