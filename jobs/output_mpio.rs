@@ -99,22 +99,31 @@ fn run<C: Communicator>(world: &C, dir: &Path) -> Vec<String> {
                 if compare_files(&dir.join("ser.h5"), &dir.join("alt.h5")).is_ok() {
                     failures.push("the comparison missed a changed value".into());
                 }
-                for ext in ["h5", "xdmf"] {
-                    let _ = fs::remove_file(alt_prefix.with_extension(ext));
+                for name in entries(dir).iter().filter(|n| n.starts_with("alt")) {
+                    let _ = fs::remove_file(dir.join(name));
                 }
             }
             Err(e) => failures.push(format!("serial write of alt: {e}")),
         }
-        let expected = [
-            "empty-par.h5",
-            "empty-par.xdmf",
-            "empty-ser.h5",
-            "empty-ser.xdmf",
-            "par.h5",
-            "par.xdmf",
-            "ser.h5",
-            "ser.xdmf",
-        ];
+        // The first grid's series, the other grids' series and the first grid's last step.
+        let mut expected: Vec<String> = ["empty-par", "empty-ser", "par", "ser"]
+            .iter()
+            .flat_map(|p| {
+                let others: &[&str] = if p.starts_with("empty") {
+                    &[]
+                } else {
+                    &["body2", "contact"]
+                };
+                [
+                    format!("{p}.h5"),
+                    format!("{p}.xdmf"),
+                    format!("{p}-final.xdmf"),
+                ]
+                .into_iter()
+                .chain(others.iter().map(move |g| format!("{p}-{g}.xdmf")))
+            })
+            .collect();
+        expected.sort();
         if entries(dir) != expected {
             failures.push(format!(
                 "{}: {:?}, expected {expected:?}",
@@ -165,11 +174,16 @@ fn write_and_compare<C: Communicator>(
         }
         let read =
             |name: &str| fs::read_to_string(dir.join(format!("{name}.xdmf"))).unwrap_or_default();
-        let (xp, xs) = (read(par), read(ser));
-        if xp.is_empty() || xp != xs.replace(&format!("{ser}.h5"), &format!("{par}.h5")) {
-            failures.push(format!(
-                "{par}.xdmf and {ser}.xdmf differ (beyond the file name)"
-            ));
+        for part in ["", "-body2", "-contact", "-final"] {
+            let (xp, xs) = (read(&format!("{par}{part}")), read(&format!("{ser}{part}")));
+            if xp != xs.replace(&format!("{ser}.h5"), &format!("{par}.h5")) {
+                failures.push(format!(
+                    "{par}{part}.xdmf and {ser}{part}.xdmf differ (beyond the file name)"
+                ));
+            }
+        }
+        if read(par).is_empty() {
+            failures.push(format!("{par}.xdmf is missing"));
         }
     }
     world.barrier();
@@ -187,6 +201,7 @@ fn empty_cells(rank: usize, size: usize) -> (Results, Vec<Share>) {
         name: "probe".into(),
         points: (0..7).map(|i| [i as f64 / 3.0, 0.5]).collect(),
         topology: Topology::Segment(Vec::new()),
+        fields: Vec::new(),
     };
     let results = Results {
         steps: vec![Step {
@@ -201,6 +216,7 @@ fn empty_cells(rank: usize, size: usize) -> (Results, Vec<Share>) {
         }],
         grids: vec![grid],
         attributes: Vec::new(),
+        text: Vec::new(),
     };
     let shares = vec![Share {
         points: split(7, rank, size),
@@ -320,6 +336,7 @@ fn sample() -> Results {
             .map(|i| [i as f64 / 40.0 + 1.0 / 7.0, 1.0])
             .collect(),
         topology: Topology::Segment((0..40).map(|i| [i, i + 1]).collect()),
+        fields: Vec::new(),
     };
     let grids = vec![body1, body2, contact];
     let steps = (0..2)
@@ -364,6 +381,7 @@ fn sample() -> Results {
             ("tol".into(), 1e-8),
             ("iterations".into(), 17.0),
         ],
+        text: vec![("program".into(), "output_mpio".into())],
     }
 }
 
@@ -387,10 +405,19 @@ fn triangles(name: &str, nx: u32, ny: u32, x0: f64, y0: f64) -> Grid {
             cells.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
         }
     }
+    // A constant cell field (written once, beside the mesh).
+    let fields = vec![field(
+        "region",
+        Center::Cell,
+        Kind::Scalar,
+        0.5,
+        cells.len(),
+    )];
     Grid {
         name: name.into(),
         points,
         topology: Topology::Triangle(cells),
+        fields,
     }
 }
 
@@ -455,6 +482,11 @@ fn shares_of(results: &Results, rank: usize, size: usize) -> Vec<Share> {
 fn local_view(full: &Results, shares: &[Share], rank: usize) -> Results {
     let mut mine = full.clone();
     if rank % 2 == 1 {
+        for (g, share) in mine.grids.iter_mut().zip(shares) {
+            if share.points.is_empty() && share.cells.is_empty() {
+                g.fields.iter_mut().for_each(|f| f.values.clear());
+            }
+        }
         for step in &mut mine.steps {
             for (gf, share) in step.grids.iter_mut().zip(shares) {
                 if share.points.is_empty() && share.cells.is_empty() {

@@ -1,20 +1,22 @@
 """Render the element map of eta^FE (or another cell field) of an nndd result with ParaView.
 
-    xvfb-run -a pvpython jobs/render_eta_fe.py RESULT.xdmf OUT.png [--field eta_fe]
-        [--label TEXT] [--undeformed] [--half-width 0.1] [--zoom-range window|global]
-        [--preset Turbo] [--no-edges] [--no-domain]
+    xvfb-run -a pvpython jobs/render_eta_fe.py PREFIX.xdmf OUT.png [--field eta_fe]
+        [--title TEXT] [--label TEXT] [--undeformed] [--half-width 0.1] [--centre X Y]
+        [--zoom-range window|global] [--preset Turbo] [--no-edges] [--no-domain]
 
 Writes OUT.png, the contact zone (x in [-half-width, half-width] around x = 0 on the block's
 top, with the mesh edges), and OUT-domain.png, both bodies whole (left out with --no-domain).
-The bodies are shown in the deformed configuration, displacements at true scale (scale 1),
-unless --undeformed. The colour scale is logarithmic (eta per element spans decades), its ends
-rounded out to round values; the contact-zone picture spans the values inside its window
-unless --zoom-range global. Prints the fields found and the field's range per body.
-Reads with ParaView's XDMFReader, which keeps the names of our grids (body1, body2, contact)
-and so lets us pick the bodies; the Γc grid carries no cell field and is not drawn.
-(ParaView 5.11's Xdmf3ReaderS/T read our files too, but only given a path with a directory:
-a bare "hertz.xdmf" makes them look for "hertz.xdmfhertz.h5" and abort; Xdmf3ReaderS also
-drops the grid names. The path is made absolute here anyway.)
+The bodies are shown in the deformed configuration (warped by the point field `displacement`,
+at true scale: scale 1), unless --undeformed. The colour scale is logarithmic (eta per element
+spans decades), its ends rounded out to round values; the contact-zone picture spans the values
+inside its window unless --zoom-range global. Prints the fields found and the field's range per
+body.
+Opens PREFIX.xdmf (the bodies' time series) with ParaView's default reader (OpenDataFile: the
+Xdmf3ReaderS of ParaView 5.11) at its last time step, the reported iterate; PREFIX-final.xdmf
+(the same iterate, no time) works as well. Both bodies are one grid: a Threshold on the cell
+field `body` (1 or 2) picks one where needed (the per-body ranges, the block's top at x = 0).
+The path is made absolute: given a bare "hertz.xdmf" (no directory part), ParaView 5.11's Xdmf3
+looks for "hertz.xdmfhertz.h5" and aborts.
 """
 
 import argparse
@@ -27,16 +29,18 @@ from paraview.simple import (
     Clip,
     ColorBy,
     CreateView,
+    GetAnimationScene,
     GetColorTransferFunction,
     GetOpacityTransferFunction,
     GetScalarBar,
+    OpenDataFile,
     Render,
     SaveScreenshot,
     SetActiveView,
     Show,
     Text,
+    Threshold,
     WarpByVector,
-    XDMFReader,
 )
 
 RESOLUTION = [1600, 1000]
@@ -81,31 +85,31 @@ def parse():
     return p.parse_args()
 
 
-def leaves(data):
-    """(name, dataset) of every leaf of a composite dataset."""
-    it = data.NewIterator()
-    it.InitTraversal()
-    while not it.IsDoneWithTraversal():
-        md = it.GetCurrentMetaData()
-        name = md.Get(data.NAME()) if md is not None and md.Has(data.NAME()) else "?"
-        yield name, it.GetCurrentDataObject()
-        it.GoToNextItem()
+def body(source, k, time):
+    """Body k (1 or 2) of the bodies grid: a Threshold on the cell field `body`, fetched at time."""
+    part = Threshold(Input=source, Scalars=["CELLS", "body"])
+    part.LowerThreshold = k - 0.5
+    part.UpperThreshold = k + 0.5
+    if hasattr(part, "ThresholdMethod"):  # ParaView 5.10+
+        part.ThresholdMethod = "Between"
+    part.UpdatePipeline(time)
+    return servermanager.Fetch(part)
 
 
 def array_names(attrs):
     return [attrs.GetArrayName(i) for i in range(attrs.GetNumberOfArrays())]
 
 
-def field_stats(data, field):
+def field_stats(bodies, field):
     """Per body: (name, n cells, min, max, centre of the cell of the max, sum of squares)."""
     from vtkmodules.numpy_interface import dataset_adapter as dsa
     from vtkmodules.vtkFiltersCore import vtkCellCenters
     import numpy as np
 
     out = []
-    for name, block in leaves(data):
+    for name, block in bodies:
         arr = block.GetCellData().GetArray(field)
-        if arr is None:
+        if arr is None or arr.GetNumberOfTuples() == 0:
             continue
         v = dsa.vtkDataArrayToVTKArray(arr)
         v = np.asarray(v, dtype=float)
@@ -127,17 +131,24 @@ def main():
     png = os.path.abspath(a.png)
     os.makedirs(os.path.dirname(png), exist_ok=True)
 
-    reader = XDMFReader(FileNames=[xdmf])
-    grids = list(reader.GetProperty("GridInfo"))[0::2]
-    bodies = [g for g in grids if g.startswith("body")]
-    if not bodies:
-        fail(f"{xdmf}: no grid named body*; grids: {', '.join(grids) or '(none)'}")
-    reader.GridStatus = bodies
-    reader.UpdatePipeline()
+    reader = OpenDataFile(xdmf)  # ParaView's default reader for .xdmf (5.11: Xdmf3ReaderS)
+    if reader is None:
+        fail(f"ParaView found no reader for {xdmf}")
+    # PREFIX.xdmf is a time series (times: NNDD iterations): show its last step, the reported
+    # iterate. PREFIX-final.xdmf has no time.
+    times = reader.TimestepValues
+    times = [] if times is None else [times] if isinstance(times, (int, float)) else list(times)
+    time = max(times) if times else 0.0
+    if times:
+        scene = GetAnimationScene()  # the views' time
+        scene.UpdateAnimationUsingDataTimeSteps()
+        scene.AnimationTime = time
+    reader.UpdatePipeline(time)
 
     cell_fields = list(reader.CellData.keys())
     point_fields = list(reader.PointData.keys())
-    print(f"render_eta_fe: {xdmf}: grids {', '.join(grids)}; drawn: {', '.join(bodies)}")
+    step = f"time step {time:g} (last of {len(times)})" if times else "no time steps"
+    print(f"render_eta_fe: {xdmf} ({reader.GetXMLName()}): {step}")
     print(f"render_eta_fe: cell fields: {', '.join(cell_fields)}")
     print(f"render_eta_fe: point fields: {', '.join(point_fields)}")
     if a.field not in cell_fields:
@@ -147,9 +158,14 @@ def main():
         fail(f"cell field '{a.field}' not found in {xdmf}{hint}; "
              f"cell fields: {', '.join(cell_fields) or '(none)'}; "
              f"point fields: {', '.join(point_fields) or '(none)'}")
+    if "body" not in cell_fields:
+        fail(f"no cell field 'body' in {xdmf}: not an nndd bodies grid (PREFIX.xdmf or "
+             f"PREFIX-final.xdmf)")
 
-    data = servermanager.Fetch(reader)
-    stats = field_stats(data, a.field)
+    bodies = [(f"body {k}", body(reader, k, time)) for k in (1, 2)]
+    stats = field_stats(bodies, a.field)
+    if not stats:
+        fail(f"cell field '{a.field}' has no values at time {time:g} in {xdmf}")
     total = math.sqrt(sum(s[5] for s in stats))
     lo = min(s[2] for s in stats)
     hi = max(s[3] for s in stats)
@@ -286,7 +302,7 @@ def main():
         cx, cy = 0.0, 0.0
         if deformed:
             # The block's top at x = 0 moves down by the contact displacement: follow it.
-            cy = contact_drop(data)
+            cy = contact_drop(bodies[0][1])
     w = a.half_width
     h = w * (plot[3] - plot[2]) / (plot[1] - plot[0])
     xlim, ylim = (cx - w, cx + w), (cy - h, cy + h)
@@ -297,7 +313,7 @@ def main():
     window.ClipType.Length = [xlim[1] - xlim[0], ylim[1] - ylim[0], 2.0]
     window.Invert = 1  # keep the inside
     window.Exact = 1   # cut at the box's faces exactly, not along whole cells
-    window.UpdatePipeline()
+    window.UpdatePipeline(time)
     inside = window.CellData[a.field].GetRange() if a.field in window.CellData.keys() else None
     if inside:
         print(f"render_eta_fe: contact-zone window x in [{xlim[0]:.3g}, {xlim[1]:.3g}], "
@@ -327,19 +343,16 @@ def main():
         print(f"render_eta_fe: wrote {png2}")
 
 
-def contact_drop(data):
-    """The vertical displacement of body1's node nearest (0, 0), or 0 without one."""
-    for name, block in leaves(data):
-        if name != "body1":
-            continue
-        disp = block.GetPointData().GetArray("displacement")
-        if disp is None:
-            return 0.0
-        k = block.FindPoint(0.0, 0.0, 0.0)
-        if k < 0:
-            return 0.0
-        return float(disp.GetTuple(k)[1])
-    return 0.0
+def contact_drop(block):
+    """The vertical displacement of body 1's point nearest (0, 0), or 0 without one. (Body 2
+    has a point at (0, 0) too: the cylinder touches the block there.)"""
+    disp = block.GetPointData().GetArray("displacement")
+    if disp is None or block.GetNumberOfPoints() == 0:
+        return 0.0
+    k = block.FindPoint(0.0, 0.0, 0.0)
+    if k < 0:
+        return 0.0
+    return float(disp.GetTuple(k)[1])
 
 
 if __name__ == "__main__":

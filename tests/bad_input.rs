@@ -115,3 +115,50 @@ fn superlu_dist_refuses_a_second_factorisation_on_body_1() {
         "-nndd_dirichlet_step",
     );
 }
+
+/// A mesh or a reference mesh that would not fit in the machine's memory is refused before
+/// anything is built, with the estimated need (the model of `src/app/capacity.rs`: 13 TiB for
+/// the reference mesh 32768, 25 TiB for the mesh 40000) and, for the reference, the largest
+/// factor that fits; a small factor runs.
+#[test]
+fn meshes_beyond_the_memory_are_refused_before_any_solve() {
+    let t = std::time::Instant::now();
+    let line = fails_with(
+        2,
+        &[
+            "-nndd_n",
+            "512",
+            "-nndd_reference_factor",
+            "64",
+            "-nndd_estimate",
+        ],
+        Some(1),
+        &[
+            "-nndd_reference_factor 64",
+            "mesh 32768",
+            "GiB",
+            "available",
+            "at most",
+        ],
+    );
+    assert!(line.contains("(4295229444 dofs)"), "{line}");
+    fails_with(
+        1,
+        &["-nndd_n", "40000"],
+        Some(1),
+        &["-nndd_n 40000", "GiB", "available", "coarser mesh"],
+    );
+    // Refused at once: no mesh was built (n = 40000 is 6.4e9 dofs).
+    assert!(t.elapsed().as_secs() < 30, "{:?}", t.elapsed());
+    let dir = scratch("fits");
+    let args = [
+        "-nndd_n",
+        "8",
+        "-nndd_reference_factor",
+        "2",
+        "-nndd_estimate",
+    ];
+    let j = solve(2, &dir.join("r2"), &args);
+    assert!(j["estimates"][0]["e_ref"].as_f64().unwrap() > 0.0);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -35,15 +35,12 @@ fn solvers(j: &serde_json::Value) -> Vec<(String, u64)> {
 /// The run at `a` (the active-set method) and at `b` (Clarabel) end at the same λ, contact set
 /// and energy.
 fn same_solution(a: &Path, ja: &serde_json::Value, b: &Path, jb: &serde_json::Value, what: &str) {
-    let (la, lb) = (
-        h5(a, "/steps/0/contact/lambda"),
-        h5(b, "/steps/0/contact/lambda"),
-    );
+    let (la, lb) = (field(a, "contact", "lambda"), field(b, "contact", "lambda"));
     let d = rel_max_diff(&la, &lb);
     assert!(d < 1e-10, "{what}: λ differs by {d:e}");
     assert_eq!(
-        h5(a, "/steps/0/contact/active"),
-        h5(b, "/steps/0/contact/active"),
+        field(a, "contact", "active"),
+        field(b, "contact", "active"),
         "{what}: contact sets"
     );
     let (ea, eb) = (f(ja, "potential_energy"), f(jb, "potential_energy"));
@@ -155,8 +152,8 @@ fn a_step_that_does_not_certify_falls_back_to_clarabel() {
         "the monitor marks Clarabel's steps:\n{stdout}"
     );
     let d = rel_max_diff(
-        &h5(&a, "/steps/0/contact/lambda"),
-        &h5(&b, "/steps/0/contact/lambda"),
+        &field(&a, "contact", "lambda"),
+        &field(&b, "contact", "lambda"),
     );
     assert!(d < 1e-10, "λ differs by {d:e}");
     assert_eq!(ja["iterations"], jb["iterations"]);

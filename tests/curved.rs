@@ -99,8 +99,8 @@ fn paper_mesh(dir: &Path) -> PathBuf {
     out
 }
 
-fn vectors(prefix: &Path, dataset: &str) -> Vec<[f64; 2]> {
-    h5(prefix, dataset)
+fn vectors(prefix: &Path, grid: &str, name: &str) -> Vec<[f64; 2]> {
+    field(prefix, grid, name)
         .chunks(3)
         .map(|c| [c[0], c[1]])
         .collect()
@@ -146,8 +146,10 @@ fn paper_turned_is_the_same_problem() {
     assert!(f(eb, "eta_glo") >= f(eb, "e_ref"), "the bound, turned");
     // The displacements are the flat ones turned; every contact direction is the turned (0, 1).
     for body in ["body1", "body2"] {
-        let ds = format!("/steps/0/{body}/displacement");
-        let (ua, ub) = (vectors(&a, &ds), vectors(&b, &ds));
+        let (ua, ub) = (
+            vectors(&a, body, "displacement"),
+            vectors(&b, body, "displacement"),
+        );
         let scale = ua.iter().fold(0.0f64, |m, u| m.max(u[0].hypot(u[1])));
         for (u, v) in ua.iter().zip(&ub) {
             let w = turn(*u, PHI);
@@ -156,7 +158,7 @@ fn paper_turned_is_the_same_problem() {
         }
     }
     let up = turn([0.0, 1.0], PHI);
-    for n in vectors(&b, "/steps/0/contact/normal") {
+    for n in vectors(&b, "contact", "normal") {
         assert!(
             (n[0] - up[0]).abs() < 1e-12 && (n[1] - up[1]).abs() < 1e-12,
             "{n:?}"
@@ -212,19 +214,19 @@ fn pin_in_a_groove() {
         assert!(rel(x, e) < 1e-9, "NNDD energy {x:e} vs monolithic {e:e}");
     }
     for body in ["body1", "body2"] {
-        let ds = format!("/steps/0/{body}/displacement");
-        let d = rel_max_diff(&h5(&p3, &ds), &h5(&p1, &ds));
+        let u = |p: &Path| field(p, body, "displacement");
+        let d = rel_max_diff(&u(&p3), &u(&p1));
         assert!(d < 1e-9, "{body}: 3 vs 1 rank(s) differ by {d:e}");
-        let d = rel_max_diff(&h5(&p3, &ds), &h5(&mono, &ds));
+        let d = rel_max_diff(&u(&p3), &u(&mono));
         assert!(d < 1e-6, "{body}: NNDD vs monolithic differ by {d:e}");
     }
     // The contact directions: the groove's radii, toward its centre (0, R1 = 1), except at the
     // two end nodes (the end segments' normals); none is (0, 1) but the bottom's.
-    let pts: Vec<[f64; 2]> = h5(&p3, "/grids/contact/points")
+    let pts: Vec<[f64; 2]> = points(&p3, "contact")
         .chunks(2)
         .map(|p| [p[0], p[1]])
         .collect();
-    let normals = vectors(&p3, "/steps/0/contact/normal");
+    let normals = vectors(&p3, "contact", "normal");
     let m = pts.len();
     for k in 1..m - 1 {
         let r = [0.0 - pts[k][0], 1.0 - pts[k][1]];

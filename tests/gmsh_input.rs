@@ -104,14 +104,14 @@ fn initial_gap_from_the_geometry() {
         f(&j, "contact_force")
     );
     assert!(c0 > 0.0);
-    let u1 = h5(&dir.join("gap"), "/steps/0/body1/displacement");
-    let u1_0 = h5(&dir.join("builtin"), "/steps/0/body1/displacement");
+    let u1 = field(&dir.join("gap"), "body1", "displacement");
+    let u1_0 = field(&dir.join("builtin"), "body1", "displacement");
     // The Gmsh numbering differs from the built-in one: compare the largest |u¹|.
     let max = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     assert!(rel(max(&u1), max(&u1_0)) < 1e-9, "max |u1|");
     // The gap field: g₀ + u²_n − u¹_n ≥ 0, zero on the contact set.
-    let gap = h5(&dir.join("gap"), "/steps/0/contact/gap");
-    let active = h5(&dir.join("gap"), "/steps/0/contact/active");
+    let gap = field(&dir.join("gap"), "contact", "gap");
+    let active = field(&dir.join("gap"), "contact", "active");
     for (g, a) in gap.iter().zip(&active) {
         if *a > 0.5 {
             assert!(g.abs() < 1e-12, "gap {g} on the contact set");

@@ -27,16 +27,16 @@ fn hertz(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Va
 }
 
 fn fit(prefix: &Path) -> hertz_fit::HertzFit {
-    let pts = h5(prefix, "/grids/contact/points");
+    let pts = points(prefix, "contact");
     let x: Vec<f64> = pts.chunks(2).map(|p| p[0]).collect();
-    let active: Vec<bool> = h5(prefix, "/steps/0/contact/active")
+    let active: Vec<bool> = field(prefix, "contact", "active")
         .iter()
         .map(|&a| a > 0.5)
         .collect();
     hertz_fit::fit(
         &x,
-        &h5(prefix, "/steps/0/contact/normal_force"),
-        &h5(prefix, "/steps/0/contact/pressure"),
+        &field(prefix, "contact", "normal_force"),
+        &field(prefix, "contact", "pressure"),
         &active,
         1.0,
         MATERIALS,
@@ -83,7 +83,7 @@ fn hertz_approaches_the_analytical_contact_and_the_estimate_bounds_the_error() {
             f(last, "e_ref")
         );
         // Γc is drawn on body 1's side, the block's top y = 0.
-        let pts = h5(&prefix, "/grids/contact/points");
+        let pts = points(&prefix, "contact");
         assert!(
             pts.chunks(2).all(|p| p[1].abs() < 1e-12),
             "contact grid off y = 0"

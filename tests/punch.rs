@@ -39,7 +39,7 @@ fn converged(j: &serde_json::Value, what: &str, range: std::ops::RangeInclusive<
 
 /// The displacements (x, y per node) of `body` at step 0.
 fn displacement(prefix: &Path, body: &str) -> Vec<f64> {
-    h5(prefix, &format!("/steps/0/{body}/displacement"))
+    field(prefix, body, "displacement")
         .chunks(3)
         .flat_map(|c| [c[0], c[1]])
         .collect()
@@ -47,17 +47,11 @@ fn displacement(prefix: &Path, body: &str) -> Vec<f64> {
 
 /// Body `body`'s mesh as written to the results.
 fn body_mesh(prefix: &Path, body: &str) -> Mesh {
-    let points: Vec<[f64; 2]> = h5(prefix, &format!("/grids/{body}/points"))
+    let points: Vec<[f64; 2]> = points(prefix, body)
         .chunks(2)
         .map(|p| [p[0], p[1]])
         .collect();
-    let file = hdf5::File::open(format!("{}.h5", prefix.display())).unwrap();
-    let cells = file
-        .dataset(&format!("grids/{body}/cells"))
-        .unwrap()
-        .read_raw::<i64>()
-        .unwrap();
-    let triangles = cells
+    let triangles = cells(prefix, body)
         .chunks(3)
         .map(|t| [t[0] as usize, t[1] as usize, t[2] as usize])
         .collect();
@@ -148,11 +142,8 @@ fn punch_contact_reaches_the_rounded_corners_and_balances_the_loads() {
     converged(&j, "punch.opts on 3 ranks", 4.0..=40.0);
 
     // g₀ of each pair from the geometry: the punch's lowest node straight above x_i.
-    let x: Vec<f64> = h5(&p, "/grids/contact/points")
-        .chunks(2)
-        .map(|c| c[0])
-        .collect();
-    let punch_pts: Vec<[f64; 2]> = h5(&p, "/grids/body2/points")
+    let x: Vec<f64> = points(&p, "contact").chunks(2).map(|c| c[0]).collect();
+    let punch_pts: Vec<[f64; 2]> = points(&p, "body2")
         .chunks(2)
         .map(|c| [c[0], c[1]])
         .collect();
@@ -166,12 +157,12 @@ fn punch_contact_reaches_the_rounded_corners_and_balances_the_loads() {
         })
         .collect();
     assert!(g0.iter().all(|g| g.is_finite() && *g >= 0.0), "{g0:?}");
-    let active: Vec<bool> = h5(&p, "/steps/0/contact/active")
+    let active: Vec<bool> = field(&p, "contact", "active")
         .iter()
         .map(|&a| a > 0.5)
         .collect();
-    let gap = h5(&p, "/steps/0/contact/gap");
-    let force = h5(&p, "/steps/0/contact/normal_force");
+    let gap = field(&p, "contact", "gap");
+    let force = field(&p, "contact", "normal_force");
     let m = x.len();
     for i in 0..m {
         if active[i] {

@@ -8,8 +8,8 @@ mod common;
 use common::*;
 
 fn displacements(prefix: &std::path::Path) -> Vec<f64> {
-    let mut u = h5(prefix, "/steps/0/body1/displacement");
-    u.extend(h5(prefix, "/steps/0/body2/displacement"));
+    let mut u = field(prefix, "body1", "displacement");
+    u.extend(field(prefix, "body2", "displacement"));
     u
 }
 

@@ -29,7 +29,7 @@ fn stresses_are_exact() {
     let syy = e * ud / (2.0 * (1.0 - nu * nu));
     assert!((syy + 1.1326e7).abs() < 1e4, "exact σ_yy {syy}");
     for body in ["body1", "body2"] {
-        let s = h5(&p, &format!("/steps/0/{body}/stress"));
+        let s = field(&p, body, "stress");
         assert_eq!(s.len() % 9, 0);
         for c in s.chunks(9) {
             // Stored as the full tensor: xx xy xz / xy yy yz / xz yz zz.

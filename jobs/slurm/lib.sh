@@ -20,7 +20,7 @@ run_and_report() {
     echo "$name: peak memory per rank (MiB): ${peaks:-unknown}${SLURM_MEM_PER_CPU:+; the job asked for $SLURM_MEM_PER_CPU MiB per CPU}"
   fi
   case $status in
-    0) echo "$name: done: $prefix.{h5,xdmf,json}" ;;
+    0) echo "$name: done: $prefix.h5, .xdmf, -contact.xdmf, -final.xdmf, .json" ;;
     4) echo "$name: stopped by a signal (the time limit?) at a restart point; continue with: NNDD_RESTART=1 sbatch jobs/slurm/$name (the same settings, any rank count)" ;;
     *) echo "$name: nndd exited with status $status" ;;
   esac

@@ -6,6 +6,7 @@
 //! May use: every layer below (`io`, `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`,
 //! `petsc`).
 
+pub mod capacity;
 pub mod options;
 pub mod preflight;
 mod report;
@@ -154,6 +155,11 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         }
         return Ok(Outcome::Help);
     }
+    // Memory: the meshes must fit in the nodes' memory (before any mesh is built).
+    agreed(
+        agreement,
+        capacity::check(&settings, &world).map_err(AppError::from),
+    )?;
     if world.rank() == 0 {
         for w in &settings.warnings {
             eprintln!("nndd: warning: {w}");
@@ -305,8 +311,8 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     let results = {
         let _s = stages.output.enter();
         let have = [layout.owns(1), layout.owns(2)];
-        let results = results_of(&settings, &problems, &sol, have);
-        let shares = fields::shares(&layout, &results);
+        let results = results_of(&settings, &problems, &sol, have)?;
+        let shares = fields::shares(&layout, [&problems[0], &problems[1]]);
         output::write_results_parallel(&layout.world, &settings.output, &results, &shares)?;
         results
     };
@@ -397,27 +403,54 @@ pub fn abort_with(message: Option<&str>) -> ! {
     world.abort(2)
 }
 
-/// The result files' content: one step per estimated iteration, or the reported iterate.
+/// The result files' content: one step per estimated iteration, and the reported iterate as
+/// the last step (estimated or not); the run's description as text attributes.
 fn results_of(
     settings: &Settings,
     problems: &[Rc<BodyProblem>; 2],
     sol: &Solution,
     have: [bool; 2],
-) -> Results {
-    let steps: Vec<_> = if sol.estimates.is_empty() {
-        vec![(&sol.last, None)]
-    } else {
-        sol.estimates
-            .iter()
-            .map(|e| (&e.iterate, Some(e)))
-            .collect()
-    };
-    let attributes = vec![
+) -> Result<Results, AppError> {
+    let mut steps: Vec<_> = sol
+        .estimates
+        .iter()
+        .map(|e| (&e.iterate, Some(e)))
+        .collect();
+    if steps.last().map(|(it, _)| it.iteration) != Some(sol.last.iteration) {
+        steps.push((&sol.last, None));
+    }
+    let mut attributes = vec![
         ("n".into(), settings.problem.n as f64),
         ("dofs".into(), settings.problem.dofs() as f64),
         ("iterations".into(), sol.iterations as f64),
     ];
-    fields::results([&problems[0], &problems[1]], &steps, have, attributes)
+    // Each body's rows of the `bodies` grid: body 1's points and cells first.
+    for p in problems.iter() {
+        let at = |what: &str| format!("body{}_{what}", p.alpha);
+        attributes.push((at("points"), p.mesh.points.len() as f64));
+        attributes.push((at("cells"), p.mesh.triangles.len() as f64));
+    }
+    let mesh = settings.problem.mesh.as_ref();
+    let physical_names = mesh.map_or(String::new(), |m| {
+        let names = m.gmsh.names.iter();
+        let listed: Vec<String> = names.map(|((d, t), n)| format!("{d} {t} {n}")).collect();
+        listed.join("; ")
+    });
+    let text = vec![
+        (
+            "program".into(),
+            format!("nndd {}", env!("CARGO_PKG_VERSION")),
+        ),
+        ("options".into(), petsc::options_text()?),
+        ("problem".into(), settings.problem.kind.name().to_string()),
+        (
+            "mesh_file".into(),
+            mesh.map_or(String::new(), |m| m.gmsh.path.clone()),
+        ),
+        ("physical_names".into(), physical_names),
+    ];
+    let problems = [&*problems[0], &*problems[1]];
+    Ok(fields::results(problems, &steps, have, attributes, text))
 }
 
 /// `-nndd_schur_view`: each body's S^α and D^α (row-major, exact in JSON) from its first rank,

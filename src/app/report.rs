@@ -109,7 +109,7 @@ fn summary_estimate(e: &EstimateRecord) -> IterationRecord {
 /// The closing line (and the warning of a run that did not converge), on rank 0.
 pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
     println!(
-        "nndd: {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {} J/m, contact force {} N/m, zone {}; {:.2} s; wrote {}.{{h5,xdmf,json}}",
+        "nndd: {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {} J/m, contact force {} N/m, zone {}; {:.2} s; wrote {}{{.h5,.xdmf,-contact.xdmf,-final.xdmf,.json}}",
         match &settings.problem.mesh {
             Some(spec) => format!("mesh {}", spec.gmsh.path),
             None => format!("{} n = {}", summary.problem, summary.n),

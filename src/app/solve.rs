@@ -78,6 +78,7 @@ pub fn setup_bodies(
             (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
         };
         let problem = Rc::clone(&problems[alpha - 1]);
+        announce_setup(alpha, &problem, layout)?;
         let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
         let mut body = Body::setup(
             problem,
@@ -99,6 +100,35 @@ pub fn setup_bodies(
     Ok(bodies)
 }
 
+/// A phase with at least this many dofs may take seconds or more: a line says so before it.
+pub const LONG_PHASE_DOFS: usize = 100_000;
+
+/// Word before a body's setup that may take long (assembly, and a factorisation or an
+/// iterative solver's setup with the interface operators from m solves), from its group's
+/// first rank.
+fn announce_setup(alpha: usize, problem: &BodyProblem, layout: &Layout) -> Result<(), AppError> {
+    let dofs = problem.mesh.num_dofs();
+    if dofs < LONG_PHASE_DOFS || layout.group_rank() != 0 {
+        return Ok(());
+    }
+    let pc = petsc::option_string(&format!("-body{alpha}_pc_type"))?;
+    let how = match pc.as_deref() {
+        None | Some("cholesky") | Some("lu") => format!(
+            "factoring (-body{alpha}_pc_type {})",
+            pc.as_deref().unwrap_or("cholesky")
+        ),
+        Some(other) => format!(
+            "setting up -body{alpha}_pc_type {other}, the interface operators from {} solves",
+            problem.contact_nodes.len()
+        ),
+    };
+    println!(
+        "nndd: body {alpha}: {dofs} dofs on {} rank(s): assembling and {how} …",
+        layout.group_sizes[alpha - 1]
+    );
+    Ok(())
+}
+
 /// The reference solution of (26): the nested mesh r·n, NNDD to tol 1e−8.
 pub fn solve_reference(
     settings: &Settings,
@@ -111,7 +141,7 @@ pub fn solve_reference(
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
     let fine = settings.refined(r);
-    if layout.is_root() && settings.monitor {
+    if layout.is_root() && (settings.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
         // Word before the long phase: the reference mesh has r² times the dofs.
         println!(
             "nndd: solving the reference solution of e_ref on mesh {} ({} dofs, -nndd_reference_factor {r})",
@@ -400,6 +430,13 @@ pub fn solve_nndd(
             let t = Instant::now();
             let _s = stages.estimation.enter();
             let before = signals::enter(StopPhase::FinalEstimate);
+            let dofs = settings.problem.dofs();
+            if root && dofs >= LONG_PHASE_DOFS {
+                println!(
+                    "nndd: estimating the errors of iteration {} ({dofs} dofs) …",
+                    res.last.iteration
+                );
+            }
             let rec = est.estimate_cold(refs, &res.last)?;
             signals::enter(before);
             t_est += t.elapsed().as_secs_f64();

@@ -5,70 +5,127 @@
 use crate::dd::nndd::Iterate;
 use crate::estimate::{EstimateRecord, Interface};
 use crate::fem::{self, Material, Mesh};
-use crate::io::output::{Center, Field, Grid, GridFields, Kind, Results, Share, Step, Topology};
+use crate::io::output::{
+    function_path, Center, Field, Grid, GridFields, Kind, Results, Share, Step, Topology,
+};
 use crate::io::summary::FieldInfo;
 use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 
-/// The HDF5/XDMF content: the meshes and one step per entry of `steps` (an iterate, with its
-/// estimates when it was estimated).
-/// Body α's fields are filled on the ranks of its group (`have`), empty elsewhere; the
-/// geometry and the Γc fields are known everywhere.
+/// The HDF5/XDMF content: the two bodies as one grid `bodies` (body 1's points and
+/// triangles, then body 2's, with the constant cell field `body` = 1 or 2), Γc as the grid
+/// `contact`, and one step per entry of `steps` (an iterate, with its estimates when it was
+/// estimated).
+/// Body α's fields are filled on the ranks of its group (`have`) and zero at the other body's
+/// entries, empty elsewhere; the geometry and the Γc fields are known everywhere.
 pub fn results(
     problems: [&BodyProblem; 2],
     steps: &[(&Iterate, Option<&EstimateRecord>)],
     have: [bool; 2],
     attributes: Vec<(String, f64)>,
+    text: Vec<(String, String)>,
 ) -> Results {
     let iface = Interface::new(problems[0].contact_lengths.clone());
     let m = iface.len();
-    let mut grids: Vec<Grid> = problems
+    let [r1, r2] = body_rows(problems);
+    let mut points = problems[0].mesh.points.clone();
+    points.extend_from_slice(&problems[1].mesh.points);
+    let offset = [0, r1.points.end];
+    let triangles = problems
         .iter()
-        .map(|p| Grid {
-            name: format!("body{}", p.alpha),
-            points: p.mesh.points.clone(),
-            topology: Topology::Triangle(
-                p.mesh
-                    .triangles
-                    .iter()
-                    .map(|t| t.map(|v| v as u32))
-                    .collect(),
-            ),
+        .zip(offset)
+        .flat_map(|(p, o)| {
+            p.mesh
+                .triangles
+                .iter()
+                .map(move |t| t.map(|v| (v + o) as u32))
         })
         .collect();
-    grids.push(Grid {
-        name: "contact".into(),
-        // Γc at body 1's side (its nodes, in pair order).
-        points: problems[0]
-            .contact_nodes
-            .iter()
-            .map(|&n| problems[0].mesh.points[n])
-            .collect(),
-        topology: Topology::Segment(
-            (0..m.saturating_sub(1) as u32)
-                .map(|i| [i, i + 1])
+    let body = (r1.cells.clone().map(|_| 1.0))
+        .chain(r2.cells.clone().map(|_| 2.0))
+        .collect();
+    let grids = vec![
+        Grid {
+            name: "bodies".into(),
+            points,
+            topology: Topology::Triangle(triangles),
+            fields: vec![Field {
+                name: "body".into(),
+                center: Center::Cell,
+                kind: Kind::Scalar,
+                values: body,
+            }],
+        },
+        Grid {
+            name: "contact".into(),
+            // Γc at body 1's side (its nodes, in pair order).
+            points: problems[0]
+                .contact_nodes
+                .iter()
+                .map(|&n| problems[0].mesh.points[n])
                 .collect(),
-        ),
-    });
+            topology: Topology::Segment(
+                (0..m.saturating_sub(1) as u32)
+                    .map(|i| [i, i + 1])
+                    .collect(),
+            ),
+            fields: Vec::new(),
+        },
+    ];
+    let rows = [&r1, &r2];
     let step = |it: &Iterate, est: Option<&EstimateRecord>| {
-        let mut grids = Vec::new();
-        for (k, p) in problems.iter().enumerate() {
-            let mut fields = body_fields(&p.mesh, &p.material, &it.u[k], have[k]);
-            if let Some(e) = est {
-                for (name, map) in ["eta_glo", "eta_fe", "eta_nndd"].iter().zip(&e.maps[k]) {
-                    fields.push(Field {
-                        name: name.to_string(),
-                        center: Center::Cell,
-                        kind: Kind::Scalar,
-                        values: if have[k] { map.clone() } else { Vec::new() },
-                    });
+        // Body α's values at its rows of the `bodies` grid, zero at the other body's.
+        let spread = |per_body: [Vec<f64>; 2], center: Center, width: usize| {
+            if !have[0] && !have[1] {
+                return Vec::new();
+            }
+            let total = match center {
+                Center::Node => r2.points.end,
+                Center::Cell => r2.cells.end,
+            };
+            let mut all = vec![0.0; width * total];
+            for (k, values) in per_body.iter().enumerate() {
+                if have[k] {
+                    let start = width * rows[k].rows(center).start;
+                    all[start..start + values.len()].copy_from_slice(values);
                 }
             }
-            grids.push(GridFields {
-                grid: format!("body{}", p.alpha),
-                fields,
-            });
+            all
+        };
+        let per_body = [0, 1].map(|k| {
+            let p = problems[k];
+            body_fields(&p.mesh, &p.material, &it.u[k], have[k])
+        });
+        let [b1, b2] = per_body;
+        let mut fields: Vec<Field> = b1
+            .into_iter()
+            .zip(b2)
+            .map(|(f1, f2)| Field {
+                values: spread([f1.values, f2.values], f1.center, f1.kind.given()),
+                ..f1
+            })
+            .collect();
+        if let Some(e) = est {
+            for (j, name) in ["eta_glo", "eta_fe", "eta_nndd"].iter().enumerate() {
+                let maps = [0, 1].map(|k| {
+                    if have[k] {
+                        e.maps[k][j].clone()
+                    } else {
+                        Vec::new()
+                    }
+                });
+                fields.push(Field {
+                    name: name.to_string(),
+                    center: Center::Cell,
+                    kind: Kind::Scalar,
+                    values: spread(maps, Center::Cell, 1),
+                });
+            }
         }
+        let mut grids = vec![GridFields {
+            grid: "bodies".into(),
+            fields,
+        }];
         // The gap g₀ + u²_n − u¹_n = g₀ + u²_n − λ (step 1 puts u¹_n at λ exactly); u²_n is
         // shared by body 2.
         let u2n = &it.trace2;
@@ -78,6 +135,17 @@ pub fn results(
             center: Center::Node,
             kind: Kind::Scalar,
             values,
+        };
+        // Body 1's displacement at its Γc nodes (known on body 1's ranks, rank 0 among them).
+        let u1 = &it.u[0];
+        let displacement = if have[0] && !u1.is_empty() {
+            let nodes = &problems[0].contact_nodes;
+            nodes
+                .iter()
+                .flat_map(|&n| [u1[2 * n], u1[2 * n + 1]])
+                .collect()
+        } else {
+            Vec::new()
         };
         let mut fields = vec![
             scalar("lambda", it.lambda.clone()),
@@ -103,9 +171,16 @@ pub fn results(
                 kind: Kind::Vector,
                 values: problems[0].contact_normals.concat(),
             },
+            Field {
+                name: "displacement".into(),
+                center: Center::Node,
+                kind: Kind::Vector,
+                values: displacement,
+            },
         ];
         if let Some(e) = est {
-            fields.push(scalar("t_hat", e.t_hat.clone()));
+            // −t̂: the estimate's admissible contact traction as a pressure (≥ 0).
+            fields.push(scalar("pressure_hat", e.t_hat.iter().map(|t| -t).collect()));
         }
         grids.push(GridFields {
             grid: "contact".into(),
@@ -120,7 +195,30 @@ pub fn results(
         grids,
         steps: steps.iter().map(|&(it, est)| step(it, est)).collect(),
         attributes,
+        text,
     }
+}
+
+/// Each body's rows of the `bodies` grid: body 1's points and cells, then body 2's.
+pub fn body_rows(problems: [&BodyProblem; 2]) -> [Share; 2] {
+    let (n1, m1) = (
+        problems[0].mesh.points.len(),
+        problems[0].mesh.triangles.len(),
+    );
+    let (n2, m2) = (
+        problems[1].mesh.points.len(),
+        problems[1].mesh.triangles.len(),
+    );
+    [
+        Share {
+            points: 0..n1,
+            cells: 0..m1,
+        },
+        Share {
+            points: n1..n1 + n2,
+            cells: m1..m1 + m2,
+        },
+    ]
 }
 
 /// Displacement (node vector), stress (cell tensor, plane strain σ_zz) and von Mises stress.
@@ -161,49 +259,41 @@ fn body_fields(mesh: &Mesh, mat: &Material, u: &[f64], have: bool) -> Vec<Field>
     ]
 }
 
-/// The rows of each grid this rank writes: a body's points and cells split evenly over its
-/// group's ranks (which all hold its fields); the Γc grid by rank 0.
-pub fn shares(layout: &Layout, results: &Results) -> Vec<Share> {
-    results
-        .grids
-        .iter()
-        .map(|g| {
-            let alpha = match g.name.as_str() {
-                "body1" => 1,
-                "body2" => 2,
-                _ => 0,
-            };
-            let (mine, k, parts) = if alpha == 0 {
-                (layout.is_root(), 0, 1)
-            } else {
-                (
-                    layout.owns(alpha),
-                    layout.group_rank(),
-                    layout.group_sizes[alpha - 1],
-                )
-            };
-            let block = |len: usize| {
-                if mine {
-                    len * k / parts..len * (k + 1) / parts
-                } else {
-                    0..0
-                }
-            };
-            let cells = match &g.topology {
-                Topology::Triangle(t) => t.len(),
-                Topology::Segment(t) => t.len(),
-            };
-            Share {
-                points: block(g.points.len()),
-                cells: block(cells),
-            }
-        })
-        .collect()
+/// The rows of each grid this rank writes: a body's points and cells of the `bodies` grid
+/// split evenly over its group's ranks (which all hold its fields; one rank holding both
+/// bodies writes both); the Γc grid by rank 0.
+pub fn shares(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<Share> {
+    let rows = body_rows(problems);
+    let bodies = if layout.owns(1) && layout.owns(2) {
+        Share {
+            points: 0..rows[1].points.end,
+            cells: 0..rows[1].cells.end,
+        }
+    } else if let Some(k) = (0..2).find(|&k| layout.owns(k + 1)) {
+        let (part, parts) = (layout.group_rank(), layout.group_sizes[k]);
+        let block = |r: &std::ops::Range<usize>| {
+            let len = r.len();
+            r.start + len * part / parts..r.start + len * (part + 1) / parts
+        };
+        Share {
+            points: block(&rows[k].points),
+            cells: block(&rows[k].cells),
+        }
+    } else {
+        Share::default()
+    };
+    let contact = match layout.is_root() {
+        true => Share {
+            points: 0..problems[0].contact_nodes.len(),
+            cells: 0..problems[0].contact_nodes.len().saturating_sub(1),
+        },
+        false => Share::default(),
+    };
+    vec![bodies, contact]
 }
 
 /// The JSON description of the fields of the last step (dataset paths of `PREFIX.h5`).
 pub fn describe(results: &Results) -> Vec<FieldInfo> {
-    let k = results.steps.len().saturating_sub(1);
     let mut out = Vec::new();
     if let Some(step) = results.steps.last() {
         for g in &step.grids {
@@ -216,13 +306,13 @@ pub fn describe(results: &Results) -> Vec<FieldInfo> {
                     } else {
                         "cell"
                     },
-                    // Columns as stored (vectors padded to 3, tensors as full 3 × 3).
+                    // Columns as stored (vectors padded to 3, tensors xx yy zz xy yz xz).
                     components: match f.kind {
                         Kind::Scalar => 1,
                         Kind::Vector => 3,
-                        Kind::Tensor => 9,
+                        Kind::Tensor => 6,
                     },
-                    dataset: format!("/steps/{k}/{}/{}", g.grid, f.name),
+                    dataset: function_path(&g.grid, &f.name, step.time),
                 });
             }
         }

@@ -253,27 +253,30 @@ pub fn option_string(name: &str) -> Result<Option<String>> {
     Ok(Some(v.to_string_lossy().into_owned()))
 }
 
-/// The names of every option in the database (`PetscOptionsGetAll`), e.g. to find the
-/// `-nndd_bc_…` options that name no boundary. The string PETSc allocates is left to it (a
-/// few bytes, once per run: `PetscFree` is a macro).
-pub fn option_names() -> Result<Vec<String>> {
+/// Every option in the database as PETSc lists it (`PetscOptionsGetAll`: `-name value`
+/// pairs separated by spaces). The string PETSc allocates is left to it (a few bytes, once or
+/// twice per run: `PetscFree` is a macro).
+pub fn options_text() -> Result<String> {
     let mut all: *mut std::os::raw::c_char = ptr::null_mut();
     call!(PetscOptionsGetAll(ptr::null_mut(), &mut all))?;
     if all.is_null() {
-        return Ok(Vec::new());
+        return Ok(String::new());
     }
     // SAFETY: PETSc returns a NUL-terminated string it owns.
-    let text = unsafe { std::ffi::CStr::from_ptr(all) }
-        .to_string_lossy()
-        .into_owned();
-    Ok(text
+    let text = unsafe { std::ffi::CStr::from_ptr(all) };
+    Ok(text.to_string_lossy().trim().to_string())
+}
+
+/// The names of every option in the database, e.g. to find the `-nndd_bc_…` options that
+/// name no boundary.
+pub fn option_names() -> Result<Vec<String>> {
+    Ok(options_text()?
         .split_whitespace()
         .filter(|t| t.starts_with('-') && t[1..].starts_with(|c: char| c.is_ascii_alphabetic()))
         .map(str::to_string)
         .collect())
 }
 
-/// Set an option unless the user gave it (`PetscOptionsSetValue` when absent).
 pub fn option_default(name: &str, value: &str) -> Result<()> {
     if option_present(name) {
         return Ok(());

@@ -79,6 +79,106 @@ pub fn h5(prefix: &Path, dataset: &str) -> Vec<f64> {
     d.read_raw::<f64>().unwrap()
 }
 
+/// The HDF5 grid of `grid` and, for `body1` and `body2`, that body's rows (points, cells) of
+/// the `bodies` grid (from the file's attributes `bodyN_points`, `bodyN_cells`) and the
+/// grid's number of cells.
+fn grid_rows(prefix: &Path, grid: &str) -> (String, Option<([std::ops::Range<usize>; 2], usize)>) {
+    let Some(alpha) = grid
+        .strip_prefix("body")
+        .and_then(|a| a.parse::<usize>().ok())
+    else {
+        return (grid.to_string(), None);
+    };
+    let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
+    let count = |what: &str, a: usize| -> usize {
+        let v: f64 = f
+            .attr(&format!("body{a}_{what}"))
+            .unwrap()
+            .read_scalar()
+            .unwrap();
+        v as usize
+    };
+    let range = |what: &str| {
+        let first = count(what, 1);
+        match alpha {
+            1 => 0..first,
+            _ => first..first + count(what, 2),
+        }
+    };
+    let cells = count("cells", 1) + count("cells", 2);
+    (
+        "bodies".into(),
+        Some(([range("points"), range("cells")], cells)),
+    )
+}
+
+/// Field `field` of `grid` at step `k` of the file (`None`: the last step, the reported
+/// iterate), flattened: `grid` is `contact`, `bodies`, or `body1` / `body2` (that body's rows).
+pub fn field_at(prefix: &Path, k: Option<usize>, grid: &str, field: &str) -> Vec<f64> {
+    let (name, rows) = grid_rows(prefix, grid);
+    let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
+    let group = f
+        .group(&format!("Function/{name}/{field}"))
+        .unwrap_or_else(|e| panic!("{grid}/{field}: {e}"));
+    let mut steps = group.member_names().unwrap();
+    steps.sort_by(|a, b| {
+        let t = |s: &str| s.replace('_', ".").parse::<f64>().unwrap();
+        t(a).total_cmp(&t(b))
+    });
+    let step = k
+        .map_or(steps.last(), |k| steps.get(k))
+        .expect("the step exists");
+    let d = group.dataset(step).unwrap();
+    let values = d.read_raw::<f64>().unwrap();
+    match rows {
+        None => values,
+        Some(([points, cells], cell_count)) => {
+            let per = d.shape().get(1).copied().unwrap_or(1);
+            let r = if d.shape()[0] == cell_count {
+                cells
+            } else {
+                points
+            };
+            values[per * r.start..per * r.end].to_vec()
+        }
+    }
+}
+
+/// Field `field` of `grid` (see [`field_at`]) at the reported iterate.
+pub fn field(prefix: &Path, grid: &str, field: &str) -> Vec<f64> {
+    field_at(prefix, None, grid, field)
+}
+
+/// The cells of `grid` (see [`field_at`]): point indices, of the body's own points for `body1`
+/// and `body2`.
+pub fn cells(prefix: &Path, grid: &str) -> Vec<i64> {
+    let (name, rows) = grid_rows(prefix, grid);
+    let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
+    let d = f.dataset(&format!("Mesh/{name}/topology")).unwrap();
+    let all = d.read_raw::<i64>().unwrap();
+    let per = d.shape()[1];
+    match rows {
+        None => all,
+        Some(([p, c], _)) => {
+            let start = p.start as i64;
+            all[per * c.start..per * c.end]
+                .iter()
+                .map(|i| i - start)
+                .collect()
+        }
+    }
+}
+
+/// The points of `grid` (see [`field_at`]), x and y of each.
+pub fn points(prefix: &Path, grid: &str) -> Vec<f64> {
+    let (name, rows) = grid_rows(prefix, grid);
+    let all = h5(prefix, &format!("/Mesh/{name}/geometry"));
+    match rows {
+        None => all,
+        Some(([p, _], _)) => all[2 * p.start..2 * p.end].to_vec(),
+    }
+}
+
 /// Maximum of |a − b| over max |b|.
 pub fn rel_max_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());

@@ -22,19 +22,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// Writes the `.h5` through `write_h5` (on every rank) and the `.xdmf` bytes
-/// (rank 0) to temporaries, then rank 0 renames both into place (`.h5`
+/// Writes the `.h5` through `write_h5` (on every rank) and the `.xdmf` texts
+/// (rank 0) to temporaries, then rank 0 renames them into place (`.h5`
 /// first). Temporaries are removed on any error.
-pub(super) fn commit_pair<W: Writers>(
+pub(super) fn commit_files<W: Writers>(
     w: &W,
     h5_path: &Path,
     write_h5: impl FnOnce(&Path) -> Result<(), OutputError>,
-    xdmf_path: &Path,
-    xdmf: &[u8],
+    xdmfs: &[(PathBuf, String)],
 ) -> Result<(), OutputError> {
     // Rank 0 checks the targets and picks the temporary name; all learn it.
     let picked = if w.rank() == 0 {
-        h5_temporary(h5_path, xdmf_path).map(Some)
+        h5_temporary(h5_path, xdmfs).map(Some)
     } else {
         Ok(None)
     };
@@ -46,15 +45,15 @@ pub(super) fn commit_pair<W: Writers>(
     let tmp_path = PathBuf::from(OsString::from_vec(w.broadcast(0, name)));
     agree(w, write_h5(&tmp_path))?;
     let renamed = match h5_tmp {
-        Some(tmp) => rename_pair(tmp, h5_path, xdmf_path, xdmf),
+        Some(tmp) => rename_all(tmp, h5_path, xdmfs),
         None => Ok(()),
     };
     agree(w, renamed)
 }
 
 /// The temporary for `h5_path`, once neither target is a directory.
-fn h5_temporary(h5_path: &Path, xdmf_path: &Path) -> Result<TempFile, OutputError> {
-    for target in [h5_path, xdmf_path] {
+fn h5_temporary(h5_path: &Path, xdmfs: &[(PathBuf, String)]) -> Result<TempFile, OutputError> {
+    for target in std::iter::once(h5_path).chain(xdmfs.iter().map(|(p, _)| p.as_path())) {
         if target.is_dir() {
             return Err(OutputError::Io {
                 path: target.to_path_buf(),
@@ -67,11 +66,10 @@ fn h5_temporary(h5_path: &Path, xdmf_path: &Path) -> Result<TempFile, OutputErro
 }
 
 /// Syncs the written `.h5` temporary, writes the `.xdmf` one, renames both.
-fn rename_pair(
+fn rename_all(
     h5_tmp: TempFile,
     h5_path: &Path,
-    xdmf_path: &Path,
-    xdmf: &[u8],
+    xdmfs: &[(PathBuf, String)],
 ) -> Result<(), OutputError> {
     fs::File::open(&h5_tmp.path)
         .and_then(|f| f.sync_all())
@@ -80,10 +78,16 @@ fn rename_pair(
             action: "sync the temporary HDF5 file",
             source: e,
         })?;
-    let xdmf_tmp = TempFile::for_target(xdmf_path)?;
-    write_synced(&xdmf_tmp.path, xdmf, xdmf_path)?;
+    let mut temporaries = Vec::with_capacity(xdmfs.len());
+    for (path, text) in xdmfs {
+        let tmp = TempFile::for_target(path)?;
+        write_synced(&tmp.path, text.as_bytes(), path)?;
+        temporaries.push((tmp, path));
+    }
     h5_tmp.commit(h5_path)?;
-    xdmf_tmp.commit(xdmf_path)?;
+    for (tmp, path) in temporaries {
+        tmp.commit(path)?;
+    }
     sync_dir(&parent_dir(h5_path));
     Ok(())
 }
@@ -187,14 +191,19 @@ mod tests {
         let dir = TestDir::new("keep");
         let prefix = dir.0.join("run");
         write_results(&prefix, &sample()).expect("write");
-        let h5 = fs::read(dir.0.join("run.h5")).unwrap();
-        let xdmf = fs::read(dir.0.join("run.xdmf")).unwrap();
+        let files = dir.entries();
+        assert_eq!(files.len(), 4, "{files:?}");
+        let before: Vec<Vec<u8>> = files
+            .iter()
+            .map(|f| fs::read(dir.0.join(f)).unwrap())
+            .collect();
         let mut bad = sample();
         bad.steps[0].grids[0].fields[0].values.clear();
         assert!(write_results(&prefix, &bad).is_err());
-        assert_eq!(dir.entries(), vec!["run.h5", "run.xdmf"]);
-        assert_eq!(fs::read(dir.0.join("run.h5")).unwrap(), h5);
-        assert_eq!(fs::read(dir.0.join("run.xdmf")).unwrap(), xdmf);
+        assert_eq!(dir.entries(), files);
+        for (f, bytes) in files.iter().zip(&before) {
+            assert_eq!(&fs::read(dir.0.join(f)).unwrap(), bytes, "{f}");
+        }
     }
 
     #[test]
@@ -202,7 +211,7 @@ mod tests {
         let dir = TestDir::new("midway");
         let h5 = dir.0.join("run.h5");
         let xdmf = dir.0.join("run.xdmf");
-        let result = commit_pair(
+        let result = commit_files(
             &Alone,
             &h5,
             |tmp| {
@@ -213,8 +222,7 @@ mod tests {
                     source: io::Error::other("simulated"),
                 })
             },
-            &xdmf,
-            b"<Xdmf/>",
+            &[(xdmf, "<Xdmf/>".to_string())],
         );
         assert!(result.is_err());
         assert!(dir.entries().is_empty(), "{:?}", dir.entries());

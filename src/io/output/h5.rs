@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::team::{agree, Writers};
-use super::{entries, grid_index, OutputError, Results, Share};
+use super::{entries, function_path, OutputError, Results, Share};
 
 fn h5err(target: &Path, action: String) -> impl FnOnce(hdf5::Error) -> OutputError {
     let path = target.to_path_buf();
@@ -205,6 +205,30 @@ impl<W: Writers> H5Out<'_, W> {
         })
     }
 
+    /// A text attribute of `loc` (called `at` in messages).
+    fn text_attribute(
+        &self,
+        loc: &hdf5::Location,
+        at: &str,
+        name: &str,
+        value: &str,
+    ) -> Result<(), OutputError> {
+        use hdf5::types::VarLenUnicode;
+        if self.writing.get() {
+            return Ok(());
+        }
+        let text: VarLenUnicode = value
+            .replace('\0', " ")
+            .parse()
+            .expect("a string without NUL is valid HDF5 text");
+        let attr = self.agreed(loc.new_attr::<VarLenUnicode>().create(name), || {
+            format!("creating attribute {name:?} of {at}")
+        })?;
+        self.agreed(attr.write_scalar(&text), || {
+            format!("writing attribute {name:?} of {at}")
+        })
+    }
+
     /// Creates dataset `name` of `shape` (contiguous) in the first walk; writes
     /// `data()`, its rows `rows` (first dimension) from this rank, in the second.
     fn dataset<T: hdf5::H5Type>(
@@ -250,32 +274,59 @@ fn fill_h5<W: Writers>(
     for (name, value) in &results.attributes {
         out.attribute(file, "/", name, *value)?;
     }
-    let grids = out.group(file, "grids")?;
+    for (name, value) in &results.text {
+        out.text_attribute(file, "/", name, value)?;
+    }
+    let meshes = out.group(file, "Mesh")?;
     for (g, share) in results.grids.iter().zip(shares) {
-        let group = out.group(&grids, &g.name)?;
+        let group = out.group(&meshes, &g.name)?;
         let rows = share.points.clone();
         let points = || g.points[rows.clone()].iter().flatten().copied().collect();
-        out.dataset::<f64>(&group, "points", &[g.points.len(), 2], rows.clone(), points)?;
+        out.dataset::<f64>(
+            &group,
+            "geometry",
+            &[g.points.len(), 2],
+            rows.clone(),
+            points,
+        )?;
         let rows = share.cells.clone();
         let cells = || g.topology.flat_rows(rows.clone());
         let shape = [g.topology.cell_count(), g.topology.nodes_per_cell()];
-        out.dataset(&group, "cells", &shape, rows.clone(), cells)?;
+        out.dataset(&group, "topology", &shape, rows.clone(), cells)?;
+        for field in &g.fields {
+            let shape = field.stored_shape(entries(Some(g), field.center));
+            let rows = share.rows(field.center);
+            let data = || field.stored_rows(rows.clone());
+            out.dataset(&group, &field.name, &shape, rows.clone(), data)?;
+        }
     }
-    let steps = out.group(file, "steps")?;
-    for (k, step) in results.steps.iter().enumerate() {
-        let sg = out.group(&steps, &k.to_string())?;
-        out.attribute(&sg, &format!("/steps/{k}"), "time", step.time)?;
-        for gf in &step.grids {
-            // Validated: the grid exists.
-            let gi = grid_index(results, &gf.grid);
-            let grid = gi.map(|i| &results.grids[i]);
-            let share = gi.map(|i| shares[i].clone()).unwrap_or_default();
-            let gg = out.group(&sg, &gf.grid)?;
-            for field in &gf.fields {
-                let shape = field.stored_shape(entries(grid, field.center));
+    let functions = out.group(file, "Function")?;
+    for (g, share) in results.grids.iter().zip(shares) {
+        // The grid's fields in the order they first appear, each with the steps that have it.
+        let mut names: Vec<&str> = Vec::new();
+        for step in &results.steps {
+            for f in step.fields_of(&g.name) {
+                if !names.contains(&f.name.as_str()) {
+                    names.push(&f.name);
+                }
+            }
+        }
+        if names.is_empty() {
+            continue;
+        }
+        let gg = out.group(&functions, &g.name)?;
+        for name in names {
+            let fg = out.group(&gg, name)?;
+            for step in &results.steps {
+                let Some(field) = step.fields_of(&g.name).find(|f| f.name == name) else {
+                    continue;
+                };
+                let shape = field.stored_shape(entries(Some(g), field.center));
                 let rows = share.rows(field.center);
                 let data = || field.stored_rows(rows.clone());
-                out.dataset(&gg, &field.name, &shape, rows.clone(), data)?;
+                let path = function_path(&g.name, name, step.time);
+                let key = path.rsplit('/').next().unwrap_or_default();
+                out.dataset(&fg, key, &shape, rows.clone(), data)?;
             }
         }
     }

@@ -1,6 +1,6 @@
-//! Result files: `PREFIX.h5` (HDF5, the data) + `PREFIX.xdmf` (XDMF 3, the
-//! description ParaView reads), written whole or not at all, and
-//! [`write_atomic`] for small text files such as `PREFIX.json`.
+//! Result files: `PREFIX.h5` (HDF5, the data) + the XDMF 3 files that describe it to
+//! ParaView, meshio and DOLFINx (`PREFIX.xdmf`, `PREFIX-<grid>.xdmf`, `PREFIX-final.xdmf`), written
+//! whole or not at all, and [`write_atomic`] for small text files such as `PREFIX.json`.
 //!
 //! # Processes
 //!
@@ -17,7 +17,7 @@
 //! write their hyperslab of every dataset (points, cells, each field at each
 //! step) in one collective transfer (`H5FD_MPIO_COLLECTIVE`) per dataset,
 //! ranks without rows taking part with an empty selection. Rank 0 alone
-//! writes `PREFIX.xdmf` and renames the files. The result is the same, dataset
+//! writes the `.xdmf` files and renames the files. The result is the same, dataset
 //! by dataset and attribute by attribute, as the one-process file.
 //!
 //! [`write_results`] is the same code on one process: each grid is one share,
@@ -27,14 +27,14 @@
 //! # Atomicity
 //!
 //! [`write_results`] first validates the whole [`Results`] (nothing is
-//! created when that fails), then writes both files to hidden temporaries in
-//! the destination directory (`.NAME.h5.tmp.*`, `.NAME.xdmf.tmp.*`),
-//! syncs them, and renames the `.h5` into place and then the `.xdmf`. On any
+//! created when that fails), then writes every file to hidden temporaries in
+//! the destination directory (`.NAME.h5.tmp.*`, `.NAME.xdmf.tmp.*`, …),
+//! syncs them, and renames the `.h5` into place and then the `.xdmf` files. On any
 //! error the temporaries are removed, so no partial file remains and
-//! previously written results are untouched. The `.xdmf` is renamed last, so
+//! previously written results are untouched. The `.xdmf` files are renamed last, so
 //! an `.xdmf` that names `PREFIX.h5` never appears before that file is
-//! complete (when a pair is overwritten, the old `.xdmf` sits beside the new
-//! `.h5` between the two renames). The destination directory is not created by the writers: call
+//! complete (when results are overwritten, the old `.xdmf` sits beside the new
+//! `.h5` between the renames). The destination directory is not created by the writers: call
 //! [`check_writable`] first (it creates it).
 //!
 //! Parallel files are created in two walks: every group, attribute and dataset first
@@ -48,7 +48,7 @@
 //! [`write_results_parallel`] keeps the same contract. Every rank validates
 //! its `Results` and shares before anything is created; rank 0 picks the
 //! temporary name and broadcasts it; the temporary is closed collectively,
-//! then rank 0 syncs it, writes the `.xdmf` temporary and renames both. The
+//! then rank 0 syncs it, writes the `.xdmf` temporaries and renames them all. The
 //! ranks agree on success after every step that can fail (validation, the
 //! temporary name, file creation, each group, attribute and dataset, the
 //! close, the renames): an all-reduce of a failure flag, then the message of
@@ -63,19 +63,18 @@
 //! must not start with `.`. The file name of PREFIX must be valid UTF-8 and
 //! must not contain `:` (XDMF separates file and dataset with `:`).
 //!
-//! # HDF5 layout (the contract for users and tests)
+//! # HDF5 layout (the contract for users and tests; docs/output.md for nndd's fields)
 //!
 //! All floating-point data are little-endian `f64`; connectivity is `i64`
 //! (0-based point indices).
 //!
 //! | path | shape | content |
 //! | --- | --- | --- |
-//! | `/` attributes | scalar `f64` each | [`Results::attributes`], by name |
-//! | `/grids/<grid>/points` | N×2 `f64` | x, y of each point |
-//! | `/grids/<grid>/cells` | M×3 `i64` (triangles) or M×2 `i64` (segments) | point indices of each cell |
-//! | `/steps/<k>` | group | k = 0, 1, … is the index in [`Results::steps`] |
-//! | `/steps/<k>` attribute `time` | scalar `f64` | [`Step::time`] (the NNDD iteration number) |
-//! | `/steps/<k>/<grid>/<field>` | see below | one field of one grid at step k |
+//! | `/` attributes | scalar `f64` or text each | [`Results::attributes`], [`Results::text`] |
+//! | `/Mesh/<grid>/geometry` | N×2 `f64` | x, y of each point |
+//! | `/Mesh/<grid>/topology` | M×3 `i64` (triangles) or M×2 `i64` (segments) | point indices of each cell |
+//! | `/Mesh/<grid>/<field>` | see below | a field of [`Grid::fields`] (the same at every step) |
+//! | `/Function/<grid>/<field>/<t>` | see below | a field of one grid at the step of time t ([`function_path`]) |
 //!
 //! Field datasets, with n = N (points, [`Center::Node`]) or M (cells,
 //! [`Center::Cell`]):
@@ -84,33 +83,31 @@
 //! | --- | --- | --- |
 //! | `Scalar` | n | n (one-dimensional) |
 //! | `Vector` | n×2 (x, y per entry) | n×3, z column = 0 |
-//! | `Tensor` | n×6 (xx yy zz xy yz xz per entry) | n×9, the full symmetric 3×3 tensor row by row: xx xy xz, xy yy yz, xz yz zz |
+//! | `Tensor` | n×6 (xx yy zz xy yz xz per entry) | n×6 as given (XDMF `Tensor6`) |
 //!
-//! Tensors are written with 9 components (XDMF `Tensor`) rather than 6
-//! (`Tensor6`) because ParaView 5.11's readers disagree on `Tensor6`: the
-//! "XDMF Reader" expands it as xx xy xz yy yz zz, the Xdmf3 readers pass the
-//! 6 values through to VTK, which labels them xx yy zz xy yz xz. A 9-component
-//! tensor is read identically, and correctly, by all three.
-//!
-//! A `/steps/<k>/<grid>` group exists only for the grids that step lists.
-//! Times must be finite and strictly increasing (so that every step is a
-//! distinct time step in ParaView).
+//! ParaView 5.11's default XDMF reader (Xdmf3ReaderS) passes a `Tensor6` through to VTK in
+//! this order and names its components XX YY ZZ XY YZ XZ (checked with pvpython); meshio
+//! reads an n×6 array. Times must be finite and strictly increasing (each step is a distinct
+//! time step in ParaView, and names its datasets).
 //!
 //! # XDMF
 //!
-//! `PREFIX.xdmf` (XDMF `Version="3.0"`) holds one `Domain` with a temporal
-//! collection; each step is a spatial collection (with its `Time`) of *all*
-//! grids, in the order of [`Results::grids`], so the block structure is the
-//! same at every time. Each grid's `Topology` (`Triangle`, or `Polyline` with
-//! `NodesPerElement="2"`) and `Geometry` (`XY`) refer to `/grids/<grid>/…`, its
-//! `Attribute`s to `/steps/<k>/<grid>/<field>` (`Scalar`, `Vector`, `Tensor`;
-//! `Center` `Node` or `Cell`). Datasets are named `NAME.h5:/path` with the bare
-//! file name, i.e. relative to the `.xdmf`, so the pair can be moved
-//! together. Without steps the file is a single spatial collection of the
-//! meshes. ParaView 5.11 opens it with the "XDMF Reader" and with
-//! "Xdmf3ReaderS"/"Xdmf3ReaderT" (checked with pvpython: same time steps,
-//! arrays, components and values); `OpenDataFile` picks Xdmf3ReaderS, which
-//! does not keep the block names, the other two do.
+//! One mesh per file, in the layout of DOLFINx's `XDMFFile` and meshio's time series: the
+//! first grid's in `PREFIX.xdmf`, every other grid's in `PREFIX-<grid>.xdmf` (so no grid may be
+//! called `final`), and the first grid at the last step alone in `PREFIX-final.xdmf`. A file
+//! holds a `Uniform` grid with the `Topology` (`Triangle`, or `Polyline` with
+//! `NodesPerElement="2"`) and `Geometry` (`XY`), then a temporal collection: per step a
+//! `Uniform` grid that includes them (`xi:include` of the first `Uniform` grid's topology and
+//! geometry), its `Time`, and an `Attribute` per field (the grid's constant fields, then the
+//! step's). `PREFIX-final.xdmf` is a single `Uniform` grid with its attributes (no time). Without
+//! steps a file holds the mesh alone. Datasets are named `NAME.h5:/path` with the bare file
+//! name, i.e. relative to the `.xdmf`, so the files can be moved together.
+//!
+//! One mesh per file because of the readers: ParaView's Xdmf3ReaderS reads the grids of a file
+//! as pieces of one dataset (no names), and draws every piece in one solid colour when the
+//! pieces do not carry the same fields; meshio's `TimeSeriesReader` reads one mesh and one
+//! collection per file. So `tests/viewers.rs` opens the files with ParaView's default reader
+//! and with meshio.
 //!
 //! # Files
 //!
@@ -136,12 +133,11 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 pub use atomic::write_atomic;
-use atomic::{commit_pair, parent_dir, unique_suffix, with_suffix};
+use atomic::{commit_files, parent_dir, unique_suffix, with_suffix};
 pub use h5::file_left_open;
 use h5::write_h5;
 use team::{agree, check_team, Alone, Team, Writers};
 use validate::{prefix_name, validate};
-use xdmf::xdmf_text;
 
 /// Cells of a grid: point indices (0-based) of linear triangles or of 2-node
 /// segments.
@@ -168,8 +164,8 @@ pub enum Kind {
     /// 2 values per entry (x, y); written with 3 components, z = 0, for
     /// ParaView.
     Vector,
-    /// 6 values per entry: xx yy zz xy yz xz (a symmetric tensor); written
-    /// with 9 components (see the module documentation).
+    /// 6 values per entry: xx yy zz xy yz xz (a symmetric tensor), written as they are
+    /// (XDMF `Tensor6`).
     Tensor,
 }
 
@@ -183,12 +179,14 @@ pub struct Field {
     pub values: Vec<f64>,
 }
 
-/// A mesh: 2D points and cells.
+/// A mesh: 2D points and cells, with the fields that are the same at every step (stored
+/// once, beside the mesh, and given at every step).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid {
     pub name: String,
     pub points: Vec<[f64; 2]>,
     pub topology: Topology,
+    pub fields: Vec<Field>,
 }
 
 /// Fields of one grid at one time step.
@@ -206,6 +204,16 @@ pub struct Step {
     pub grids: Vec<GridFields>,
 }
 
+impl Step {
+    /// The fields of grid `grid` at this step.
+    pub fn fields_of<'a>(&'a self, grid: &'a str) -> impl Iterator<Item = &'a Field> + 'a {
+        self.grids
+            .iter()
+            .filter(move |gf| gf.grid == grid)
+            .flat_map(|gf| &gf.fields)
+    }
+}
+
 /// Everything [`write_results`] writes.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Results {
@@ -213,6 +221,8 @@ pub struct Results {
     pub steps: Vec<Step>,
     /// File-level scalar attributes (attributes of the HDF5 root group).
     pub attributes: Vec<(String, f64)>,
+    /// File-level text attributes (attributes of the HDF5 root group).
+    pub text: Vec<(String, String)>,
 }
 
 /// The rows of one grid this rank writes: a contiguous range of the grid's
@@ -235,7 +245,7 @@ impl Share {
     }
 
     /// The rows of a field with this center.
-    fn rows(&self, center: Center) -> Range<usize> {
+    pub fn rows(&self, center: Center) -> Range<usize> {
         match center {
             Center::Node => self.points.clone(),
             Center::Cell => self.cells.clone(),
@@ -324,7 +334,7 @@ impl Topology {
 
 impl Kind {
     /// Values per entry in [`Field::values`].
-    fn given(self) -> usize {
+    pub fn given(self) -> usize {
         match self {
             Kind::Scalar => 1,
             Kind::Vector => 2,
@@ -337,7 +347,7 @@ impl Kind {
         match self {
             Kind::Scalar => 1,
             Kind::Vector => 3,
-            Kind::Tensor => 9,
+            Kind::Tensor => 6,
         }
     }
 
@@ -345,7 +355,7 @@ impl Kind {
         match self {
             Kind::Scalar => "Scalar",
             Kind::Vector => "Vector",
-            Kind::Tensor => "Tensor",
+            Kind::Tensor => "Tensor6",
         }
     }
 }
@@ -360,9 +370,8 @@ impl Center {
 }
 
 impl Field {
-    /// Entries `rows` as stored in the file (vectors padded with z = 0,
-    /// tensors expanded to 3×3 row by row); nothing for no rows (the values
-    /// may then be empty).
+    /// Entries `rows` as stored in the file (vectors padded with z = 0); nothing for no rows
+    /// (the values may then be empty).
     fn stored_rows(&self, rows: Range<usize>) -> Vec<f64> {
         if rows.is_empty() {
             return Vec::new();
@@ -374,11 +383,7 @@ impl Field {
                 .chunks_exact(2)
                 .flat_map(|v| [v[0], v[1], 0.0])
                 .collect(),
-            Kind::Tensor => values
-                .chunks_exact(6)
-                .flat_map(|t| [t[0], t[3], t[5], t[3], t[1], t[4], t[5], t[4], t[2]])
-                .collect(),
-            Kind::Scalar => values.to_vec(),
+            Kind::Tensor | Kind::Scalar => values.to_vec(),
         }
     }
 
@@ -475,6 +480,42 @@ pub fn write_results_parallel<C: mpi::traits::Communicator>(
     write_on(&Team(comm), prefix, results, shares)
 }
 
+/// The HDF5 path of field `field` of grid `grid` at the step of time `time` (DOLFINx's
+/// `/Function/<name>/<time>`, the time's `.` written `_`).
+pub(crate) fn function_path(grid: &str, field: &str, time: f64) -> String {
+    format!(
+        "/Function/{grid}/{field}/{}",
+        time.to_string().replace('.', "_")
+    )
+}
+
+/// The XDMF files of `results` next to `PREFIX.h5` (file name `h5_name`): the first grid's
+/// series in `PREFIX.xdmf`, each other grid's in `PREFIX-<grid>.xdmf`, and the first grid at
+/// the last step alone in `PREFIX-final.xdmf`.
+fn xdmf_files(prefix: &Path, results: &Results, h5_name: &str) -> Vec<(PathBuf, String)> {
+    let mut files = Vec::new();
+    for (i, g) in results.grids.iter().enumerate() {
+        let path = if i == 0 {
+            with_suffix(prefix, "xdmf")
+        } else {
+            xdmf_path(prefix, &g.name)
+        };
+        files.push((path, xdmf::series_text(results, g, h5_name)));
+    }
+    if let (Some(g), Some(last)) = (results.grids.first(), results.steps.last()) {
+        let text = xdmf::single_text(g, last, h5_name);
+        files.push((xdmf_path(prefix, "final"), text));
+    }
+    files
+}
+
+/// `PREFIX-<part>.xdmf`.
+pub fn xdmf_path(prefix: &Path, part: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(format!("-{part}.xdmf"));
+    s.into()
+}
+
 /// [`write_results`] and [`write_results_parallel`]: validate (and agree),
 /// then write.
 fn write_on<W: Writers>(
@@ -484,7 +525,6 @@ fn write_on<W: Writers>(
     shares: &[Share],
 ) -> Result<(), OutputError> {
     let h5_path = with_suffix(prefix, "h5");
-    let xdmf_path = with_suffix(prefix, "xdmf");
     let checked =
         prefix_name(prefix).and_then(|name| validate(results, shares, &h5_path).map(|()| name));
     let name = agree(w, checked)?;
@@ -492,17 +532,15 @@ fn write_on<W: Writers>(
         path: h5_path.clone(),
         reason,
     })?;
-    let xdmf = if w.rank() == 0 {
-        xdmf_text(results, &format!("{name}.h5"))
-    } else {
-        String::new()
-    };
-    commit_pair(
+    let mut xdmfs = xdmf_files(prefix, results, &format!("{name}.h5"));
+    if w.rank() != 0 {
+        xdmfs.iter_mut().for_each(|(_, text)| text.clear());
+    }
+    commit_files(
         w,
         &h5_path,
         |tmp| write_h5(w, tmp, &h5_path, results, shares),
-        &xdmf_path,
-        xdmf.as_bytes(),
+        &xdmfs,
     )
 }
 
@@ -518,26 +556,35 @@ mod tests {
         let results = sample();
         check_writable(&prefix).expect("writable");
         write_results(&prefix, &results).expect("write");
-        // Overwriting an existing pair works too.
+        // Overwriting existing files works too.
         write_results(&prefix, &results).expect("rewrite");
-        assert_eq!(dir.entries(), vec!["run.1.h5", "run.1.xdmf"]);
+        let files = [
+            "run.1-contact.xdmf",
+            "run.1-final.xdmf",
+            "run.1.h5",
+            "run.1.xdmf",
+        ];
+        assert_eq!(dir.entries(), files);
 
         let file = hdf5::File::open(dir.0.join("run.1.h5")).expect("open h5");
         let mut names = file.attr_names().expect("attr names");
         names.sort();
-        assert_eq!(names, vec!["error_bound", "nranks"]);
+        assert_eq!(names, vec!["error_bound", "nranks", "program"]);
         for (name, value) in &results.attributes {
             let got: f64 = file.attr(name).unwrap().read_scalar().unwrap();
             assert_eq!(got, *value, "attribute {name}");
         }
+        let program: hdf5::types::VarLenUnicode =
+            file.attr("program").unwrap().read_scalar().unwrap();
+        assert_eq!(program.as_str(), "nndd test");
         for g in &results.grids {
-            let (shape, points) = read(&file, &format!("grids/{}/points", g.name));
+            let (shape, points) = read(&file, &format!("Mesh/{}/geometry", g.name));
             assert_eq!(shape, vec![g.points.len(), 2]);
             assert_eq!(
                 points,
                 g.points.iter().flatten().copied().collect::<Vec<_>>()
             );
-            let ds = file.dataset(&format!("grids/{}/cells", g.name)).unwrap();
+            let ds = file.dataset(&format!("Mesh/{}/topology", g.name)).unwrap();
             let cells: Vec<i64> = ds.read_raw().unwrap();
             let (expected, npc): (Vec<i64>, usize) = match &g.topology {
                 Topology::Triangle(c) => (c.iter().flatten().map(|&i| i as i64).collect(), 3),
@@ -545,68 +592,78 @@ mod tests {
             };
             assert_eq!(ds.shape(), vec![expected.len() / npc, npc]);
             assert_eq!(cells, expected);
+            for f in &g.fields {
+                let (_, data) = read(&file, &format!("Mesh/{}/{}", g.name, f.name));
+                assert_eq!(data, f.values);
+            }
         }
-        let mut step_names = file.group("steps").unwrap().member_names().unwrap();
-        step_names.sort();
-        assert_eq!(step_names, vec!["0", "1"]);
-        for (k, step) in results.steps.iter().enumerate() {
-            let group = file.group(&format!("steps/{k}")).unwrap();
-            let time: f64 = group.attr("time").unwrap().read_scalar().unwrap();
-            assert_eq!(time, step.time);
+        let steps = file
+            .group("Function/bodies/u")
+            .unwrap()
+            .member_names()
+            .unwrap();
+        assert_eq!(steps, vec!["1", "2"]);
+        for step in &results.steps {
             for gf in &step.grids {
                 let grid = results.grids.iter().find(|g| g.name == gf.grid).unwrap();
                 for f in &gf.fields {
-                    let (shape, data) = read(&file, &format!("steps/{k}/{}/{}", gf.grid, f.name));
+                    let (shape, data) = read(&file, &function_path(&gf.grid, &f.name, step.time));
                     let n = match f.center {
                         Center::Node => grid.points.len(),
                         Center::Cell => grid.topology.cell_count(),
                     };
                     match f.kind {
-                        Kind::Scalar => {
-                            assert_eq!(shape, vec![n]);
-                            assert_eq!(data, f.values);
+                        Kind::Scalar => assert_eq!(shape, vec![n]),
+                        Kind::Tensor => assert_eq!(shape, vec![n, 6]),
+                        Kind::Vector => assert_eq!(shape, vec![n, 3]),
+                    }
+                    if f.kind == Kind::Vector {
+                        for i in 0..n {
+                            assert_eq!(data[3 * i], f.values[2 * i]);
+                            assert_eq!(data[3 * i + 1], f.values[2 * i + 1]);
+                            assert_eq!(data[3 * i + 2], 0.0);
                         }
-                        Kind::Tensor => {
-                            assert_eq!(shape, vec![n, 9]);
-                            for i in 0..n {
-                                let g = &f.values[6 * i..6 * i + 6];
-                                let (xx, yy, zz, xy, yz, xz) = (g[0], g[1], g[2], g[3], g[4], g[5]);
-                                let full = [xx, xy, xz, xy, yy, yz, xz, yz, zz];
-                                assert_eq!(&data[9 * i..9 * i + 9], &full[..], "entry {i}");
-                            }
-                        }
-                        Kind::Vector => {
-                            assert_eq!(shape, vec![n, 3]);
-                            for i in 0..n {
-                                assert_eq!(data[3 * i], f.values[2 * i]);
-                                assert_eq!(data[3 * i + 1], f.values[2 * i + 1]);
-                                assert_eq!(data[3 * i + 2], 0.0);
-                            }
-                        }
+                    } else {
+                        assert_eq!(data, f.values);
                     }
                 }
             }
         }
 
-        let xdmf = fs::read_to_string(dir.0.join("run.1.xdmf")).expect("read xdmf");
-        let items = data_items(&xdmf);
-        // Per step and grid: cells + points; plus 8 fields per step.
-        assert_eq!(items.len(), 2 * (3 * 2 + 8));
-        for (file_part, path, dims) in &items {
-            assert_eq!(file_part, "run.1.h5", "relative file name");
-            let ds = file
-                .dataset(path)
-                .unwrap_or_else(|e| panic!("XDMF refers to {path}, not in h5: {e}"));
-            assert_eq!(&ds.shape(), dims, "dims of {path}");
+        // Every DataItem names a dataset of run.1.h5, by its bare name, with its shape.
+        let text = |name: &str| fs::read_to_string(dir.0.join(name)).expect("read xdmf");
+        for name in files.iter().filter(|n| n.ends_with(".xdmf")) {
+            for (file_part, path, dims) in &data_items(&text(name)) {
+                assert_eq!(file_part, "run.1.h5", "relative file name");
+                let ds = file
+                    .dataset(path)
+                    .unwrap_or_else(|e| panic!("{name} refers to {path}, not in h5: {e}"));
+                assert_eq!(&ds.shape(), dims, "dims of {path}");
+            }
         }
-        assert_eq!(xdmf.matches("<Time Value=\"1\"/>").count(), 1);
-        assert_eq!(xdmf.matches("<Time Value=\"2\"/>").count(), 1);
-        assert_eq!(xdmf.matches("TopologyType=\"Triangle\"").count(), 4);
-        assert_eq!(xdmf.matches("TopologyType=\"Polyline\"").count(), 2);
-        assert_eq!(xdmf.matches("AttributeType=\"Tensor\"").count(), 4);
-        assert_eq!(xdmf.matches("AttributeType=\"Vector\"").count(), 4);
-        assert_eq!(xdmf.matches("AttributeType=\"Scalar\"").count(), 8);
-        assert_eq!(xdmf.matches("Center=\"Cell\"").count(), 10);
+        // The series: the mesh, then a temporal collection including it, a step per time.
+        let series = text("run.1.xdmf");
+        assert_eq!(
+            series
+                .matches("<Grid Name=\"bodies\" GridType=\"Uniform\">")
+                .count(),
+            3
+        );
+        assert_eq!(series.matches("CollectionType=\"Temporal\"").count(), 1);
+        assert_eq!(series.matches("<xi:include").count(), 2);
+        assert_eq!(series.matches("<Time Value=").count(), 2);
+        assert_eq!(series.matches("TopologyType=\"Triangle\"").count(), 1);
+        assert_eq!(series.matches("AttributeType=\"Tensor6\"").count(), 2);
+        // `body`, constant, at both steps, from the mesh group.
+        assert_eq!(series.matches("run.1.h5:/Mesh/bodies/body<").count(), 2);
+        let contact = text("run.1-contact.xdmf");
+        assert_eq!(contact.matches("TopologyType=\"Polyline\"").count(), 1);
+        assert_eq!(contact.matches("<Time Value=").count(), 2);
+        // The last step alone: one grid, no time.
+        let last = text("run.1-final.xdmf");
+        assert!(!last.contains("<Time") && !last.contains("Collection"));
+        assert_eq!(last.matches("<Attribute ").count(), 4);
+        assert!(last.contains("run.1.h5:/Function/bodies/eta/2<"));
     }
 
     #[test]

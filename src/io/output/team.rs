@@ -199,6 +199,9 @@ fn structure_hash(results: &Results) -> u64 {
             p.map(f64::to_bits).hash(&mut h);
         }
         g.topology.hash(&mut h);
+        for f in &g.fields {
+            (&f.name, f.center, f.kind).hash(&mut h);
+        }
     }
     results.steps.len().hash(&mut h);
     for step in &results.steps {
@@ -216,5 +219,6 @@ fn structure_hash(results: &Results) -> u64 {
     for (name, value) in &results.attributes {
         (name, value.to_bits()).hash(&mut h);
     }
+    results.text.hash(&mut h);
     h.finish()
 }

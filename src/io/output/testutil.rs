@@ -51,21 +51,35 @@ fn field(name: &str, center: Center, kind: Kind, tag: f64, entries: usize) -> Fi
     }
 }
 
+/// Two bodies in one grid (a square and a trapezoid above it, with a constant cell field)
+/// and their contact line, at two steps.
 pub(super) fn sample() -> Results {
-    let lower = Grid {
-        name: "body1".into(),
-        points: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
-        topology: Topology::Triangle(vec![[0, 1, 2], [0, 2, 3]]),
-    };
-    let upper = Grid {
-        name: "body2".into(),
-        points: vec![[0.0, 1.0], [1.0, 1.0], [2.0, 1.0], [0.5, 2.0], [1.5, 2.0]],
-        topology: Topology::Triangle(vec![[0, 1, 3], [1, 4, 3], [1, 2, 4]]),
+    let bodies = Grid {
+        name: "bodies".into(),
+        points: vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.0, 1.0],
+            [1.0, 1.0],
+            [2.0, 1.0],
+            [0.5, 2.0],
+            [1.5, 2.0],
+        ],
+        topology: Topology::Triangle(vec![[0, 1, 2], [0, 2, 3], [4, 5, 7], [5, 8, 7], [5, 6, 8]]),
+        fields: vec![Field {
+            name: "body".into(),
+            center: Center::Cell,
+            kind: Kind::Scalar,
+            values: vec![1.0, 1.0, 2.0, 2.0, 2.0],
+        }],
     };
     let contact = Grid {
         name: "contact".into(),
         points: vec![[0.0, 1.0], [0.5, 1.0], [1.0, 1.0]],
         topology: Topology::Segment(vec![[0, 1], [1, 2]]),
+        fields: Vec::new(),
     };
     let steps = (0..2)
         .map(|k| {
@@ -74,19 +88,11 @@ pub(super) fn sample() -> Results {
                 time: k as f64 + 1.0,
                 grids: vec![
                     GridFields {
-                        grid: "body1".into(),
+                        grid: "bodies".into(),
                         fields: vec![
-                            field("u", Center::Node, Kind::Vector, t + 1.0, 4),
-                            field("sigma", Center::Cell, Kind::Tensor, t + 2.0, 2),
-                            field("eta", Center::Cell, Kind::Scalar, t + 3.0, 2),
-                        ],
-                    },
-                    GridFields {
-                        grid: "body2".into(),
-                        fields: vec![
-                            field("u", Center::Node, Kind::Vector, t + 4.0, 5),
-                            field("sigma", Center::Cell, Kind::Tensor, t + 5.0, 3),
-                            field("eta", Center::Cell, Kind::Scalar, t + 6.0, 3),
+                            field("u", Center::Node, Kind::Vector, t + 1.0, 9),
+                            field("sigma", Center::Cell, Kind::Tensor, t + 2.0, 5),
+                            field("eta", Center::Cell, Kind::Scalar, t + 3.0, 5),
                         ],
                     },
                     GridFields {
@@ -101,9 +107,10 @@ pub(super) fn sample() -> Results {
         })
         .collect();
     Results {
-        grids: vec![lower, upper, contact],
+        grids: vec![bodies, contact],
         steps,
         attributes: vec![("nranks".into(), 2.0), ("error_bound".into(), 0.125)],
+        text: vec![("program".into(), "nndd test".into())],
     }
 }
 

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::{grid_index, Center, OutputError, Results, Share};
+use super::{grid_index, Center, Field, Grid, OutputError, Results, Share};
 
 /// The file-name part of PREFIX, checked usable in XDMF references.
 pub(super) fn prefix_name(prefix: &Path) -> Result<String, OutputError> {
@@ -31,6 +31,8 @@ pub(super) fn prefix_name(prefix: &Path) -> Result<String, OutputError> {
     Ok(name.to_string())
 }
 
+const NAME_RULE: &str = "non-empty, ASCII letters, digits, '_', '-', '.', not starting with '.'";
+
 fn valid_name(name: &str) -> bool {
     !name.is_empty()
         && !name.starts_with('.')
@@ -49,7 +51,7 @@ pub(super) fn validate(
         path: path.to_path_buf(),
         reason,
     };
-    let name_rule = "non-empty, ASCII letters, digits, '_', '-', '.', not starting with '.'";
+    let name_rule = NAME_RULE;
     if shares.len() != results.grids.len() {
         return Err(invalid(format!(
             "{} shares for {} grids",
@@ -63,6 +65,11 @@ pub(super) fn validate(
                 "grid name {:?}: must be {name_rule}",
                 g.name
             )));
+        }
+        if i > 0 && g.name == "final" {
+            return Err(invalid(
+                "grid name \"final\": PREFIX-final.xdmf is the first grid's last step".into(),
+            ));
         }
         if results.grids[..i].iter().any(|o| o.name == g.name) {
             return Err(invalid(format!("grid name {:?} is used twice", g.name)));
@@ -89,13 +96,26 @@ pub(super) fn validate(
             }
         }
     }
-    for (i, (name, _)) in results.attributes.iter().enumerate() {
+    for (gi, g) in results.grids.iter().enumerate() {
+        for (f, field) in g.fields.iter().enumerate() {
+            let at = format!("grid {:?}, field {:?}", g.name, field.name);
+            let taken = ["geometry", "topology"].contains(&field.name.as_str());
+            if taken || g.fields[..f].iter().any(|o| o.name == field.name) {
+                return Err(invalid(format!("{at}: name used twice")));
+            }
+            check_field(&at, field, g, &shares[gi]).map_err(invalid)?;
+        }
+    }
+    let names: Vec<&str> = (results.attributes.iter().map(|(n, _)| n.as_str()))
+        .chain(results.text.iter().map(|(n, _)| n.as_str()))
+        .collect();
+    for (i, name) in names.iter().enumerate() {
         if name.is_empty() || name.contains('\0') {
             return Err(invalid(format!(
                 "attribute name {name:?}: empty or contains NUL"
             )));
         }
-        if results.attributes[..i].iter().any(|(o, _)| o == name) {
+        if names[..i].contains(name) {
             return Err(invalid(format!("attribute name {name:?} is used twice")));
         }
     }
@@ -128,28 +148,37 @@ pub(super) fn validate(
             }
             for (f, field) in gf.fields.iter().enumerate() {
                 let at = format!("step {k}, grid {:?}, field {:?}", gf.grid, field.name);
-                if !valid_name(&field.name) {
-                    return Err(invalid(format!("{at}: name must be {name_rule}")));
-                }
-                if gf.fields[..f].iter().any(|o| o.name == field.name) {
+                if gf.fields[..f].iter().any(|o| o.name == field.name)
+                    || grid.fields.iter().any(|o| o.name == field.name)
+                {
                     return Err(invalid(format!("{at}: name used twice")));
                 }
-                let (entries, what) = match field.center {
-                    Center::Node => (grid.points.len(), "points"),
-                    Center::Cell => (grid.topology.cell_count(), "cells"),
-                };
-                let expected = entries.checked_mul(field.kind.given());
-                let absent = field.values.is_empty() && shares[gi].rows(field.center).is_empty();
-                if expected != Some(field.values.len()) && !absent {
-                    return Err(invalid(format!(
-                        "{at}: {} values, expected {entries} {what} x {} ({:?})",
-                        field.values.len(),
-                        field.kind.given(),
-                        field.kind
-                    )));
-                }
+                check_field(&at, field, grid, &shares[gi]).map_err(invalid)?;
             }
         }
+    }
+    Ok(())
+}
+
+/// A field of `grid`: its name, and as many values as the grid has entries of its center
+/// (or none where this rank's share of them is empty).
+fn check_field(at: &str, field: &Field, grid: &Grid, share: &Share) -> Result<(), String> {
+    if !valid_name(&field.name) {
+        return Err(format!("{at}: name must be {NAME_RULE}"));
+    }
+    let (entries, what) = match field.center {
+        Center::Node => (grid.points.len(), "points"),
+        Center::Cell => (grid.topology.cell_count(), "cells"),
+    };
+    let expected = entries.checked_mul(field.kind.given());
+    let absent = field.values.is_empty() && share.rows(field.center).is_empty();
+    if expected != Some(field.values.len()) && !absent {
+        return Err(format!(
+            "{at}: {} values, expected {entries} {what} x {} ({:?})",
+            field.values.len(),
+            field.kind.given(),
+            field.kind
+        ));
     }
     Ok(())
 }
@@ -177,10 +206,10 @@ mod tests {
     fn invalid_results_fail_and_leave_nothing() {
         let mut r = sample();
         r.steps[1].grids[0].fields[1].values.pop();
-        assert_invalid(&r, "11 values, expected 2 cells x 6");
+        assert_invalid(&r, "29 values, expected 5 cells x 6");
 
         let mut r = sample();
-        r.steps[0].grids[2].fields[0].values.push(1.0);
+        r.steps[0].grids[1].fields[0].values.push(1.0);
         assert_invalid(&r, "4 values, expected 3 points x 1");
 
         let mut r = sample();
@@ -188,8 +217,27 @@ mod tests {
         assert_invalid(&r, "unknown grid");
 
         let mut r = sample();
-        r.grids[0].topology = Topology::Triangle(vec![[0, 1, 4]]);
-        assert_invalid(&r, "refers to point 4");
+        r.grids[0].fields[0].values.pop();
+        assert_invalid(&r, "4 values, expected 5 cells x 1");
+
+        let mut r = sample();
+        r.steps[0].grids[0].fields[2].name = "body".into();
+        assert_invalid(&r, "name used twice");
+
+        let mut r = sample();
+        r.text.push(("nranks".into(), "two".into()));
+        assert_invalid(&r, "is used twice");
+
+        let mut r = sample();
+        r.grids[1].name = "final".into();
+        r.steps
+            .iter_mut()
+            .for_each(|s| s.grids[1].grid = "final".into());
+        assert_invalid(&r, "PREFIX-final.xdmf");
+
+        let mut r = sample();
+        r.grids[0].topology = Topology::Triangle(vec![[0, 1, 9]]);
+        assert_invalid(&r, "refers to point 9");
 
         let mut r = sample();
         r.steps[1].time = 1.0;
@@ -200,7 +248,7 @@ mod tests {
         assert_invalid(&r, "name must be");
 
         let mut r = sample();
-        r.grids[2].name = "body1".into();
+        r.grids[1].name = "bodies".into();
         assert_invalid(&r, "used twice");
     }
 }

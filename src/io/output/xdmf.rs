@@ -1,9 +1,12 @@
-//! The XDMF text ParaView reads: one temporal collection of spatial
-//! collections of all grids, datasets referred to as `NAME.h5:/path`.
+//! The XDMF texts, in the layout of DOLFINx's `XDMFFile` (and meshio's time series): one
+//! mesh per file, a `Uniform` grid with its `Topology` and `Geometry`, then a temporal
+//! collection whose grids include that mesh (`xi:include`) and carry the fields of one step.
+//! Datasets are referred to as `NAME.h5:/path`, the bare file name, i.e. relative to the
+//! `.xdmf`'s own folder.
 
 use std::fmt::Write as _;
 
-use super::{entries, Grid, Results};
+use super::{entries, function_path, Field, Grid, Results, Step};
 
 fn xml_escape(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
@@ -30,10 +33,10 @@ fn data_item(
     path: &str,
 ) {
     let dims: Vec<String> = dims.iter().map(|d| d.to_string()).collect();
-    let (number_type, precision) = if float { ("Float", 8) } else { ("Int", 8) };
+    let number_type = if float { "Float" } else { "Int" };
     let _ = writeln!(
         out,
-        "{indent}<DataItem Dimensions=\"{}\" NumberType=\"{number_type}\" Precision=\"{precision}\" Format=\"HDF\">{}:{}</DataItem>",
+        "{indent}<DataItem Dimensions=\"{}\" NumberType=\"{number_type}\" Precision=\"8\" Format=\"HDF\">{}:{}</DataItem>",
         dims.join(" "),
         xml_escape(h5_name),
         xml_escape(path)
@@ -50,89 +53,86 @@ fn grid_mesh(out: &mut String, indent: &str, g: &Grid, h5_name: &str) {
         g.topology.xdmf_type()
     );
     let inner = format!("{indent}  ");
-    data_item(
-        out,
-        &inner,
-        &[m, npc],
-        false,
-        h5_name,
-        &format!("/grids/{}/cells", g.name),
-    );
+    let path = format!("/Mesh/{}/topology", g.name);
+    data_item(out, &inner, &[m, npc], false, h5_name, &path);
     let _ = writeln!(out, "{indent}</Topology>");
     let _ = writeln!(out, "{indent}<Geometry GeometryType=\"XY\">");
-    let n = g.points.len();
-    data_item(
-        out,
-        &inner,
-        &[n, 2],
-        true,
-        h5_name,
-        &format!("/grids/{}/points", g.name),
-    );
+    let path = format!("/Mesh/{}/geometry", g.name);
+    data_item(out, &inner, &[g.points.len(), 2], true, h5_name, &path);
     let _ = writeln!(out, "{indent}</Geometry>");
 }
 
-/// The XDMF text; `h5_name` is the bare file name of the HDF5 file.
-pub(super) fn xdmf_text(results: &Results, h5_name: &str) -> String {
-    let mut out = String::new();
-    out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    out.push_str("<Xdmf Version=\"3.0\">\n  <Domain>\n");
-    if results.steps.is_empty() {
-        out.push_str(
-            "    <Grid Name=\"meshes\" GridType=\"Collection\" CollectionType=\"Spatial\">\n",
+/// One `Attribute` of grid `g`, its data at `path`.
+fn attribute(out: &mut String, indent: &str, g: &Grid, field: &Field, h5_name: &str, path: &str) {
+    let _ = writeln!(
+        out,
+        "{indent}<Attribute Name=\"{}\" AttributeType=\"{}\" Center=\"{}\">",
+        xml_escape(&field.name),
+        field.kind.xdmf_type(),
+        field.center.xdmf_name()
+    );
+    let shape = field.stored_shape(entries(Some(g), field.center));
+    data_item(out, &format!("{indent}  "), &shape, true, h5_name, path);
+    let _ = writeln!(out, "{indent}</Attribute>");
+}
+
+/// The attributes of grid `g` at `step` (the grid's constant fields first).
+fn step_attributes(out: &mut String, indent: &str, g: &Grid, step: &Step, h5_name: &str) {
+    for field in &g.fields {
+        let path = format!("/Mesh/{}/{}", g.name, field.name);
+        attribute(out, indent, g, field, h5_name, &path);
+    }
+    for field in step.fields_of(&g.name) {
+        let path = function_path(&g.name, &field.name, step.time);
+        attribute(out, indent, g, field, h5_name, &path);
+    }
+}
+
+const HEAD: &str = "<?xml version=\"1.0\"?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n\
+<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n  <Domain>\n";
+const TAIL: &str = "  </Domain>\n</Xdmf>\n";
+
+/// Grid `g` at every step: its mesh, then (with steps) the temporal collection of its fields,
+/// the time of each step its NNDD iteration number.
+pub(super) fn series_text(results: &Results, g: &Grid, h5_name: &str) -> String {
+    let mut out = String::from(HEAD);
+    let name = xml_escape(&g.name);
+    let _ = writeln!(out, "    <Grid Name=\"{name}\" GridType=\"Uniform\">");
+    grid_mesh(&mut out, "      ", g, h5_name);
+    out.push_str("    </Grid>\n");
+    if !results.steps.is_empty() {
+        let _ = writeln!(
+            out,
+            "    <Grid Name=\"{name}\" GridType=\"Collection\" CollectionType=\"Temporal\">"
         );
-        for g in &results.grids {
-            let _ = writeln!(
-                out,
-                "      <Grid Name=\"{}\" GridType=\"Uniform\">",
-                xml_escape(&g.name)
-            );
-            grid_mesh(&mut out, "        ", g, h5_name);
-            out.push_str("      </Grid>\n");
-        }
-        out.push_str("    </Grid>\n");
-    } else {
-        out.push_str(
-            "    <Grid Name=\"nndd\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
-        );
-        for (k, step) in results.steps.iter().enumerate() {
-            let _ = writeln!(
-                out,
-                "      <Grid Name=\"step_{k}\" GridType=\"Collection\" CollectionType=\"Spatial\">"
+        for step in &results.steps {
+            let _ = writeln!(out, "      <Grid Name=\"{name}\" GridType=\"Uniform\">");
+            out.push_str(
+                "        <xi:include xpointer=\"xpointer(/Xdmf/Domain/Grid[@GridType='Uniform'][1]/*[self::Topology or self::Geometry])\"/>\n",
             );
             let _ = writeln!(out, "        <Time Value=\"{}\"/>", step.time);
-            for g in &results.grids {
-                let _ = writeln!(
-                    out,
-                    "        <Grid Name=\"{}\" GridType=\"Uniform\">",
-                    xml_escape(&g.name)
-                );
-                grid_mesh(&mut out, "          ", g, h5_name);
-                let fields = step
-                    .grids
-                    .iter()
-                    .filter(|gf| gf.grid == g.name)
-                    .flat_map(|gf| &gf.fields);
-                for field in fields {
-                    let _ = writeln!(
-                        out,
-                        "          <Attribute Name=\"{}\" AttributeType=\"{}\" Center=\"{}\">",
-                        xml_escape(&field.name),
-                        field.kind.xdmf_type(),
-                        field.center.xdmf_name()
-                    );
-                    let shape = field.stored_shape(entries(Some(g), field.center));
-                    let path = format!("/steps/{k}/{}/{}", g.name, field.name);
-                    data_item(&mut out, "            ", &shape, true, h5_name, &path);
-                    out.push_str("          </Attribute>\n");
-                }
-                out.push_str("        </Grid>\n");
-            }
+            step_attributes(&mut out, "        ", g, step, h5_name);
             out.push_str("      </Grid>\n");
         }
         out.push_str("    </Grid>\n");
     }
-    out.push_str("  </Domain>\n</Xdmf>\n");
+    out.push_str(TAIL);
+    out
+}
+
+/// Grid `g` at one step alone: a single `Uniform` grid with its mesh and fields (what
+/// meshio's `read` and every XDMF reader open without a time series).
+pub(super) fn single_text(g: &Grid, step: &Step, h5_name: &str) -> String {
+    let mut out = String::from(HEAD);
+    let _ = writeln!(
+        out,
+        "    <Grid Name=\"{}\" GridType=\"Uniform\">",
+        xml_escape(&g.name)
+    );
+    grid_mesh(&mut out, "      ", g, h5_name);
+    step_attributes(&mut out, "      ", g, step, h5_name);
+    out.push_str("    </Grid>\n");
+    out.push_str(TAIL);
     out
 }
 
@@ -150,13 +150,19 @@ mod tests {
         let mut results = sample();
         results.steps.clear();
         write_results(&prefix, &results).expect("write");
-        let xdmf = fs::read_to_string(dir.0.join("mesh.xdmf")).unwrap();
-        assert!(!xdmf.contains("Temporal"));
+        assert_eq!(
+            dir.entries(),
+            vec!["mesh-contact.xdmf", "mesh.h5", "mesh.xdmf"]
+        );
         let file = hdf5::File::open(dir.0.join("mesh.h5")).unwrap();
-        let items = data_items(&xdmf);
-        assert_eq!(items.len(), 6);
-        for (_, path, dims) in &items {
-            assert_eq!(&file.dataset(path).unwrap().shape(), dims);
+        for name in ["mesh.xdmf", "mesh-contact.xdmf"] {
+            let xdmf = fs::read_to_string(dir.0.join(name)).unwrap();
+            assert!(!xdmf.contains("Temporal"));
+            let items = data_items(&xdmf);
+            assert_eq!(items.len(), 2, "{name}: topology and geometry");
+            for (_, path, dims) in &items {
+                assert_eq!(&file.dataset(path).unwrap().shape(), dims);
+            }
         }
     }
 }

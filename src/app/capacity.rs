@@ -1,0 +1,141 @@
+//! Whether a run fits in the memory of its nodes, checked before any mesh is built: the
+//! subdomain factorisations of the mesh n and, with `-nndd_reference_factor r`, of the
+//! reference mesh r·n (both held at once while the reference is solved). A run that would not
+//! fit is refused with its estimated memory, instead of swapping or being killed part-way.
+//!
+//! The estimate is a model of the measured peaks (`jobs/bench-memory` prints the table it was
+//! fitted to, `paper` n = 64 … 512 on 2 ranks: within 7 % of the measured peaks, factored or
+//! iterative bodies alike): per rank a fixed part (MPI, PETSc, the program), and per dof of
+//! each mesh `PER_DOF_LOG · log2(dofs)` bytes (MUMPS's fill of a 2D mesh in nested-dissection
+//! order grows as dofs · log dofs; GAMG's hierarchy with the interface operators costs about
+//! as much). The available memory is the sum over the run's nodes of `MemAvailable`
+//! (`/proc/meminfo`), or of the cgroup's limit less its usage where that is lower (a Slurm
+//! job's `--mem`).
+
+use mpi::collective::SystemOperation;
+use mpi::topology::{Communicator as _, SimpleCommunicator};
+use mpi::traits::*;
+
+use super::options::{Settings, SettingsError};
+
+/// Bytes per rank that do not depend on the mesh (MPI, PETSc, the program).
+const PER_RANK: f64 = 45.0 * MIB;
+/// Bytes per dof and per log2(dofs) of a mesh.
+const PER_DOF_LOG: f64 = 100.0;
+const MIB: f64 = 1024.0 * 1024.0;
+const GIB: f64 = 1024.0 * MIB;
+
+/// The estimated bytes of a mesh of `dofs` dofs.
+fn mesh_bytes(dofs: usize) -> f64 {
+    let n = dofs.max(2) as f64;
+    PER_DOF_LOG * n * n.log2()
+}
+
+/// The memory this node offers: `MemAvailable`, or the cgroup's room if lower (bytes).
+fn node_available() -> f64 {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").unwrap_or_default();
+    let kib = |key: &str| {
+        meminfo
+            .lines()
+            .find(|l| l.starts_with(key))
+            .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+    };
+    let mut bytes = kib("MemAvailable:").map_or(f64::INFINITY, |k| k * 1024.0);
+    let read = |f: &str| std::fs::read_to_string(format!("/sys/fs/cgroup/{f}")).ok();
+    if let (Some(max), Some(current)) = (read("memory.max"), read("memory.current")) {
+        if let (Ok(max), Ok(current)) = (max.trim().parse::<f64>(), current.trim().parse::<f64>()) {
+            bytes = bytes.min(max - current);
+        }
+    }
+    bytes
+}
+
+/// The memory the run's nodes offer (bytes), summed over the nodes (collective).
+fn available(world: &SimpleCommunicator) -> f64 {
+    let node = world.split_shared(world.rank());
+    let mine = if node.rank() == 0 {
+        node_available()
+    } else {
+        0.0
+    };
+    let mut total = 0.0;
+    world.all_reduce_into(&mine, &mut total, SystemOperation::sum());
+    total
+}
+
+/// The dofs of the reference mesh r·n: exact for the built-in problems, r² times the mesh's
+/// for a Gmsh mesh (its uniform refinement, not built here).
+fn fine_dofs(settings: &Settings, r: usize) -> usize {
+    match &settings.problem.mesh {
+        None => settings.problem.refined(r).dofs(),
+        Some(_) => settings.problem.dofs() * r * r,
+    }
+}
+
+/// The estimated bytes of a run on `ranks` ranks: the mesh of `dofs` dofs and the reference
+/// mesh of `reference` dofs (held together).
+pub fn estimate(ranks: usize, dofs: usize, reference: Option<usize>) -> f64 {
+    PER_RANK * ranks as f64 + mesh_bytes(dofs) + reference.map_or(0.0, mesh_bytes)
+}
+
+/// Refuses a run whose meshes would not fit (collective; the same answer on every rank).
+pub fn check(settings: &Settings, world: &SimpleCommunicator) -> Result<(), SettingsError> {
+    let ranks = world.size() as usize;
+    let dofs = settings.problem.dofs();
+    let base = estimate(ranks, dofs, None);
+    let r = settings.reference_factor;
+    let fine = (r > 0).then(|| fine_dofs(settings, r));
+    let need = estimate(ranks, dofs, fine);
+    let have = available(world);
+    if need <= have {
+        return Ok(());
+    }
+    let gib = |b: f64| format!("{:.1} GiB", b / GIB);
+    Err(match fine {
+        Some(reference_dofs) if base <= have => {
+            // The largest factor that fits, for the message.
+            let fits = (1..r)
+                .rev()
+                .find(|&f| estimate(ranks, dofs, Some(fine_dofs(settings, f))) <= have);
+            SettingsError::Named {
+                option: format!("-nndd_reference_factor {r}"),
+                message: format!(
+                    "the reference solution on mesh {} ({reference_dofs} dofs) needs about {} (estimated; the run's nodes have {} available); {}",
+                    settings.problem.n * r,
+                    gib(need),
+                    gib(have),
+                    match fits {
+                        Some(f) => format!("use a factor of at most {f}, or more nodes"),
+                        None => "run on more nodes, or without -nndd_reference_factor".into(),
+                    }
+                ),
+            }
+        }
+        _ => SettingsError::Named {
+            option: match &settings.problem.mesh {
+                Some(spec) => format!("-nndd_mesh {}", spec.gmsh.path),
+                None => format!("-nndd_n {}", settings.problem.n),
+            },
+            message: format!(
+                "the mesh ({dofs} dofs) needs about {} (estimated; the run's nodes have {} available); use a coarser mesh or more nodes",
+                gib(base),
+                gib(have)
+            ),
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mesh_grows_faster_than_its_dofs() {
+        let (small, large) = (mesh_bytes(1 << 16), mesh_bytes(1 << 20));
+        // 16 times the dofs, log2 from 16 to 20: 20 times the bytes.
+        assert!((large / small - 20.0).abs() < 1e-9, "{}", large / small);
+        // paper n = 512 on 2 ranks (1 052 676 dofs) peaked at 1979 MiB (jobs/bench-memory).
+        let model = estimate(2, 1_052_676, None) / MIB;
+        assert!((1979.0..1.1 * 1979.0).contains(&model), "{model}");
+    }
+}

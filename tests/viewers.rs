@@ -1,0 +1,198 @@
+//! Capability: the result files open as they are in the tools users have. ParaView's default
+//! reader (pvpython under xvfb-run) and meshio read `paper`'s results from their own folder;
+//! the XDMF follows DOLFINx's `XDMFFile` layout (read here from its text: no DOLFINx needed).
+//! ParaView, xvfb and meshio come from `jobs/setup`.
+
+mod common;
+use common::*;
+use std::path::Path;
+use std::process::Command;
+
+/// `paper` n = 8 on 2 ranks with estimates every 2 iterations: several steps, the last the
+/// reported iterate.
+fn paper_with_steps(dir: &Path) -> (std::path::PathBuf, u64) {
+    let p = dir.join("paper");
+    let args = [
+        "-nndd_n",
+        "8",
+        "-nndd_theta",
+        "0.25",
+        "-nndd_estimate_every",
+        "2",
+    ];
+    let j = solve(2, &p, &args);
+    (p, j["iterations"].as_u64().unwrap())
+}
+
+/// Runs `cmd`, requires exit 0, returns its stdout.
+fn run_ok(mut cmd: Command, what: &str) -> String {
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what}: cannot start ({e}); run jobs/setup"));
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{what}: {}\n{text}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+#[test]
+fn paraview_default_reader_shows_the_fields() {
+    let dir = scratch("viewers-paraview");
+    let (_, its) = paper_with_steps(&dir);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/viewers/paraview_check.py");
+    let png = dir.join("eta_fe.png");
+    let attempt = || {
+        let mut cmd = Command::new("xvfb-run");
+        cmd.args(["-a", "-s", "-screen 0 800x600x24", "pvpython"])
+            .arg(&script)
+            .arg(&dir)
+            .args(["paper", &its.to_string()])
+            .arg(&png);
+        cmd.output()
+            .expect("xvfb-run starts (jobs/setup installs it)")
+    };
+    // xvfb-run -a now and then hands pvpython a display it cannot open (SIGABRT before any
+    // check): once more then.
+    let mut out = attempt();
+    let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).into_owned();
+    if !out.status.success() && !text(&out).contains("ok   ") {
+        out = attempt();
+    }
+    let stdout = text(&out);
+    assert!(
+        out.status.success() && !stdout.contains("FAIL"),
+        "pvpython: {}\n{stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // (every check ran: the script stops at the first failure)
+    assert!(
+        stdout.contains("ok   its eta_fe is the last step's"),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn meshio_reads_every_step_of_every_function() {
+    let dir = scratch("viewers-meshio");
+    let (p, its) = paper_with_steps(&dir);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/viewers/meshio_check.py");
+    // Debian's python3 (with python3-meshio and python3-h5py), whatever python3 is first on PATH.
+    let mut cmd = Command::new("/usr/bin/python3");
+    cmd.arg(script).arg(&p).arg(its.to_string());
+    let stdout = run_ok(cmd, "meshio");
+    assert!(!stdout.contains("FAIL"), "{stdout}");
+    assert!(
+        stdout.contains("fields read, every step of every function"),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The text between `<tag` … `</tag>` or `/>` of every `tag` element.
+fn elements<'a>(xml: &'a str, tag: &str) -> Vec<&'a str> {
+    let open = format!("<{tag}");
+    let mut out = Vec::new();
+    let mut rest = xml;
+    while let Some(i) = rest.find(&open) {
+        let after = &rest[i..];
+        let close = format!("</{tag}>");
+        let end = match (after.find(&close), after.find("/>")) {
+            (Some(_), Some(s)) if s < after.find('>').unwrap_or(0) + 1 => s + 2,
+            (Some(c), _) => c + close.len(),
+            (None, Some(s)) => s + 2,
+            (None, None) => after.len(),
+        };
+        out.push(&after[..end]);
+        rest = &after[open.len()..];
+    }
+    out
+}
+
+#[test]
+fn xdmf_follows_dolfinx_layout() {
+    let dir = scratch("viewers-layout");
+    let (p, its) = paper_with_steps(&dir);
+    let file = hdf5::File::open(format!("{}.h5", p.display())).unwrap();
+    for (name, grid) in [("paper.xdmf", "bodies"), ("paper-contact.xdmf", "contact")] {
+        let xml = std::fs::read_to_string(dir.join(name)).unwrap();
+        // The mesh first: a Uniform grid named after it, Topology and Geometry in /Mesh/<grid>.
+        let grids = elements(&xml, "Grid");
+        assert!(
+            grids[0].starts_with(&format!("<Grid Name=\"{grid}\" GridType=\"Uniform\">")),
+            "{name}: {}",
+            grids[0]
+        );
+        assert!(grids[0].contains(&format!("paper.h5:/Mesh/{grid}/topology<")));
+        assert!(grids[0].contains(&format!("paper.h5:/Mesh/{grid}/geometry<")));
+        // Then one temporal collection whose grids include that mesh and carry /Function data.
+        assert_eq!(
+            xml.matches("CollectionType=\"Temporal\"").count(),
+            1,
+            "{name}"
+        );
+        let steps: Vec<&str> = grids[2..].to_vec();
+        let times: Vec<u64> = elements(&xml, "Time")
+            .iter()
+            .map(|t| t.split('"').nth(1).unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(steps.len(), times.len(), "{name}");
+        assert_eq!(
+            *times.last().unwrap(),
+            its,
+            "{name}: the last step is the reported iterate"
+        );
+        assert!(times.windows(2).all(|w| w[0] < w[1]), "{name}: {times:?}");
+        let include = "<xi:include xpointer=\"xpointer(/Xdmf/Domain/Grid[@GridType='Uniform'][1]/*[self::Topology or self::Geometry])\"/>";
+        for s in &steps {
+            assert!(s.contains(include), "{name}: {s}");
+            assert!(
+                !s.contains("<Topology"),
+                "{name}: the mesh is included, not repeated"
+            );
+        }
+        // Every DataItem: the HDF5 file by its bare name, a dataset under /Mesh or /Function
+        // with the shape given.
+        for item in elements(&xml, "DataItem") {
+            let body = item.split('>').nth(1).unwrap().split('<').next().unwrap();
+            let (h5, path) = body.split_once(':').unwrap();
+            assert_eq!(h5, "paper.h5", "{name}");
+            assert!(
+                path.starts_with("/Mesh/") || path.starts_with("/Function/"),
+                "{path}"
+            );
+            let dims: Vec<usize> = item
+                .split("Dimensions=\"")
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap()
+                .split(' ')
+                .map(|d| d.parse().unwrap())
+                .collect();
+            assert_eq!(file.dataset(path).unwrap().shape(), dims, "{name}: {path}");
+        }
+    }
+    // The run's description as attributes of the file.
+    let text = |a: &str| -> String {
+        let v: hdf5::types::VarLenUnicode = file.attr(a).unwrap().read_scalar().unwrap();
+        v.as_str().to_string()
+    };
+    assert_eq!(
+        text("program"),
+        format!("nndd {}", env!("CARGO_PKG_VERSION"))
+    );
+    assert!(
+        text("options").contains("-nndd_estimate_every 2"),
+        "{}",
+        text("options")
+    );
+    assert_eq!(text("problem"), "paper");
+    std::fs::remove_dir_all(&dir).ok();
+}
