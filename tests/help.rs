@@ -153,3 +153,36 @@ fn a_closed_output_pipe_ends_the_process_quietly() {
         "{err}"
     );
 }
+
+/// A phase that may take long (here: bodies of 101 250 dofs) is announced by one line with its
+/// size before it starts: each body's setup (assembly and factorisation) and the final estimate.
+#[test]
+fn long_phases_are_announced() {
+    let dir = scratch("long-phases");
+    let prefix = dir.join("run");
+    let out = mpirun(
+        2,
+        &[
+            "-nndd_n",
+            "224",
+            "-nndd_estimate",
+            "-nndd_output",
+            prefix.to_str().unwrap(),
+        ],
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    for body in [1, 2] {
+        let line = format!(
+            "nndd: body {body}: 101250 dofs on 1 rank(s): assembling and factoring (-body{body}_pc_type cholesky) …"
+        );
+        assert_eq!(text.matches(&line).count(), 1, "{text}");
+    }
+    let estimating = text
+        .find("nndd: estimating the errors of iteration")
+        .expect("announced");
+    let estimated = text.find("nndd: estimates at iteration").expect("reported");
+    assert!(estimating < estimated, "{text}");
+    assert!(text.contains("(202500 dofs) …"), "{text}");
+    std::fs::remove_dir_all(&dir).ok();
+}

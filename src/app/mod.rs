@@ -311,7 +311,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     let results = {
         let _s = stages.output.enter();
         let have = [layout.owns(1), layout.owns(2)];
-        let results = results_of(&settings, &problems, &sol, have)?;
+        let results = results_of(&settings, &problems, &sol, have);
         let shares = fields::shares(&layout, [&problems[0], &problems[1]]);
         output::write_results_parallel(&layout.world, &settings.output, &results, &shares)?;
         results
@@ -410,7 +410,7 @@ fn results_of(
     problems: &[Rc<BodyProblem>; 2],
     sol: &Solution,
     have: [bool; 2],
-) -> Result<Results, AppError> {
+) -> Results {
     let mut steps: Vec<_> = sol
         .estimates
         .iter()
@@ -441,7 +441,7 @@ fn results_of(
             "program".into(),
             format!("nndd {}", env!("CARGO_PKG_VERSION")),
         ),
-        ("options".into(), petsc::options_text()?),
+        ("options".into(), settings.options_text.clone()),
         ("problem".into(), settings.problem.kind.name().to_string()),
         (
             "mesh_file".into(),
@@ -450,7 +450,7 @@ fn results_of(
         ("physical_names".into(), physical_names),
     ];
     let problems = [&*problems[0], &*problems[1]];
-    Ok(fields::results(problems, &steps, have, attributes, text))
+    fields::results(problems, &steps, have, attributes, text)
 }
 
 /// `-nndd_schur_view`: each body's S^α and D^α (row-major, exact in JSON) from its first rank,

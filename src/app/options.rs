@@ -108,6 +108,9 @@ pub struct Settings {
     pub fault: Option<(i32, Phase)>,
     /// What the settings allow but the user should know (printed once, and in the summary).
     pub warnings: Vec<String>,
+    /// Every option as given (command line and options files, PETSc's listing), before nndd
+    /// adds the defaults of a body's group (the same on every rank).
+    pub options_text: String,
 }
 
 impl Settings {
@@ -620,6 +623,7 @@ impl Settings {
             restart: restart_given.then(|| PathBuf::from(restart)),
             fault,
             warnings,
+            options_text: petsc::options_text()?,
         })
     }
 

@@ -7,7 +7,7 @@ use crate::dd::nndd::{Iterate, IterationRecord};
 use crate::estimate::EstimateRecord;
 use crate::io::monitor::{self, sci};
 use crate::io::output::Results;
-use crate::io::summary::{EquilibriumResiduals, Summary, Timings};
+use crate::io::summary::{EquilibriumResiduals, EstimateMeaning, Summary, Timings};
 use crate::io::{fields, output};
 use crate::parallel::layout::Layout;
 use crate::petsc::Petsc;
@@ -87,7 +87,14 @@ pub fn summarise(
         xdmf: output::with_ext(&settings.output, "xdmf")
             .display()
             .to_string(),
+        xdmf_contact: output::xdmf_path(&settings.output, "contact")
+            .display()
+            .to_string(),
+        xdmf_final: output::xdmf_path(&settings.output, "final")
+            .display()
+            .to_string(),
         fields: fields::describe(results),
+        estimate_meaning: (!sol.estimates.is_empty()).then_some(EstimateMeaning::PAPER),
         warnings: settings.warnings.clone(),
         solution_check: sol.check,
     }

@@ -74,6 +74,25 @@ pub struct EquilibriumResiduals {
     pub point_reaction: f64,
 }
 
+/// What η^glo, η^FE and η^NNDD bound (docs/output.md, docs/method.md §3.3), for the reader of
+/// the summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct EstimateMeaning {
+    pub eta_glo: &'static str,
+    pub eta_fe: &'static str,
+    pub eta_nndd: &'static str,
+    pub unit: &'static str,
+}
+
+impl EstimateMeaning {
+    pub const PAPER: EstimateMeaning = EstimateMeaning {
+        eta_glo: "guaranteed upper bound of the energy-norm error of the iterate against the exact solution of the continuous contact problem (paper (22))",
+        eta_fe: "the part of the error due to the mesh: the same bound for the contact problem at the iterate's interface displacement lambda_p (paper (23)); built from other admissible fields, so it may exceed eta_glo near convergence",
+        eta_nndd: "the part of the error due to stopping the NNDD: the error of the iterate against the discrete contact problem's solution (paper (24)); tends to 0 as the NNDD converges",
+        unit: "(J/m)^(1/2), the energy norm per unit thickness",
+    };
+}
+
 /// Where a field lives in `PREFIX.h5`.
 #[derive(Clone, Debug, Serialize)]
 pub struct FieldInfo {
@@ -161,8 +180,15 @@ pub struct Summary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_iterations: Option<usize>,
     pub h5: String,
+    /// The bodies' series (`PREFIX.xdmf`).
     pub xdmf: String,
+    /// Γc's series and the reported iterate alone (docs/output.md).
+    pub xdmf_contact: String,
+    pub xdmf_final: String,
     pub fields: Vec<FieldInfo>,
+    /// What each estimate bounds, and their unit (with estimates).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimate_meaning: Option<EstimateMeaning>,
     /// The warnings the run printed (`nndd: warning: …`), in order.
     pub warnings: Vec<String>,
     /// The check of the reported iterate: each body's equilibrium residual and the relative
