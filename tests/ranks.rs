@@ -139,8 +139,14 @@ fn one_to_six_ranks(recovery: &str) {
 fn h5_contents(prefix: &std::path::Path) -> Vec<(String, Vec<f64>)> {
     fn walk(g: &hdf5::Group, path: &str, out: &mut Vec<(String, Vec<f64>)>) {
         for a in g.attr_names().unwrap() {
-            let v: f64 = g.attr(&a).unwrap().read_scalar().unwrap();
-            out.push((format!("{path}@{a}"), vec![v]));
+            // The text attributes describe the run (its options differ): their names only.
+            let v: Vec<f64> = g
+                .attr(&a)
+                .unwrap()
+                .read_scalar::<f64>()
+                .into_iter()
+                .collect();
+            out.push((format!("{path}@{a}"), v));
         }
         for name in g.member_names().unwrap() {
             let p = format!("{path}/{name}");

@@ -30,17 +30,22 @@ fn stresses_are_exact() {
     assert!((syy + 1.1326e7).abs() < 1e4, "exact σ_yy {syy}");
     for body in ["body1", "body2"] {
         let s = field(&p, body, "stress");
-        assert_eq!(s.len() % 9, 0);
-        for c in s.chunks(9) {
-            // Stored as the full tensor: xx xy xz / xy yy yz / xz yz zz.
+        assert_eq!(s.len() % 6, 0);
+        for c in s.chunks(6) {
+            // Stored as xx yy zz xy yz xz.
             assert!(
-                (c[4] - syy).abs() < 1e-9 * syy.abs(),
+                (c[1] - syy).abs() < 1e-9 * syy.abs(),
                 "{body} σ_yy {} vs {syy}",
-                c[4]
+                c[1]
             );
             assert!(
-                c[0].abs() < 1e-9 * syy.abs() && c[1].abs() < 1e-9 * syy.abs(),
+                c[0].abs() < 1e-9 * syy.abs() && c[3].abs() < 1e-9 * syy.abs(),
                 "{body} σ_xx/σ_xy {c:?}"
+            );
+            // Plane strain: σ_zz = ν σ_yy.
+            assert!(
+                (c[2] - nu * syy).abs() < 1e-9 * syy.abs(),
+                "{body} σ_zz {c:?}"
             );
         }
     }

@@ -4,7 +4,7 @@
 //! fit is refused with its estimated memory, instead of swapping or being killed part-way.
 //!
 //! The estimate is a model of the measured peaks (`jobs/bench-memory` prints the table it was
-//! fitted to, `paper` n = 64 … 512 on 2 ranks: within 7 % of the measured peaks, factored or
+//! fitted to, `paper` n = 64 … 512 on 2 ranks: within 9 % of the measured peaks, factored or
 //! iterative bodies alike): per rank a fixed part (MPI, PETSc, the program), and per dof of
 //! each mesh `PER_DOF_LOG · log2(dofs)` bytes (MUMPS's fill of a 2D mesh in nested-dissection
 //! order grows as dofs · log dofs; GAMG's hierarchy with the interface operators costs about
