@@ -589,8 +589,15 @@ fn compare_attributes(a: &hdf5::Location, b: &hdf5::Location, at: &str, diffs: &
                 .dtype()
                 .and_then(|t| t.to_descriptor())
                 .map_err(|e| e.to_string())?;
-            let value: f64 = attr.read_scalar().map_err(|e| e.to_string())?;
-            Ok::<_, String>((attr.shape(), format!("{dtype:?}"), value.to_bits()))
+            // A number by its bits, a text as it is.
+            let value = match attr.read_scalar::<f64>() {
+                Ok(v) => v.to_bits().to_string(),
+                Err(_) => attr
+                    .read_scalar::<hdf5::types::VarLenUnicode>()
+                    .map_err(|e| e.to_string())?
+                    .to_string(),
+            };
+            Ok::<_, String>((attr.shape(), format!("{dtype:?}"), value))
         };
         let (x, y) = (read(a), read(b));
         if x.is_err() || x != y {
