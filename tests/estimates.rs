@@ -280,12 +280,13 @@ fn estimates_agree_on_one_and_two_ranks_with(recovery: &str) {
 /// `-nndd_recovery_warm_change`: at 0 no recovery starts warm (the data change between any
 /// two, the η^FE recovery's from the η^glo one's too), so the final iterate's estimates in a
 /// run with an estimate at every iteration are those of a run that estimates the final
-/// iterate only. At the default the recoveries of the later iterations start warm, and the
-/// final η^glo differs from (here: is below) the single estimate's.
+/// iterate only. At the default the recoveries of the later iterations start warm, and their
+/// η^glo differs from (here: is below) the cold recoveries'.
 /// `-nndd_recovery_warm_change 0` makes every recovery cold; the warm chain's estimates along
 /// the way differ from the cold ones (the warm start changes the recovered stress), but the
-/// final iterate's bound is always the cold recovery's: one bound per iterate, with or without
-/// estimates before it, on 2 and 3 ranks.
+/// final iterate's estimates are always a single estimate's (η^glo recovered cold, η^FE from
+/// that recovery): one η^glo, η^FE, η^NNDD per iterate, with or without estimates before it,
+/// on 2 and 3 ranks.
 #[test]
 fn warm_change_zero_makes_every_recovery_cold() {
     let dir = scratch("warm-change");

@@ -449,7 +449,7 @@ impl Settings {
         }
         let (warm_change, _) = o.real(
             "-nndd_recovery_warm_change",
-            "Largest relative change of a body's displacement in the energy norm since the previous recovery for which a -nndd_recovery patch recovery starts warm (-nndd_recovery_warm_sweeps); further apart it starts cold",
+            "Largest relative change of a body's displacement in the energy norm since the previous recovery for which a -nndd_recovery patch recovery starts warm (-nndd_recovery_warm_sweeps); further apart it starts cold, as the final iterate's eta_glo recovery always does",
             crate::estimate::cre::WARM_CHANGE,
         )?;
         if !(warm_change >= 0.0 && warm_change.is_finite()) {
