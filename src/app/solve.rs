@@ -422,8 +422,8 @@ pub fn solve_nndd(
         ..
     } = observer;
     // The reported iterate's estimate (not when a signal stopped the run: it must end soon),
-    // from cold recoveries: one bound per iterate, whichever iterates were estimated before
-    // (an estimate of it in the loop may have started warm: it is made again).
+    // its η^glo recovery cold: one bound per iterate, whichever iterates were estimated
+    // before (an estimate of it in the loop may have started warm: it is made again).
     if let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) {
         let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
         if !in_loop || est.starts_warm() {

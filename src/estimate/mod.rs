@@ -180,7 +180,7 @@ pub struct Estimator<'a> {
     pub operators: [std::cell::RefCell<OperatorCache>; 2],
     /// [`Estimator::eta_nndd_without_fields`], agreed over the ranks at its first use.
     pub cheap_nndd: std::cell::OnceCell<bool>,
-    /// The estimate in progress recovers cold ([`Estimator::estimate_cold`]).
+    /// The estimate in progress recovers η^glo cold ([`Estimator::estimate_cold`]).
     pub cold: std::cell::Cell<bool>,
 }
 
