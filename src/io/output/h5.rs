@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::team::{agree, Writers};
-use super::{entries, function_path, OutputError, Results, Share};
+use super::{entries, time_key, OutputError, Results, Share};
 
 fn h5err(target: &Path, action: String) -> impl FnOnce(hdf5::Error) -> OutputError {
     let path = target.to_path_buf();
@@ -324,9 +324,7 @@ fn fill_h5<W: Writers>(
                 let shape = field.stored_shape(entries(Some(g), field.center));
                 let rows = share.rows(field.center);
                 let data = || field.stored_rows(rows.clone());
-                let path = function_path(&g.name, name, step.time);
-                let key = path.rsplit('/').next().unwrap_or_default();
-                out.dataset(&fg, key, &shape, rows.clone(), data)?;
+                out.dataset(&fg, &time_key(step.time), &shape, rows.clone(), data)?;
             }
         }
     }

@@ -481,12 +481,14 @@ pub fn write_results_parallel<C: mpi::traits::Communicator>(
 }
 
 /// The HDF5 path of field `field` of grid `grid` at the step of time `time` (DOLFINx's
-/// `/Function/<name>/<time>`, the time's `.` written `_`).
+/// `/Function/<name>/<time>`).
 pub(crate) fn function_path(grid: &str, field: &str, time: f64) -> String {
-    format!(
-        "/Function/{grid}/{field}/{}",
-        time.to_string().replace('.', "_")
-    )
+    format!("/Function/{grid}/{field}/{}", time_key(time))
+}
+
+/// A step's dataset name: its time, `.` written `_` (41 → `41`, 2.5 → `2_5`).
+fn time_key(time: f64) -> String {
+    time.to_string().replace('.', "_")
 }
 
 /// The XDMF files of `results` next to `PREFIX.h5` (file name `h5_name`): the first grid's
