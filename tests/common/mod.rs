@@ -79,10 +79,12 @@ pub fn h5(prefix: &Path, dataset: &str) -> Vec<f64> {
     d.read_raw::<f64>().unwrap()
 }
 
-/// The HDF5 grid of `grid` and, for `body1` and `body2`, that body's rows (points, cells) of
-/// the `bodies` grid (from the file's attributes `bodyN_points`, `bodyN_cells`) and the
-/// grid's number of cells.
-fn grid_rows(prefix: &Path, grid: &str) -> (String, Option<([std::ops::Range<usize>; 2], usize)>) {
+/// A body's rows of the `bodies` grid (points, cells), and the grid's number of cells.
+type BodyRows = ([std::ops::Range<usize>; 2], usize);
+
+/// The HDF5 grid of `grid` and, for `body1` and `body2`, that body's rows of the `bodies`
+/// grid (from the file's attributes `bodyN_points`, `bodyN_cells`).
+fn grid_rows(prefix: &Path, grid: &str) -> (String, Option<BodyRows>) {
     let Some(alpha) = grid
         .strip_prefix("body")
         .and_then(|a| a.parse::<usize>().ok())
