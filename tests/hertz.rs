@@ -171,3 +171,34 @@ fn hertz_on_one_two_four_ranks_equals_the_monolithic_solve() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Contact beyond the named curves is said: with the paired arc narrower than the contact zone
+/// (half-width 0.06 against Hertz's 0.08) the zone reaches the ends of Γc, where the block and
+/// the cylinder go on side by side, and the run warns (exit 0, the line on stderr and in the
+/// summary's `warnings`); with the example's arc (0.16) it does not.
+#[test]
+fn a_zone_that_reaches_the_end_of_the_contact_curves_is_said() {
+    let dir = scratch("hertz-short-arc");
+    let warned = |c: &str| {
+        let msh = dir.join(format!("c{c}.msh"));
+        gmsh(GEO, &[("level", "1"), ("c", c)], &[], &msh);
+        let j = hertz(2, &msh, &dir.join(format!("c{c}")), &[]);
+        let w: Vec<String> = j["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w.as_str().unwrap().to_string())
+            .collect();
+        (j, w)
+    };
+    let (j, w) = warned("0.06");
+    assert_eq!(j["contact_zone"], serde_json::json!([-0.06, 0.06]), "{j}");
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("reaches the end of the contact curves at (-6.000000e-2, 0.000000e0)"),
+        "{w:?}"
+    );
+    let (_, w) = warned("0.16");
+    assert!(w.is_empty(), "{w:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}

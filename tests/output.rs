@@ -75,6 +75,10 @@ fn h5_matches_json() {
         serde_json::json!([xs[0], xs[xs.len() - 1]])
     );
     assert_eq!(j["active_nodes"].as_u64().unwrap() as usize, xs.len());
+    // The zone reaches Γc's end x = 0, where the blocks' sides are flush (they part there):
+    // no warning of contact beyond the contact curves.
+    assert_eq!(xs[0], 0.0);
+    assert!(j["warnings"].as_array().unwrap().is_empty(), "{}", j["warnings"]);
     // Gap: ≥ 0 everywhere, 0 on the active nodes, > 0 off them.
     let gap = field(&p, "contact", "gap");
     for i in 0..9 {

@@ -10,7 +10,9 @@ EndIf
 R = 1;          // cylinder radius (m)
 W = 2;          // block half-width
 H = 2;          // block depth
-c = 0.16;       // half-width of the paired interface (the contact zone lies inside it)
+If (!Exists(c))
+  c = 0.16;     // half-width of the paired interface (the contact zone lies inside it)
+EndIf
 N = 16 * 2^level;   // interface segments on [-c, c]
 hc = 2 * c / N;     // interface spacing
 hf = 0.4 / 2^(level - 1) ; // far-field size

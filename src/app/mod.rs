@@ -256,7 +256,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         from,
         agreement,
     };
-    let sol = match settings.solver {
+    let mut sol = match settings.solver {
         SolverKind::Nndd => end_job_on_local_failure(solve::solve_nndd(
             &settings,
             &layout,
@@ -275,6 +275,15 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             &mut timings,
         ))?,
     };
+
+    // Contact beyond Γc: a zone that reaches an end of Γc where the bodies go on side by side.
+    let problem_refs = [&*problems[0], &*problems[1]];
+    if let Some(w) = dd::check::zone_reaches_open_end(problem_refs, &sol.last) {
+        if layout.is_root() {
+            eprintln!("nndd: warning: {w}");
+        }
+        sol.warnings.push(w);
+    }
 
     // Post-processing: energy, Schur source, timings and memory over ranks.
     let energy = {

@@ -95,7 +95,12 @@ pub fn summarise(
             .to_string(),
         fields: fields::describe(results),
         estimate_meaning: (!sol.estimates.is_empty()).then_some(EstimateMeaning::PAPER),
-        warnings: settings.warnings.clone(),
+        warnings: settings
+            .warnings
+            .iter()
+            .chain(&sol.warnings)
+            .cloned()
+            .collect(),
         solution_check: sol.check,
     }
 }

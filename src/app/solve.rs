@@ -49,6 +49,9 @@ pub struct Solution {
     pub neumann_step: [Option<NeumannStep>; 2],
     /// The a-posteriori check of the reported iterate.
     pub check: Option<crate::dd::check::SolutionCheck>,
+    /// What the checks of the solution found that the user should know (printed, and in the
+    /// summary's `warnings`).
+    pub warnings: Vec<String>,
 }
 
 /// Meshes, assembly and factorisation of the bodies this rank owns.
@@ -480,6 +483,7 @@ pub fn solve_nndd(
         dirichlet_step: dirichlet.as_ref().map_or("", |d| d.name()),
         neumann_step: neumann,
         check: Some(res.check),
+        warnings: Vec::new(),
     })
 }
 
@@ -544,6 +548,7 @@ pub fn solve_monolithic(
         dirichlet_step: "",
         neumann_step: [None, None],
         check: Some(check),
+        warnings: Vec::new(),
     })
 }
 

@@ -4,9 +4,12 @@
 //! (no penetration, no tension, complementarity). What the iteration computed by condensed
 //! algebra (S^α, D^α, the contact QP) is thus checked against the bodies' own systems.
 
+use std::collections::HashMap;
+
 use crate::dd::body::{Body, BodyError};
 use crate::dd::nndd::Iterate;
 use crate::parallel::layout::Layout;
+use crate::problem::BodyProblem;
 
 /// The largest equilibrium residual (a normwise backward error) of the final fields accepted.
 pub const EQUILIBRIUM_LIMIT: f64 = 1e-9;
@@ -100,6 +103,59 @@ pub fn check_solution(
     check.tension = packed[2];
     check.complementarity = packed[3];
     Ok(check)
+}
+
+/// The largest angle between the two bodies' boundaries beyond an end of Γc for which contact
+/// may go on past that end: they leave it side by side (a flat block under a cylinder, a
+/// rounded punch on its foundation), not apart (flush sides, a sharp punch's corner).
+pub const SIDE_BY_SIDE_DEGREES: f64 = 30.0;
+
+/// The unit direction in which body `p`'s boundary leaves Γc at the end pair `end` (0 or
+/// m − 1): along its boundary edge at that node that is not a Γc edge (`None` without one).
+fn continuation(p: &BodyProblem, end: usize) -> Option<[f64; 2]> {
+    let nodes = &p.contact_nodes;
+    let (node, inner) = match end {
+        0 => (nodes[0], nodes.get(1)),
+        _ => (nodes[end], nodes.get(end - 1)),
+    };
+    let mut count: HashMap<[usize; 2], u32> = HashMap::new();
+    for t in &p.mesh.triangles {
+        for i in 0..3 {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            if a == node || b == node {
+                *count.entry([a.min(b), a.max(b)]).or_default() += 1;
+            }
+        }
+    }
+    let other = count
+        .iter()
+        .filter(|(_, &c)| c == 1)
+        .map(|(e, _)| if e[0] == node { e[1] } else { e[0] })
+        .find(|o| Some(o) != inner)?;
+    let (a, b) = (p.mesh.points[node], p.mesh.points[other]);
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l = d[0].hypot(d[1]);
+    (l > 0.0).then(|| [d[0] / l, d[1] / l])
+}
+
+/// The warning of a contact zone that reaches an end of Γc where the bodies go on side by side
+/// (so that the contact may extend beyond the named contact curves, unconstrained there), with
+/// where; `None` otherwise. Every rank finds the same (Γc data and the meshes are everywhere).
+pub fn zone_reaches_open_end(problems: [&BodyProblem; 2], it: &Iterate) -> Option<String> {
+    let m = it.active.len();
+    let side_by_side = SIDE_BY_SIDE_DEGREES.to_radians().cos();
+    let ends = if m > 1 { vec![0, m - 1] } else { vec![0] };
+    ends.into_iter().find_map(|end| {
+        let (d1, d2) = (continuation(problems[0], end)?, continuation(problems[1], end)?);
+        let open = d1[0] * d2[0] + d1[1] * d2[1] > side_by_side;
+        (it.active[end] && open).then(|| {
+            let p = problems[0].mesh.points[problems[0].contact_nodes[end]];
+            format!(
+                "the contact zone reaches the end of the contact curves at ({:.6e}, {:.6e}), where the bodies go on side by side: contact may extend beyond it, where nothing keeps them apart (extend the contact curves, -nndd_contact)",
+                p[0], p[1]
+            )
+        })
+    })
 }
 
 #[cfg(test)]
