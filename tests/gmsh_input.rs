@@ -19,29 +19,9 @@ fn mesh(dir: &Path, name: &str, numbers: &[(&str, &str)], extra: &[&str]) -> Pat
 
 /// The options of examples/paper/paper.opts for a mesh file and a top displacement.
 fn paper_args(msh: &Path, u_top: &str) -> Vec<String> {
-    [
-        "-nndd_mesh",
-        msh.to_str().unwrap(),
-        "-nndd_contact",
-        "contact1,contact2",
-        "-nndd_bc_bottom_ux",
-        "0",
-        "-nndd_bc_bottom_uy",
-        "0",
-        "-nndd_bc_top_ux",
-        "0",
-        "-nndd_bc_top_uy",
-        u_top,
-        "-nndd_bc_right2_traction",
-        "0,1e7",
-        "-nndd_bc_right2_traction_end",
-        "0,0",
-        "-nndd_tol",
-        "1e-10",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect()
+    let mut a = paper_mesh_args(msh, "contact1,contact2", u_top);
+    a.extend(["-nndd_tol".to_string(), "1e-10".to_string()]);
+    a
 }
 
 fn rel(a: f64, b: f64) -> f64 {

@@ -15,27 +15,7 @@ const GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo
 
 /// The options of examples/paper/paper.opts for a mesh file (and the contact curves).
 fn paper_args(msh: &Path, contact: &str, extra: &[&str]) -> Vec<String> {
-    let mut a: Vec<String> = [
-        "-nndd_mesh",
-        msh.to_str().unwrap(),
-        "-nndd_contact",
-        contact,
-        "-nndd_bc_bottom_ux",
-        "0",
-        "-nndd_bc_bottom_uy",
-        "0",
-        "-nndd_bc_top_ux",
-        "0",
-        "-nndd_bc_top_uy",
-        "-1e-4",
-        "-nndd_bc_right2_traction",
-        "0,1e7",
-        "-nndd_bc_right2_traction_end",
-        "0,0",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
+    let mut a = paper_mesh_args(msh, contact, "-1e-4");
     a.extend(extra.iter().map(|s| s.to_string()));
     a
 }

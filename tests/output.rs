@@ -78,7 +78,11 @@ fn h5_matches_json() {
     // The zone reaches Γc's end x = 0, where the blocks' sides are flush (they part there):
     // no warning of contact beyond the contact curves.
     assert_eq!(xs[0], 0.0);
-    assert!(j["warnings"].as_array().unwrap().is_empty(), "{}", j["warnings"]);
+    assert!(
+        j["warnings"].as_array().unwrap().is_empty(),
+        "{}",
+        j["warnings"]
+    );
     // Gap: ≥ 0 everywhere, 0 on the active nodes, > 0 off them.
     let gap = field(&p, "contact", "gap");
     for i in 0..9 {

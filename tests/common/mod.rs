@@ -70,6 +70,32 @@ pub fn json(prefix: &Path) -> serde_json::Value {
     serde_json::from_str(&text).expect("summary is JSON")
 }
 
+/// The options of examples/paper/paper.opts for a Gmsh mesh of `paper`: its contact curves
+/// and boundary conditions, the top lowered by `u_top`.
+pub fn paper_mesh_args(msh: &Path, contact: &str, u_top: &str) -> Vec<String> {
+    [
+        "-nndd_mesh",
+        msh.to_str().unwrap(),
+        "-nndd_contact",
+        contact,
+        "-nndd_bc_bottom_ux",
+        "0",
+        "-nndd_bc_bottom_uy",
+        "0",
+        "-nndd_bc_top_ux",
+        "0",
+        "-nndd_bc_top_uy",
+        u_top,
+        "-nndd_bc_right2_traction",
+        "0,1e7",
+        "-nndd_bc_right2_traction_end",
+        "0,0",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
+}
+
 /// A dataset of `PREFIX.h5`, flattened.
 pub fn h5(prefix: &Path, dataset: &str) -> Vec<f64> {
     let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
