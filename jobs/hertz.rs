@@ -5,9 +5,11 @@
 //! effectivity against the reference solution on the mesh refined r times (`--reference-factor
 //! r`, default 4: each triangle split into r²; 0: none).
 //!
-//! Run: `jobs/hertz [--levels 1,2,3,4] [--estimate-up-to L] [--reference-factor r]` → a table on stdout,
-//! `results/hertz/table.txt` and the pressure profile of the finest level against Hertz's
-//! in `docs/img/hertz-pressure.png`.
+//! Run: `jobs/hertz [--levels 1,2,3,4] [--estimate-up-to L] [--reference-factor r]
+//! [--example hertz-nonmatching]` → a table on stdout, `results/EXAMPLE/table.txt` and the
+//! pressure profile of the finest level against Hertz's in `docs/img/EXAMPLE-pressure.png`.
+//! `--example hertz-nonmatching` solves the same problem with the two bodies meshed on their
+//! own (examples/hertz-nonmatching; its levels have the same block size at the contact).
 
 #[path = "hertz_fit.rs"]
 mod hertz_fit;
@@ -45,16 +47,20 @@ fn main() {
         levels,
         estimate_up_to,
         reference_factor,
+        example,
     } = runner::LevelArgs::parse("hertz");
-    let dir = Path::new("results/hertz");
-    std::fs::create_dir_all(dir).expect("results/hertz");
+    let geo = format!("examples/{example}/{example}.geo");
+    let opts = format!("examples/{example}/{example}.opts");
+    let results = format!("results/{example}");
+    let dir = Path::new(&results);
+    std::fs::create_dir_all(dir).expect("results dir");
     let mut table = String::from(
-        "level     dofs   iter   a_h        a          a_err    p0_h        p0          p0_err   L2_err   eta_glo      e_ref        effect   eta_nndd     mono_dE     input_s  solve_s  estim_s  wall_s\n",
+        "level     dofs  pairs  inserted  moved   iter   a_h        a          a_err    p0_h        p0          p0_err   L2_err   eta_glo      e_ref        effect   eta_nndd     mono_dE     input_s  solve_s  estim_s  wall_s\n",
     );
     let mut finest = None;
     for &level in &levels {
-        let msh = dir.join(format!("hertz-{level}.msh"));
-        runner::gmsh_level("examples/hertz/hertz.geo", level, &msh);
+        let msh = dir.join(format!("{example}-{level}.msh"));
+        runner::gmsh_level(&geo, level, &msh);
         let prefix = dir.join(format!("level{level}"));
         let m = msh.to_str().unwrap();
         let r = reference_factor.to_string();
@@ -66,12 +72,12 @@ fn main() {
             }
         }
         eprintln!("hertz: level {level} …");
-        let (j, wall) = runner::try_run(2, "examples/hertz/hertz.opts", &[], &prefix, &extra)
+        let (j, wall) = runner::try_run(2, &opts, &[], &prefix, &extra)
             .unwrap_or_else(|e| panic!("level {level}: {e}"));
         let mono_prefix = dir.join(format!("level{level}-mono"));
         let (mono, _) = runner::try_run(
             2,
-            "examples/hertz/hertz.opts",
+            &opts,
             &[],
             &mono_prefix,
             &["-nndd_mesh", m, "-nndd_solver", "monolithic"],
@@ -98,9 +104,17 @@ fn main() {
         let t = |k: &str| runner::num(&j["timings"], k);
         let e = runner::num(&j, "potential_energy");
         let em = runner::num(&mono, "potential_energy");
+        let curves = &j["contact_curves"];
+        let pair = |k: &str| {
+            let v = |i: usize| curves[k][i].as_u64().unwrap_or(0);
+            format!("{}+{}", v(0), v(1))
+        };
         table.push_str(&format!(
-            "{level:>5} {:>8} {:>6}   {:.6}   {:.6}   {:6.2} %  {:.4e}  {:.4e}  {:6.2} %  {:6.4}   {:.4e}   {:.4e}   {:6.4}   {:.4e}   {:.2e}   {:7.2}  {:7.2}  {:7.2}  {:.1}\n",
+            "{level:>5} {:>8} {:>6} {:>9} {:>6} {:>6}   {:.6}   {:.6}   {:6.2} %  {:.4e}  {:.4e}  {:6.2} %  {:6.4}   {:.4e}   {:.4e}   {:6.4}   {:.4e}   {:.2e}   {:7.2}  {:7.2}  {:7.2}  {:.1}\n",
             j["dofs"].as_u64().unwrap_or(0),
+            curves["pairs"].as_u64().unwrap_or(0),
+            pair("inserted"),
+            pair("moved"),
             j["iterations"].as_u64().unwrap_or(0),
             h.a_h,
             h.a,
@@ -121,7 +135,7 @@ fn main() {
         ));
         finest = Some((x, pressure, h));
     }
-    table.push_str(&format!("(2 ranks; a_h: half the extent of the contact set, ends half-way to the first open node; p0_h: the largest lumped nodal pressure; L2_err: ‖p_h − p‖/‖p‖ on the paired interface; eta_glo, eta_nndd: the final iterate's estimates, NaN where not estimated; e_ref: energy norm of u_ref − u_h, u_ref on the mesh refined {reference_factor}x (each triangle into {}), effect = eta_glo/e_ref; mono_dE: relative energy difference NNDD − monolithic; input_s: options + mesh file + problem with the Γc pairing; solve_s: assembly + factorisation + NNDD loop; estim_s: the estimate; wall_s: mpirun start to end, with the reference solve)\n", reference_factor * reference_factor));
+    table.push_str(&format!("(2 ranks; pairs: Γc's node pairs; inserted, moved: nodes inserted into and moved on the block's + the cylinder's contact curve to make them match; a_h: half the extent of the contact set, ends half-way to the first open node; p0_h: the largest lumped nodal pressure; L2_err: ‖p_h − p‖/‖p‖ on the paired interface; eta_glo, eta_nndd: the final iterate's estimates, NaN where not estimated; e_ref: energy norm of u_ref − u_h, u_ref on the mesh refined {reference_factor}x (each triangle into {}), effect = eta_glo/e_ref; mono_dE: relative energy difference NNDD − monolithic; input_s: options + mesh file + problem with the Γc pairing; solve_s: assembly + factorisation + NNDD loop; estim_s: the estimate; wall_s: mpirun start to end, with the reference solve)\n", reference_factor * reference_factor));
     print!("{table}");
     std::fs::write(dir.join("table.txt"), &table).expect("table");
     if let Some((x, p, h)) = finest {
@@ -141,7 +155,8 @@ fn main() {
             legend: plot::SeriesLabelPosition::UpperRight,
         };
         std::fs::create_dir_all("docs/img").expect("docs/img");
-        let out = Path::new("docs/img/hertz-pressure.png");
+        let png = format!("docs/img/{example}-pressure.png");
+        let out = Path::new(&png);
         plot::line_chart(
             out,
             &chart,
@@ -151,6 +166,6 @@ fn main() {
             ],
         )
         .expect("plot");
-        eprintln!("hertz: wrote {} and results/hertz/table.txt", out.display());
+        eprintln!("hertz: wrote {} and {results}/table.txt", out.display());
     }
 }

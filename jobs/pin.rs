@@ -17,6 +17,7 @@ fn main() {
         levels,
         estimate_up_to,
         reference_factor,
+        ..
     } = runner::LevelArgs::parse("pin");
     let dir = Path::new("results/pin");
     std::fs::create_dir_all(dir).expect("results/pin");

@@ -146,6 +146,8 @@ pub struct LevelArgs {
     pub estimate_up_to: usize,
     /// e_ref on the mesh refined r times (default 4; 0 or 1: none).
     pub reference_factor: usize,
+    /// The example (a folder of examples/ with NAME.geo and NAME.opts; default: the job's).
+    pub example: String,
 }
 
 impl LevelArgs {
@@ -155,6 +157,7 @@ impl LevelArgs {
             levels: vec![1, 2, 3, 4],
             estimate_up_to: usize::MAX,
             reference_factor: 4,
+            example: job.to_string(),
         };
         let args: Vec<String> = std::env::args().skip(1).collect();
         let mut it = args.iter();
@@ -174,6 +177,7 @@ impl LevelArgs {
                 "--reference-factor" => {
                     a.reference_factor = it.next().and_then(|s| s.parse().ok()).expect("r")
                 }
+                "--example" => a.example = it.next().expect("--example NAME").clone(),
                 other => {
                     eprintln!("{job}: unknown argument {other}");
                     std::process::exit(1);

@@ -168,6 +168,10 @@ fn hertz_on_one_two_four_ranks_equals_the_monolithic_solve() {
         // θ auto (hertz.opts names none): 17 iterations to 1e-11 on level 1 (θ = 0.25: 108).
         assert!((5.0..=40.0).contains(&it), "{np} ranks: {it} iterations");
         assert_eq!(j["contact_zone"], mono["contact_zone"], "{np} ranks");
+        // The curves match: the matching leaves them as they are.
+        let curves = &j["contact_curves"];
+        assert_eq!(curves["inserted"], serde_json::json!([0, 0]), "{curves}");
+        assert_eq!(curves["moved"], serde_json::json!([0, 0]), "{curves}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

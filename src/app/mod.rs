@@ -73,6 +73,9 @@ pub enum AppError {
     Estimate(#[from] EstimateError),
     #[error("{0}")]
     Json(String),
+    /// The solution passes through the other body somewhere on the contact curves.
+    #[error("-nndd_contact: {0}")]
+    Penetration(String),
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
     #[error(transparent)]
@@ -102,6 +105,7 @@ impl AppError {
                 | AppError::Fault(_)
                 | AppError::Agreed(_)
                 | AppError::Nndd(NnddError::CheckFailed { .. })
+                | AppError::Penetration(_)
         )
     }
 
@@ -112,10 +116,18 @@ impl AppError {
             AppError::Agreed(inner) => inner.exit_code(),
             AppError::ReportedElsewhere { code } => *code,
             // Every rank finds it (the check is shared), but it is a failure of the solve.
-            AppError::Nndd(NnddError::CheckFailed { .. }) => 2,
+            AppError::Nndd(NnddError::CheckFailed { .. }) | AppError::Penetration(_) => 2,
             e if e.is_collective() => 1,
             _ => 2,
         }
+    }
+}
+
+/// The names of the contact curves (`-nndd_contact`), or of the built-in problems' sides.
+pub fn contact_curves(settings: &Settings) -> [String; 2] {
+    match &settings.problem.mesh {
+        Some(spec) => spec.contact.clone(),
+        None => ["top of body 1".into(), "bottom of body 2".into()],
     }
 }
 
@@ -176,6 +188,22 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
                 Ok(p)
             }),
     )?;
+    if let (Some(spec), true) = (&settings.problem.mesh, world.rank() == 0) {
+        let m = &spec.matched;
+        if m.inserted != [0; 2] || m.moved != [0; 2] {
+            let [c1, c2] = &spec.contact;
+            println!(
+                "nndd: contact curves '{c1}' and '{c2}' meshed independently, made to match: {} and {} node(s) inserted, {} and {} moved onto a partner; Γc: {} pairs where they overlap ({} and {} nodes on the curves)",
+                m.inserted[0],
+                m.inserted[1],
+                m.moved[0],
+                m.moved[1],
+                problems[0].contact_nodes.len(),
+                problems[0].contact_candidates.len(),
+                problems[1].contact_candidates.len()
+            );
+        }
+    }
     let input_seconds = t_start.elapsed().as_secs_f64();
     let dofs = [problems[0].mesh.num_dofs(), problems[1].mesh.num_dofs()];
     let layout = Layout::new(world, settings.body1_ranks, dofs)?;
@@ -284,6 +312,12 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         }
         sol.warnings.push(w);
     }
+    // Penetration over the whole contact curves: beyond round-off, an error.
+    let penetration = dd::check::penetration(&layout, problem_refs, &sol.last);
+    if let Some(what) = penetration.failure(&contact_curves(&settings)) {
+        return Err(AppError::Penetration(what));
+    }
+    sol.penetration = Some(penetration);
 
     // Post-processing: energy, Schur source, timings and memory over ranks.
     let energy = {

@@ -751,11 +751,14 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
             ));
         }
     }
+    let contact = [pair[0].to_string(), pair[1].to_string()];
+    let (gmsh, matched) = crate::problem::conform::conform(&gmsh, &contact);
     Ok(MeshSpec {
         gmsh: std::rc::Rc::new(gmsh),
         conditions,
-        contact: [pair[0].to_string(), pair[1].to_string()],
+        contact,
         nested: false,
+        matched: std::rc::Rc::new(matched),
     })
 }
 

@@ -7,7 +7,7 @@ use crate::dd::nndd::{Iterate, IterationRecord};
 use crate::estimate::EstimateRecord;
 use crate::io::monitor::{self, sci};
 use crate::io::output::Results;
-use crate::io::summary::{EquilibriumResiduals, EstimateMeaning, Summary, Timings};
+use crate::io::summary::{ContactCurves, EquilibriumResiduals, EstimateMeaning, Summary, Timings};
 use crate::io::{fields, output};
 use crate::parallel::layout::Layout;
 use crate::petsc::Petsc;
@@ -65,6 +65,22 @@ pub fn summarise(
         contact_zone: contact.zone,
         active_nodes: contact.active,
         contact_nodes: contact.nodes,
+        contact_curves: ContactCurves {
+            names: super::contact_curves(settings),
+            nodes: [body1, body2].map(|b| b.contact_candidates.len()),
+            pairs: body1.contact_nodes.len(),
+            inserted: settings
+                .problem
+                .mesh
+                .as_ref()
+                .map_or([0; 2], |m| m.matched.inserted),
+            moved: settings
+                .problem
+                .mesh
+                .as_ref()
+                .map_or([0; 2], |m| m.matched.moved),
+            max_penetration: sol.penetration.clone().unwrap_or_default(),
+        },
         schur_source: solvers.each_ref().map(|s| s.schur_source.to_string()),
         dirichlet_step: sol.dirichlet_step.into(),
         neumann_step: solvers.each_ref().map(|s| s.neumann_step.to_string()),

@@ -52,6 +52,8 @@ pub struct Solution {
     /// What the checks of the solution found that the user should know (printed, and in the
     /// summary's `warnings`).
     pub warnings: Vec<String>,
+    /// The largest penetration over the whole contact curves (after the checks).
+    pub penetration: Option<crate::dd::check::Penetration>,
 }
 
 /// Meshes, assembly and factorisation of the bodies this rank owns.
@@ -484,6 +486,7 @@ pub fn solve_nndd(
         neumann_step: neumann,
         check: Some(res.check),
         warnings: Vec::new(),
+        penetration: None,
     })
 }
 
@@ -549,6 +552,7 @@ pub fn solve_monolithic(
         neumann_step: [None, None],
         check: Some(check),
         warnings: Vec::new(),
+        penetration: None,
     })
 }
 

@@ -142,6 +142,8 @@ pub struct Summary {
     pub contact_zone: Option<[f64; 2]>,
     pub active_nodes: usize,
     pub contact_nodes: usize,
+    /// The contact curves: how they were made to match and the largest penetration over them.
+    pub contact_curves: ContactCurves,
     /// How each body's interface operators S^α, D^α were formed: "mumps_schur",
     /// "mumps_inverse", "solves", or "none".
     pub schur_source: [String; 2],
@@ -195,4 +197,22 @@ pub struct Summary {
     /// penetration, tension and complementarity on Γc (`src/dd/check.rs`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub solution_check: Option<crate::dd::check::SolutionCheck>,
+}
+
+/// The two contact curves of a run (`-nndd_contact`; the top of body 1 and the bottom of body
+/// 2 on the built-in problems).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ContactCurves {
+    pub names: [String; 2],
+    /// The nodes of each whole curve (the candidates), after matching.
+    pub nodes: [usize; 2],
+    /// Γc's node pairs: where the curves overlap.
+    pub pairs: usize,
+    /// Nodes inserted into each curve, and nodes moved onto a partner's projection, to make
+    /// curves meshed independently match (0 on matching meshes).
+    pub inserted: [usize; 2],
+    pub moved: [usize; 2],
+    /// The largest penetration of the reported solution over both whole curves (a value
+    /// beyond round-off is an error, so this is round-off or 0).
+    pub max_penetration: crate::dd::check::Penetration,
 }

@@ -70,6 +70,8 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
         material,
         dirichlet,
         neumann,
+        contact_candidates: contact_nodes.clone(),
+        candidate_normals: vec![if alpha == 1 { UP } else { [0.0, -1.0] }; contact_nodes.len()],
         contact_nodes,
         gap,
         contact_normals,

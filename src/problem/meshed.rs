@@ -1,7 +1,8 @@
 //! A problem the user meshed in Gmsh (`-nndd_mesh FILE.msh`): the physical surfaces `body1`
 //! (Ω¹, below) and `body2` (Ω², above), boundary conditions on named physical curves, and the
 //! contact interface Γc from two named curves, one per body, whose nodes are paired along the
-//! normal of body 1's side; each pair's initial gap g₀ ≥ 0 comes from the geometry.
+//! normal of body 1's side where they overlap (curves meshed on their own are made to match
+//! first, [`super::conform`]); each pair's initial gap g₀ ≥ 0 comes from the geometry.
 //!
 //! Both sides may be curved. The contact direction of a pair is body 1's outward normal at its
 //! node (the mean of its two segments' normals); body 2's partner must lie on that normal line,
@@ -42,6 +43,9 @@ pub struct MeshSpec {
     /// The mesh is a uniform refinement of the user's (the reference solution): its Γc
     /// keeps the user's pairing, each coarse pair's children paired in order.
     pub nested: bool,
+    /// What [`super::conform`] did to make the contact curves match (nothing on matching
+    /// meshes).
+    pub matched: Rc<super::conform::Matched>,
 }
 
 /// What is wrong with a meshed problem: one line, naming the option.
@@ -157,6 +161,8 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
             dirichlet,
             neumann,
             contact_nodes: pairing.sides[k].clone(),
+            contact_candidates: pairing.candidates[k].clone(),
+            candidate_normals: pairing.candidate_normals[k].clone(),
             gap: pairing.gap.clone(),
             contact_normals: pairing.normals.clone(),
             contact_lengths: pairing.lengths.clone(),
@@ -441,6 +447,10 @@ fn rigid_motions_fixed(pts: &[[f64; 2]], dirichlet: &[(usize, f64)]) -> bool {
 /// contact direction n (body 1's normal) and body 1's segment lengths.
 struct Pairing {
     sides: [Vec<usize>; 2],
+    /// The whole contact curves (body 1's oriented as its side), with each body's outward
+    /// normal at their nodes.
+    candidates: [Vec<usize>; 2],
+    candidate_normals: [Vec<[f64; 2]>; 2],
     gap: Vec<f64>,
     normals: Vec<[f64; 2]>,
     lengths: Vec<f64>,
@@ -508,7 +518,7 @@ fn oriented_side(
 
 /// The contact direction at each node of body 1's side: the mean of its segments' outward
 /// normals, normalised; (0, 1) exactly where that is (0, 1) to 1e−12 (no rotated frame).
-fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
+pub(super) fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let m = segments.len() + 1;
     (0..m)
         .map(|k| {
@@ -532,10 +542,13 @@ fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
 }
 
 /// Pair the contact curves: every node of body 1's side with the node of body 2's side on
-/// its normal line (within 1e−8 of Γc's length), the nearer one if several; every node of
-/// body 2's side must be paired once. g₀ is the distance along the normal (≥ 0). A refined
-/// mesh (`spec.nested`) keeps the pairing of the mesh it refines: the curves are paired in
-/// their order, as the coarse pairs' children.
+/// its normal line (within 1e−8 of the curve's length), the nearer one if several. After
+/// [`super::conform`] the curves match wherever they overlap: Γc is the run of body 1's nodes
+/// that have a partner, which must be one piece, and their partners must be the nodes of one
+/// piece of body 2's curve in order; the nodes beyond stay candidates only. g₀ is the distance
+/// along the normal (≥ 0). A refined mesh (`spec.nested`) keeps the pairing of the mesh it
+/// refines: the pieces between the end pairs are paired in their order, as the coarse pairs'
+/// children.
 fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, MeshedError> {
     const OPT: &str = "-nndd_contact";
     let mut sides = Vec::new();
@@ -557,15 +570,25 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
         })?;
         sides.push(chain(edges, name, OPT)?);
     }
-    let (s1, segments) = oriented_side(&bodies[0], sides[0].clone(), &spec.contact[0])?;
-    let normals = node_normals(&segments);
+    let (chain1, segments) = oriented_side(&bodies[0], sides[0].clone(), &spec.contact[0])?;
     let (p1, p2) = (&bodies[0].mesh.points, &bodies[1].mesh.points);
-    let side1: Vec<[f64; 2]> = s1.iter().map(|&n| p1[n]).collect();
-    let lengths = super::segment_lengths(&side1);
-    let tol = 1e-8 * lengths.iter().sum::<f64>().max(f64::MIN_POSITIVE);
-    // Offset of body 2's node b from body 1's pair k: (along τ, along n).
+    // Body 1's contact direction: the mean of its segments' normals, or where a node was
+    // inserted to match body 2's, the normal field it was projected along.
+    let mut all_normals = node_normals(&segments);
+    for (k, &a) in chain1.iter().enumerate() {
+        if let Some(n) = spec.matched.normals.get(&super::conform::point_key(p1[a])) {
+            all_normals[k] = *n;
+        }
+    }
+    let curve1: Vec<[f64; 2]> = chain1.iter().map(|&n| p1[n]).collect();
+    let tol = 1e-8
+        * super::segment_lengths(&curve1)
+            .iter()
+            .sum::<f64>()
+            .max(f64::MIN_POSITIVE);
+    // Offset of body 2's node b from body 1's node k: (along τ, along n).
     let offset = |k: usize, b: usize| {
-        let (a, n) = (p1[s1[k]], normals[k]);
+        let (a, n) = (curve1[k], all_normals[k]);
         let d = [p2[b][0] - a[0], p2[b][1] - a[1]];
         if n == super::UP {
             (d[0], d[1])
@@ -573,50 +596,72 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
             (n[1] * d[0] - n[0] * d[1], n[0] * d[0] + n[1] * d[1])
         }
     };
-    let s2: Vec<usize> = if spec.nested {
-        let mut s2 = sides[1].clone();
-        let dist = |b: usize| (p2[b][0] - side1[0][0]).hypot(p2[b][1] - side1[0][1]);
-        if dist(s2[s2.len() - 1]) < dist(s2[0]) {
-            s2.reverse();
-        }
-        s2
-    } else {
-        // Each normal line's partner: the nearest node on the line, else (for the error) the
-        // node nearest to the line.
-        let nearest_to_line = |k: usize| {
-            let key = |(t, g): (f64, f64)| {
-                if t.abs() <= tol {
-                    (false, g.abs())
-                } else {
-                    (true, t.abs())
-                }
-            };
+    // Each normal line's partner: the nearest node on the line.
+    let partner: Vec<Option<usize>> = (0..chain1.len())
+        .map(|k| {
             sides[1]
                 .iter()
-                .map(|&b| (b, offset(k, b)))
-                .min_by(|x, y| {
-                    let (kx, ky) = (key(x.1), key(y.1));
-                    kx.0.cmp(&ky.0).then(kx.1.total_cmp(&ky.1))
-                })
-                .expect("non-empty side")
-        };
+                .copied()
+                .filter(|&b| offset(k, b).0.abs() <= tol)
+                .min_by(|&x, &y| offset(k, x).1.abs().total_cmp(&offset(k, y).1.abs()))
+        })
+        .collect();
+    let (Some(first), Some(last)) = (
+        partner.iter().position(Option::is_some),
+        partner.iter().rposition(Option::is_some),
+    ) else {
+        return Err(opt_err(
+            OPT,
+            format!(
+                "the curves '{}' and '{}' cannot face each other: no node of either lies on the other's side of the normal lines of body 1's curve",
+                spec.contact[0], spec.contact[1]
+            ),
+        ));
+    };
+    let at = |b: usize| sides[1].iter().position(|&x| x == b).expect("on the chain");
+    let (j0, j1) = (
+        at(partner[first].expect("paired")),
+        at(partner[last].expect("paired")),
+    );
+    // Body 2's piece from the partner of body 1's first paired node to that of its last.
+    let piece2: Vec<usize> = if j0 <= j1 {
+        sides[1][j0..=j1].to_vec()
+    } else {
+        sides[1][j1..=j0].iter().rev().copied().collect()
+    };
+    let s1 = chain1[first..=last].to_vec();
+    let s2: Vec<usize> = if spec.nested {
+        piece2
+    } else {
         let mut s2 = Vec::with_capacity(s1.len());
-        for k in 0..s1.len() {
-            let (b, (t, _)) = nearest_to_line(k);
-            if t.abs() > tol {
+        for k in first..=last {
+            let Some(b) = partner[k] else {
+                // The node of body 2's curve nearest to the line, for the message.
+                let (b, (t, _)) = sides[1]
+                    .iter()
+                    .map(|&b| (b, offset(k, b)))
+                    .min_by(|x, y| x.1 .0.abs().total_cmp(&y.1 .0.abs()))
+                    .expect("non-empty side");
+                let n = all_normals[k];
                 return Err(opt_err(
                     OPT,
                     format!(
                         "the node ({:.6e}, {:.6e}) of body 1's contact curve has no partner on its normal ({:.4}, {:.4}); the nearest node of body 2's curve, ({:.6e}, {:.6e}), is {:.3e} off that line",
-                        side1[k][0], side1[k][1], normals[k][0], normals[k][1], p2[b][0], p2[b][1], t.abs()
+                        curve1[k][0], curve1[k][1], n[0], n[1], p2[b][0], p2[b][1], t.abs()
                     ),
                 ));
-            }
+            };
             s2.push(b);
         }
         let paired: BTreeSet<usize> = s2.iter().copied().collect();
-        if let Some(&b) = sides[1].iter().find(|b| !paired.contains(b)) {
-            let (k, (t, _)) = (0..s1.len())
+        if paired.len() != s2.len() {
+            return Err(opt_err(
+                OPT,
+                "two nodes of body 1's contact curve share one partner on body 2's curve".into(),
+            ));
+        }
+        if let Some(&b) = piece2.iter().find(|b| !paired.contains(b)) {
+            let (k, (t, _)) = (0..chain1.len())
                 .map(|k| (k, offset(k, b)))
                 .min_by(|x, y| x.1 .0.abs().total_cmp(&y.1 .0.abs()))
                 .expect("non-empty side");
@@ -624,14 +669,14 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
                 OPT,
                 format!(
                     "the node ({:.6e}, {:.6e}) of body 2's contact curve has no partner on body 1's curve; the nearest normal line, of ({:.6e}, {:.6e}), is {:.3e} away",
-                    p2[b][0], p2[b][1], side1[k][0], side1[k][1], t.abs()
+                    p2[b][0], p2[b][1], curve1[k][0], curve1[k][1], t.abs()
                 ),
             ));
         }
-        if paired.len() != s2.len() {
+        if s2 != piece2 {
             return Err(opt_err(
                 OPT,
-                "two nodes of body 1's contact curve share one partner on body 2's curve".into(),
+                "the partners of body 1's contact nodes are not in the order of body 2's curve (the curves cross?)".into(),
             ));
         }
         s2
@@ -640,36 +685,42 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
         return Err(opt_err(
             OPT,
             format!(
-                "the contact curves have {} and {} nodes; every node needs exactly one partner",
+                "the paired pieces of the contact curves have {} and {} nodes; every node needs exactly one partner",
                 s1.len(),
                 s2.len()
             ),
         ));
     }
+    let normals = all_normals[first..=last].to_vec();
+    let side1 = curve1[first..=last].to_vec();
+    let lengths = super::segment_lengths(&side1);
     let mut gap = Vec::with_capacity(s1.len());
-    for (k, &b) in s2.iter().enumerate() {
-        let g = offset(k, b).1;
+    for (i, &b) in s2.iter().enumerate() {
+        let g = offset(first + i, b).1;
         if g < -tol {
             return Err(opt_err(
                 OPT,
                 format!(
                     "the bodies overlap at ({:.6e}, {:.6e}): body 2's node is {:.3e} inside body 1 along the normal (initial gap must be >= 0)",
-                    side1[k][0], side1[k][1], -g
+                    side1[i][0], side1[i][1], -g
                 ),
             ));
         }
         gap.push(g.max(0.0));
     }
-    facing(spec, &bodies[1], &sides[1], &side1, &s2, &normals, p2)?;
+    let normals2 = facing(spec, &bodies[1], &sides[1], &side1, &s2, &normals, p2)?;
     Ok(Pairing {
         sides: [s1, s2],
+        candidates: [chain1, sides[1].clone()],
+        candidate_normals: [all_normals.clone(), normals2],
         gap,
         normals,
         lengths,
     })
 }
 
-/// The contact curves must face each other: at every pair, body 2's outward normal at its
+/// The contact curves must face each other (returns body 2's outward normals at its curve's
+/// nodes): at every pair, body 2's outward normal at its
 /// node (the mean of its curve's segments' normals there) must not point the way body 1's
 /// does (n¹ · n² ≤ 0); else body 2 is reached from its inside and the contact condition holds
 /// nothing back (a curve on the far side of body 2, for instance).
@@ -681,7 +732,7 @@ fn facing(
     s2: &[usize],
     normals: &[[f64; 2]],
     p2: &[[f64; 2]],
-) -> Result<(), MeshedError> {
+) -> Result<Vec<[f64; 2]>, MeshedError> {
     const OPT: &str = "-nndd_contact";
     let curve = &spec.contact[1];
     let pts = &body2.mesh.points;
@@ -735,7 +786,7 @@ fn facing(
             ));
         }
     }
-    Ok(())
+    Ok(chain2.iter().map(|b| node_normal[b]).collect())
 }
 
 #[cfg(test)]

@@ -2,11 +2,13 @@
 //! conditions (Γ_D, Γ_N) and its side of the contact interface Γc ([`BodyProblem`]), built by
 //! [`build`] from the plain-data [`ProblemSettings`]. [`benchmarks`]: the built-in problems
 //! `paper` and `uniform` (`docs/benchmarks.md`); [`meshed`]: a problem the user meshed in
-//! Gmsh, with named boundary conditions and an initial gap.
+//! Gmsh, with named boundary conditions and an initial gap; [`conform`]: its contact curves,
+//! meshed on their own, made to match.
 //!
 //! May use: `parallel`, `qp`, `fem`, `petsc`.
 
 pub mod benchmarks;
+pub mod conform;
 pub mod meshed;
 
 use std::rc::Rc;
@@ -160,6 +162,11 @@ pub struct BodyProblem {
     pub contact_normals: Vec<[f64; 2]>,
     /// The lengths of body 1's Γc segments [k, k+1]: Γc's measure, on both bodies.
     pub contact_lengths: Vec<f64>,
+    /// The whole contact curve the user named (Γc's nodes and those beyond, where the other
+    /// body's curve does not reach): where the final check looks for penetration.
+    pub contact_candidates: Vec<usize>,
+    /// The body's outward unit normal at each candidate node (the mean of its segments').
+    pub candidate_normals: Vec<[f64; 2]>,
 }
 
 /// The Γc normal of a horizontal side with the body below: its contact node needs no

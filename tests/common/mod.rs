@@ -162,7 +162,9 @@ pub fn field_at(prefix: &Path, k: Option<usize>, grid: &str, field: &str) -> Vec
         None => values,
         Some(([points, cells], cell_count)) => {
             let per = d.shape().get(1).copied().unwrap_or(1);
-            let r = if d.shape()[0] == cell_count {
+            // The bodies' one point field is the displacement (docs/output.md); the counts
+            // alone cannot tell when the grid has as many cells as points.
+            let r = if field != "displacement" && d.shape()[0] == cell_count {
                 cells
             } else {
                 points
