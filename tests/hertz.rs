@@ -8,14 +8,10 @@
 mod common;
 use common::*;
 
-#[path = "../jobs/hertz_fit.rs"]
-mod hertz_fit;
-
 use std::path::{Path, PathBuf};
 
 const GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hertz/hertz.geo");
 const OPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hertz/hertz.opts");
-const MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
 fn mesh(dir: &Path, level: u32) -> PathBuf {
     gmsh_level(GEO, dir, "hertz", level)
@@ -24,23 +20,6 @@ fn mesh(dir: &Path, level: u32) -> PathBuf {
 /// Solve examples/hertz/hertz.opts on `msh` (options after the file override it).
 fn hertz(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Value {
     solve_meshed(np, OPTS, msh, prefix, extra)
-}
-
-fn fit(prefix: &Path) -> hertz_fit::HertzFit {
-    let pts = points(prefix, "contact");
-    let x: Vec<f64> = pts.chunks(2).map(|p| p[0]).collect();
-    let active: Vec<bool> = field(prefix, "contact", "active")
-        .iter()
-        .map(|&a| a > 0.5)
-        .collect();
-    hertz_fit::fit(
-        &x,
-        &field(prefix, "contact", "normal_force"),
-        &field(prefix, "contact", "pressure"),
-        &active,
-        1.0,
-        MATERIALS,
-    )
 }
 
 #[test]
@@ -67,7 +46,7 @@ fn hertz_approaches_the_analytical_contact_and_the_estimate_bounds_the_error() {
                 &[&["-nndd_reference_factor", "4"][..], &extra].concat(),
             )
         });
-        let h = fit(&prefix);
+        let h = hertz_fit_of(&prefix);
         let est = j["estimates"].as_array().expect("estimates");
         let last = est.last().expect("an estimate");
         println!(

@@ -13,9 +13,6 @@
 mod common;
 use common::*;
 
-#[path = "../jobs/hertz_fit.rs"]
-mod hertz_fit;
-
 use std::path::{Path, PathBuf};
 
 const PATCH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/nonmatching/patch.geo");
@@ -35,7 +32,6 @@ const PUNCH_OPTS: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/examples/punch-nonmatching/punch-nonmatching.opts"
 );
-const HERTZ_MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
 /// The patch test's materials and the lid's displacement.
 const PATCH_E: [f64; 2] = [1e9, 3e9];
@@ -158,23 +154,6 @@ fn hertz(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Va
     solve_meshed(np, HERTZ_OPTS, msh, prefix, extra)
 }
 
-fn fit(prefix: &Path) -> hertz_fit::HertzFit {
-    let pts = points(prefix, "contact");
-    let x: Vec<f64> = pts.chunks(2).map(|p| p[0]).collect();
-    let active: Vec<bool> = field(prefix, "contact", "active")
-        .iter()
-        .map(|&a| a > 0.5)
-        .collect();
-    hertz_fit::fit(
-        &x,
-        &field(prefix, "contact", "normal_force"),
-        &field(prefix, "contact", "pressure"),
-        &active,
-        1.0,
-        HERTZ_MATERIALS,
-    )
-}
-
 /// The estimate of the final iterate bounds the error against the reference solution on the
 /// nested mesh, with stresses equilibrated to round-off.
 fn bounded(j: &serde_json::Value, what: &str) {
@@ -209,7 +188,7 @@ fn hertz_on_non_matching_meshes_approaches_the_analytical_contact() {
             curves["inserted"][1].as_u64().unwrap() > 0,
             "level {level}: the curves match already? {curves}"
         );
-        let h = fit(&prefix);
+        let h = hertz_fit_of(&prefix);
         println!(
             "level {level}: {} pairs, a {:.5} vs {:.5} ({:.2} %), p0 {:.4e} vs {:.4e} ({:.2} %), {} iterations",
             curves["pairs"],

@@ -6,6 +6,31 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};
 use std::time::{Duration, Instant};
 
+#[path = "../../jobs/hertz_fit.rs"]
+pub mod hertz_fit;
+
+/// The materials of the Hertz examples (block, cylinder): (E, ν).
+pub const HERTZ_MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
+
+/// Hertz's solution fitted to a Hertz example's run at `prefix` (the cylinder of radius 1 m):
+/// its contact half-width, peak pressure and profile against the run's Γc results.
+pub fn hertz_fit_of(prefix: &Path) -> hertz_fit::HertzFit {
+    let pts = points(prefix, "contact");
+    let x: Vec<f64> = pts.chunks(2).map(|p| p[0]).collect();
+    let active: Vec<bool> = field(prefix, "contact", "active")
+        .iter()
+        .map(|&a| a > 0.5)
+        .collect();
+    hertz_fit::fit(
+        &x,
+        &field(prefix, "contact", "normal_force"),
+        &field(prefix, "contact", "pressure"),
+        &active,
+        1.0,
+        HERTZ_MATERIALS,
+    )
+}
+
 /// `paper` at n = 16 solved to a tolerance tight enough that two solution paths agree to 1e-10.
 pub const PAPER_16_TIGHT: [&str; 6] = [
     "-nndd_problem",
