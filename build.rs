@@ -16,7 +16,7 @@ const FUNCTIONS: &[&str] = &[
     "PetscOptionsHasName",
     "PetscOptionsGetString",
     "PetscOptionsSetValue",
-    "PetscOptionsLeft",
+    "PetscOptionsLeft(Get|Restore)?",
     "PetscLogStageRegister",
     "PetscLogStagePush",
     "PetscLogStagePop",

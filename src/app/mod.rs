@@ -123,6 +123,35 @@ impl AppError {
     }
 }
 
+/// The warnings for PETSc options of the bodies' solvers (`-body1_…`, `-body2_…`) that no rank
+/// read once the bodies are set up (PETSc's `-options_left`, over all ranks): misspelt, or for
+/// a solver the run does not use (collective).
+fn unused_solver_options(settings: &Settings, layout: &Layout) -> Result<Vec<String>, AppError> {
+    // The options as the user gave them (the same on every rank; the defaults each body's
+    // group sets for its own solver come later and differ between the groups).
+    let given: Vec<String> = petsc::names_in(&settings.options_text)
+        .into_iter()
+        .filter(|n| {
+            let n = n.to_lowercase();
+            n.starts_with("-body1_") || n.starts_with("-body2_")
+        })
+        .collect();
+    let left = petsc::unused_options()?;
+    let mut used: Vec<f64> = given
+        .iter()
+        .map(|n| f64::from(!left.iter().any(|l| l.eq_ignore_ascii_case(n))))
+        .collect();
+    layout.world_sum(&mut used);
+    Ok(given
+        .iter()
+        .zip(used)
+        .filter(|(_, u)| *u == 0.0)
+        .map(|(n, _)| {
+            format!("the option {n} was given but no solver of the bodies read it (misspelt, or for a solver this run does not use; -help lists the solvers' options)")
+        })
+        .collect())
+}
+
 /// The names of the contact curves (`-nndd_contact`), or of the built-in problems' sides.
 pub fn contact_curves(settings: &Settings) -> [String; 2] {
     match &settings.problem.mesh {
@@ -174,7 +203,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     )?;
     if world.rank() == 0 {
         for w in &settings.warnings {
-            eprintln!("nndd: warning: {w}");
+            crate::eprintln_line!("nndd: warning: {w}");
         }
     }
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
@@ -237,11 +266,23 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         solve::setup_bodies(&settings, &problems, &layout, &stages, &mut timings),
     )?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
+    let unused = unused_solver_options(&settings, &layout)?;
+    if layout.is_root() {
+        for w in &unused {
+            crate::eprintln_line!("nndd: warning: {w}");
+        }
+    }
     if settings.monitor && layout.is_root() {
+        let problem = match &settings.problem.mesh {
+            Some(spec) => format!("mesh {}", spec.gmsh.path),
+            None => format!(
+                "{} n = {}",
+                settings.problem.kind.name(),
+                settings.problem.n
+            ),
+        };
         println!(
-            "nndd: {} n = {}, {} dofs, {} rank(s): setup {:.3} s",
-            settings.problem.kind.name(),
-            settings.problem.n,
+            "nndd: {problem}, {} dofs, {} rank(s): setup {:.3} s",
             dofs[0] + dofs[1],
             layout.size,
             t_start.elapsed().as_secs_f64()
@@ -250,15 +291,19 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
 
     // Estimate: the estimator (with the reference solution of (26) when asked), used by the
     // solve at the estimated iterations and on the reported iterate.
+    let mut warnings = unused;
     let reference = match settings.reference_factor {
         0 => None,
-        r => Some(solve::solve_reference(
-            &settings,
-            &layout,
-            &stages,
-            r,
-            &mut timings,
-        )?),
+        r => match solve::solve_reference(&settings, &layout, &stages, r, &mut timings)? {
+            Ok(reference) => Some(reference),
+            Err(w) => {
+                if layout.is_root() {
+                    crate::eprintln_line!("nndd: warning: {w}");
+                }
+                warnings.push(w);
+                None
+            }
+        },
     };
     let estimator = settings.estimate.then(|| Estimator {
         iface: Interface::new(problems[0].contact_lengths.clone()),
@@ -308,10 +353,11 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     let problem_refs = [&*problems[0], &*problems[1]];
     if let Some(w) = dd::check::zone_reaches_open_end(problem_refs, &sol.last) {
         if layout.is_root() {
-            eprintln!("nndd: warning: {w}");
+            crate::eprintln_line!("nndd: warning: {w}");
         }
         sol.warnings.push(w);
     }
+    sol.warnings.splice(0..0, warnings);
     // Penetration over the whole contact curves: beyond round-off, an error.
     let penetration = dd::check::penetration(&layout, problem_refs, &sol.last);
     if let Some(what) = penetration.failure(&contact_curves(&settings)) {
@@ -390,7 +436,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     agreed(agreement, written)?;
     if petsc::signals::stop_requested() && !sol.interrupted && layout.is_root() {
         // The output is not interrupted: a signal during it is read once the files exist.
-        eprintln!(
+        crate::eprintln_line!(
             "nndd: {} arrived while the results were written; they are complete",
             petsc::signals::received_name()
         );
@@ -440,7 +486,7 @@ pub fn abort_with(message: Option<&str>) -> ! {
         Some(m) if m.starts_with(dd::body::ECHO) => {
             std::thread::sleep(std::time::Duration::from_secs(5));
         }
-        Some(m) => eprintln!("nndd: error (rank {}): {m}", world.rank()),
+        Some(m) => crate::eprintln_line!("nndd: error (rank {}): {m}", world.rank()),
         None => {}
     }
     world.abort(2)

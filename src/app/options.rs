@@ -133,7 +133,7 @@ impl Settings {
         )?;
         let (contact, _) = o.string(
             "-nndd_contact",
-            "With -nndd_mesh: Gamma_c as body 1's curve,body 2's curve (physical curve names); each node of body 2's curve must lie on the normal of body 1's curve at a node (either curve may be curved)",
+            "With -nndd_mesh: the contact curves as body 1's curve,body 2's curve (physical curve names); either may be curved, the two meshed on their own (Gamma_c is where they overlap)",
             "",
         )?;
         let problem = match problem.as_str() {
@@ -566,6 +566,7 @@ impl Settings {
                 })
             }
         };
+        given_options_apply(o.queried(), problem)?;
         o.end()?;
         Ok(Settings {
             problem: ProblemSettings {
@@ -632,8 +633,13 @@ impl Settings {
     pub fn refined(&self, r: usize) -> Settings {
         let mut s = self.clone();
         s.problem = self.problem.refined(r);
+        // Solved so that it converges whatever the run's own θ and stopping rule: θ auto, to
+        // 1e−8, with room for the iterations.
         s.nndd.tol = 1e-8;
         s.nndd.stop = StopRule::Tol;
+        s.nndd.auto = true;
+        s.nndd.theta = AUTO_THETA_PROBE;
+        s.nndd.max_it = self.nndd.max_it.max(1000);
         s.monitor = false;
         s.estimate = false;
         s.estimate_every = 0;
@@ -652,6 +658,26 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
         message,
     };
     let gmsh = read_shared(file).map_err(|e| named("-nndd_mesh", e))?;
+    // The bodies first: without them nothing else the options name can be found.
+    let missing: Vec<&str> = crate::problem::meshed::BODY_NAMES
+        .into_iter()
+        .filter(|b| gmsh.tag(2, b).is_none())
+        .collect();
+    if !missing.is_empty() {
+        return Err(named(
+            "-nndd_mesh",
+            format!(
+                "{file} has no physical surface {} (its physical surfaces: {}; physical curves: {}); name the two bodies and the curves the options refer to in the .geo file: Physical Surface(\"body1\") = {{…}}; Physical Surface(\"body2\") = {{…}}; Physical Curve(\"NAME\") = {{…}};",
+                missing
+                    .iter()
+                    .map(|b| format!("'{b}'"))
+                    .collect::<Vec<_>>()
+                    .join(" or "),
+                gmsh.group_names(2),
+                gmsh.group_names(1)
+            ),
+        ));
+    }
     let curves: Vec<String> = gmsh
         .names
         .iter()
@@ -760,6 +786,123 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
         nested: false,
         matched: std::rc::Rc::new(matched),
     })
+}
+
+/// The options that define the built-in problems' meshes and loads (not a Gmsh problem's).
+const BUILTIN_ONLY: [&str; 7] = [
+    "-nndd_n",
+    "-nndd_body1_nx",
+    "-nndd_body1_ny",
+    "-nndd_body2_nx",
+    "-nndd_body2_ny",
+    "-nndd_u_D",
+    "-nndd_F_max",
+];
+
+/// Words a user may write for the material options' last part.
+const SYNONYMS: [(&str, &str); 6] = [
+    ("young", "E"),
+    ("youngs", "E"),
+    ("modulus", "E"),
+    ("e_modulus", "E"),
+    ("poisson", "nu"),
+    ("poissons", "nu"),
+];
+
+/// The edit distance of two option names, ignoring case.
+fn distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (
+        a.to_lowercase().chars().collect(),
+        b.to_lowercase().chars().collect(),
+    );
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.iter().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let next = (diagonal + usize::from(ca != cb))
+                .min(row[j] + 1)
+                .min(row[j + 1] + 1);
+            diagonal = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
+}
+
+/// The known option a misspelt `name` most likely means: a synonym of its last word, else the
+/// nearest by edit distance (at most a third of the name's length).
+fn nearest<'a>(name: &str, known: &'a [String]) -> Option<&'a str> {
+    let lower = name.to_lowercase();
+    for (word, meant) in SYNONYMS {
+        if let Some(head) = lower.strip_suffix(word) {
+            if let Some(k) = known
+                .iter()
+                .find(|k| k.to_lowercase() == format!("{head}{}", meant.to_lowercase()))
+            {
+                return Some(k);
+            }
+        }
+    }
+    known
+        .iter()
+        .map(|k| (distance(name, k), k))
+        .filter(|(d, _)| *d <= name.len() / 3)
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, k)| k.as_str())
+}
+
+/// Every `-nndd_` option given must be one nndd reads (else a typo, taken silently) and must
+/// apply to the problem: the built-in problems' mesh and load options not to a Gmsh problem,
+/// `-nndd_contact` and `-nndd_bc_…` (checked against the mesh's curves as they are read) only
+/// to one.
+fn given_options_apply(known: &[String], problem: ProblemKind) -> Result<(), SettingsError> {
+    let named = |option: &str, message: String| SettingsError::Named {
+        option: option.to_string(),
+        message,
+    };
+    let mesh = problem == ProblemKind::Mesh;
+    for given in petsc::option_names()? {
+        // PETSc's option names are case-insensitive.
+        let Some(name) = known
+            .iter()
+            .find(|k| k.eq_ignore_ascii_case(&given))
+            .cloned()
+            .or_else(|| given.to_lowercase().starts_with("-nndd_").then_some(given))
+        else {
+            continue;
+        };
+        if name.starts_with("-nndd_bc_") {
+            if !mesh {
+                return Err(named(
+                    &name,
+                    "sets a boundary condition of a Gmsh problem (-nndd_mesh); the built-in problems have theirs (docs/benchmarks.md)".into(),
+                ));
+            }
+            continue;
+        }
+        if !known.contains(&name) {
+            let hint =
+                nearest(&name, known).map_or(String::new(), |k| format!("; did you mean {k}?"));
+            return Err(named(
+                &name,
+                format!("unknown option{hint} (-help lists them all)"),
+            ));
+        }
+        if mesh && BUILTIN_ONLY.contains(&name.as_str()) {
+            return Err(named(
+                &name,
+                "sets the built-in problems' mesh or load and does not apply to a Gmsh problem (-nndd_mesh): its mesh sizes are the .geo file's, its conditions -nndd_bc_NAME_ux, _uy, _traction".into(),
+            ));
+        }
+        if !mesh && name == "-nndd_contact" {
+            return Err(named(
+                &name,
+                "names the contact curves of a Gmsh problem and needs -nndd_mesh FILE.msh".into(),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `-nndd_theta auto`'s θ for a step before anything is known of the interface map. The first

@@ -3,11 +3,14 @@
 
 use super::options::Settings;
 use super::solve::{BodySolver, Solution};
-use crate::dd::nndd::{Iterate, IterationRecord};
+use crate::dd::nndd::Iterate;
 use crate::estimate::EstimateRecord;
 use crate::io::monitor::{self, sci};
 use crate::io::output::Results;
-use crate::io::summary::{ContactCurves, EquilibriumResiduals, EstimateMeaning, Summary, Timings};
+use crate::io::summary::{
+    ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning, MeshProblem,
+    Summary, Timings,
+};
 use crate::io::{fields, output};
 use crate::parallel::layout::Layout;
 use crate::petsc::Petsc;
@@ -28,6 +31,7 @@ pub fn summarise(
     peaks: &[f64],
 ) -> Summary {
     let contact = contact_of(body1, &sol.last);
+    let builtin = settings.problem.mesh.is_none();
     let residuals = (!sol.estimates.is_empty()).then(|| {
         let mut r = EquilibriumResiduals::default();
         for e in &sol.estimates {
@@ -42,19 +46,26 @@ pub fn summarise(
     });
     Summary {
         problem: settings.problem.kind.name().into(),
-        n: settings.problem.n,
-        grids: [0, 1].map(|k| [settings.problem.grids[k].0, settings.problem.grids[k].1]),
+        n: builtin.then_some(settings.problem.n),
+        grids: builtin
+            .then(|| [0, 1].map(|k| [settings.problem.grids[k].0, settings.problem.grids[k].1])),
+        mesh: settings.problem.mesh.as_ref().map(|m| MeshProblem {
+            file: m.gmsh.path.clone(),
+            bodies: crate::problem::meshed::BODY_NAMES,
+            contact: m.contact.clone(),
+            conditions: m.conditions.clone(),
+        }),
         dofs: settings.problem.dofs(),
         ranks: layout.size,
         solver: settings.solver.name().into(),
-        theta: settings.nndd.theta,
+        theta: (!settings.nndd.auto).then_some(settings.nndd.theta),
         theta_auto: settings.nndd.auto,
         tol: settings.nndd.tol,
         max_it: settings.nndd.max_it,
         young: settings.problem.materials.map(|m| m.young),
         poisson: settings.problem.materials.map(|m| m.poisson),
-        u_d: settings.problem.u_d,
-        f_max: settings.problem.f_max,
+        u_d: builtin.then_some(settings.problem.u_d),
+        f_max: builtin.then_some(settings.problem.f_max),
         converged: sol.converged,
         status: sol.status.clone(),
         stop_reason: sol.stop_reason.into(),
@@ -65,6 +76,7 @@ pub fn summarise(
         contact_zone: contact.zone,
         active_nodes: contact.active,
         contact_nodes: contact.nodes,
+        contact: contact_zone(body1, &sol.last),
         contact_curves: ContactCurves {
             names: super::contact_curves(settings),
             nodes: [body1, body2].map(|b| b.contact_candidates.len()),
@@ -121,16 +133,15 @@ pub fn summarise(
     }
 }
 
-fn summary_estimate(e: &EstimateRecord) -> IterationRecord {
-    IterationRecord {
+fn summary_estimate(e: &EstimateRecord) -> EstimateEntry {
+    EstimateEntry {
         iteration: e.iteration,
-        eta_glo: Some(e.eta_glo),
-        eta_fe: Some(e.eta_fe),
-        eta_nndd: Some(e.eta_nndd),
-        eta_ratio: Some(e.eta_ratio),
+        eta_glo: e.eta_glo,
+        eta_fe: e.eta_fe,
+        eta_nndd: e.eta_nndd,
+        eta_ratio: e.eta_ratio,
         e_ref: e.e_ref,
         effectivity: e.effectivity,
-        ..Default::default()
     }
 }
 
@@ -140,7 +151,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         "nndd: {} ({} dofs, {} rank(s), {}): {} after {} iterations; energy {} J/m, contact force {} N/m, zone {}; {:.2} s; wrote {}{{.h5,.xdmf,-contact.xdmf,-final.xdmf,.json}}",
         match &settings.problem.mesh {
             Some(spec) => format!("mesh {}", spec.gmsh.path),
-            None => format!("{} n = {}", summary.problem, summary.n),
+            None => format!("{} n = {}", summary.problem, summary.n.unwrap_or_default()),
         },
         summary.dofs,
         summary.ranks,
@@ -149,7 +160,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         summary.iterations,
         sci(summary.potential_energy, 10),
         sci(summary.contact_force, 6),
-        summary.contact_zone.map_or("none".to_string(), |z| format!("[{:.4}, {:.4}]", z[0], z[1])),
+        summary.contact_zone.map_or("none".to_string(), |z| format!("[{}, {}]", sci(z[0], 5), sci(z[1], 5))),
         summary.timings.total,
         settings.output.display()
     );
@@ -161,14 +172,14 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         );
     }
     if sol.interrupted {
-        eprintln!(
+        crate::eprintln_line!(
             "nndd: interrupted by a signal after {} iterations; continue with -nndd_restart {}",
             sol.iterations,
             crate::io::checkpoint::path_for(&settings.output).display()
         );
     } else if !sol.requested {
         let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
-        eprintln!(
+        crate::eprintln_line!(
             "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); {}",
             match sol.status.as_str() {
                 "diverged" => "diverged",
@@ -226,6 +237,34 @@ struct Contact {
     zone: Option<[f64; 2]>,
     active: usize,
     nodes: usize,
+}
+
+/// The contact zone of the reported iterate along body 1's side of Γc.
+fn contact_zone(p1: &BodyProblem, last: &Iterate) -> ContactZone {
+    let m = last.active.len();
+    let mut arc = vec![0.0; m];
+    for k in 1..m {
+        arc[k] = arc[k - 1] + p1.contact_lengths[k - 1];
+    }
+    let point = |k: usize| p1.mesh.points[p1.contact_nodes[k]];
+    let share =
+        crate::estimate::traction::Interface::new(p1.contact_lengths.clone()).forces(&vec![1.0; m]);
+    let force = &last.forces[1];
+    let (first, end) = (
+        last.active.iter().position(|&a| a),
+        last.active.iter().rposition(|&a| a),
+    );
+    let peak = (0..m)
+        .map(|k| (force[k] / share[k], k))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    ContactZone {
+        zone: first.zip(end).map(|(a, b)| [arc[a], arc[b]]),
+        zone_ends: first.zip(end).map(|(a, b)| [point(a), point(b)]),
+        zone_length: first.zip(end).map_or(0.0, |(a, b)| arc[b] - arc[a]),
+        peak_pressure: peak.map_or(0.0, |p| p.0),
+        peak_pressure_at: peak.filter(|p| p.0 > 0.0).map(|p| point(p.1)),
+        normal_force: force.iter().sum(),
+    }
 }
 
 fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {

@@ -141,7 +141,7 @@ pub fn solve_reference(
     stages: &Stages,
     r: usize,
     timings: &mut Timings,
-) -> Result<Reference, AppError> {
+) -> Result<Result<Reference, String>, AppError> {
     let t = Instant::now();
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
@@ -155,6 +155,9 @@ pub fn solve_reference(
         );
     }
     let mut scratch = Timings::default();
+    // All of it in the reference stage of -log_view.
+    let stages = &stages.all_in_reference();
+    let _s = stages.reference.enter();
     let bodies = setup_bodies(
         &fine,
         &problem::build(&fine.problem)?,
@@ -163,18 +166,16 @@ pub fn solve_reference(
         &mut scratch,
     )?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
-    let sol = {
-        let _s = stages.reference.enter();
-        super::end_job_on_local_failure(solve_nndd(
-            &fine,
-            layout,
-            refs,
-            None,
-            stages,
-            &mut scratch,
-            None,
-        ))?
-    };
+    let sol = super::end_job_on_local_failure(solve_nndd(
+        &fine,
+        layout,
+        refs,
+        None,
+        stages,
+        &mut scratch,
+        None,
+    ))?;
+    drop(_s);
     signals::enter(before);
     timings.reference = t.elapsed().as_secs_f64();
     if layout.is_root() && settings.monitor {
@@ -187,12 +188,21 @@ pub fn solve_reference(
             timings.reference
         );
     }
-    Ok(Reference {
+    if !sol.converged {
+        return Ok(Err(format!(
+            "the reference solution on mesh {} ({} dofs) {} after {} iterations: e_ref and the effectivity are not reported",
+            fine.problem.n,
+            fine.problem.dofs(),
+            sol.status,
+            sol.iterations
+        )));
+    }
+    Ok(Ok(Reference {
         factor: r,
         u: sol.last.u,
         iterations: sol.iterations,
         bodies,
-    })
+    }))
 }
 
 /// Where the restart points go, and where a run starts from.

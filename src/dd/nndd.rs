@@ -214,6 +214,23 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
+/// Iterations in a row whose ‖R‖ grows before a run is called diverged.
+const DIVERGING_STEPS: usize = 5;
+
+/// Whether the iteration diverges: ‖R_p‖ grew at each of the last [`DIVERGING_STEPS`]
+/// iterations and is 10 times its smallest so far (iterates that grow without bound). A run
+/// that still reduces ‖R‖ is never called diverged, however its ‖Δλ‖ goes.
+fn diverging(history: &[IterationRecord]) -> bool {
+    let r: Vec<f64> = history.iter().map(|h| h.residual).collect();
+    let n = r.len();
+    if n <= DIVERGING_STEPS {
+        return false;
+    }
+    let smallest = r.iter().copied().fold(f64::INFINITY, f64::min);
+    let grew = r[n - 1 - DIVERGING_STEPS..].windows(2).all(|w| w[1] > w[0]);
+    grew && r[n - 1] > 10.0 * smallest
+}
+
 /// The steps of an iteration, as set up for this run: body 1's Dirichlet step (on its ranks),
 /// body 2's contact step (on its ranks), and each body's Neumann step (on its ranks).
 pub struct Steps<'a> {
@@ -303,10 +320,9 @@ pub struct LoopState {
     pub active: Vec<bool>,
     /// `-nndd_theta auto`: the secant update's columns and estimates.
     pub secant: Option<SecantUpdate>,
-    /// The stagnation and divergence guards: the best ‖Δλ‖/‖λ‖, where, and the run of growth.
+    /// The stagnation guard: the best ‖Δλ‖/‖λ‖ and where.
     pub best: f64,
     pub best_at: usize,
-    pub growth: usize,
 }
 
 /// What the loop asks of its caller, besides the bodies and steps: the estimates, the
@@ -362,7 +378,6 @@ pub fn solve<E: From<NnddError>>(
             .then(|| SecantUpdate::new(settings.theta, SECANT_MEMORY.min(m.max(1)))),
         best: f64::INFINITY,
         best_at: 0,
-        growth: 0,
     };
     let resumed = start.is_some();
     let LoopState {
@@ -373,7 +388,6 @@ pub fn solve<E: From<NnddError>>(
         mut secant,
         mut best,
         mut best_at,
-        mut growth,
     } = start.unwrap_or(fresh);
     let (dirichlet, contact) = (steps.dirichlet, steps.contact);
     if let (Some(c), true) = (contact, resumed && !warm.is_empty()) {
@@ -534,16 +548,7 @@ pub fn solve<E: From<NnddError>>(
                 best = change;
                 best_at = p;
             }
-            let previous = history
-                .len()
-                .checked_sub(2)
-                .map(|k| history[k].lambda_change);
-            growth = if previous.is_some_and(|c| change > c) {
-                growth + 1
-            } else {
-                0
-            };
-            if growth >= 5 && change > 10.0 * best {
+            if use_tol && diverging(&history) {
                 Some(Status::Diverged)
             } else if use_tol && p - best_at >= 50 {
                 Some(Status::Stagnated)
@@ -570,7 +575,6 @@ pub fn solve<E: From<NnddError>>(
                 secant: secant.clone(),
                 best,
                 best_at,
-                growth,
             })?;
         }
         last = Some(it);
@@ -608,4 +612,36 @@ pub fn solve<E: From<NnddError>>(
         last,
         timers,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn history(residuals: &[f64]) -> Vec<IterationRecord> {
+        residuals
+            .iter()
+            .enumerate()
+            .map(|(k, &r)| IterationRecord {
+                iteration: k + 1,
+                residual: r,
+                ..Default::default()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn only_a_growing_residual_is_divergence() {
+        // Down, then up five times in a row to 10 times the smallest: diverging.
+        let up = [1.0, 0.1, 0.2, 0.4, 0.8, 1.6, 3.2];
+        assert!(diverging(&history(&up)));
+        // Up five times but still below 10 times the smallest: not yet.
+        assert!(!diverging(&history(&[1.0, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0])));
+        // Reducing ‖R‖ (however ‖Δλ‖ goes), or growth broken by one decrease: not diverging.
+        assert!(!diverging(&history(&[
+            1.0, 0.5, 0.25, 0.12, 0.06, 0.03, 0.01
+        ])));
+        assert!(!diverging(&history(&[1.0, 0.1, 0.2, 0.4, 0.3, 1.6, 3.2])));
+        assert!(!diverging(&history(&up[..5])));
+    }
 }

@@ -107,15 +107,22 @@ pub struct FieldInfo {
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
     pub problem: String,
-    pub n: usize,
-    /// (nx, ny) of body 1 and body 2.
-    pub grids: [[usize; 2]; 2],
+    /// The built-in problems' mesh level and grids ((nx, ny) of body 1 and body 2); absent for
+    /// a Gmsh problem.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub n: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grids: Option<[[usize; 2]; 2]>,
+    /// A Gmsh problem as given: its file, contact curves and boundary conditions.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<MeshProblem>,
     pub dofs: usize,
     pub ranks: i32,
     pub solver: String,
-    /// θ (with `theta_auto`, only the fallback of a first step without a stiffness estimate;
-    /// the history gives θ per iteration).
-    pub theta: f64,
+    /// The fixed θ of `-nndd_theta VALUE`; absent with `theta_auto` (the history gives the θ
+    /// of every iteration).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub theta: Option<f64>,
     /// `-nndd_theta auto`: the secant update (src/dd/secant.rs).
     pub theta_auto: bool,
     pub tol: f64,
@@ -124,8 +131,12 @@ pub struct Summary {
     pub young: [f64; 2],
     /// Poisson's ratio of body 1 and body 2.
     pub poisson: [f64; 2],
-    pub u_d: f64,
-    pub f_max: f64,
+    /// The built-in problems' load: u_D on the top of body 2 (m), F_max on its right edge (Pa);
+    /// absent for a Gmsh problem.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u_d: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub f_max: Option<f64>,
     pub converged: bool,
     /// "converged", "max_it", "diverged", "stagnated" (NNDD) or "solved" (monolithic).
     pub status: String,
@@ -142,6 +153,8 @@ pub struct Summary {
     pub contact_zone: Option<[f64; 2]>,
     pub active_nodes: usize,
     pub contact_nodes: usize,
+    /// The contact zone of the reported iterate: where, how long, the peak pressure.
+    pub contact: ContactZone,
     /// The contact curves: how they were made to match and the largest penetration over them.
     pub contact_curves: ContactCurves,
     /// How each body's interface operators S^α, D^α were formed: "mumps_schur",
@@ -164,7 +177,7 @@ pub struct Summary {
     /// Largest relative KKT violation of the contact QPs of the reported step.
     pub qp_kkt_residual: f64,
     /// The estimated iterations (η^glo, η^FE, η^NNDD, ratio (25), e_ref and effectivity (26)).
-    pub estimates: Vec<IterationRecord>,
+    pub estimates: Vec<EstimateEntry>,
     pub timings: Timings,
     /// Peak resident memory over ranks (MiB): each process's high-water mark (getrusage).
     pub peak_memory_mib: f64,
@@ -215,4 +228,51 @@ pub struct ContactCurves {
     /// The largest penetration of the reported solution over both whole curves (a value
     /// beyond round-off is an error, so this is round-off or 0).
     pub max_penetration: crate::dd::check::Penetration,
+}
+
+/// The contact zone of the reported iterate (the pairs in contact), on body 1's side of Γc.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ContactZone {
+    /// The zone as an arc-length interval along Γc from its first node (m); null when no pair
+    /// is in contact.
+    pub zone: Option<[f64; 2]>,
+    /// The zone's two end points (x, y).
+    pub zone_ends: Option<[[f64; 2]; 2]>,
+    /// Its length along Γc (m).
+    pub zone_length: f64,
+    /// The largest lumped nodal pressure (Pa: a pair's normal force over its share of Γc) and
+    /// where.
+    pub peak_pressure: f64,
+    pub peak_pressure_at: Option<[f64; 2]>,
+    /// The total normal force on Γc (N/m, positive in compression).
+    pub normal_force: f64,
+}
+
+/// A Gmsh problem as the options gave it.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MeshProblem {
+    pub file: String,
+    /// The physical surfaces of the two bodies.
+    pub bodies: [&'static str; 2],
+    /// `-nndd_contact`: body 1's and body 2's contact curves.
+    pub contact: [String; 2],
+    /// The `-nndd_bc_NAME_…` conditions: per curve, the prescribed (u_x, u_y) (null where free)
+    /// or the traction at its first and last point (Pa).
+    pub conditions: Vec<crate::problem::meshed::CurveCondition>,
+}
+
+/// The estimates of one estimated iteration (paper (22)–(26)).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EstimateEntry {
+    pub iteration: usize,
+    pub eta_glo: f64,
+    pub eta_fe: f64,
+    pub eta_nndd: f64,
+    /// (η^FE² + η^NNDD²)/η^glo², relation (25).
+    pub eta_ratio: f64,
+    /// Against the reference solution (`-nndd_reference_factor`), when solved.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub e_ref: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effectivity: Option<f64>,
 }

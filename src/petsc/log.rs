@@ -80,6 +80,29 @@ impl Stages {
     }
 }
 
+impl Stages {
+    /// These stages with every one of them the reference solve's: the reference's setup,
+    /// steps and fields are booked in its own stage, not in the run's (`-log_view` then matches
+    /// the summary's timings).
+    pub fn all_in_reference(&self) -> Stages {
+        let r = self.reference;
+        Stages {
+            assembly: r,
+            factorisation: r,
+            interface: r,
+            dirichlet_step: r,
+            contact_step: r,
+            neumann_step: r,
+            fields: r,
+            monolithic: r,
+            estimation: r,
+            estimation_parts: [r; 6],
+            reference: r,
+            output: r,
+        }
+    }
+}
+
 /// Accumulated wall time of one phase.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Timer(Duration);

@@ -270,11 +270,42 @@ pub fn options_text() -> Result<String> {
 /// The names of every option in the database, e.g. to find the `-nndd_bc_…` options that
 /// name no boundary.
 pub fn option_names() -> Result<Vec<String>> {
-    Ok(options_text()?
-        .split_whitespace()
+    Ok(names_in(&options_text()?))
+}
+
+/// The option names in a listing of options as [`options_text`] gives it.
+pub fn names_in(text: &str) -> Vec<String> {
+    text.split_whitespace()
         .filter(|t| t.starts_with('-') && t[1..].starts_with(|c: char| c.is_ascii_alphabetic()))
         .map(str::to_string)
-        .collect())
+        .collect()
+}
+
+/// The options given that nothing on this process has read (PETSc's `-options_left`), as
+/// `-name`.
+pub fn unused_options() -> Result<Vec<String>> {
+    let mut n: Int = 0;
+    let mut names: *mut *mut c_char = ptr::null_mut();
+    let mut values: *mut *mut c_char = ptr::null_mut();
+    call!(PetscOptionsLeftGet(
+        ptr::null_mut(),
+        &mut n,
+        &mut names,
+        &mut values
+    ))?;
+    let mut out = Vec::with_capacity(n.max(0) as usize);
+    for i in 0..n.max(0) as usize {
+        // SAFETY: PETSc returns n NUL-terminated names, valid until the restore below.
+        let name = unsafe { CStr::from_ptr(*names.add(i)) }.to_string_lossy();
+        out.push(format!("-{}", name.trim_start_matches('-')));
+    }
+    call!(PetscOptionsLeftRestore(
+        ptr::null_mut(),
+        &mut n,
+        &mut names,
+        &mut values
+    ))?;
+    Ok(out)
 }
 
 pub fn option_default(name: &str, value: &str) -> Result<()> {
@@ -294,6 +325,8 @@ pub fn option_default(name: &str, value: &str) -> Result<()> {
 pub struct OptionsBlock {
     items: Box<ffi::PetscOptionItems>,
     ended: bool,
+    /// Every option name queried, in order (the options the program knows).
+    queried: Vec<String>,
 }
 
 fn to_bool(b: ffi::PetscBool) -> bool {
@@ -316,10 +349,12 @@ impl OptionsBlock {
         Ok(OptionsBlock {
             items,
             ended: false,
+            queried: Vec::new(),
         })
     }
 
     pub fn real(&mut self, name: &str, help: &str, default: f64) -> Result<(f64, bool)> {
+        self.queried.push(name.to_string());
         self.real_(name, help, default)
             .map_err(|e| e.for_option(name))
     }
@@ -341,6 +376,7 @@ impl OptionsBlock {
     }
 
     pub fn int(&mut self, name: &str, help: &str, default: i64) -> Result<(i64, bool)> {
+        self.queried.push(name.to_string());
         self.int_(name, help, default)
             .map_err(|e| e.for_option(name))
     }
@@ -364,6 +400,7 @@ impl OptionsBlock {
     }
 
     pub fn string(&mut self, name: &str, help: &str, default: &str) -> Result<(String, bool)> {
+        self.queried.push(name.to_string());
         let (n, h, m, d) = (cstr(name), cstr(help), cstr("None"), cstr(default));
         let mut buf = vec![0 as c_char; 4096];
         let mut set = ffi::PETSC_FALSE;
@@ -389,6 +426,7 @@ impl OptionsBlock {
     }
 
     pub fn flag(&mut self, name: &str, help: &str, default: bool) -> Result<bool> {
+        self.queried.push(name.to_string());
         self.flag_(name, help, default)
             .map_err(|e| e.for_option(name))
     }
@@ -412,6 +450,11 @@ impl OptionsBlock {
             &mut set
         ))?;
         Ok(to_bool(value))
+    }
+
+    /// The option names queried so far.
+    pub fn queried(&self) -> &[String] {
+        &self.queried
     }
 
     pub fn end(mut self) -> Result<()> {

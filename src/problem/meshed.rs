@@ -23,7 +23,7 @@ use crate::fem::Material;
 pub const BODY_NAMES: [&str; 2] = ["body1", "body2"];
 
 /// Conditions on one named physical curve (plain data, from the `-nndd_bc_NAME_…` options).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct CurveCondition {
     pub curve: String,
     /// Prescribed displacement components (x, y), either or both.
