@@ -27,15 +27,3 @@ pub mod problem;
 pub mod qp;
 #[cfg(test)]
 mod testutil;
-
-/// `eprintln!` as one write: the line is formatted first, then written whole. Standard error
-/// is unbuffered, so `eprintln!` writes each formatted piece on its own, and mpirun can put a
-/// line of standard output between two pieces of it (`nndd: warning: the NNDD nndd: mesh …`).
-#[macro_export]
-macro_rules! eprintln_line {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let line = format!("{}\n", format_args!($($arg)*));
-        let _ = std::io::stderr().lock().write_all(line.as_bytes());
-    }};
-}

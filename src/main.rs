@@ -19,14 +19,14 @@ use mpi::traits::Communicator;
 
 fn main() {
     std::panic::set_hook(Box::new(|info| {
-        nndd::eprintln_line!("nndd: internal error: {info}");
+        nndd::io::monitor::say(format_args!("nndd: internal error: {info}"));
     }));
     if let Err(e) = nndd::petsc::signals::ignore_file_size_limit() {
-        nndd::eprintln_line!("nndd: error: cannot ignore SIGXFSZ: {e}");
+        nndd::io::monitor::say(format_args!("nndd: error: cannot ignore SIGXFSZ: {e}"));
         std::process::exit(1);
     }
     let Some(universe) = mpi::initialize() else {
-        nndd::eprintln_line!("nndd: error: MPI could not be initialised");
+        nndd::io::monitor::say(format_args!("nndd: error: MPI could not be initialised"));
         std::process::exit(1);
     };
     let world = universe.world();
@@ -101,7 +101,10 @@ fn failed_somewhere(agreement: &Agreement, rank: i32, failure: Option<String>) -
     match agreement.first_failure(code, || app::abort_with(failure.as_deref())) {
         Some((first, _)) => {
             if first == rank as usize {
-                nndd::eprintln_line!("nndd: error: {}", failure.unwrap_or_default());
+                nndd::io::monitor::say(format_args!(
+                    "nndd: error: {}",
+                    failure.unwrap_or_default()
+                ));
             }
             true
         }
@@ -121,7 +124,7 @@ fn report(e: &AppError, rank: i32, agreement: &Agreement) -> i32 {
     if !e.is_collective() {
         // A failure on this rank only: the others may wait in a collective; end the job.
         if mpi::topology::SimpleCommunicator::world().size() == 1 {
-            nndd::eprintln_line!("nndd: error: {e}");
+            nndd::io::monitor::say(format_args!("nndd: error: {e}"));
             return 2;
         }
         app::abort_with(Some(&e.to_string()));
@@ -136,7 +139,7 @@ fn report(e: &AppError, rank: i32, agreement: &Agreement) -> i32 {
     match first {
         Some((r, code)) => {
             if r == rank as usize {
-                nndd::eprintln_line!("nndd: error: {e}");
+                nndd::io::monitor::say(format_args!("nndd: error: {e}"));
             }
             code as i32
         }

@@ -17,7 +17,7 @@ fn h5_matches_json() {
         "dofs",
         "ranks",
         "solver",
-        "theta",
+        "theta_auto",
         "tol",
         "converged",
         "iterations",
@@ -29,7 +29,9 @@ fn h5_matches_json() {
     ] {
         assert!(!j[key].is_null(), "summary lacks {key}");
     }
-    for key in ["iteration", "lambda_change", "residual", "active"] {
+    // θ auto (the default): θ per iteration in the history, no fixed `theta`.
+    assert!(j.get("theta").is_none(), "{}", j["theta"]);
+    for key in ["iteration", "lambda_change", "residual", "active", "theta"] {
         assert!(
             !j["history"][0][key].is_null(),
             "history entries lack {key}"

@@ -203,7 +203,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     )?;
     if world.rank() == 0 {
         for w in &settings.warnings {
-            crate::eprintln_line!("nndd: warning: {w}");
+            crate::io::monitor::say(format_args!("nndd: warning: {w}"));
         }
     }
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
@@ -269,7 +269,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     let unused = unused_solver_options(&settings, &layout)?;
     if layout.is_root() {
         for w in &unused {
-            crate::eprintln_line!("nndd: warning: {w}");
+            crate::io::monitor::say(format_args!("nndd: warning: {w}"));
         }
     }
     if settings.monitor && layout.is_root() {
@@ -298,7 +298,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             Ok(reference) => Some(reference),
             Err(w) => {
                 if layout.is_root() {
-                    crate::eprintln_line!("nndd: warning: {w}");
+                    crate::io::monitor::say(format_args!("nndd: warning: {w}"));
                 }
                 warnings.push(w);
                 None
@@ -353,7 +353,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     let problem_refs = [&*problems[0], &*problems[1]];
     if let Some(w) = dd::check::zone_reaches_open_end(problem_refs, &sol.last) {
         if layout.is_root() {
-            crate::eprintln_line!("nndd: warning: {w}");
+            crate::io::monitor::say(format_args!("nndd: warning: {w}"));
         }
         sol.warnings.push(w);
     }
@@ -436,10 +436,10 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     agreed(agreement, written)?;
     if petsc::signals::stop_requested() && !sol.interrupted && layout.is_root() {
         // The output is not interrupted: a signal during it is read once the files exist.
-        crate::eprintln_line!(
+        crate::io::monitor::say(format_args!(
             "nndd: {} arrived while the results were written; they are complete",
             petsc::signals::received_name()
-        );
+        ));
     }
     Ok(if sol.interrupted {
         Outcome::Interrupted
@@ -486,7 +486,9 @@ pub fn abort_with(message: Option<&str>) -> ! {
         Some(m) if m.starts_with(dd::body::ECHO) => {
             std::thread::sleep(std::time::Duration::from_secs(5));
         }
-        Some(m) => crate::eprintln_line!("nndd: error (rank {}): {m}", world.rank()),
+        Some(m) => {
+            crate::io::monitor::say(format_args!("nndd: error (rank {}): {m}", world.rank()))
+        }
         None => {}
     }
     world.abort(2)

@@ -172,14 +172,14 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         );
     }
     if sol.interrupted {
-        crate::eprintln_line!(
+        crate::io::monitor::say(format_args!(
             "nndd: interrupted by a signal after {} iterations; continue with -nndd_restart {}",
             sol.iterations,
             crate::io::checkpoint::path_for(&settings.output).display()
-        );
+        ));
     } else if !sol.requested {
         let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
-        crate::eprintln_line!(
+        crate::io::monitor::say(format_args!(
             "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); {}",
             match sol.status.as_str() {
                 "diverged" => "diverged",
@@ -194,7 +194,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             } else {
                 format!("try a smaller -nndd_theta (now {})", settings.nndd.theta)
             }
-        );
+        ));
     }
 }
 

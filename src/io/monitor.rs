@@ -69,3 +69,12 @@ pub fn sci(x: f64, digits: usize) -> String {
     let e: i32 = exp.parse().expect("exponent");
     format!("{mant}e{}{:02}", if e < 0 { '-' } else { '+' }, e.abs())
 }
+
+/// A line on standard error, written whole: formatted first, then one write. Standard error is
+/// unbuffered, so `eprintln!` writes each formatted piece on its own, and mpirun can put a line
+/// of standard output between two pieces of it (`nndd: warning: the NNDD nndd: mesh …`).
+pub fn say(args: std::fmt::Arguments) {
+    use std::io::Write as _;
+    let line = format!("{args}\n");
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
+}

@@ -303,10 +303,14 @@ pub fn fails_with(np: usize, args: &[&str], code: Option<i32>, needles: &[&str])
     ours[0].to_string()
 }
 
-/// Bad input at `paper` n = 4: [`fails_with`] any non-zero exit, the line `nndd: error: …`
-/// naming `option`.
+/// Bad input at `paper` n = 4 (or on the Gmsh mesh `args` name): [`fails_with`] any non-zero
+/// exit, the line `nndd: error: …` naming `option`.
 pub fn refused(np: usize, args: &[&str], option: &str) {
-    let mut all = vec!["-nndd_n", "4"];
+    let mut all = if args.contains(&"-nndd_mesh") {
+        vec![]
+    } else {
+        vec!["-nndd_n", "4"]
+    };
     all.extend_from_slice(args);
     let line = fails_with(np, &all, None, &[option]);
     assert!(line.starts_with("nndd: error: "), "{line}");

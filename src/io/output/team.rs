@@ -71,10 +71,10 @@ impl<C: mpi::traits::Communicator> Writers for Team<'_, C> {
         // A rank that failed waits a few seconds: the others may be stuck in a collective
         // HDF5 call that its failure left them in; then it ends the job.
         crate::parallel::fault::first_failed(self.0, failed, || {
-            crate::eprintln_line!(
+            crate::io::monitor::say(format_args!(
                 "nndd: error (rank {}): writing the results failed on this rank and the other ranks do not answer; ending the job",
                 self.0.rank()
-            );
+            ));
             self.0.abort(2)
         })
     }
