@@ -32,6 +32,7 @@ pub fn summarise(
 ) -> Summary {
     let contact = contact_of(body1, &sol.last);
     let builtin = settings.problem.mesh.is_none();
+    let matched = settings.problem.mesh.as_ref().map(|m| &*m.matched);
     let residuals = (!sol.estimates.is_empty()).then(|| {
         let mut r = EquilibriumResiduals::default();
         for e in &sol.estimates {
@@ -72,25 +73,17 @@ pub fn summarise(
         iterations: sol.iterations,
         history: sol.history.clone(),
         potential_energy: energy,
-        contact_force: contact.force,
+        contact_force: contact.detail.normal_force,
         contact_zone: contact.zone,
         active_nodes: contact.active,
         contact_nodes: contact.nodes,
-        contact: contact_zone(body1, &sol.last),
+        contact: contact.detail.clone(),
         contact_curves: ContactCurves {
             names: super::contact_curves(settings),
             nodes: [body1, body2].map(|b| b.contact_candidates.len()),
             pairs: body1.contact_nodes.len(),
-            inserted: settings
-                .problem
-                .mesh
-                .as_ref()
-                .map_or([0; 2], |m| m.matched.inserted),
-            moved: settings
-                .problem
-                .mesh
-                .as_ref()
-                .map_or([0; 2], |m| m.matched.moved),
+            inserted: matched.map_or([0; 2], |m| m.inserted),
+            moved: matched.map_or([0; 2], |m| m.moved),
             max_penetration: sol.penetration.clone().unwrap_or_default(),
         },
         schur_source: solvers.each_ref().map(|s| s.schur_source.to_string()),
@@ -231,58 +224,51 @@ pub fn max_over_ranks(layout: &Layout, t: &mut Timings) {
     }
 }
 
-/// The quantities of the summary that come from the reported iterate.
+/// The quantities of the summary that come from the reported iterate's Γc.
 struct Contact {
-    force: f64,
+    /// [x_min, x_max] of the pairs in contact.
     zone: Option<[f64; 2]>,
     active: usize,
     nodes: usize,
+    /// The zone along Γc, its peak pressure and the total normal force.
+    detail: ContactZone,
 }
 
-/// The contact zone of the reported iterate along body 1's side of Γc.
-fn contact_zone(p1: &BodyProblem, last: &Iterate) -> ContactZone {
+fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
     let m = last.active.len();
+    let x = p1.contact_x();
+    let on: Vec<usize> = (0..m).filter(|&k| last.active[k]).collect();
+    let zone = (!on.is_empty()).then(|| {
+        let xs = on.iter().map(|&k| x[k]);
+        [
+            xs.clone().fold(f64::INFINITY, f64::min),
+            xs.fold(f64::NEG_INFINITY, f64::max),
+        ]
+    });
     let mut arc = vec![0.0; m];
     for k in 1..m {
         arc[k] = arc[k - 1] + p1.contact_lengths[k - 1];
     }
     let point = |k: usize| p1.mesh.points[p1.contact_nodes[k]];
+    // The lumped nodal pressure, as the output's `pressure`.
     let share =
         crate::estimate::traction::Interface::new(p1.contact_lengths.clone()).forces(&vec![1.0; m]);
     let force = &last.forces[1];
-    let (first, end) = (
-        last.active.iter().position(|&a| a),
-        last.active.iter().rposition(|&a| a),
-    );
+    let ends = on.first().zip(on.last()).map(|(&a, &b)| (a, b));
     let peak = (0..m)
         .map(|k| (force[k] / share[k], k))
         .max_by(|a, b| a.0.total_cmp(&b.0));
-    ContactZone {
-        zone: first.zip(end).map(|(a, b)| [arc[a], arc[b]]),
-        zone_ends: first.zip(end).map(|(a, b)| [point(a), point(b)]),
-        zone_length: first.zip(end).map_or(0.0, |(a, b)| arc[b] - arc[a]),
-        peak_pressure: peak.map_or(0.0, |p| p.0),
-        peak_pressure_at: peak.filter(|p| p.0 > 0.0).map(|p| point(p.1)),
-        normal_force: force.iter().sum(),
-    }
-}
-
-fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
-    let x = p1.contact_x();
-    let xs: Vec<f64> = (0..x.len())
-        .filter(|&i| last.active[i])
-        .map(|i| x[i])
-        .collect();
-    let zone = (!xs.is_empty()).then(|| {
-        [
-            xs.iter().cloned().fold(f64::INFINITY, f64::min),
-            xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-        ]
-    });
     Contact {
-        force: last.forces[1].iter().sum(),
         zone,
-        active: xs.len(),
-        nodes: x.len(),
+        active: on.len(),
+        nodes: m,
+        detail: ContactZone {
+            zone: ends.map(|(a, b)| [arc[a], arc[b]]),
+            zone_ends: ends.map(|(a, b)| [point(a), point(b)]),
+            zone_length: ends.map_or(0.0, |(a, b)| arc[b] - arc[a]),
+            peak_pressure: peak.map_or(0.0, |p| p.0),
+            peak_pressure_at: peak.filter(|p| p.0 > 0.0).map(|p| point(p.1)),
+            normal_force: force.iter().sum(),
+        },
     }
 }
