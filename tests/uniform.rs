@@ -4,10 +4,17 @@
 mod common;
 use common::*;
 
-/// σ_yy = E u_D / (2 (1 − ν²)) in both bodies, σ_xx = σ_xy = 0.
+/// σ_yy = E u_D / (2 (1 − ν²)) in both bodies, σ_xx = σ_xy = 0, with the Dirichlet step on
+/// either body.
 #[test]
 fn stresses_are_exact() {
-    let dir = scratch("uniform-stress");
+    for body in ["1", "2"] {
+        stresses_are_exact_with_the_dirichlet_step_on(body);
+    }
+}
+
+fn stresses_are_exact_with_the_dirichlet_step_on(dirichlet_body: &str) {
+    let dir = scratch(&format!("uniform-stress{dirichlet_body}"));
     let p = dir.join("u");
     let j = solve(
         2,
@@ -19,7 +26,13 @@ fn stresses_are_exact() {
             "6",
             "-nndd_tol",
             "1e-13",
+            "-nndd_dirichlet_body",
+            dirichlet_body,
         ],
+    );
+    assert_eq!(
+        j["dirichlet_body"].as_u64().unwrap().to_string(),
+        dirichlet_body
     );
     let (e, nu, ud) = (
         j["young"][0].as_f64().unwrap(),
@@ -55,10 +68,17 @@ fn stresses_are_exact() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// θ = 1/2: the first update gives the exact λ, so iteration 2 is converged.
+/// θ = 1/2: the first update gives the exact λ, so iteration 2 is converged, with the
+/// Dirichlet step on either body (mirror images: the same interface operator).
 #[test]
 fn theta_half_converges_after_one_update() {
-    let dir = scratch("uniform-half");
+    for body in ["1", "2"] {
+        theta_half_converges_with_the_dirichlet_step_on(body);
+    }
+}
+
+fn theta_half_converges_with_the_dirichlet_step_on(dirichlet_body: &str) {
+    let dir = scratch(&format!("uniform-half{dirichlet_body}"));
     let j = solve(
         2,
         &dir.join("u"),
@@ -71,6 +91,8 @@ fn theta_half_converges_after_one_update() {
             "0.5",
             "-nndd_tol",
             "1e-10",
+            "-nndd_dirichlet_body",
+            dirichlet_body,
         ],
     );
     let h = j["history"].as_array().unwrap();
@@ -85,10 +107,17 @@ fn theta_half_converges_after_one_update() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// θ = 1/4: the λ error, hence the update and the defect, halves at every iteration.
+/// θ = 1/4: the λ error, hence the update and the defect, halves at every iteration, with the
+/// Dirichlet step on either body.
 #[test]
 fn theta_quarter_halves_the_error() {
-    let dir = scratch("uniform-quarter");
+    for body in ["1", "2"] {
+        theta_quarter_halves_with_the_dirichlet_step_on(body);
+    }
+}
+
+fn theta_quarter_halves_with_the_dirichlet_step_on(dirichlet_body: &str) {
+    let dir = scratch(&format!("uniform-quarter{dirichlet_body}"));
     let j = solve(
         1,
         &dir.join("u"),
@@ -101,6 +130,8 @@ fn theta_quarter_halves_the_error() {
             "0.25",
             "-nndd_tol",
             "1e-9",
+            "-nndd_dirichlet_body",
+            dirichlet_body,
         ],
     );
     let h = j["history"].as_array().unwrap();

@@ -244,6 +244,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         settings.problem.kind.name(),
         &problems,
         settings.theta_text.clone(),
+        settings.nndd.dirichlet_body,
     );
     let from = match &settings.restart {
         None => None,
@@ -281,8 +282,13 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
                 settings.problem.n
             ),
         };
+        let roles = match (settings.solver, settings.nndd.dirichlet_body) {
+            (SolverKind::Nndd, 1) => ", Dirichlet step on body 1, contact step on body 2",
+            (SolverKind::Nndd, _) => ", Dirichlet step on body 2, contact step on body 1",
+            _ => "",
+        };
         println!(
-            "nndd: {problem}, {} dofs, {} rank(s): setup {:.3} s",
+            "nndd: {problem}, {} dofs, {} rank(s){roles}: setup {:.3} s",
             dofs[0] + dofs[1],
             layout.size,
             t_start.elapsed().as_secs_f64()

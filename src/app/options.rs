@@ -234,9 +234,6 @@ impl Settings {
         } else {
             None
         };
-        if let Some(spec) = &mesh {
-            warnings.extend(soft_body1(&materials, &spec.contact));
-        }
         let (u_d, _) = o.real(
             "-nndd_u_D",
             "Prescribed vertical displacement of the top of body 2 (m)",
@@ -369,7 +366,7 @@ impl Settings {
         )?;
         let (d, _) = o.string(
             "-nndd_dirichlet_step",
-            "Dirichlet step on body 1: auto (condensed when body 1 has its interface operators: MUMPS on any rank count, SuperLU_DIST), system, condensed",
+            "Dirichlet step (on the body of -nndd_dirichlet_body): auto (condensed when that body has its interface operators: MUMPS on any rank count, SuperLU_DIST), system, condensed",
             "auto",
         )?;
         let dirichlet_step = match d.as_str() {
@@ -384,11 +381,24 @@ impl Settings {
                 })
             }
         };
-        // A second SuperLU_DIST factorisation on body 1's communicator: see `setup_bodies`.
-        if dirichlet_step == DirichletChoice::System && uses_superlu_dist(1)? {
+        let dirichlet_body = match choice(
+            &mut o,
+            "-nndd_dirichlet_body",
+            "The body of the Dirichlet step (the other takes the contact step): auto (the stiffer body, by E/(1-nu^2)), 1, 2",
+            &[("auto", None), ("1", Some(1)), ("2", Some(2))],
+        )? {
+            Some(b) => {
+                warnings.extend(soft_dirichlet_body(&materials, b));
+                b
+            }
+            None => stiffer_body(&materials),
+        };
+        // A second SuperLU_DIST factorisation on the Dirichlet body's communicator: see
+        // `setup_bodies`.
+        if dirichlet_step == DirichletChoice::System && uses_superlu_dist(dirichlet_body)? {
             return Err(SettingsError::Named {
                 option: "-nndd_dirichlet_step".into(),
-                message: "system cannot be used with -body1_pc_factor_mat_solver_type superlu_dist (PETSc 3.18 frees the process grid of two SuperLU_DIST factorisations on one communicator twice); use auto or condensed".into(),
+                message: format!("system cannot be used with -body{dirichlet_body}_pc_factor_mat_solver_type superlu_dist on the body of the Dirichlet step (PETSc 3.18 frees the process grid of two SuperLU_DIST factorisations on one communicator twice); use auto or condensed"),
             });
         }
         let estimate_flag = o.flag(
@@ -588,6 +598,7 @@ impl Settings {
                 tol,
                 max_it,
                 stop,
+                dirichlet_body,
             },
             dirichlet_step,
             qp: QpSettings {
@@ -643,6 +654,13 @@ impl Settings {
         s.nndd.auto = true;
         s.nndd.theta = AUTO_THETA_PROBE;
         s.nndd.max_it = self.nndd.max_it.max(1000);
+        // With the Dirichlet step on the stiffer body (`-nndd_dirichlet_body auto`); a body
+        // other than the run's takes the Dirichlet step the way `auto` chooses (the run's
+        // `system` was checked against its own body's solver only).
+        s.nndd.dirichlet_body = stiffer_body(&self.problem.materials);
+        if s.nndd.dirichlet_body != self.nndd.dirichlet_body {
+            s.dirichlet_step = DirichletChoice::Auto;
+        }
         s.monitor = false;
         s.estimate = false;
         s.estimate_every = 0;
@@ -974,21 +992,26 @@ fn check_materials(
     Ok(warnings)
 }
 
-/// E¹/E² below which a Gmsh problem is told to make the stiffer body body 1.
-pub const SOFT_BODY1: f64 = 0.1;
+/// How much softer than the other the Dirichlet step's body must be for a warning.
+pub const SOFT_DIRICHLET: f64 = 0.1;
 
-/// The advice for a Gmsh problem whose body 1 (the Dirichlet step's) is much softer than body 2:
-/// θ auto then needs many iterations where the contact set grows (the interface operator's
-/// spectrum spreads by E²/E¹, `src/dd/secant.rs`), with the stiffer body as body 1 few
-/// (examples/hertz at E¹/E² = 0.001, levels 1–3: 41–105 iterations, swapped 7–8).
-fn soft_body1(materials: &[Material; 2], contact: &[String; 2]) -> Option<String> {
-    let (e1, e2) = (materials[0].young, materials[1].young);
-    (e1 < SOFT_BODY1 * e2).then(|| {
+/// The plane-strain modulus E/(1 − ν²), the stiffness that decides the Dirichlet body.
+fn modulus(m: &Material) -> f64 {
+    m.young / (1.0 - m.poisson * m.poisson)
+}
+
+/// The advice for a Dirichlet step given to a body much softer than the other
+/// (`-nndd_dirichlet_body`): θ auto then needs many iterations where the contact set grows (the
+/// interface operator's spectrum spreads by the stiffness ratio, `src/dd/secant.rs`).
+fn soft_dirichlet_body(materials: &[Material; 2], body: usize) -> Option<String> {
+    let (d, c) = (&materials[body - 1], &materials[2 - body]);
+    (modulus(d) < SOFT_DIRICHLET * modulus(c)).then(|| {
         format!(
-            "body 1 is {:.0} times softer than body 2 (E {e1:e} against {e2:e} Pa): the NNDD converges in far fewer iterations with the stiffer body as body 1 (the Dirichlet step's): swap the physical surfaces body1 and body2 in the .geo file, the order of -nndd_contact ({},{}) and the materials",
-            e2 / e1,
-            contact[1],
-            contact[0]
+            "body {body} takes the Dirichlet step (-nndd_dirichlet_body {body}) but is {:.0} times softer than body {} (E/(1 - nu^2), E {:e} against {:e} Pa): the NNDD converges in far fewer iterations with the Dirichlet step on the stiffer body (-nndd_dirichlet_body auto)",
+            modulus(c) / modulus(d),
+            3 - body,
+            d.young,
+            c.young
         )
     })
 }
@@ -1060,6 +1083,16 @@ fn read_shared(file: &str) -> Result<gmsh::GmshMesh, String> {
     root.broadcast_into(&mut bytes[..]);
     gmsh::GmshMesh::from_bytes(&bytes)
         .ok_or_else(|| format!("{file}: the mesh sent by world rank 0 is damaged"))
+}
+
+/// The body of the Dirichlet step for `-nndd_dirichlet_body auto`: the stiffer one by its
+/// plane-strain modulus, body 1 (the paper's) when they are equal.
+pub fn stiffer_body(materials: &[Material; 2]) -> usize {
+    if modulus(&materials[1]) > modulus(&materials[0]) {
+        2
+    } else {
+        1
+    }
 }
 
 /// An option whose value is one of `values` (the first is the default): registered with its

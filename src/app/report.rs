@@ -61,6 +61,7 @@ pub fn summarise(
         solver: settings.solver.name().into(),
         theta: (!settings.nndd.auto).then_some(settings.nndd.theta),
         theta_auto: settings.nndd.auto,
+        dirichlet_body: settings.nndd.dirichlet_body,
         tol: settings.nndd.tol,
         max_it: settings.nndd.max_it,
         young: settings.problem.materials.map(|m| m.young),
@@ -253,7 +254,7 @@ fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
     // The lumped nodal pressure, as the output's `pressure`.
     let share =
         crate::estimate::traction::Interface::new(p1.contact_lengths.clone()).forces(&vec![1.0; m]);
-    let force = &last.forces[1];
+    let force = last.contact_forces();
     let ends = on.first().zip(on.last()).map(|(&a, &b)| (a, b));
     let peak = (0..m)
         .map(|k| (force[k] / share[k], k))

@@ -75,8 +75,10 @@ pub fn setup_bodies(
         // SuperLU_DIST, `auto` condenses body 1's Dirichlet step (S¹ from back-solves) rather
         // than factor a second system on its communicator (`uses_superlu_dist`).
         let superlu_dist = options::uses_superlu_dist(alpha)?;
+        let contact_body = settings.nndd.contact_body();
         let schur = match (settings.solver, alpha, settings.dirichlet_step) {
-            (SolverKind::Monolithic, _, _) | (_, 2, _) => SchurMode::Always,
+            (SolverKind::Monolithic, _, _) => SchurMode::Always,
+            (_, a, _) if a == contact_body => SchurMode::Always,
             _ if settings.neumann_step == NeumannChoice::Condensed => SchurMode::Always,
             (_, _, DirichletChoice::Auto) if superlu_dist => SchurMode::Always,
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
@@ -94,7 +96,7 @@ pub fn setup_bodies(
             stages,
         )?;
         let system = settings.dirichlet_step == DirichletChoice::System || !body.has_condensed();
-        if nndd_run && alpha == 1 && system {
+        if nndd_run && alpha == settings.nndd.dirichlet_body && system {
             body.add_dirichlet_system(stages)?;
         }
         timings.assembly += body.setup_seconds.0;
@@ -376,17 +378,32 @@ pub fn solve_nndd(
     let t = Instant::now();
     let (dirichlet, contact) = {
         let _s = stages.interface.enter();
-        let dirichlet = refs[0]
-            .map(|b1| DirichletStep::new(b1, settings.dirichlet_step))
+        let (di, ci) = (
+            settings.nndd.dirichlet_body - 1,
+            settings.nndd.contact_body() - 1,
+        );
+        let dirichlet = refs[di]
+            .map(|b| DirichletStep::new(b, settings.dirichlet_step))
             .transpose()?;
-        let contact = refs[1]
-            .map(|b2| ContactStep::new(b2, settings.contact.clone()))
+        let contact = refs[ci]
+            .map(|b| ContactStep::new(b, settings.contact.clone()))
             .transpose()?;
         (dirichlet, contact)
     };
     timings.interface += t.elapsed().as_secs_f64();
+    // The Dirichlet step's kind, from its body's ranks to every rank (for the summary).
+    let mut system = [dirichlet
+        .as_ref()
+        .map_or(0.0, |d| (d.name() == "system") as u8 as f64)];
+    layout.share(settings.nndd.dirichlet_body, &mut system);
+    let dirichlet_name = if system[0] > 0.5 {
+        "system"
+    } else {
+        "condensed"
+    };
     let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.neumann_step)));
     let steps = Steps {
+        dirichlet_body: settings.nndd.dirichlet_body,
         dirichlet: dirichlet.as_ref(),
         contact: contact.as_ref(),
         neumann,
@@ -492,7 +509,7 @@ pub fn solve_nndd(
         history,
         last: res.last,
         estimates,
-        dirichlet_step: dirichlet.as_ref().map_or("", |d| d.name()),
+        dirichlet_step: dirichlet_name,
         neumann_step: neumann,
         check: Some(res.check),
         warnings: Vec::new(),
@@ -522,10 +539,12 @@ pub fn solve_monolithic(
     layout.share_vec(1, &mut lambda);
     let trace2 = nndd::shared_trace2(layout, refs[1], &res.u[1], lambda.len());
     let last = Iterate {
+        interface: lambda.clone(),
         lambda,
         trace2,
         u: res.u,
         forces: [res.forces.iter().map(|f| -f).collect(), res.forces.clone()],
+        contact_body: 2,
         active: res.active,
         qp_kkt: res.kkt_residual,
         iteration: 0,

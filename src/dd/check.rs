@@ -26,7 +26,8 @@ pub struct SolutionCheck {
     /// The largest penetration of body 2 into body 1's Γc trace, max(0, λ − g₀ − u²_n),
     /// over the largest |λ|, |u²_n|, |g₀|.
     pub penetration: f64,
-    /// The largest tensile Γc force, max(0, −T²), over the largest |T²|.
+    /// The largest tensile Γc force, max(0, −T²) (−T¹ for T² when body 1 takes the contact
+    /// step), over the largest |T²|.
     pub tension: f64,
     /// The largest |T²_k| · gap_k over the largest |T²| times the displacement scale.
     pub complementarity: f64,
@@ -57,6 +58,7 @@ impl SolutionCheck {
 
     fn pack(&self) -> Vec<f64> {
         vec![
+            self.equilibrium[0],
             self.equilibrium[1],
             self.penetration,
             self.tension,
@@ -66,26 +68,29 @@ impl SolutionCheck {
 }
 
 /// Check the reported iterate `it` (fields formed): each body's equilibrium on its ranks, and
-/// the contact conditions on body 2's; shared with every rank (collective).
+/// the contact conditions with the contact step's forces ([`Iterate::contact_forces`]) on the
+/// ranks of its body; shared with every rank (collective).
 pub fn check_solution(
     layout: &Layout,
     it: &Iterate,
     bodies: [Option<&Body>; 2],
 ) -> Result<SolutionCheck, BodyError> {
     let mut check = SolutionCheck::default();
-    let mut r1 = [0.0];
-    if let Some(b1) = bodies[0] {
-        r1[0] = b1.equilibrium_residual(&it.u[0], &it.forces[0])?;
+    let mut r = [[0.0], [0.0]];
+    for (k, b) in bodies.iter().enumerate() {
+        if let Some(b) = b {
+            r[k][0] = b.equilibrium_residual(&it.u[k], &it.forces[k])?;
+        }
     }
-    layout.share(1, &mut r1);
-    check.equilibrium[0] = r1[0];
-    if let Some(b2) = bodies[1] {
-        check.equilibrium[1] = b2.equilibrium_residual(&it.u[1], &it.forces[1])?;
-        let gap0 = &b2.problem.gap;
+    layout.share(1, &mut r[0]);
+    layout.share(2, &mut r[1]);
+    check.equilibrium = [r[0][0], r[1][0]];
+    if let Some(b) = bodies[it.contact_body - 1] {
+        let gap0 = &b.problem.gap;
         let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
         let u_scale = inf(&it.lambda).max(inf(&it.trace2)).max(inf(gap0));
-        let t = &it.forces[1];
-        let t_scale = inf(t);
+        let t = it.contact_forces();
+        let t_scale = inf(&t);
         let rel = |v: f64, s: f64| if s > 0.0 { v / s } else { v };
         for k in 0..it.lambda.len() {
             let gap = it.trace2[k] - (it.lambda[k] - gap0[k]);
@@ -97,11 +102,11 @@ pub fn check_solution(
         }
     }
     let mut packed = check.pack();
-    layout.share(2, &mut packed);
-    check.equilibrium[1] = packed[0];
-    check.penetration = packed[1];
-    check.tension = packed[2];
-    check.complementarity = packed[3];
+    layout.share(it.contact_body, &mut packed);
+    check.equilibrium = [packed[0], packed[1]];
+    check.penetration = packed[2];
+    check.tension = packed[3];
+    check.complementarity = packed[4];
     Ok(check)
 }
 

@@ -1,4 +1,7 @@
-//! The contact step on Ω² (paper (11)–(14), docs/method.md §2 step 2), condensed on Γc.
+//! The contact step (paper (11)–(14) on Ω², docs/method.md §2 step 2), condensed on Γc, on
+//! the body that does not take the Dirichlet step. Written below for body 2; on body 1
+//! (`-nndd_dirichlet_body 2`) the obstacle is on the other side, u¹_n ≤ λ_p + g₀, and the same
+//! QP is solved in the variable −v (its multiplier is then −T¹ ≥ 0).
 //!
 //! With S the interface Schur complement of body 2's Neumann system on the Γc normal dofs and
 //! v* = B u₀ the normal trace of the unconstrained solution u₀ (K u₀ = f, u₀ = u_D on Γ_D),
@@ -40,12 +43,15 @@ pub enum ContactError {
 
 /// The result of one contact step.
 pub struct ContactSolution {
-    /// T²_p = K u² − f² on the Γc normal dofs (≥ 0, compression).
+    /// T^α_p = K u^α − f^α on the Γc normal dofs (T² ≥ 0, T¹ ≤ 0 in compression).
     pub forces: Vec<f64>,
     /// Nodes in contact (v = λ_p).
     pub active: Vec<bool>,
-    /// The gaps v − (λ_p − g₀) ≥ 0 (0 on the contact set).
+    /// The gaps v − (λ_p − g₀) ≥ 0 on body 2, λ_p + g₀ − v on body 1 (0 on the contact
+    /// set).
     pub gaps: Vec<f64>,
+    /// v, the body's normal Γc displacement.
+    pub trace: Vec<f64>,
     /// The active-set steps, or Clarabel's iterations ([`ContactSolution::method`]).
     pub qp_iterations: u32,
     /// The method whose point this is (Clarabel: the fallback, or `-nndd_qp_solver clarabel`).
@@ -77,7 +83,17 @@ impl Default for ContactSettings {
     }
 }
 
-/// The condensed contact problem of body 2 (set up once).
+/// σ of the contact step on `body`: 1 on body 2 (u²_n ≥ λ_p − g₀), −1 on body 1
+/// (u¹_n ≤ λ_p + g₀, i.e. −u¹_n ≥ −λ_p − g₀).
+fn side(body: &Body) -> f64 {
+    if body.alpha() == 2 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// The condensed contact problem of a body (set up once).
 pub struct ContactStep {
     u0: Vec<f64>,
     v_star: Vec<f64>,
@@ -89,7 +105,7 @@ pub struct ContactStep {
 }
 
 impl ContactStep {
-    /// u₀ and v* (collective over body 2's group).
+    /// u₀ and v* (collective over the body's group).
     pub fn new(body: &Body, settings: ContactSettings) -> Result<ContactStep, ContactError> {
         if !body.has_condensed() {
             return Err(ContactError::NoSchur(body.alpha()));
@@ -105,8 +121,9 @@ impl ContactStep {
         })
     }
 
-    /// Body 2's displacement u² = u₀ + K⁻¹Bᵀ T² for the Γc forces `forces` of a contact step
+    /// The body's displacement u² = u₀ + K⁻¹Bᵀ T² for the Γc forces `forces` of a contact step
     /// at the interface position `lambda`. On the contact set the QP gives u²_n = λ − g₀
+    /// (u¹_n = λ + g₀ on body 1)
     /// exactly; the back-solve reproduces it to round-off only, so the trace is set there (else the
     /// contact terms of the estimates, |t̂| ≈ 1e7 times a round-off gap, would not vanish).
     pub fn field(
@@ -118,10 +135,10 @@ impl ContactStep {
     ) -> Result<Vec<f64>, ContactError> {
         let w = body.neumann_solve(forces, false)?;
         let mut u: Vec<f64> = self.u0.iter().zip(&w).map(|(a, b)| a + b).collect();
-        let obstacle = body.problem.obstacle(lambda);
-        for (i, &o) in obstacle.iter().enumerate() {
+        let sigma = side(body);
+        for (i, (l, g)) in lambda.iter().zip(&body.problem.gap).enumerate() {
             if active[i] {
-                body.problem.set_normal_trace(&mut u, i, o);
+                body.problem.set_normal_trace(&mut u, i, l - sigma * g);
             }
         }
         Ok(u)
@@ -137,19 +154,20 @@ impl ContactStep {
         *self.previous.borrow_mut() = Some(active);
     }
 
-    /// Solve the contact step for the interface position λ_p (obstacle λ_p − g₀), on body 2's
-    /// first rank (which holds S² and D²).
+    /// Solve the contact step for the interface position λ_p (obstacle λ_p − g₀ on body 2,
+    /// λ_p + g₀ on body 1), on the body's first rank (which holds its S and D).
     pub fn solve(&self, body: &Body, lambda: &[f64]) -> Result<ContactSolution, ContactError> {
         let c = body
             .condensed()
             .ok_or(ContactError::NoSchur(body.alpha()))?;
         let m = lambda.len();
-        let diff: Vec<f64> = body
-            .problem
-            .obstacle(lambda)
-            .iter()
-            .zip(&self.v_star)
-            .map(|(l, v)| l - v)
+        // In the variable σv (σ = 1 on body 2, −1 on body 1) the obstacle is σλ_p − g₀.
+        let sigma = side(body);
+        let obstacle: Vec<f64> = (0..m)
+            .map(|i| sigma * lambda[i] - body.problem.gap[i])
+            .collect();
+        let diff: Vec<f64> = (0..m)
+            .map(|i| obstacle[i] - sigma * self.v_star[i])
             .collect();
         // q = S²(o − v*), and D² q = o − v* (D² = (S²)⁻¹): the dual form's right-hand side
         // without a product.
@@ -179,9 +197,11 @@ impl ContactStep {
             None => solve_nonneg_qp(&c.schur, &q, &settings.clarabel)?,
         };
         *self.previous.borrow_mut() = Some(sol.active.clone());
+        let trace = (0..m).map(|i| sigma * (sol.x[i] + obstacle[i])).collect();
         Ok(ContactSolution {
-            forces: sol.y,
+            forces: sol.y.iter().map(|y| sigma * y).collect(),
             active: sol.active,
+            trace,
             gaps: sol.x,
             qp_iterations: sol.iterations,
             method: sol.method,

@@ -1,23 +1,24 @@
-//! The Dirichlet step on Ω¹ (paper (8)–(10), docs/method.md §2 step 1): u¹ = u_D on Γ_D¹,
+//! The Dirichlet step (paper (8)–(10) on Ω¹, docs/method.md §2 step 1): on the body of
+//! `-nndd_dirichlet_body` (body 1 in the paper, written ¹ below), u¹ = u_D on Γ_D¹,
 //! u¹_n = λ_p on Γc (tangential Γc dofs free), and its reaction T¹_p = K u¹ − f¹ on the Γc
-//! normal dofs.
+//! normal dofs. The same step on body 2 puts u²_n = λ_p and gives T²_p.
 //!
 //! Two exact ways, the same discrete solution:
 //! - `System`: a KSP solve with the Dirichlet system (Γc normal dofs eliminated);
 //! - `Condensed`: static condensation with the interface Schur complement S¹ of the Neumann
 //!   system (from its one factorisation, [`crate::dd::body::Condensed`]): with u¹₀ the solution
 //!   with free Γc and v¹* = B u¹₀, the Γc force that puts the interface at λ_p is
-//!   T¹_p = S¹(λ_p − v¹*), an m × m product on body 1's first rank, and
+//!   T¹_p = S¹(λ_p − v¹*), an m × m product on the body's first rank, and
 //!   u¹_p = u¹₀ + K⁻¹BᵀT¹_p (one back-solve, only when the field is wanted). This saves the
 //!   second factorisation and a back-solve per iteration.
 
 use crate::dd::body::{Body, BodyError};
 
-/// How the Dirichlet step on Ω¹ is solved (`-nndd_dirichlet_step`).
+/// How the Dirichlet step is solved (`-nndd_dirichlet_step`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DirichletChoice {
-    /// Condensed when body 1 has its interface operators (a MUMPS factorisation, on any rank
-    /// count, or SuperLU_DIST), else the Dirichlet system.
+    /// Condensed when the body has its interface operators (a MUMPS factorisation, on any
+    /// rank count, or SuperLU_DIST), else the Dirichlet system.
     Auto,
     System,
     Condensed,
@@ -30,7 +31,7 @@ pub enum DirichletStep {
 
 impl DirichletStep {
     /// Condensed when body 1 has its interface operators and `choice` is not `System`, else
-    /// the Dirichlet system (which must exist). Collective over body 1's group.
+    /// the Dirichlet system (which must exist). Collective over the body's group.
     pub fn new(body: &Body, choice: DirichletChoice) -> Result<DirichletStep, BodyError> {
         if body.has_condensed() && choice != DirichletChoice::System {
             let u0 = body.neumann_solve(&vec![0.0; body.gc.len()], true)?;
@@ -39,7 +40,7 @@ impl DirichletStep {
         } else {
             assert!(
                 body.has_dirichlet_system(),
-                "body 1 needs S¹ or its Dirichlet system"
+                "the Dirichlet step's body needs its S or its Dirichlet system"
             );
             Ok(DirichletStep::System)
         }
@@ -53,7 +54,7 @@ impl DirichletStep {
     }
 
     /// T¹_p for the interface position λ_p, and u¹_p when it came for free. Condensed, T¹_p is
-    /// known on body 1's first rank only (zero elsewhere: the loop shares the first rank's).
+    /// known on the body's first rank only (zero elsewhere: the loop shares the first rank's).
     pub fn solve(
         &self,
         body: &Body,

@@ -1,9 +1,13 @@
 //! The Neumann–Neumann iteration (paper §3, docs/method.md §2).
 //!
-//! Each iteration p: the Dirichlet step on Ω¹ and the contact step on Ω² (at the same time on
-//! two ranks), the equilibrium defect R_p = T¹_p + T²_p, the two Neumann steps, and the update
-//! λ_{p+1} = λ_p + θ (w¹ − w²)·n with a fixed θ, or (`-nndd_theta auto`, the default) the
-//! secant update of [`crate::dd::secant`].
+//! Each iteration p: the Dirichlet step on one body and the contact step on the other (at the
+//! same time on two ranks), the equilibrium defect R_p = T¹_p + T²_p, the two Neumann steps,
+//! and the update λ_{p+1} = λ_p + θ (w¹ − w²)·n with a fixed θ, or (`-nndd_theta auto`, the
+//! default) the secant update of [`crate::dd::secant`]. The paper puts the Dirichlet step on
+//! body 1; `-nndd_dirichlet_body` (auto: the stiffer body) may put it on body 2, whose normal
+//! Γc displacement λ then is, with the contact step on body 1 (u¹_n ≤ λ + g₀): the same
+//! defect, Neumann steps and update, since T¹ and T² both grow with λ whichever body holds it
+//! (docs/method.md §2, "Which body takes the Dirichlet step").
 
 use crate::dd::body::{Body, BodyError};
 use crate::dd::check::{check_solution, SolutionCheck};
@@ -57,6 +61,17 @@ pub struct NnddSettings {
     pub tol: f64,
     pub max_it: usize,
     pub stop: StopRule,
+    /// The body of the Dirichlet step (1, as in the paper, or 2): λ is its normal Γc
+    /// displacement, and the other body's contact step holds it behind λ (docs/method.md §2,
+    /// "Which body takes the Dirichlet step").
+    pub dirichlet_body: usize,
+}
+
+impl NnddSettings {
+    /// The body of the contact step.
+    pub fn contact_body(&self) -> usize {
+        3 - self.dirichlet_body
+    }
 }
 
 impl Default for NnddSettings {
@@ -68,6 +83,7 @@ impl Default for NnddSettings {
             tol: 1e-8,
             max_it: 1000,
             stop: StopRule::Tol,
+            dirichlet_body: 1,
         }
     }
 }
@@ -185,12 +201,19 @@ pub struct LoopTimers {
 /// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
 #[derive(Clone, Debug)]
 pub struct Iterate {
+    /// u¹_{p,n}, body 1's normal Γc displacement (λ_p itself when body 1 takes the Dirichlet
+    /// step).
     pub lambda: Vec<f64>,
+    /// λ_p, the Dirichlet body's normal Γc displacement (the loop's variable).
+    pub interface: Vec<f64>,
     /// u¹_p on body 1's ranks, u²_p on body 2's (empty elsewhere; formed after the loop, for
     /// the reported step, where the steps did not produce them).
     pub u: [Vec<f64>; 2],
     /// T¹_p, T²_p on the Γc normal dofs (known on every rank).
     pub forces: [Vec<f64>; 2],
+    /// The body whose contact step gave its forces (2, or 1 with the Dirichlet step on body 2;
+    /// 2 for the monolithic solve, whose multiplier is T²).
+    pub contact_body: usize,
     /// u²_{p,n}, body 2's normal Γc trace (known on every rank once the fields are formed).
     pub trace2: Vec<f64>,
     pub active: Vec<bool>,
@@ -198,6 +221,19 @@ pub struct Iterate {
     pub qp_kkt: f64,
     /// The iteration p.
     pub iteration: usize,
+}
+
+impl Iterate {
+    /// The contact forces on body 2, ≥ 0 in compression and 0 off the contact set: the
+    /// contact step's multipliers, T² or −T¹ (the Dirichlet step's reaction on the other body
+    /// equals them only up to the defect R).
+    pub fn contact_forces(&self) -> Vec<f64> {
+        if self.contact_body == 2 {
+            self.forces[1].clone()
+        } else {
+            self.forces[0].iter().map(|f| -f).collect()
+        }
+    }
 }
 
 pub struct NnddResult {
@@ -231,22 +267,26 @@ fn diverging(history: &[IterationRecord]) -> bool {
     grew && r[n - 1] > 10.0 * smallest
 }
 
-/// The steps of an iteration, as set up for this run: body 1's Dirichlet step (on its ranks),
-/// body 2's contact step (on its ranks), and each body's Neumann step (on its ranks).
+/// The steps of an iteration, as set up for this run: the Dirichlet step (on the ranks of body
+/// `dirichlet_body`), the other body's contact step (on its ranks), and each body's Neumann
+/// step (on its ranks).
 pub struct Steps<'a> {
+    pub dirichlet_body: usize,
     pub dirichlet: Option<&'a DirichletStep>,
     pub contact: Option<&'a ContactStep>,
     pub neumann: [Option<NeumannStep>; 2],
 }
 
-/// What body 2's root shares of a contact step: the contact set, the QP's KKT residual,
-/// iterations and method, and the gaps, packed into one broadcast.
+/// What the contact body's root shares of a contact step: the contact set, the QP's KKT
+/// residual, iterations and method, the gaps and the body's normal Γc trace, packed into one
+/// broadcast.
 struct ContactShare {
     active: Vec<bool>,
     kkt: f64,
     iterations: u32,
     clarabel: bool,
     gaps: Vec<f64>,
+    trace: Vec<f64>,
 }
 
 impl ContactShare {
@@ -254,6 +294,7 @@ impl ContactShare {
         let mut v: Vec<f64> = self.active.iter().map(|&a| a as u8 as f64).collect();
         v.extend([self.kkt, self.iterations as f64, self.clarabel as u8 as f64]);
         v.extend(&self.gaps);
+        v.extend(&self.trace);
         v
     }
 
@@ -263,7 +304,8 @@ impl ContactShare {
             kkt: v[m],
             iterations: v[m + 1] as u32,
             clarabel: v[m + 2] > 0.5,
-            gaps: v[m + 3..].to_vec(),
+            gaps: v[m + 3..2 * m + 3].to_vec(),
+            trace: v[2 * m + 3..].to_vec(),
         }
     }
 }
@@ -287,19 +329,20 @@ fn form_fields(
     timers: &mut LoopTimers,
 ) -> Result<(), NnddError> {
     let (dirichlet, contact) = (steps.dirichlet, steps.contact);
+    let (di, ci) = (steps.dirichlet_body - 1, 2 - steps.dirichlet_body);
     let _s = stages.fields.enter();
-    if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
-        if it.u[0].is_empty() {
-            it.u[0] = timers
+    if let (Some(b), Some(d)) = (bodies[di], dirichlet) {
+        if it.u[di].is_empty() {
+            it.u[di] = timers
                 .fields
-                .time(|| d.field(b1, &it.lambda, &it.forces[0]))?;
+                .time(|| d.field(b, &it.interface, &it.forces[di]))?;
         }
     }
-    if let (Some(b2), Some(c)) = (bodies[1], contact) {
-        if it.u[1].is_empty() {
-            it.u[1] = timers
+    if let (Some(b), Some(c)) = (bodies[ci], contact) {
+        if it.u[ci].is_empty() {
+            it.u[ci] = timers
                 .fields
-                .time(|| c.field(b2, &it.forces[1], &it.lambda, &it.active))?;
+                .time(|| c.field(b, &it.forces[ci], &it.interface, &it.active))?;
         }
     }
     it.trace2 = shared_trace2(layout, bodies[1], &it.u[1], it.lambda.len());
@@ -348,8 +391,8 @@ pub trait Observer<E> {
 }
 
 /// Run the NNDD loop on `m` Γc node pairs. `bodies[α-1]` is `Some` on the ranks owning body
-/// α, with `steps` set up there (the Dirichlet step on body 1's, the contact step on body 2's,
-/// each body's Neumann step on its own). Every `estimate_every`
+/// α, with `steps` set up there (the Dirichlet step on the ranks of `steps.dirichlet_body`,
+/// the contact step on the other body's, each body's Neumann step on its own). Every `estimate_every`
 /// iterations (if set), the fields of step p are formed and `observer.estimate` is called
 /// with the iterate (collectively). A run continues from `start` (`-nndd_restart`) when
 /// given. Errors of type `E` (which the loop's own errors convert into) end the loop.
@@ -390,56 +433,62 @@ pub fn solve<E: From<NnddError>>(
         mut best_at,
     } = start.unwrap_or(fresh);
     let (dirichlet, contact) = (steps.dirichlet, steps.contact);
+    let (di, ci) = (steps.dirichlet_body - 1, 2 - steps.dirichlet_body);
+    // The sign of the contact body's multipliers: T² ≥ 0 on body 2, T¹ ≤ 0 on body 1.
+    let sigma = if ci == 1 { 1.0 } else { -1.0 };
     if let (Some(c), true) = (contact, resumed && !warm.is_empty()) {
         c.set_warm_start(warm);
     }
     for p in done + 1..=settings.max_it {
-        // Step 1: Dirichlet problem on Ω¹ and contact problem on Ω², concurrently.
-        let mut t1 = vec![0.0; m];
-        let mut u1 = Vec::new();
-        if let (Some(b1), Some(d)) = (bodies[0], dirichlet) {
+        // Step 1: the Dirichlet problem at λ_p and the other body's contact problem behind
+        // λ_p, concurrently; t[α − 1] = T^α_p.
+        let mut t = [vec![0.0; m], vec![0.0; m]];
+        let mut u_dirichlet = Vec::new();
+        if let (Some(b), Some(d)) = (bodies[di], dirichlet) {
             let _s = stages.dirichlet_step.enter();
-            let (u, t) = timers
+            let (u, f) = timers
                 .dirichlet_step
-                .time(|| d.solve(b1, &lambda))
+                .time(|| d.solve(b, &lambda))
                 .map_err(NnddError::from)?;
-            u1 = u.unwrap_or_default();
-            t1 = t;
+            u_dirichlet = u.unwrap_or_default();
+            t[di] = f;
         }
-        let mut t2 = vec![0.0; m];
-        // Body 2's contact set, the QP's KKT residual, iterations and method, and the gaps.
         let mut act = ContactShare {
             active: vec![false; m],
             kkt: 0.0,
             iterations: 0,
             clarabel: false,
             gaps: vec![0.0; m],
+            trace: vec![0.0; m],
         }
         .pack();
         fault::check(Phase::Qp).map_err(NnddError::from)?;
-        // The contact QP lives on Γc: body 2's root solves it, the broadcast below shares it.
-        if let (Some(b2), Some(c)) = (bodies[1].filter(|b| b.is_root()), contact) {
+        // The contact QP lives on Γc: the contact body's root solves it, the broadcast below
+        // shares it.
+        if let (Some(b), Some(c)) = (bodies[ci].filter(|b| b.is_root()), contact) {
             let _s = stages.contact_step.enter();
             let sol = timers
                 .contact_step
-                .time(|| c.solve(b2, &lambda))
+                .time(|| c.solve(b, &lambda))
                 .map_err(NnddError::from)?;
-            t2 = sol.forces;
+            t[ci] = sol.forces;
             act = ContactShare {
                 active: sol.active,
                 kkt: sol.kkt_residual,
                 iterations: sol.qp_iterations,
                 clarabel: sol.method == QpMethod::Clarabel,
                 gaps: sol.gaps,
+                trace: sol.trace,
             }
             .pack();
         }
         timers.exchange.time(|| {
-            layout.share(1, &mut t1);
-            layout.share(2, &mut t2);
-            layout.share(2, &mut act);
+            layout.share(di + 1, &mut t[di]);
+            layout.share(ci + 1, &mut t[ci]);
+            layout.share(ci + 1, &mut act);
         });
         let act = ContactShare::unpack(&act, m);
+        let [t1, t2] = t;
         // Step 3: equilibrium defect.
         let r: Vec<f64> = t1.iter().zip(&t2).map(|(a, b)| a + b).collect();
         // Step 4: two Neumann problems.
@@ -471,12 +520,21 @@ pub fn solve<E: From<NnddError>>(
         let (new, theta, columns, fraction) = match secant.as_mut() {
             Some(s) => {
                 if p == 1 {
-                    s.estimate_spectrum(&w1, &w2);
+                    let w = [&w1, &w2];
+                    s.estimate_spectrum(w[di], w[ci]);
                 }
-                // The sign conditions of the contact step: T² ≥ 0 on the contact set, gap ≥ 0
-                // off it (each affine in λ while the set stays).
+                // The sign conditions of the contact step: its multipliers (T² ≥ 0, or
+                // −T¹ ≥ 0) on the contact set, gap ≥ 0 off it (each affine in λ while the set
+                // stays).
+                let tc = if ci == 1 { &t2 } else { &t1 };
                 let signs: Vec<f64> = (0..m)
-                    .map(|i| if active_now[i] { t2[i] } else { act.gaps[i] })
+                    .map(|i| {
+                        if active_now[i] {
+                            sigma * tc[i]
+                        } else {
+                            act.gaps[i]
+                        }
+                    })
                     .collect();
                 let step = s.step(&lambda, &d, &active_now, &signs);
                 (
@@ -519,11 +577,20 @@ pub fn solve<E: From<NnddError>>(
             e_ref: None,
             effectivity: None,
         };
+        let mut u = [Vec::new(), Vec::new()];
+        u[di] = u_dirichlet;
+        let (trace1, trace2) = if di == 0 {
+            (lambda.clone(), Vec::new())
+        } else {
+            (act.trace.clone(), lambda.clone())
+        };
         let mut it = Iterate {
-            lambda: lambda.clone(),
-            u: [u1, Vec::new()],
+            lambda: trace1,
+            interface: lambda.clone(),
+            u,
             forces: [t1, t2],
-            trace2: Vec::new(),
+            contact_body: ci + 1,
+            trace2,
             active: active_now,
             qp_kkt: act.kkt,
             iteration: p,

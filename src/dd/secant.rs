@@ -11,7 +11,11 @@
 //! the eigenvalues are 51 and 0.505. A fixed θ must stay below 2/51 and then removes the
 //! free-node component by only 1 − 0.505 θ per iteration (hundreds of iterations), and a scalar
 //! Aitken θ, which follows whichever component dominates d, asks for θ ≈ 2 once the contact-set
-//! component has converged, which multiplies that component by |1 − 2·51| ≈ 100.
+//! component has converged, which multiplies that component by |1 − 2·51| ≈ 100. With the
+//! Dirichlet step on body 2 (c → 1/c, Ŝ¹ on the contact set) they are (1 + c)²/(2c) and
+//! (1 + c)/(2c), a ratio 1 + c: the Dirichlet step on the stiffer body
+//! (`-nndd_dirichlet_body auto`) keeps the ratio below 2, which matters most where the contact
+//! set changes often and each change restarts the history (docs/method.md §2).
 //!
 //! The secant model fits every direction it has seen: with the differences Δλ_j, Δd_j = −AΔλ_j
 //! of the iterates since the contact set last changed, γ minimises ‖d_p − ΔD γ‖, the point
@@ -129,7 +133,8 @@ impl SecantUpdate {
     }
 
     /// λ_{p+1} from λ_p, d_p = d(λ_p), the contact set of step p and its sign conditions
-    /// (`signs[i]`: T²_i ≥ 0 on the contact set, the gap ≥ 0 off it).
+    /// (`signs[i]`: the contact step's multiplier, T²_i or −T¹_i, ≥ 0 on the contact set, the
+    /// gap ≥ 0 off it).
     pub fn step(
         &mut self,
         lambda: &[f64],

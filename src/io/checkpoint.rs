@@ -65,6 +65,14 @@ pub struct Identity {
     pub bodies: [BodyIdentity; 2],
     /// `-nndd_theta`: `auto` or the fixed value.
     pub theta: String,
+    /// The body of the Dirichlet step, whose normal Γc displacement λ is
+    /// (`-nndd_dirichlet_body`; body 1 in checkpoints that do not say).
+    #[serde(default = "body_one")]
+    pub dirichlet_body: usize,
+}
+
+fn body_one() -> usize {
+    1
 }
 
 /// One body's discrete problem, by fingerprints (see [`crate::fem::mesh::Mesh::fingerprint`]).
@@ -113,11 +121,17 @@ impl BodyIdentity {
 }
 
 impl Identity {
-    pub fn of(problem: &str, bodies: &[Rc<BodyProblem>; 2], theta: String) -> Identity {
+    pub fn of(
+        problem: &str,
+        bodies: &[Rc<BodyProblem>; 2],
+        theta: String,
+        dirichlet_body: usize,
+    ) -> Identity {
         Identity {
             problem: problem.to_string(),
             bodies: [BodyIdentity::of(&bodies[0]), BodyIdentity::of(&bodies[1])],
             theta,
+            dirichlet_body,
         }
     }
 
@@ -158,6 +172,12 @@ impl Identity {
                     "body {body}'s contact interface (its nodes, normals or gaps) differs (-nndd_contact, -nndd_mesh)"
                 ));
             }
+        }
+        if self.dirichlet_body != run.dirichlet_body {
+            return Some(format!(
+                "its Dirichlet step is on body {}, this run's on body {} (-nndd_dirichlet_body {} continues it)",
+                self.dirichlet_body, run.dirichlet_body, self.dirichlet_body
+            ));
         }
         if self.theta != run.theta {
             return Some(format!(

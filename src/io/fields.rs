@@ -126,9 +126,10 @@ pub fn results(
             grid: "bodies".into(),
             fields,
         }];
-        // The gap g₀ + u²_n − u¹_n = g₀ + u²_n − λ (step 1 puts u¹_n at λ exactly); u²_n is
-        // shared by body 2.
+        // The gap g₀ + u²_n − u¹_n (it.lambda is u¹_n, it.trace2 u²_n, shared by their bodies);
+        // the contact forces are the contact step's multipliers.
         let u2n = &it.trace2;
+        let force = it.contact_forces();
         let lumped = iface.forces(&vec![1.0; m]);
         let scalar = |name: &str, values: Vec<f64>| Field {
             name: name.into(),
@@ -149,11 +150,8 @@ pub fn results(
         };
         let mut fields = vec![
             scalar("lambda", it.lambda.clone()),
-            scalar("normal_force", it.forces[1].clone()),
-            scalar(
-                "pressure",
-                (0..m).map(|i| it.forces[1][i] / lumped[i]).collect(),
-            ),
+            scalar("normal_force", force.clone()),
+            scalar("pressure", (0..m).map(|i| force[i] / lumped[i]).collect()),
             scalar(
                 "gap",
                 (0..m)

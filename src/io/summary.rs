@@ -125,6 +125,9 @@ pub struct Summary {
     pub theta: Option<f64>,
     /// `-nndd_theta auto`: the secant update (src/dd/secant.rs).
     pub theta_auto: bool,
+    /// The body of the NNDD's Dirichlet step (`-nndd_dirichlet_body`); the other body takes the
+    /// contact step.
+    pub dirichlet_body: usize,
     pub tol: f64,
     pub max_it: usize,
     /// Young's modulus of body 1 and body 2 (Pa).
