@@ -145,7 +145,8 @@ impl Status {
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct IterationRecord {
     pub iteration: usize,
-    /// ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
+    /// ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖; with θ auto the larger of that and the plain step
+    /// θ ‖d_p‖ / ‖λ_{p+1}‖ (a short secant step is not convergence).
     pub lambda_change: f64,
     /// ‖R_p‖ = ‖T¹_p + T²_p‖ (N/m, nodal forces).
     pub residual: f64,
@@ -552,8 +553,15 @@ pub fn solve<E: From<NnddError>>(
             ),
         };
         let dl: Vec<f64> = new.iter().zip(&lambda).map(|(a, b)| a - b).collect();
+        // With θ auto a step may be short while the iterate is not converged (the secant
+        // correction cancels most of θ d, or stops at a predicted change of the contact set):
+        // the change measured is then also the plain step θ d_p, the fixed-θ iteration's.
+        let step = match secant {
+            Some(_) => norm(&dl).max(theta * norm(&d)),
+            None => norm(&dl),
+        };
         let nl = norm(&new);
-        let change = if nl > 0.0 { norm(&dl) / nl } else { norm(&dl) };
+        let change = if nl > 0.0 { step / nl } else { step };
         let record = IterationRecord {
             iteration: p,
             lambda_change: change,
