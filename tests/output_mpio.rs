@@ -1,9 +1,11 @@
-//! Check of the collective HDF5 writer `output::write_results_parallel`.
+//! Capability: the collective HDF5 writer `output::write_results_parallel` writes, on any
+//! rank count, the file the one-process `write_results` writes, and fails on every rank,
+//! leaving no file, where it must.
 //!
-//! ```sh
-//! source jobs/env && cargo build --release --examples
-//! mpirun --oversubscribe -n 3 target/release/examples/output_mpio DIR
-//! ```
+//! A plain program (`harness = false`): `cargo test --test output_mpio` runs it without MPI,
+//! and it runs itself under `mpirun -n N` for N = 1 … 4 (each run must succeed within two
+//! minutes). Under mpirun (`mpirun --oversubscribe -n 3 target/release/deps/output_mpio-… DIR`)
+//! it is the check itself:
 //!
 //! Every rank builds the same deterministic results (two triangle grids of a few hundred
 //! points, one segment grid, two steps with scalar, vector and tensor fields on nodes and on
@@ -31,6 +33,10 @@ use nndd::io::output::{
 };
 
 fn main() {
+    if std::env::var_os("OMPI_COMM_WORLD_SIZE").is_none() {
+        launch();
+        return;
+    }
     let universe = mpi::initialize().expect("MPI initialisation");
     let world = universe.world();
     let Some(dir) = std::env::args().nth(1).map(PathBuf::from) else {
@@ -52,6 +58,53 @@ fn main() {
     world.all_reduce_into(&mine, &mut any, SystemOperation::max());
     drop(universe);
     std::process::exit(any);
+}
+
+/// Run this program under `mpirun -n N` for N = 1 … 4 into a scratch directory; exit non-zero
+/// on the first run that fails or takes more than two minutes.
+fn launch() {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let exe = std::env::current_exe().expect("the test's own path");
+    let dir = std::env::temp_dir().join(format!("nndd-test-output-mpio-{}", std::process::id()));
+    let mut failed = false;
+    for n in 1..=4 {
+        let mut child = Command::new("mpirun")
+            .args(["-n", &n.to_string(), "--oversubscribe", "--bind-to", "none"])
+            .arg(&exe)
+            .arg(&dir)
+            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+            .stdout(Stdio::inherit())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("mpirun runs (jobs/setup installs OpenMPI)");
+        let t = Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().expect("mpirun's status") {
+                break Some(s);
+            }
+            if t.elapsed() > Duration::from_secs(120) {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        match status {
+            Some(s) if s.success() => println!("output_mpio: mpirun -n {n}: ok"),
+            Some(s) => {
+                eprintln!("output_mpio: mpirun -n {n}: FAILED ({s})");
+                failed = true;
+            }
+            None => {
+                eprintln!("output_mpio: mpirun -n {n}: FAILED (no end within 120 s)");
+                failed = true;
+            }
+        }
+    }
+    let _ = fs::remove_dir_all(&dir);
+    std::process::exit(i32::from(failed));
 }
 
 /// Everything, on every rank; the failures found (rank 0 gathers what it can see).
