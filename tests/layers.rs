@@ -8,9 +8,9 @@ use std::collections::BTreeSet;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-/// The layers, from the top (the run) to the bottom (the FFI).
-const LAYERS: [&str; 9] = [
-    "app", "io", "estimate", "dd", "problem", "parallel", "qp", "fem", "petsc",
+/// The layers, from the top (the run) to the bottom (the FFI and the operating system).
+const LAYERS: [&str; 10] = [
+    "app", "io", "estimate", "dd", "problem", "parallel", "qp", "fem", "petsc", "os",
 ];
 
 fn rank(layer: &str) -> Option<usize> {

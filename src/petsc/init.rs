@@ -1,5 +1,6 @@
 //! PETSc's life in the process: [`Petsc`] initialises it (`PetscInitialize`, with the
-//! returning error handler) and finalises it when dropped.
+//! returning error handler) and finalises it when dropped; between the two it gives PETSc's
+//! communicators, the flops PETSc logged and PETSc's memory tracking.
 
 use std::ffi::CString;
 use std::os::raw::{c_char, c_int};
@@ -7,7 +8,8 @@ use std::ptr;
 
 use super::comm::{comm_from_rsmpi, Comm};
 use super::error::{call, cstr, PetscError, Result};
-use super::{ffi, signals};
+use super::ffi;
+use crate::os::signals;
 
 /// An initialised PETSc. Create it once per process after MPI; dropping it finalises PETSc.
 pub struct Petsc {
@@ -92,35 +94,6 @@ impl Petsc {
     /// Ask PETSc to track the peak resident memory (`-memory_view` style).
     pub fn track_memory() -> Result<()> {
         call!(PetscMemorySetGetMaximumUsage())
-    }
-
-    /// Peak resident set size of this process in bytes: the kernel's high-water mark
-    /// (getrusage's ru_maxrss). PETSc's `PetscMemoryGetMaximumUsage` only samples the resident
-    /// size when PETSc objects are destroyed, so it missed transient peaks between them (the
-    /// estimate's: at n = 512 it reported 977 MiB where the high-water mark was 1304 MiB).
-    pub fn peak_memory() -> f64 {
-        // SAFETY: getrusage fills the zeroed struct it is given.
-        let mut r: libc::rusage = unsafe { std::mem::zeroed() };
-        if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut r) } != 0 {
-            return 0.0;
-        }
-        r.ru_maxrss as f64 * 1024.0 // kilobytes on Linux
-    }
-
-    /// Give the heap's free pages back to the system (glibc's `malloc_trim`) when at least
-    /// `min_bytes` are free in it. Arrays under glibc's mmap threshold (which grows to 32 MiB
-    /// as large blocks are freed) live in the heap and stay resident after they are freed, so
-    /// without this a phase's freed arrays still count when the next phase allocates others.
-    /// Below the threshold the pages are kept: faulting them in again costs more than they
-    /// weigh.
-    pub fn release_free_memory(min_bytes: usize) {
-        // SAFETY: mallinfo2 only reads the allocator's statistics, and malloc_trim only
-        // returns unused pages of its own heaps.
-        unsafe {
-            if libc::mallinfo2().fordblks >= min_bytes {
-                libc::malloc_trim(0);
-            }
-        }
     }
 }
 

@@ -12,9 +12,10 @@
 //!
 //! Every `PetscErrorCode` becomes a [`PetscError`] carrying PETSc's own message; PETSc's
 //! traceback printer is replaced by a returning error handler, so an error reaches the user
-//! as one line. Nothing outside this module calls FFI.
+//! as one line. Nothing outside this module calls PETSc's FFI; what the run asks of the
+//! operating system (signals, memory) is the layer `os`.
 //!
-//! May use: nothing of this crate (the bottom layer).
+//! May use: `os`.
 
 mod comm;
 mod error;
@@ -25,7 +26,6 @@ mod ksp;
 pub mod log;
 mod mat;
 mod options;
-pub mod signals;
 mod vec;
 
 pub use comm::{comm_from_rsmpi, Comm};
