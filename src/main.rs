@@ -8,7 +8,7 @@
 //! A result file that failed once created is left open (HDF5 would close it inside
 //! `MPI_Finalize`, flushing into the failed file again): after the agreed line, the ranks end
 //! without finalising. A stop signal outside the NNDD loop ends the process in its handler
-//! (exit 5, `src/petsc/signals.rs`); SIGXFSZ is ignored, so that a write past the file-size
+//! (exit 5, `src/os/signals.rs`); SIGXFSZ is ignored, so that a write past the file-size
 //! limit fails with an error instead of killing the rank.
 
 use nndd::app::{self, preflight, AppError, Outcome};
@@ -21,7 +21,7 @@ fn main() {
     std::panic::set_hook(Box::new(|info| {
         nndd::io::monitor::say(format_args!("nndd: internal error: {info}"));
     }));
-    if let Err(e) = nndd::petsc::signals::ignore_file_size_limit() {
+    if let Err(e) = nndd::os::signals::ignore_file_size_limit() {
         nndd::io::monitor::say(format_args!("nndd: error: cannot ignore SIGXFSZ: {e}"));
         std::process::exit(1);
     }
@@ -31,7 +31,7 @@ fn main() {
     };
     let world = universe.world();
     let rank = world.rank();
-    nndd::petsc::signals::set_rank(rank);
+    nndd::os::signals::set_rank(rank);
     let agreement = Agreement::new(&world);
     let args: Vec<String> = std::env::args().collect();
     // PETSc reads the options files on rank 0 only and broadcasts them: every rank checks
@@ -61,9 +61,9 @@ fn main() {
         std::process::exit(1);
     }
     let petsc = petsc.expect("agreed");
-    // From here a stop signal ends the setup at once (src/petsc/signals.rs), instead of
+    // From here a stop signal ends the setup at once (src/os/signals.rs), instead of
     // PETSc's handler; `app::run` reports a failure to install it.
-    let _ = nndd::petsc::signals::catch_stop_requests();
+    let _ = nndd::os::signals::catch_stop_requests();
     let code = match app::run(world, &agreement) {
         Ok(Outcome::Solved) | Ok(Outcome::Help) => 0,
         Ok(Outcome::NotConverged) => 3,

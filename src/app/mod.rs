@@ -4,7 +4,7 @@
 //! estimates ([`solve`]), post-processing and output ([`report`]).
 //!
 //! May use: every layer below (`io`, `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`,
-//! `petsc`).
+//! `petsc`, `os`).
 
 pub mod capacity;
 pub mod options;
@@ -29,6 +29,7 @@ use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
 use crate::io::output::{self, OutputError, Results};
 use crate::io::summary::{EstimationParts, Timings};
+use crate::os::{memory, signals};
 use crate::parallel::fault::{self, Agreement, InjectedFault, Phase};
 use crate::parallel::layout::{Layout, LayoutError};
 use crate::parallel::partition::PartitionError;
@@ -253,7 +254,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             checkpoint::read(path, &identity, settings.nndd.max_it).map_err(AppError::from),
         )?),
     };
-    petsc::signals::catch_stop_requests().map_err(AppError::Signals)?;
+    signals::catch_stop_requests().map_err(AppError::Signals)?;
     let stages = Stages::register()?;
     Petsc::track_memory()?;
     let mut timings = Timings {
@@ -399,7 +400,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     drop(estimator);
     report::max_over_ranks(&layout, &mut timings);
     drop(bodies);
-    Petsc::release_free_memory(0);
+    memory::release_free_memory(0);
 
     // Output: PREFIX.h5 + PREFIX.xdmf (collective), PREFIX.json (rank 0).
     let t_out = Instant::now();
@@ -440,11 +441,11 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         }
     }
     agreed(agreement, written)?;
-    if petsc::signals::stop_requested() && !sol.interrupted && layout.is_root() {
+    if signals::stop_requested() && !sol.interrupted && layout.is_root() {
         // The output is not interrupted: a signal during it is read once the files exist.
         crate::io::monitor::say(format_args!(
             "nndd: {} arrived while the results were written; they are complete",
-            petsc::signals::received_name()
+            signals::received_name()
         ));
     }
     Ok(if sol.interrupted {

@@ -12,8 +12,8 @@ use crate::io::summary::{
     Summary, Timings,
 };
 use crate::io::{fields, output};
+use crate::os::memory;
 use crate::parallel::layout::Layout;
-use crate::petsc::Petsc;
 use crate::problem::BodyProblem;
 
 #[allow(clippy::too_many_arguments)]
@@ -195,7 +195,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
 /// Peak memory of every rank (MiB), on every rank.
 pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
     use mpi::traits::*;
-    let mine = Petsc::peak_memory() / (1024.0 * 1024.0);
+    let mine = memory::peak_memory() / (1024.0 * 1024.0);
     let mut all = vec![0.0; layout.size as usize];
     layout.world.all_gather_into(&mine, &mut all[..]);
     all

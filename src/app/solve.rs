@@ -20,12 +20,12 @@ use crate::estimate::{EstimateError, EstimateRecord, Estimator, NnddVariant, Ref
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
 use crate::io::summary::Timings;
+use crate::os::signals::{self, StopPhase};
 use crate::parallel::fault::{self, Agreement, Phase};
 use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
 use crate::petsc;
 use crate::petsc::log::Stages;
-use crate::petsc::signals::{self, StopPhase};
 use crate::problem::{self, BodyProblem};
 
 /// What a solver hands to post-processing.
@@ -322,7 +322,7 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
     }
 
     fn interrupted(&self) -> bool {
-        self.restart.is_some() && petsc::signals::stop_requested()
+        self.restart.is_some() && signals::stop_requested()
     }
 
     fn checkpoint_due(&self, p: usize) -> bool {

@@ -6,7 +6,7 @@
 //! global contact problem solved at once, the check of the NNDD; [`check`]: the final check
 //! of a reported solution.
 //!
-//! May use: `problem`, `parallel`, `qp`, `fem`, `petsc`.
+//! May use: `problem`, `parallel`, `qp`, `fem`, `petsc`, `os`.
 
 pub mod body;
 pub mod check;

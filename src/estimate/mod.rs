@@ -5,7 +5,7 @@
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
 //! elements; [`reference`]: the reference solution of (26).
 //!
-//! May use: `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`.
+//! May use: `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`, `os`.
 //!
 //! The estimates:
 //! the global estimator η^glo (22) and the indicators η^FE (23) and η^NNDD (24), each a sum of
@@ -185,7 +185,7 @@ pub struct Estimator<'a> {
 }
 
 /// The free heap (bytes) from which an estimate gives the memory back between its two
-/// recoveries ([`crate::petsc::Petsc::release_free_memory`]): large meshes only.
+/// recoveries ([`crate::os::memory::release_free_memory`]): large meshes only.
 const TRIM_BYTES: usize = 64 << 20;
 
 /// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
@@ -313,7 +313,7 @@ impl Estimator<'_> {
     /// estimate's parts, so that a signal during an estimate of the NNDD loop is acted on
     /// before the next part rather than after the whole estimate.
     fn stop_point(&self) -> Result<(), EstimateError> {
-        let mine = crate::petsc::signals::stop_requested() as u8 as f64;
+        let mine = crate::os::signals::stop_requested() as u8 as f64;
         // (an agreement over the ranks: part of the reductions, with its waits)
         if self.parts.run(Part::Reduction, || self.layout.max(mine)) > 0.0 {
             return Err(EstimateError::Stopped);
@@ -442,7 +442,7 @@ impl Estimator<'_> {
         // The η^glo recovery's temporaries back to the system before the η^FE one allocates
         // its own (the first estimate's high-water mark on large meshes: paper n = 1024 out of
         // core, 3018 / 3055 → 2921 / 2971 MiB).
-        crate::petsc::Petsc::release_free_memory(TRIM_BYTES);
+        crate::os::memory::release_free_memory(TRIM_BYTES);
         self.stop_point()?;
         prepare(&works, true);
         for (k, w) in works.iter_mut() {

@@ -3,7 +3,7 @@
 //! and overlapping triangles) and P1 plane-strain elasticity ([`elasticity`]: element stiffness, stresses,
 //! edge loads, CSR assembly).
 //!
-//! May use: `petsc` (today it uses nothing of the crate).
+//! May use: `petsc`, `os` (today it uses nothing of the crate).
 
 pub mod checks;
 pub mod elasticity;

@@ -4,7 +4,7 @@
 //! ranks agree that a phase failed, and the test-only injection of a failure; [`wait`]:
 //! waiting for other ranks without taking their core.
 //!
-//! May use: `qp`, `fem`, `petsc`.
+//! May use: `qp`, `fem`, `petsc`, `os`.
 
 pub mod fault;
 pub mod layout;

@@ -1,8 +1,39 @@
-//! The `-log_view` stages of a run, and wall-clock timings per phase for the JSON summary.
+//! The `-log_view` stages of a run ([`LogStage`], and the run's [`Stages`]), and wall-clock
+//! timings per phase for the JSON summary.
 
 use std::time::{Duration, Instant};
 
-use crate::petsc::{LogStage, PetscError};
+use super::error::{call, cstr, Result};
+use super::ffi;
+
+/// A `-log_view` stage.
+#[derive(Clone, Copy, Debug)]
+pub struct LogStage(ffi::PetscLogStage);
+
+impl LogStage {
+    pub fn register(name: &str) -> Result<LogStage> {
+        let n = cstr(name);
+        let mut s: ffi::PetscLogStage = 0;
+        call!(PetscLogStageRegister(n.as_ptr(), &mut s))?;
+        Ok(LogStage(s))
+    }
+
+    /// Push the stage; it is popped when the guard drops.
+    pub fn enter(self) -> StageGuard {
+        let ok = call!(PetscLogStagePush(self.0)).is_ok();
+        StageGuard(ok)
+    }
+}
+
+pub struct StageGuard(bool);
+
+impl Drop for StageGuard {
+    fn drop(&mut self) {
+        if self.0 {
+            unsafe { ffi::PetscLogStagePop() };
+        }
+    }
+}
 
 /// The stages `-log_view` reports, in the order of the algorithm.
 pub struct Stages {
@@ -35,7 +66,7 @@ pub const ESTIMATION_PARTS: [&str; 6] = [
 ];
 
 impl Stages {
-    pub fn register() -> Result<Stages, PetscError> {
+    pub fn register() -> Result<Stages> {
         let stages = Stages {
             assembly: LogStage::register("Assembly")?,
             factorisation: LogStage::register("Factorisation")?,

@@ -5,7 +5,7 @@
 //! Gmsh, with named boundary conditions and an initial gap; [`conform`]: its contact curves,
 //! meshed on their own, made to match.
 //!
-//! May use: `parallel`, `qp`, `fem`, `petsc`.
+//! May use: `parallel`, `qp`, `fem`, `petsc`, `os`.
 
 pub mod benchmarks;
 pub mod conform;

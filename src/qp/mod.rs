@@ -5,7 +5,7 @@
 //! step, the monolithic check, the admissible contact traction of the estimates); [`dense`]:
 //! dense SPD matrices (Schur complements on Γc) and their Cholesky factorisation.
 //!
-//! May use: `fem`, `petsc` (today it uses nothing of the crate).
+//! May use: `fem`, `petsc`, `os` (today it uses nothing of the crate).
 
 pub mod active_set;
 pub mod dense;

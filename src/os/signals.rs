@@ -2,7 +2,7 @@
 //! `kill`), SIGINT (Ctrl-C) and SIGUSR1 (which `mpirun` forwards to every rank, where it ends
 //! the job on SIGTERM itself). `PetscInitialize` installs PETSc's own handler for SIGTERM,
 //! which aborts; [`catch_stop_requests`] replaces it (and is therefore called after PETSc's
-//! initialisation, here beside the rest of the foreign calls).
+//! initialisation).
 //!
 //! What a signal does depends on the phase of the run ([`StopPhase`], set by the run with
 //! [`enter`]):
@@ -19,6 +19,10 @@
 //!   the others, and rank 0 prints the line then.
 //!
 //! A second signal ends the process at once in every phase (exit status 128 + the signal).
+//!
+//! The other signals a run sets the disposition of: SIGPIPE, whose default a closed pipe on
+//! the output ends the process with ([`default_broken_pipe`]), and SIGXFSZ, ignored so that a
+//! write past the file-size limit fails instead ([`ignore_file_size_limit`]).
 
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU8, Ordering};
 
