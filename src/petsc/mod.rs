@@ -9,6 +9,7 @@
 
 mod ffi;
 pub mod log;
+pub mod readers;
 pub mod signals;
 
 use std::ffi::{CStr, CString};
