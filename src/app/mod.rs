@@ -27,7 +27,7 @@ use crate::estimate::equilibrate::StarChoice;
 use crate::estimate::{EstimateError, Estimator, Interface, Parts};
 use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
-use crate::io::output::{self, OutputError, Results};
+use crate::io::output::{self, OutputError, OutputPaths, Results};
 use crate::io::summary::{EstimationParts, Timings};
 use crate::parallel::fault::{self, Agreement, InjectedFault, Phase};
 use crate::parallel::layout::{Layout, LayoutError};
@@ -331,7 +331,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     // Solve: the NNDD (paper §3) or the monolithic check.
     let restart = Restart {
         identity: &identity,
-        path: checkpoint::path_for(&settings.output),
+        path: OutputPaths::new(&settings.output).checkpoint(),
         from,
         agreement,
     };
@@ -432,9 +432,8 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         );
         let json =
             serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
-        written =
-            output::write_atomic(&output::with_ext(&settings.output, "json"), json.as_bytes())
-                .map_err(AppError::from);
+        written = output::write_atomic(&OutputPaths::new(&settings.output).json(), json.as_bytes())
+            .map_err(AppError::from);
         if written.is_ok() {
             report::report(&settings, &summary, &sol);
         }
@@ -569,7 +568,7 @@ fn write_interface_operators(
             "schur": c.schur.data(),
             "delassus": c.delassus.data(),
         });
-        let path = output::with_ext(&settings.output, &format!("body{}_schur.json", k + 1));
+        let path = OutputPaths::new(&settings.output).schur_json(k + 1);
         written = written.and_then(|()| {
             output::write_atomic(&path, view.to_string().as_bytes()).map_err(AppError::from)
         });

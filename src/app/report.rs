@@ -5,13 +5,13 @@ use super::options::Settings;
 use super::solve::{BodySolver, Solution};
 use crate::dd::nndd::Iterate;
 use crate::estimate::EstimateRecord;
+use crate::io::fields;
 use crate::io::monitor::{self, sci};
-use crate::io::output::Results;
+use crate::io::output::{OutputPaths, Results};
 use crate::io::summary::{
     ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning, MeshProblem,
     Summary, Timings,
 };
-use crate::io::{fields, output};
 use crate::parallel::layout::Layout;
 use crate::petsc::Petsc;
 use crate::problem::BodyProblem;
@@ -31,6 +31,7 @@ pub fn summarise(
     peaks: &[f64],
 ) -> Summary {
     let contact = contact_of(body1, &sol.last);
+    let paths = OutputPaths::new(&settings.output);
     let builtin = settings.problem.mesh.is_none();
     let matched = settings.problem.mesh.as_ref().map(|m| &*m.matched);
     let residuals = (!sol.estimates.is_empty()).then(|| {
@@ -103,18 +104,10 @@ pub fn summarise(
         peak_memory_mib: peaks.iter().cloned().fold(0.0, f64::max),
         peak_memory_mib_per_rank: peaks.to_vec(),
         body_ranks: layout.group_sizes,
-        h5: output::with_ext(&settings.output, "h5")
-            .display()
-            .to_string(),
-        xdmf: output::with_ext(&settings.output, "xdmf")
-            .display()
-            .to_string(),
-        xdmf_contact: output::xdmf_path(&settings.output, "contact")
-            .display()
-            .to_string(),
-        xdmf_final: output::xdmf_path(&settings.output, "final")
-            .display()
-            .to_string(),
+        h5: paths.h5().display().to_string(),
+        xdmf: paths.xdmf().display().to_string(),
+        xdmf_contact: paths.contact_xdmf().display().to_string(),
+        xdmf_final: paths.final_xdmf().display().to_string(),
         fields: fields::describe(results),
         estimate_meaning: (!sol.estimates.is_empty()).then_some(EstimateMeaning::PAPER),
         warnings: settings
@@ -169,7 +162,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         crate::io::monitor::say(format_args!(
             "nndd: interrupted by a signal after {} iterations; continue with -nndd_restart {}",
             sol.iterations,
-            crate::io::checkpoint::path_for(&settings.output).display()
+            OutputPaths::new(&settings.output).checkpoint().display()
         ));
     } else if !sol.requested {
         let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);

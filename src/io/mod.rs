@@ -1,5 +1,7 @@
 //! Layer `io`: what a run writes. [`output`]: `PREFIX.h5` + `PREFIX.xdmf` for ParaView and
-//! atomic writes; [`checkpoint`]: the restart points; [`summary`]: the JSON run summary; [`monitor`]: the PETSc-style monitor lines.
+//! atomic writes, every file name from the prefix ([`output::OutputPaths`]); [`checkpoint`]:
+//! the restart points; [`summary`]: the JSON run summary; [`monitor`]: the PETSc-style monitor
+//! lines.
 //!
 //! May use: `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`.
 
