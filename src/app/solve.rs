@@ -14,7 +14,8 @@ use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
 use crate::dd::nndd::{
-    self, Iterate, IterationRecord, LoopState, NnddError, Status, Steps, StopRule,
+    self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddResult, Status, Steps,
+    StopRule,
 };
 use crate::estimate::{EstimateError, EstimateRecord, Estimator, NnddVariant, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
@@ -375,32 +376,8 @@ pub fn solve_nndd(
     timings: &mut Timings,
     restart: Option<&Restart>,
 ) -> Result<Solution, AppError> {
-    let t = Instant::now();
-    let (dirichlet, contact) = {
-        let _s = stages.interface.enter();
-        let (di, ci) = (
-            settings.nndd.dirichlet_body - 1,
-            settings.nndd.contact_body() - 1,
-        );
-        let dirichlet = refs[di]
-            .map(|b| DirichletStep::new(b, settings.dirichlet_step))
-            .transpose()?;
-        let contact = refs[ci]
-            .map(|b| ContactStep::new(b, settings.contact.clone()))
-            .transpose()?;
-        (dirichlet, contact)
-    };
-    timings.interface += t.elapsed().as_secs_f64();
-    // The Dirichlet step's kind, from its body's ranks to every rank (for the summary).
-    let mut system = [dirichlet
-        .as_ref()
-        .map_or(0.0, |d| (d.name() == "system") as u8 as f64)];
-    layout.share(settings.nndd.dirichlet_body, &mut system);
-    let dirichlet_name = if system[0] > 0.5 {
-        "system"
-    } else {
-        "condensed"
-    };
+    let (dirichlet, contact) = set_up_steps(settings, refs, stages, timings)?;
+    let dirichlet_name = dirichlet_step_name(layout, settings, dirichlet.as_ref());
     let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.neumann_step)));
     let steps = Steps {
         dirichlet_body: settings.nndd.dirichlet_body,
@@ -408,14 +385,16 @@ pub fn solve_nndd(
         contact: contact.as_ref(),
         neumann,
     };
-    let every = if estimator.is_some() && settings.estimate_every > 0 {
-        Some(settings.estimate_every)
-    } else {
-        None
+    let ctx = nndd::Context {
+        settings: &settings.nndd,
+        // The number of Γc pairs (every rank holds at least one body).
+        m: refs.iter().flatten().next().map_or(0, |b| b.gc.len()),
+        layout,
+        bodies: refs,
+        steps: &steps,
+        stages,
+        estimate_every: Some(settings.estimate_every).filter(|&k| k > 0 && estimator.is_some()),
     };
-    let root = layout.is_root();
-    // The number of Γc pairs (every rank holds at least one body).
-    let m = refs.iter().flatten().next().map_or(0, |b| b.gc.len());
     let from = restart.and_then(|r| r.from.clone());
     let mut observer = RunObserver {
         settings,
@@ -423,7 +402,7 @@ pub fn solve_nndd(
         refs,
         estimator,
         stages,
-        m,
+        m: ctx.m,
         estimates: Vec::new(),
         checks: from.as_ref().map_or(Vec::new(), |c| c.checks.clone()),
         last_fe: from.as_ref().and_then(|c| c.balanced_fe),
@@ -436,64 +415,16 @@ pub fn solve_nndd(
     if restart.is_some() {
         signals::enter(StopPhase::Deferred);
     }
-    let res = nndd::solve::<AppError>(
-        &settings.nndd,
-        m,
-        layout,
-        refs,
-        &steps,
-        stages,
-        every,
-        from.map(|c| c.state),
-        &mut observer,
-    )?;
+    let res = nndd::solve::<AppError>(&ctx, from.map(|c| c.state), &mut observer)?;
     let RunObserver {
         mut estimates,
         checks,
-        seconds: mut t_est,
+        seconds,
         ..
     } = observer;
-    // The reported iterate's estimate (not when a signal stopped the run: it must end soon),
-    // its η^glo recovery cold: one bound per iterate, whichever iterates were estimated
-    // before (an estimate of it in the loop may have started warm: it is made again).
-    if let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) {
-        let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
-        if !in_loop || est.starts_warm() {
-            let t = Instant::now();
-            let _s = stages.estimation.enter();
-            let before = signals::enter(StopPhase::FinalEstimate);
-            let dofs = settings.problem.dofs();
-            if root && dofs >= LONG_PHASE_DOFS {
-                println!(
-                    "nndd: estimating the errors of iteration {} ({dofs} dofs) …",
-                    res.last.iteration
-                );
-            }
-            let rec = est.estimate_cold(refs, &res.last)?;
-            signals::enter(before);
-            t_est += t.elapsed().as_secs_f64();
-            if settings.monitor && root {
-                let again = if in_loop { " (cold recovery)" } else { "" };
-                println!("{}{again}", monitor::estimate_text(&rec));
-            }
-            if in_loop {
-                estimates.pop();
-            }
-            estimates.push(rec);
-        }
-    }
-    timings.estimation += t_est;
-    timings.dirichlet_step = res.timers.dirichlet_step.seconds();
-    timings.contact_step = res.timers.contact_step.seconds();
-    timings.neumann_step = res.timers.neumann_step.seconds();
-    timings.exchange = res.timers.exchange.seconds();
-    timings.fields = res.timers.fields.seconds();
-    timings.checks = res.timers.check.seconds()
-        + refs
-            .iter()
-            .flatten()
-            .map(|b| b.check_seconds())
-            .sum::<f64>();
+    let reported = estimate_reported(settings, &ctx, estimator, &res, &mut estimates)?;
+    timings.estimation += seconds + reported;
+    add_loop_timings(timings, &res.timers, refs);
     let mut history = res.history;
     attach_estimates(&mut history, &estimates);
     attach_checks(&mut history, &checks);
@@ -515,6 +446,104 @@ pub fn solve_nndd(
         warnings: Vec::new(),
         penetration: None,
     })
+}
+
+/// The Dirichlet step on its body's ranks and the contact step on the other body's (set up in
+/// the Interface stage, their time counted as the interface operators').
+fn set_up_steps(
+    settings: &Settings,
+    refs: [Option<&Body>; 2],
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<(Option<DirichletStep>, Option<ContactStep>), AppError> {
+    let t = Instant::now();
+    let s = stages.interface.enter();
+    let (di, ci) = (
+        settings.nndd.dirichlet_body - 1,
+        settings.nndd.contact_body() - 1,
+    );
+    let dirichlet = refs[di]
+        .map(|b| DirichletStep::new(b, settings.dirichlet_step))
+        .transpose()?;
+    let contact = refs[ci]
+        .map(|b| ContactStep::new(b, settings.contact.clone()))
+        .transpose()?;
+    drop(s);
+    timings.interface += t.elapsed().as_secs_f64();
+    Ok((dirichlet, contact))
+}
+
+/// The Dirichlet step's kind, `system` or `condensed`, from its body's ranks to every rank
+/// (for the summary; collective).
+fn dirichlet_step_name(
+    layout: &Layout,
+    settings: &Settings,
+    dirichlet: Option<&DirichletStep>,
+) -> &'static str {
+    let mut system = [dirichlet.map_or(0.0, |d| (d.name() == "system") as u8 as f64)];
+    layout.share(settings.nndd.dirichlet_body, &mut system);
+    if system[0] > 0.5 {
+        "system"
+    } else {
+        "condensed"
+    }
+}
+
+/// The reported iterate's estimate (not when a signal stopped the run: it must end soon), its
+/// η^glo recovery cold: one bound per iterate, whichever iterates were estimated before (an
+/// estimate of it in the loop may have started warm: it is made again). Its time (s).
+fn estimate_reported(
+    settings: &Settings,
+    ctx: &nndd::Context,
+    estimator: Option<&Estimator>,
+    res: &NnddResult,
+    estimates: &mut Vec<EstimateRecord>,
+) -> Result<f64, AppError> {
+    let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) else {
+        return Ok(0.0);
+    };
+    let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
+    if in_loop && !est.starts_warm() {
+        return Ok(0.0);
+    }
+    let root = ctx.layout.is_root();
+    let t = Instant::now();
+    let _s = ctx.stages.estimation.enter();
+    let before = signals::enter(StopPhase::FinalEstimate);
+    let dofs = settings.problem.dofs();
+    if root && dofs >= LONG_PHASE_DOFS {
+        println!(
+            "nndd: estimating the errors of iteration {} ({dofs} dofs) …",
+            res.last.iteration
+        );
+    }
+    let rec = est.estimate_cold(ctx.bodies, &res.last)?;
+    signals::enter(before);
+    let seconds = t.elapsed().as_secs_f64();
+    if settings.monitor && root {
+        let again = if in_loop { " (cold recovery)" } else { "" };
+        println!("{}{again}", monitor::estimate_text(&rec));
+    }
+    if in_loop {
+        estimates.pop();
+    }
+    estimates.push(rec);
+    Ok(seconds)
+}
+
+/// The loop's phases (maxima over ranks later) and the checks into the run's timings.
+fn add_loop_timings(timings: &mut Timings, timers: &LoopTimers, refs: [Option<&Body>; 2]) {
+    timings.dirichlet_step = timers.dirichlet_step.seconds();
+    timings.contact_step = timers.contact_step.seconds();
+    timings.neumann_step = timers.neumann_step.seconds();
+    timings.exchange = timers.exchange.seconds();
+    timings.fields = timers.fields.seconds();
+    timings.checks = timers.check.seconds()
+        + refs
+            .iter()
+            .flatten()
+            .map(|b| b.check_seconds())
+            .sum::<f64>();
 }
 
 /// The discrete global contact problem at once (the NNDD's check).
