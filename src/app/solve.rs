@@ -17,7 +17,7 @@ use crate::dd::nndd::{
     self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddResult, Status, Steps,
     StopRule,
 };
-use crate::estimate::{EstimateError, EstimateRecord, Estimator, NnddVariant, Reference};
+use crate::estimate::{BalancedRule, EstimateError, EstimateRecord, Estimator, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
 use crate::io::summary::Timings;
@@ -229,86 +229,86 @@ struct RunObserver<'a> {
     stages: &'a Stages,
     m: usize,
     estimates: Vec<EstimateRecord>,
-    /// Balanced stopping's cheap checks (iteration, η^NNDD) and the last full η^FE.
-    checks: Vec<(usize, f64)>,
-    last_fe: Option<f64>,
+    /// Balanced stopping: κ, the last full η^FE, the cheap checks.
+    balanced: BalancedRule,
+    /// The time spent estimating.
     seconds: f64,
     restart: Option<&'a Restart<'a>>,
     /// When the loop started (the monitor's elapsed time).
     started: Instant,
 }
 
+impl<'a> RunObserver<'a> {
+    /// The observer of the loop `ctx`, continuing the balanced rule's state of the restart
+    /// point `from`.
+    fn new(
+        settings: &'a Settings,
+        ctx: &nndd::Context<'a>,
+        estimator: Option<&'a Estimator<'a>>,
+        restart: Option<&'a Restart<'a>>,
+        from: Option<&Checkpoint>,
+    ) -> RunObserver<'a> {
+        let mut balanced =
+            BalancedRule::new(&settings.nndd.stop, settings.stop_ratio, settings.eta_nndd);
+        if let Some(c) = from {
+            balanced = balanced.resumed(c.balanced_fe, c.checks.clone());
+        }
+        RunObserver {
+            settings,
+            layout: ctx.layout,
+            refs: ctx.bodies,
+            estimator,
+            stages: ctx.stages,
+            m: ctx.m,
+            estimates: Vec::new(),
+            balanced,
+            seconds: 0.0,
+            restart,
+            started: Instant::now(),
+        }
+    }
+
+    /// `f` in the Estimation stage, its time counted. A stop signal during it (`Stopped`)
+    /// means no estimate: the loop stops at this iteration's end.
+    fn timed(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<bool, EstimateError>,
+    ) -> Result<bool, AppError> {
+        let stages = self.stages;
+        let t = Instant::now();
+        let _s = stages.estimation.enter();
+        let r = f(self);
+        self.seconds += t.elapsed().as_secs_f64();
+        match r {
+            Err(EstimateError::Stopped) => Ok(false),
+            r => Ok(r?),
+        }
+    }
+}
+
 impl nndd::Observer<AppError> for RunObserver<'_> {
-    /// The balanced rule, once η^FE is known: the recovery-free η^NNDD from the Γc forces
-    /// alone, without the fields; an estimate only when the rule may hold.
+    /// The balanced rule's cheap check (the Γc forces alone, without the fields): an estimate
+    /// only when the rule may hold.
     fn wants_estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
-        let (Some(est), Some(fe)) = (self.estimator, self.last_fe) else {
+        let (Some(est), refs) = (self.estimator, self.refs) else {
             return Ok(true);
         };
-        let settings = self.settings;
-        if settings.nndd.stop != StopRule::Balanced
-            || settings.eta_nndd != NnddVariant::Discrete
-            || !est.eta_nndd_without_fields(self.refs)
-        {
-            return Ok(true);
-        }
-        let t = Instant::now();
-        let _s = self.stages.estimation.enter();
-        let nndd = est.eta_nndd(self.refs, it)?;
-        self.seconds += t.elapsed().as_secs_f64();
-        if nndd > settings.stop_ratio * fe {
-            self.checks.push((it.iteration, nndd));
-            return Ok(false);
-        }
-        Ok(true)
+        self.timed(|o| o.balanced.may_hold(est, refs, it))
     }
 
     fn estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
-        let Some(est) = self.estimator else {
+        let (Some(est), refs) = (self.estimator, self.refs) else {
             return Ok(false);
         };
-        let settings = self.settings;
-        let t = Instant::now();
-        let _s = self.stages.estimation.enter();
-        let balanced_rule =
-            settings.nndd.stop == StopRule::Balanced && settings.eta_nndd == NnddVariant::Discrete;
-        // Balanced stopping: check the cheap η^NNDD against κ η^FE (of the first check, which
-        // computes η^FE alone, then of the last full estimate); a full estimate only when the
-        // rule may hold.
-        if balanced_rule {
-            let fe = match self.last_fe {
-                Some(fe) => fe,
-                None => {
-                    let fe = match est.eta_fe(self.refs, it) {
-                        // A stop signal: no estimate; the loop stops at this iteration's end.
-                        Err(EstimateError::Stopped) => return Ok(false),
-                        r => r?,
-                    };
-                    self.last_fe = Some(fe);
-                    fe
-                }
-            };
-            let nndd = est.eta_nndd(self.refs, it)?;
-            if nndd > settings.stop_ratio * fe {
-                self.checks.push((it.iteration, nndd));
-                self.seconds += t.elapsed().as_secs_f64();
+        self.timed(|o| {
+            if !o.balanced.may_hold_with_fields(est, refs, it)? {
                 return Ok(false);
             }
-        }
-        let rec = match est.estimate(self.refs, it) {
-            // A stop signal: no estimate; the loop stops at this iteration's end.
-            Err(EstimateError::Stopped) => {
-                self.seconds += t.elapsed().as_secs_f64();
-                return Ok(false);
-            }
-            r => r?,
-        };
-        self.seconds += t.elapsed().as_secs_f64();
-        self.last_fe = Some(rec.eta_fe);
-        let balanced = settings.nndd.stop == StopRule::Balanced
-            && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
-        self.estimates.push(rec);
-        Ok(balanced)
+            let rec = est.estimate(refs, it)?;
+            let holds = o.balanced.holds(&rec);
+            o.estimates.push(rec);
+            Ok(holds)
+        })
     }
 
     fn monitor(&mut self, r: &IterationRecord) {
@@ -337,13 +337,13 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
         };
         let mut state = state.clone();
         attach_estimates(&mut state.history, &self.estimates);
-        attach_checks(&mut state.history, &self.checks);
+        self.balanced.attach_checks(&mut state.history);
         let cp = Checkpoint {
             format: checkpoint::FORMAT.into(),
             identity: restart.identity.clone(),
             state,
-            balanced_fe: self.last_fe,
-            checks: self.checks.clone(),
+            balanced_fe: self.balanced.last_fe(),
+            checks: self.balanced.checks().to_vec(),
         };
         let written = fault::check(Phase::Checkpoint)
             .map_err(AppError::from)
@@ -396,20 +396,7 @@ pub fn solve_nndd(
         estimate_every: Some(settings.estimate_every).filter(|&k| k > 0 && estimator.is_some()),
     };
     let from = restart.and_then(|r| r.from.clone());
-    let mut observer = RunObserver {
-        settings,
-        layout,
-        refs,
-        estimator,
-        stages,
-        m: ctx.m,
-        estimates: Vec::new(),
-        checks: from.as_ref().map_or(Vec::new(), |c| c.checks.clone()),
-        last_fe: from.as_ref().and_then(|c| c.balanced_fe),
-        seconds: 0.0,
-        restart,
-        started: Instant::now(),
-    };
+    let mut observer = RunObserver::new(settings, &ctx, estimator, restart, from.as_ref());
     // The run's own loop stops at the end of an iteration on a signal (the reference
     // solve's, without restart points, ends at once: its phase stays).
     if restart.is_some() {
@@ -418,7 +405,7 @@ pub fn solve_nndd(
     let res = nndd::solve::<AppError>(&ctx, from.map(|c| c.state), &mut observer)?;
     let RunObserver {
         mut estimates,
-        checks,
+        balanced,
         seconds,
         ..
     } = observer;
@@ -427,7 +414,7 @@ pub fn solve_nndd(
     add_loop_timings(timings, &res.timers, refs);
     let mut history = res.history;
     attach_estimates(&mut history, &estimates);
-    attach_checks(&mut history, &checks);
+    balanced.attach_checks(&mut history);
     Ok(Solution {
         status: res.status.name().to_string(),
         stop_reason: res.status.stop_reason(),
@@ -612,15 +599,6 @@ pub fn solve_monolithic(
         warnings: Vec::new(),
         penetration: None,
     })
-}
-
-/// The cheap η^NNDD checks of balanced stopping, into the history.
-fn attach_checks(history: &mut [IterationRecord], checks: &[(usize, f64)]) {
-    for &(iteration, nndd) in checks {
-        if let Some(h) = history.iter_mut().find(|h| h.iteration == iteration) {
-            h.eta_nndd = Some(nndd);
-        }
-    }
 }
 
 fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord]) {

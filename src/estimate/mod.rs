@@ -3,7 +3,8 @@
 //! body's constitutive relation error element by element; [`equilibrate`]: strictly
 //! equilibrated stresses (EET + Johnson–Mercier, patch relaxation); [`overlap`]: a rank's
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
-//! elements; [`reference`]: the reference solution of (26).
+//! elements; [`reference`]: the reference solution of (26); [`balanced`]: the balanced
+//! stopping rule, η^NNDD ≤ κ η^FE.
 //!
 //! May use: `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`.
 //!
@@ -30,6 +31,7 @@
 //!
 //! Norms follow the paper: ‖σ‖²_{K⁻¹} = ∫ σ:K⁻¹:σ, ‖u‖²_E = ∫ Kε(u):ε(u) (no ½).
 
+pub mod balanced;
 pub mod cre;
 pub mod equilibrate;
 pub mod overlap;
@@ -37,6 +39,7 @@ pub mod reference;
 pub mod share;
 pub mod traction;
 
+pub use balanced::BalancedRule;
 pub use reference::Reference;
 pub use traction::Interface;
 
