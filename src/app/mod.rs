@@ -27,7 +27,7 @@ use crate::estimate::equilibrate::StarChoice;
 use crate::estimate::{EstimateError, Estimator, Interface, Parts};
 use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
-use crate::io::output::{self, OutputError, OutputPaths, Results};
+use crate::io::output::{self, OutputError, Results};
 use crate::io::summary::{EstimationParts, Timings};
 use crate::parallel::fault::{self, Agreement, InjectedFault, Phase};
 use crate::parallel::layout::{Layout, LayoutError};
@@ -237,13 +237,13 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     let dofs = [problems[0].mesh.num_dofs(), problems[1].mesh.num_dofs()];
     let layout = Layout::new(world, settings.body1_ranks, dofs)?;
     check_recovery(&settings, &layout)?;
-    check_schur(&settings, &layout)?;
+    settings.schur.check(layout.group_sizes)?;
     check_output(&settings, &layout)?;
     // The restart point this run continues from, checked against this problem.
     let identity = Identity::of(
         settings.problem.kind.name(),
         &problems,
-        settings.theta_text.clone(),
+        settings.nndd.relaxation.text(),
         settings.nndd.dirichlet_body,
     );
     let from = match &settings.restart {
@@ -273,7 +273,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             crate::io::monitor::say(format_args!("nndd: warning: {w}"));
         }
     }
-    if settings.monitor && layout.is_root() {
+    if settings.output.monitor && layout.is_root() {
         let problem = match &settings.problem.mesh {
             Some(spec) => format!("mesh {}", spec.gmsh.path),
             None => format!(
@@ -298,7 +298,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     // Estimate: the estimator (with the reference solution of (26) when asked), used by the
     // solve at the estimated iterations and on the reported iterate.
     let mut warnings = unused;
-    let reference = match settings.reference_factor {
+    let reference = match settings.estimate.reference_factor {
         0 => None,
         r => match solve::solve_reference(&settings, &layout, &stages, r, &mut timings)? {
             Ok(reference) => Some(reference),
@@ -311,12 +311,12 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             }
         },
     };
-    let estimator = settings.estimate.then(|| Estimator {
+    let estimator = settings.estimate.enabled.then(|| Estimator {
         iface: Interface::new(problems[0].contact_lengths.clone()),
         qp: settings.qp.clone(),
-        recovery: settings.recovery,
-        warm_change: settings.warm_change,
-        nndd_variant: settings.eta_nndd,
+        recovery: settings.estimate.recovery,
+        warm_change: settings.estimate.warm_change,
+        nndd_variant: settings.estimate.nndd_variant,
         layout: &layout,
         reference,
         problems: problems.clone(),
@@ -330,8 +330,8 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
 
     // Solve: the NNDD (paper §3) or the monolithic check.
     let restart = Restart {
-        identity: &identity,
-        path: OutputPaths::new(&settings.output).checkpoint(),
+        identity,
+        path: settings.output.paths.checkpoint(),
         from,
         agreement,
     };
@@ -385,7 +385,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         layout.sum(e)
     };
     let solvers = solve::body_solvers(&layout, refs, &sol);
-    if settings.schur_view {
+    if settings.output.schur_view {
         write_interface_operators(&settings, &layout, refs)?;
     }
     let logged_flops = layout.sum(Petsc::logged_flops());
@@ -408,7 +408,8 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         let have = [layout.owns(1), layout.owns(2)];
         let results = results_of(&settings, &problems, &sol, have);
         let shares = fields::shares(&layout, [&problems[0], &problems[1]]);
-        output::write_results_parallel(&layout.world, &settings.output, &results, &shares)?;
+        let prefix = settings.output.paths.prefix();
+        output::write_results_parallel(&layout.world, prefix, &results, &shares)?;
         results
     };
     timings.output = layout.max(t_out.elapsed().as_secs_f64());
@@ -432,7 +433,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         );
         let json =
             serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
-        written = output::write_atomic(&OutputPaths::new(&settings.output).json(), json.as_bytes())
+        written = output::write_atomic(&settings.output.paths.json(), json.as_bytes())
             .map_err(AppError::from);
         if written.is_ok() {
             report::report(&settings, &summary, &sol);
@@ -568,7 +569,7 @@ fn write_interface_operators(
             "schur": c.schur.data(),
             "delassus": c.delassus.data(),
         });
-        let path = OutputPaths::new(&settings.output).schur_json(k + 1);
+        let path = settings.output.paths.schur_json(k + 1);
         written = written.and_then(|()| {
             output::write_atomic(&path, view.to_string().as_bytes()).map_err(AppError::from)
         });
@@ -585,37 +586,10 @@ fn write_interface_operators(
 /// rank (the others are local and computed on overlapping element sets, see `overlap.rs`).
 fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
     let spread = layout.group_sizes.iter().any(|&n| n > 1);
-    if spread && matches!(settings.recovery, StarChoice::MinimumEnergy { .. }) && settings.estimate
-    {
+    let estimate = &settings.estimate;
+    if spread && matches!(estimate.recovery, StarChoice::MinimumEnergy { .. }) && estimate.enabled {
         return Err(LayoutError::GlobalRecovery {
             ranks: layout.group_sizes,
-        }
-        .into());
-    }
-    Ok(())
-}
-
-/// `-nndd_schur mumps_schur` needs each body on one rank and factored by MUMPS, and
-/// `mumps_inverse` a MUMPS factorisation (bad input, found alike on every rank).
-fn check_schur(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
-    use dd::body::SchurChoice;
-    let choice = settings.schur;
-    for alpha in [1, 2] {
-        let why = match choice {
-            SchurChoice::MumpsSchur | SchurChoice::MumpsInverse
-                if !options::uses_mumps(alpha)? =>
-            {
-                format!("body {alpha} is not factored by MUMPS (-body{alpha}_pc_factor_mat_solver_type mumps with -body{alpha}_pc_type cholesky or lu and -body{alpha}_ksp_type preonly); use auto or solves")
-            }
-            SchurChoice::MumpsSchur if layout.group_sizes[alpha - 1] > 1 => format!(
-                "body {alpha} is on {} ranks, and PETSc 3.18 forms MUMPS's Schur complement on one only; use auto or mumps_inverse",
-                layout.group_sizes[alpha - 1]
-            ),
-            _ => continue,
-        };
-        return Err(SettingsError::Named {
-            option: format!("-nndd_schur {}", choice.name()),
-            message: why,
         }
         .into());
     }
@@ -625,7 +599,7 @@ fn check_schur(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
 /// Fail before any work when the output cannot be written (rank 0 checks, all agree).
 fn check_output(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
     let checked = if layout.is_root() {
-        output::check_writable(&settings.output)
+        output::check_writable(settings.output.paths.prefix())
     } else {
         Ok(())
     };

@@ -5,9 +5,9 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use super::agreed;
-use super::options::{self, Settings, SolverKind};
+use super::options::{Settings, SolverKind};
 use super::AppError;
-use crate::dd::body::{Body, SchurMode, SchurSource};
+use crate::dd::body::{uses_superlu_dist, Body, SchurMode, SchurSource};
 use crate::dd::check::check_solution;
 use crate::dd::contact::ContactStep;
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
@@ -75,12 +75,12 @@ pub fn setup_bodies(
         // on any rank count), body 2 always (its contact step is condensed); with
         // SuperLU_DIST, `auto` condenses body 1's Dirichlet step (S¹ from back-solves) rather
         // than factor a second system on its communicator (`uses_superlu_dist`).
-        let superlu_dist = options::uses_superlu_dist(alpha)?;
+        let superlu_dist = uses_superlu_dist(alpha)?;
         let contact_body = settings.nndd.contact_body();
-        let schur = match (settings.solver, alpha, settings.dirichlet_step) {
+        let schur = match (settings.solver, alpha, settings.nndd.dirichlet_step) {
             (SolverKind::Monolithic, _, _) => SchurMode::Always,
             (_, a, _) if a == contact_body => SchurMode::Always,
-            _ if settings.neumann_step == NeumannChoice::Condensed => SchurMode::Always,
+            _ if settings.nndd.neumann_step == NeumannChoice::Condensed => SchurMode::Always,
             (_, _, DirichletChoice::Auto) if superlu_dist => SchurMode::Always,
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
@@ -96,7 +96,8 @@ pub fn setup_bodies(
             settings.schur,
             stages,
         )?;
-        let system = settings.dirichlet_step == DirichletChoice::System || !body.has_condensed();
+        let system =
+            settings.nndd.dirichlet_step == DirichletChoice::System || !body.has_condensed();
         if nndd_run && alpha == settings.nndd.dirichlet_body && system {
             body.add_dirichlet_system(stages)?;
         }
@@ -149,7 +150,7 @@ pub fn solve_reference(
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
     let fine = settings.refined(r);
-    if layout.is_root() && (settings.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
+    if layout.is_root() && (settings.output.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
         // Word before the long phase: the reference mesh has r² times the dofs.
         println!(
             "nndd: solving the reference solution of e_ref on mesh {} ({} dofs, -nndd_reference_factor {r})",
@@ -181,7 +182,7 @@ pub fn solve_reference(
     drop(_s);
     signals::enter(before);
     timings.reference = t.elapsed().as_secs_f64();
-    if layout.is_root() && settings.monitor {
+    if layout.is_root() && settings.output.monitor {
         println!(
             "nndd: reference solution on mesh {} ({} dofs): {} after {} iterations, {:.2} s",
             fine.problem.n,
@@ -211,7 +212,7 @@ pub fn solve_reference(
 /// Where the restart points go, and where a run starts from.
 pub struct Restart<'a> {
     /// The identity of this run's problem (written into each checkpoint).
-    pub identity: &'a Identity,
+    pub identity: Identity,
     /// Where to write them (`PREFIX.checkpoint.json`).
     pub path: std::path::PathBuf,
     /// The checkpoint this run continues from.
@@ -248,8 +249,7 @@ impl<'a> RunObserver<'a> {
         restart: Option<&'a Restart<'a>>,
         from: Option<&Checkpoint>,
     ) -> RunObserver<'a> {
-        let mut balanced =
-            BalancedRule::new(&settings.nndd.stop, settings.stop_ratio, settings.eta_nndd);
+        let mut balanced = BalancedRule::new(&settings.nndd.stop, settings.estimate.nndd_variant);
         if let Some(c) = from {
             balanced = balanced.resumed(c.balanced_fe, c.checks.clone());
         }
@@ -312,7 +312,7 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
     }
 
     fn monitor(&mut self, r: &IterationRecord) {
-        if self.settings.monitor && self.layout.is_root() {
+        if self.settings.output.monitor && self.layout.is_root() {
             monitor::monitor_line(
                 r,
                 self.m,
@@ -354,7 +354,7 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
                 Ok(())
             });
         agreed(restart.agreement, written)?;
-        if self.settings.monitor && self.layout.is_root() {
+        if self.settings.output.monitor && self.layout.is_root() {
             println!(
                 "nndd: restart point after iteration {} written to {}",
                 cp.state.iteration,
@@ -378,7 +378,7 @@ pub fn solve_nndd(
 ) -> Result<Solution, AppError> {
     let (dirichlet, contact) = set_up_steps(settings, refs, stages, timings)?;
     let dirichlet_name = dirichlet_step_name(layout, settings, dirichlet.as_ref());
-    let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.neumann_step)));
+    let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.nndd.neumann_step)));
     let steps = Steps {
         dirichlet_body: settings.nndd.dirichlet_body,
         dirichlet: dirichlet.as_ref(),
@@ -393,7 +393,7 @@ pub fn solve_nndd(
         bodies: refs,
         steps: &steps,
         stages,
-        estimate_every: Some(settings.estimate_every).filter(|&k| k > 0 && estimator.is_some()),
+        estimate_every: Some(settings.estimate.every).filter(|&k| k > 0 && estimator.is_some()),
     };
     let from = restart.and_then(|r| r.from.clone());
     let mut observer = RunObserver::new(settings, &ctx, estimator, restart, from.as_ref());
@@ -450,7 +450,7 @@ fn set_up_steps(
         settings.nndd.contact_body() - 1,
     );
     let dirichlet = refs[di]
-        .map(|b| DirichletStep::new(b, settings.dirichlet_step))
+        .map(|b| DirichletStep::new(b, settings.nndd.dirichlet_step))
         .transpose()?;
     let contact = refs[ci]
         .map(|b| ContactStep::new(b, settings.contact.clone()))
@@ -507,7 +507,7 @@ fn estimate_reported(
     let rec = est.estimate_cold(ctx.bodies, &res.last)?;
     signals::enter(before);
     let seconds = t.elapsed().as_secs_f64();
-    if settings.monitor && root {
+    if settings.output.monitor && root {
         let again = if in_loop { " (cold recovery)" } else { "" };
         println!("{}{again}", monitor::estimate_text(&rec));
     }

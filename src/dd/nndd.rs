@@ -9,15 +9,18 @@
 //! defect, Neumann steps and update, since T¹ and T² both grow with λ whichever body holds it
 //! (docs/method.md §2, "Which body takes the Dirichlet step").
 
-use crate::dd::body::{Body, BodyError};
+use crate::dd::body::{uses_superlu_dist, Body, BodyError};
 use crate::dd::check::{check_solution, SolutionCheck};
 use crate::dd::contact::{ContactError, ContactSolution, ContactStep};
-use crate::dd::dirichlet::DirichletStep;
-use crate::dd::neumann::NeumannStep;
-use crate::dd::secant::SecantUpdate;
+use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
+use crate::dd::neumann::{NeumannChoice, NeumannStep};
+use crate::dd::secant::{SecantUpdate, AUTO_THETA_PROBE};
+use crate::fem::Material;
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::Layout;
 use crate::petsc::log::{Stages, Timer};
+use crate::petsc::readers::{Bounds, SettingsError};
+use crate::petsc::OptionsBlock;
 use crate::qp::QpMethod;
 
 #[derive(Debug, thiserror::Error)]
@@ -37,26 +40,67 @@ pub enum NnddError {
 const SECANT_MEMORY: usize = 50;
 
 /// When the NNDD stops (besides divergence and the iteration limit).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StopRule {
     /// ‖λ_{p+1} − λ_p‖ ≤ tol ‖λ_{p+1}‖ (docs/method.md §2 step 6).
     Tol,
-    /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE (the algebra no longer
-    /// matters next to the mesh): the observer of [`solve`] says when.
-    Balanced,
+    /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE, κ = `ratio` (the algebra
+    /// no longer matters next to the mesh): the observer of [`solve`] says when
+    /// (`crate::estimate::balanced`).
+    Balanced { ratio: f64 },
     /// Exactly `max_it` iterations (studies at a fixed iteration count).
     None,
 }
 
-/// The settings of the NNDD loop (plain data).
+/// The relaxation of the update λ_{p+1} = λ_p + θ d_p (`-nndd_theta`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Relaxation {
+    /// A fixed θ > 0 (the paper: 0.25).
+    Fixed(f64),
+    /// The secant update of [`crate::dd::secant`] (Anderson acceleration restarted at
+    /// contact-set changes), its first θ from the first Neumann corrections.
+    Auto,
+}
+
+impl Relaxation {
+    /// `-nndd_theta`: `auto` or a number > 0.
+    fn parse(text: &str) -> Result<Relaxation, SettingsError> {
+        match text.trim() {
+            "auto" => Ok(Relaxation::Auto),
+            t => match t.parse::<f64>() {
+                Ok(v) if v > 0.0 && v.is_finite() => Ok(Relaxation::Fixed(v)),
+                _ => Err(SettingsError::out_of_range(
+                    "-nndd_theta",
+                    "a number > 0, or auto",
+                    text,
+                )),
+            },
+        }
+    }
+
+    /// `-nndd_theta` as the restart points' identity holds it: `auto` or the number.
+    pub fn text(self) -> String {
+        match self {
+            Relaxation::Fixed(theta) => theta.to_string(),
+            Relaxation::Auto => "auto".into(),
+        }
+    }
+
+    /// θ of a plain step λ + θ d: the fixed θ, or with `auto` the probe of a step before
+    /// anything is known of the interface map.
+    fn plain_theta(self) -> f64 {
+        match self {
+            Relaxation::Fixed(theta) => theta,
+            Relaxation::Auto => AUTO_THETA_PROBE,
+        }
+    }
+}
+
+/// The settings of the NNDD loop and its steps (plain data).
 #[derive(Clone, Debug)]
 pub struct NnddSettings {
-    /// Relaxation θ of the update λ ← λ + θ (w¹ − w²)·n (with `auto`, only the θ of a first
-    /// step without a stiffness estimate, see [`crate::dd::secant::SecantUpdate::new`]).
-    pub theta: f64,
-    /// `-nndd_theta auto`: the secant update of [`crate::dd::secant`] (Anderson acceleration
-    /// restarted at contact-set changes) instead of the fixed θ.
-    pub auto: bool,
+    /// θ of the update λ ← λ + θ (w¹ − w²)·n, or the secant update.
+    pub relaxation: Relaxation,
     /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
     pub tol: f64,
     pub max_it: usize,
@@ -65,6 +109,10 @@ pub struct NnddSettings {
     /// displacement, and the other body's contact step holds it behind λ (docs/method.md §2,
     /// "Which body takes the Dirichlet step").
     pub dirichlet_body: usize,
+    /// How the Dirichlet step is solved.
+    pub dirichlet_step: DirichletChoice,
+    /// How the Neumann steps are solved.
+    pub neumann_step: NeumannChoice,
 }
 
 impl NnddSettings {
@@ -72,20 +120,169 @@ impl NnddSettings {
     pub fn contact_body(&self) -> usize {
         3 - self.dirichlet_body
     }
+
+    /// Read, register (for `-help`) and validate the NNDD's options. `materials` decide the
+    /// Dirichlet step's body of `-nndd_dirichlet_body auto`; a body forced onto a much softer
+    /// body is warned about in `warnings`.
+    pub fn from_options(
+        o: &mut OptionsBlock,
+        materials: &[Material; 2],
+        warnings: &mut Vec<String>,
+    ) -> Result<NnddSettings, SettingsError> {
+        let (theta, _) = o.string(
+            "-nndd_theta",
+            "NNDD relaxation theta of the lambda update: auto (a secant update fitted to the iterates, restarted when the contact set changes) or a fixed number > 0 (the paper: 0.25)",
+            "auto",
+        )?;
+        let relaxation = Relaxation::parse(&theta)?;
+        let (tol, _) = o.real_in(
+            "-nndd_tol",
+            "NNDD stopping tolerance on |dlambda|/|lambda|",
+            1e-8,
+            Bounds::POSITIVE,
+        )?;
+        let (max_it, _) = o.int_in(
+            "-nndd_max_it",
+            "Maximum number of NNDD iterations",
+            1000,
+            Bounds::POSITIVE_INT,
+        )?;
+        let stop = o.choice(
+            "-nndd_stop",
+            "Stopping rule: tol (|dlambda| <= tol |lambda|), balanced (also when eta_NNDD <= kappa eta_FE), none (exactly -nndd_max_it iterations)",
+            &[
+                ("tol", StopRule::Tol),
+                ("balanced", StopRule::Balanced { ratio: f64::NAN }),
+                ("none", StopRule::None),
+            ],
+        )?;
+        let (ratio, _) = o.real_in(
+            "-nndd_stop_ratio",
+            "kappa of -nndd_stop balanced: stop when eta_NNDD <= kappa eta_FE",
+            0.1,
+            Bounds::POSITIVE,
+        )?;
+        let stop = match stop {
+            StopRule::Balanced { .. } => StopRule::Balanced { ratio },
+            other => other,
+        };
+        let neumann_step = o.choice(
+            "-nndd_neumann_step",
+            "Neumann steps: auto (condensed where the body has its interface operators), condensed (the trace D(-+R/2)), solve (a back-solve)",
+            &[
+                ("auto", NeumannChoice::Auto),
+                ("condensed", NeumannChoice::Condensed),
+                ("solve", NeumannChoice::Solve),
+            ],
+        )?;
+        let dirichlet_step = o.choice(
+            "-nndd_dirichlet_step",
+            "Dirichlet step (on the body of -nndd_dirichlet_body): auto (condensed when that body has its interface operators: MUMPS on any rank count, SuperLU_DIST), system, condensed",
+            &[
+                ("auto", DirichletChoice::Auto),
+                ("system", DirichletChoice::System),
+                ("condensed", DirichletChoice::Condensed),
+            ],
+        )?;
+        let dirichlet_body = match o.choice(
+            "-nndd_dirichlet_body",
+            "The body of the Dirichlet step (the other takes the contact step): auto (the stiffer body, by E/(1-nu^2)), 1, 2",
+            &[("auto", None), ("1", Some(1)), ("2", Some(2))],
+        )? {
+            Some(b) => {
+                warnings.extend(soft_dirichlet_body(materials, b));
+                b
+            }
+            None => stiffer_body(materials),
+        };
+        // A second SuperLU_DIST factorisation on the Dirichlet body's communicator: see
+        // `app::solve::setup_bodies`.
+        if dirichlet_step == DirichletChoice::System && uses_superlu_dist(dirichlet_body)? {
+            return Err(SettingsError::named(
+                "-nndd_dirichlet_step",
+                format!("system cannot be used with -body{dirichlet_body}_pc_factor_mat_solver_type superlu_dist on the body of the Dirichlet step (PETSc 3.18 frees the process grid of two SuperLU_DIST factorisations on one communicator twice); use auto or condensed"),
+            ));
+        }
+        Ok(NnddSettings {
+            relaxation,
+            tol,
+            max_it,
+            stop,
+            dirichlet_body,
+            dirichlet_step,
+            neumann_step,
+        })
+    }
+
+    /// The settings of the reference solve of (26), which must converge whatever the run's own
+    /// θ and stopping rule: θ auto, to 1e−8, with room for the iterations, and the Dirichlet
+    /// step on the stiffer body (a body other than the run's takes it the way `auto` chooses:
+    /// the run's `system` was checked against its own body's solver only).
+    pub fn for_reference(&self, materials: &[Material; 2]) -> NnddSettings {
+        let dirichlet_body = stiffer_body(materials);
+        NnddSettings {
+            relaxation: Relaxation::Auto,
+            tol: 1e-8,
+            max_it: self.max_it.max(1000),
+            stop: StopRule::Tol,
+            dirichlet_body,
+            dirichlet_step: if dirichlet_body == self.dirichlet_body {
+                self.dirichlet_step
+            } else {
+                DirichletChoice::Auto
+            },
+            neumann_step: self.neumann_step,
+        }
+    }
 }
 
 impl Default for NnddSettings {
     /// The paper's fixed θ = 0.25 and tol 1e−8 (the command line's default is `auto`).
     fn default() -> Self {
         NnddSettings {
-            theta: 0.25,
-            auto: false,
+            relaxation: Relaxation::Fixed(0.25),
             tol: 1e-8,
             max_it: 1000,
             stop: StopRule::Tol,
             dirichlet_body: 1,
+            dirichlet_step: DirichletChoice::Auto,
+            neumann_step: NeumannChoice::Auto,
         }
     }
+}
+
+/// How much softer than the other the Dirichlet step's body must be for a warning.
+pub const SOFT_DIRICHLET: f64 = 0.1;
+
+/// The plane-strain modulus E/(1 − ν²), the stiffness that decides the Dirichlet body.
+fn modulus(m: &Material) -> f64 {
+    m.young / (1.0 - m.poisson * m.poisson)
+}
+
+/// The body of the Dirichlet step for `-nndd_dirichlet_body auto`: the stiffer one by its
+/// plane-strain modulus, body 1 (the paper's) when they are equal.
+pub fn stiffer_body(materials: &[Material; 2]) -> usize {
+    if modulus(&materials[1]) > modulus(&materials[0]) {
+        2
+    } else {
+        1
+    }
+}
+
+/// The advice for a Dirichlet step given to a body much softer than the other
+/// (`-nndd_dirichlet_body`): θ auto then needs many iterations where the contact set grows (the
+/// interface operator's spectrum spreads by the stiffness ratio, `src/dd/secant.rs`).
+fn soft_dirichlet_body(materials: &[Material; 2], body: usize) -> Option<String> {
+    let (d, c) = (&materials[body - 1], &materials[2 - body]);
+    (modulus(d) < SOFT_DIRICHLET * modulus(c)).then(|| {
+        format!(
+            "body {body} takes the Dirichlet step (-nndd_dirichlet_body {body}) but is {:.0} times softer than body {} (E/(1 - nu^2), E {:e} against {:e} Pa): the NNDD converges in far fewer iterations with the Dirichlet step on the stiffer body (-nndd_dirichlet_body auto)",
+            modulus(c) / modulus(d),
+            3 - body,
+            d.young,
+            c.young
+        )
+    })
 }
 
 /// How an NNDD run ended.
@@ -510,10 +707,8 @@ impl Context<'_> {
             lambda: vec![0.0; self.m],
             history: Vec::new(),
             active: Vec::new(),
-            secant: self
-                .settings
-                .auto
-                .then(|| SecantUpdate::new(self.settings.theta, memory)),
+            secant: (self.settings.relaxation == Relaxation::Auto)
+                .then(|| SecantUpdate::new(AUTO_THETA_PROBE, memory)),
             best: f64::INFINITY,
             best_at: 0,
         }
@@ -746,7 +941,7 @@ impl LoopState {
                 (step.lambda, step.theta, columns, fraction)
             }
             None => {
-                let theta = ctx.settings.theta;
+                let theta = ctx.settings.relaxation.plain_theta();
                 let new = lambda.iter().zip(&d).map(|(l, d)| l + theta * d).collect();
                 (new, theta, None, None)
             }

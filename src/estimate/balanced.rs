@@ -26,11 +26,13 @@ pub struct BalancedRule {
 }
 
 impl BalancedRule {
-    /// The rule of the stopping rule `stop` (κ = `ratio` when balanced) and the η^NNDD
-    /// `variant`.
-    pub fn new(stop: &StopRule, ratio: f64, variant: NnddVariant) -> BalancedRule {
+    /// The rule of the stopping rule `stop` (κ when balanced) and the η^NNDD `variant`.
+    pub fn new(stop: &StopRule, variant: NnddVariant) -> BalancedRule {
         BalancedRule {
-            ratio: (*stop == StopRule::Balanced).then_some(ratio),
+            ratio: match stop {
+                StopRule::Balanced { ratio } => Some(*ratio),
+                _ => None,
+            },
             cheap: variant == NnddVariant::Discrete,
             last_fe: None,
             checks: Vec::new(),

@@ -3,8 +3,8 @@
 //! body's constitutive relation error element by element; [`equilibrate`]: strictly
 //! equilibrated stresses (EET + Johnson–Mercier, patch relaxation); [`overlap`]: a rank's
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
-//! elements; [`reference`]: the reference solution of (26); [`balanced`]: the balanced
-//! stopping rule, η^NNDD ≤ κ η^FE.
+//! elements; [`reference`]: the reference solution of (26); [`settings`]: the estimates'
+//! options; [`balanced`]: the balanced stopping rule, η^NNDD ≤ κ η^FE.
 //!
 //! May use: `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`.
 //!
@@ -36,11 +36,13 @@ pub mod cre;
 pub mod equilibrate;
 pub mod overlap;
 pub mod reference;
+pub mod settings;
 pub mod share;
 pub mod traction;
 
 pub use balanced::BalancedRule;
 pub use reference::Reference;
+pub use settings::EstimateSettings;
 pub use traction::Interface;
 
 use crate::dd::body::{Body, BodyError};
