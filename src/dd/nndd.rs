@@ -1034,4 +1034,51 @@ mod tests {
         assert!(!diverging(&history(&[1.0, 0.1, 0.2, 0.4, 0.3, 1.6, 3.2])));
         assert!(!diverging(&history(&up[..5])));
     }
+
+    #[test]
+    fn theta_is_auto_or_a_positive_number() {
+        assert_eq!(Relaxation::parse(" auto ").unwrap(), Relaxation::Auto);
+        assert_eq!(Relaxation::parse("0.250").unwrap(), Relaxation::Fixed(0.25));
+        assert_eq!(Relaxation::Fixed(0.25).text(), "0.25");
+        assert_eq!(Relaxation::Auto.text(), "auto");
+        for bad in ["0", "-0.5", "quarter", "inf", "NaN"] {
+            let e = Relaxation::parse(bad).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!("-nndd_theta must be a number > 0, or auto (got {bad})")
+            );
+        }
+    }
+
+    #[test]
+    fn the_verdict_of_an_iteration() {
+        let tol = NnddSettings::default();
+        let mut state = LoopState {
+            iteration: 0,
+            lambda: Vec::new(),
+            history: history(&[1.0]),
+            active: Vec::new(),
+            secant: None,
+            best: f64::INFINITY,
+            best_at: 0,
+        };
+        let diverged = Some(Status::Diverged);
+        assert_eq!(state.check_termination(&tol, 1, f64::NAN, false), diverged);
+        let converged = Some(Status::Converged);
+        assert_eq!(state.check_termination(&tol, 1, 1e-9, false), converged);
+        let balanced = Some(Status::Balanced);
+        assert_eq!(state.check_termination(&tol, 1, 1e-3, true), balanced);
+        assert_eq!(state.check_termination(&tol, 1, 1e-3, false), None);
+        // No smaller change in 50 iterations.
+        assert_eq!(state.check_termination(&tol, 50, 1e-2, false), None);
+        let stagnated = Some(Status::Stagnated);
+        assert_eq!(state.check_termination(&tol, 51, 1e-2, false), stagnated);
+        // -nndd_stop none: neither the tolerance nor stagnation stops it.
+        let none = NnddSettings {
+            stop: StopRule::None,
+            ..NnddSettings::default()
+        };
+        assert_eq!(state.check_termination(&none, 120, 1e-12, false), None);
+        assert_eq!(state.check_termination(&none, 200, 1.0, false), None);
+    }
 }

@@ -125,3 +125,30 @@ impl BalancedRule {
         true
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failed_check_is_kept_and_attached() {
+        let balanced = StopRule::Balanced { ratio: 0.1 };
+        let mut rule = BalancedRule::new(&balanced, NnddVariant::Discrete);
+        assert!(!rule.check(3, 0.5, 0.1));
+        assert!(rule.check(4, 0.1, 0.1));
+        assert_eq!(rule.checks(), &[(3, 0.5)]);
+        let mut history: Vec<IterationRecord> = [3, 4]
+            .map(|iteration| IterationRecord {
+                iteration,
+                ..Default::default()
+            })
+            .into();
+        rule.attach_checks(&mut history);
+        assert_eq!(history[0].eta_nndd, Some(0.5));
+        assert_eq!(history[1].eta_nndd, None);
+        let resumed = BalancedRule::new(&StopRule::Tol, NnddVariant::Density)
+            .resumed(Some(2.0), vec![(1, 3.0)]);
+        assert_eq!(resumed.last_fe(), Some(2.0));
+        assert_eq!(resumed.checks(), &[(1, 3.0)]);
+    }
+}

@@ -143,3 +143,37 @@ impl OptionsBlock {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_accept_what_their_words_say() {
+        let positive = Bounds::POSITIVE.holds;
+        assert!(positive(1e-300) && !positive(0.0) && !positive(f64::INFINITY));
+        assert!(!positive(f64::NAN));
+        assert!((Bounds::NON_NEGATIVE.holds)(0.0) && !(Bounds::NON_NEGATIVE.holds)(-1e-300));
+        assert!((Bounds::FINITE.holds)(-1e300) && !(Bounds::FINITE.holds)(f64::NAN));
+        let count = Bounds::POSITIVE_INT.holds;
+        assert!(count(1) && count(65536) && !count(0) && !count(65537));
+        assert!((Bounds::NON_NEGATIVE_INT.holds)(0) && !(Bounds::NON_NEGATIVE_INT.holds)(-1));
+    }
+
+    #[test]
+    fn messages_are_one_line_naming_the_option() {
+        let e = SettingsError::out_of_range("-nndd_tol", "> 0", 0.0);
+        assert_eq!(e.to_string(), "-nndd_tol must be > 0 (got 0)");
+        let e = SettingsError::UnknownValue {
+            option: "-nndd_stop".into(),
+            value: "never".into(),
+            accepted: "tol, balanced, none".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "-nndd_stop: unknown value 'never' (accepted: tol, balanced, none)"
+        );
+        let e = SettingsError::named("-nndd_mesh", "cannot read it");
+        assert_eq!(e.to_string(), "-nndd_mesh: cannot read it");
+    }
+}
