@@ -83,7 +83,7 @@ pub fn check(settings: &Settings, world: &SimpleCommunicator) -> Result<(), Sett
     let ranks = world.size() as usize;
     let dofs = settings.problem.dofs();
     let base = estimate(ranks, dofs, None);
-    let r = settings.reference_factor;
+    let r = settings.estimate.reference_factor;
     let fine = (r > 0).then(|| fine_dofs(settings, r));
     let need = estimate(ranks, dofs, fine);
     let have = available(world);

@@ -1,10 +1,11 @@
-//! Layer `app`: the run. [`options`] reads every `-nndd_` option into the plain settings of
-//! each layer; [`run`] reads as the algorithm (deal.II step-42's `run()`): settings, setup
-//! (mesh, assembly, factorisation), the estimator, the solve (NNDD or monolithic) with its
-//! estimates ([`solve`]), post-processing and output ([`report`]).
+//! Layer `app`: the run. [`options`] has each layer read its own `-nndd_` options into its
+//! plain settings, in order, and reads the run's own; [`run`] reads as the algorithm (deal.II
+//! step-42's `run()`), one named step a line: settings, problem, ranks, setup (mesh, assembly,
+//! factorisation), the estimator, the solve (NNDD or monolithic) with its estimates
+//! ([`solve`]), post-processing and output ([`report`]).
 //!
 //! May use: every layer below (`io`, `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`,
-//! `petsc`, `os`).
+//! `petsc`).
 
 pub mod capacity;
 pub mod options;
@@ -19,20 +20,20 @@ use mpi::topology::SimpleCommunicator;
 use mpi::traits::Communicator as _;
 
 use crate::dd;
-use crate::dd::body::BodyError;
+use crate::dd::body::{Body, BodyError};
 use crate::dd::contact::ContactError;
 use crate::dd::monolithic::MonolithicError;
 use crate::dd::nndd::NnddError;
 use crate::estimate::equilibrate::StarChoice;
-use crate::estimate::{EstimateError, Estimator, Interface, Parts};
+use crate::estimate::{EstimateError, Estimator};
 use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
 use crate::io::output::{self, OutputError, Results};
 use crate::io::summary::{EstimationParts, Timings};
-use crate::os::{memory, signals};
 use crate::parallel::fault::{self, Agreement, InjectedFault, Phase};
 use crate::parallel::layout::{Layout, LayoutError};
 use crate::parallel::partition::PartitionError;
+use crate::os::{memory, signals};
 use crate::petsc::log::Stages;
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::meshed::MeshedError;
@@ -173,52 +174,120 @@ pub enum Outcome {
     Help,
 }
 
+impl Outcome {
+    /// How a run that reached its output ended.
+    fn of(sol: &Solution) -> Outcome {
+        if sol.interrupted {
+            Outcome::Interrupted
+        } else if sol.requested {
+            Outcome::Solved
+        } else {
+            Outcome::NotConverged
+        }
+    }
+}
+
 pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, AppError> {
     let t_start = Instant::now();
     // Settings: every -nndd_ option, validated; the ranks agree before going on.
-    let settings = agreed(
-        agreement,
-        Settings::from_options(Petsc::comm_world())
-            .map_err(AppError::from)
-            .and_then(|s| {
-                fault::arm(s.fault, world.rank());
-                fault::check(Phase::Options)?;
-                Ok(s)
-            }),
-    )?;
-    if petsc::option_present("-help") {
-        list_solver_options()?;
-        return Ok(Outcome::Help);
-    }
-    // `-version`: PETSc has printed its own version; add nndd's and stop before any work.
-    if petsc::option_present("-version") {
-        if world.rank() == 0 {
-            println!("nndd {}", env!("CARGO_PKG_VERSION"));
-        }
-        return Ok(Outcome::Help);
+    let settings = read_settings(agreement, world.rank())?;
+    if let Some(outcome) = help_or_version(world.rank())? {
+        return Ok(outcome);
     }
     // Memory: the meshes must fit in the nodes' memory (before any mesh is built).
     agreed(
         agreement,
         capacity::check(&settings, &world).map_err(AppError::from),
     )?;
-    if world.rank() == 0 {
-        for w in &settings.warnings {
+    say_warnings(world.rank() == 0, &settings.warnings);
+    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
+    // the whole geometry, for the interface and the output).
+    let problems = build_problems(&settings, agreement, world.rank() == 0)?;
+    let mut timings = Timings {
+        input: t_start.elapsed().as_secs_f64(),
+        ..Timings::default()
+    };
+    // Ranks: each body's group, and the choices that depend on it checked.
+    let layout = lay_out(world, &settings, &problems)?;
+    // The restart point this run continues from, checked against this problem.
+    let restart = restart_point(&settings, &problems, agreement)?;
+    let stages = prepare_solve()?;
+    let run = Run::new(&settings, &layout, &problems, &stages, agreement);
+    // Setup: each rank's bodies (partition, assembly, factorisation); the ranks agree.
+    let bodies = run.set_up_bodies(&mut timings)?;
+    let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
+    let mut warnings = unused_solver_options(&settings, &layout)?;
+    say_warnings(layout.is_root(), &warnings);
+    run.announce_setup(t_start);
+    // Estimate: the estimator (with the reference solution of (26) when asked), used by the
+    // solve at the estimated iterations and on the reported iterate.
+    let estimator = run.estimator(&mut timings, &mut warnings)?;
+    // Solve: the NNDD (paper §3) or the monolithic check; the contact checked on the curves.
+    let mut sol = run.solve(refs, estimator.as_ref(), &mut timings, &restart)?;
+    sol.warnings.splice(0..0, warnings);
+    run.check_contact(&mut sol)?;
+    // Post-processing: energy, Schur source, timings and memory over ranks.
+    let post = run.post_process(refs, &sol, estimator, &mut timings)?;
+    drop(bodies);
+    memory::release_free_memory(0);
+    // Output: PREFIX.h5 + PREFIX.xdmf (collective), PREFIX.json (rank 0).
+    run.write_output(&sol, &post, timings, t_start)?;
+    Ok(Outcome::of(&sol))
+}
+
+/// Every `-nndd_` option, validated, and the injected fault armed (`-nndd_fault`); the ranks
+/// agree.
+fn read_settings(agreement: &Agreement, rank: i32) -> Result<Settings, AppError> {
+    let settings = Settings::from_options(Petsc::comm_world())
+        .map_err(AppError::from)
+        .and_then(|s| {
+            fault::arm(s.fault, rank);
+            fault::check(Phase::Options)?;
+            Ok(s)
+        });
+    agreed(agreement, settings)
+}
+
+/// `-help` (with the bodies' solver options) or `-version` (PETSc has printed its own; nndd's
+/// follows): what was asked, without any work.
+fn help_or_version(rank: i32) -> Result<Option<Outcome>, AppError> {
+    if petsc::option_present("-help") {
+        list_solver_options()?;
+        return Ok(Some(Outcome::Help));
+    }
+    if petsc::option_present("-version") {
+        if rank == 0 {
+            println!("nndd {}", env!("CARGO_PKG_VERSION"));
+        }
+        return Ok(Some(Outcome::Help));
+    }
+    Ok(None)
+}
+
+/// `nndd: warning: …` lines, on the root.
+fn say_warnings(root: bool, warnings: &[String]) {
+    if root {
+        for w in warnings {
             crate::io::monitor::say(format_args!("nndd: warning: {w}"));
         }
     }
-    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
-    // the whole geometry, for the interface and the output).
-    let problems = agreed(
-        agreement,
-        problem::build(&settings.problem)
-            .map_err(AppError::from)
-            .and_then(|p| {
-                fault::check(Phase::Mesh)?;
-                Ok(p)
-            }),
-    )?;
-    if let (Some(spec), true) = (&settings.problem.mesh, world.rank() == 0) {
+}
+
+/// Both bodies' problems (the ranks agree); a Gmsh problem's contact curves, made to match,
+/// reported.
+fn build_problems(
+    settings: &Settings,
+    agreement: &Agreement,
+    root: bool,
+) -> Result<[Rc<BodyProblem>; 2], AppError> {
+    let built = problem::build(&settings.problem)
+        .map_err(AppError::from)
+        .and_then(|p| {
+            fault::check(Phase::Mesh)?;
+            Ok(p)
+        });
+    let problems = agreed(agreement, built)?;
+    if let (Some(spec), true) = (&settings.problem.mesh, root) {
         let m = &spec.matched;
         if m.inserted != [0; 2] || m.moved != [0; 2] {
             let [c1, c2] = &spec.contact;
@@ -234,47 +303,110 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             );
         }
     }
-    let input_seconds = t_start.elapsed().as_secs_f64();
-    let dofs = [problems[0].mesh.num_dofs(), problems[1].mesh.num_dofs()];
+    Ok(problems)
+}
+
+/// The ranks of each body's group, and the choices that depend on them checked: the
+/// recovery, the interface operators, the output's directory.
+fn lay_out(
+    world: SimpleCommunicator,
+    settings: &Settings,
+    problems: &[Rc<BodyProblem>; 2],
+) -> Result<Layout, AppError> {
+    let dofs = problems.each_ref().map(|p| p.mesh.num_dofs());
     let layout = Layout::new(world, settings.body1_ranks, dofs)?;
-    check_recovery(&settings, &layout)?;
-    check_schur(&settings, &layout)?;
-    check_output(&settings, &layout)?;
-    // The restart point this run continues from, checked against this problem.
+    check_recovery(settings, &layout)?;
+    settings.schur.check(layout.group_sizes)?;
+    check_output(settings, &layout)?;
+    Ok(layout)
+}
+
+/// Where this run writes its restart points, and the one it continues from
+/// (`-nndd_restart`), checked against this problem (the ranks agree).
+fn restart_point<'a>(
+    settings: &Settings,
+    problems: &[Rc<BodyProblem>; 2],
+    agreement: &'a Agreement,
+) -> Result<Restart<'a>, AppError> {
     let identity = Identity::of(
         settings.problem.kind.name(),
-        &problems,
-        settings.theta_text.clone(),
+        problems,
+        settings.nndd.relaxation.text(),
         settings.nndd.dirichlet_body,
     );
     let from = match &settings.restart {
         None => None,
-        Some(path) => Some(agreed(
-            agreement,
-            checkpoint::read(path, &identity, settings.nndd.max_it).map_err(AppError::from),
-        )?),
+        Some(path) => {
+            let read = checkpoint::read(path, &identity, settings.nndd.max_it);
+            Some(agreed(agreement, read.map_err(AppError::from))?)
+        }
     };
+    Ok(Restart {
+        identity,
+        path: settings.output.paths.checkpoint(),
+        from,
+        agreement,
+    })
+}
+
+/// Before the solve: the stop signals caught, the `-log_view` stages registered, the memory
+/// tracked.
+fn prepare_solve() -> Result<Stages, AppError> {
     signals::catch_stop_requests().map_err(AppError::Signals)?;
     let stages = Stages::register()?;
     Petsc::track_memory()?;
-    let mut timings = Timings {
-        input: input_seconds,
-        ..Timings::default()
-    };
+    Ok(stages)
+}
 
-    // Setup: each rank's bodies (partition, assembly, factorisation); the ranks agree.
-    let bodies = agreed(
-        agreement,
-        solve::setup_bodies(&settings, &problems, &layout, &stages, &mut timings),
-    )?;
-    let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
-    let unused = unused_solver_options(&settings, &layout)?;
-    if layout.is_root() {
-        for w in &unused {
-            crate::io::monitor::say(format_args!("nndd: warning: {w}"));
+/// What the steps of a run from the setup on work with.
+struct Run<'a> {
+    settings: &'a Settings,
+    layout: &'a Layout,
+    problems: &'a [Rc<BodyProblem>; 2],
+    stages: &'a Stages,
+    agreement: &'a Agreement,
+}
+
+/// What post-processing gives the summary.
+struct PostProcessed {
+    /// The potential energy of the reported iterate, both bodies (J/m).
+    energy: f64,
+    solvers: [solve::BodySolver; 2],
+    logged_flops: f64,
+    reference_iterations: Option<usize>,
+}
+
+impl<'a> Run<'a> {
+    fn new(
+        settings: &'a Settings,
+        layout: &'a Layout,
+        problems: &'a [Rc<BodyProblem>; 2],
+        stages: &'a Stages,
+        agreement: &'a Agreement,
+    ) -> Run<'a> {
+        Run {
+            settings,
+            layout,
+            problems,
+            stages,
+            agreement,
         }
     }
-    if settings.monitor && layout.is_root() {
+
+    /// Each rank's bodies (partition, assembly, factorisation); the ranks agree.
+    fn set_up_bodies(&self, timings: &mut Timings) -> Result<[Option<Body>; 2], AppError> {
+        let (settings, problems, layout) = (self.settings, self.problems, self.layout);
+        let bodies = solve::setup_bodies(settings, problems, layout, self.stages, timings);
+        agreed(self.agreement, bodies)
+    }
+
+    /// With `-nndd_monitor`: the problem, its size, the ranks and the steps' bodies, and the
+    /// time to here.
+    fn announce_setup(&self, t_start: Instant) {
+        let (settings, layout) = (self.settings, self.layout);
+        if !(settings.output.monitor && layout.is_root()) {
+            return;
+        }
         let problem = match &settings.problem.mesh {
             Some(spec) => format!("mesh {}", spec.gmsh.path),
             None => format!(
@@ -288,173 +420,189 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
             (SolverKind::Nndd, _) => ", Dirichlet step on body 2, contact step on body 1",
             _ => "",
         };
+        let dofs: usize = self.problems.iter().map(|p| p.mesh.num_dofs()).sum();
         println!(
-            "nndd: {problem}, {} dofs, {} rank(s){roles}: setup {:.3} s",
-            dofs[0] + dofs[1],
+            "nndd: {problem}, {dofs} dofs, {} rank(s){roles}: setup {:.3} s",
             layout.size,
             t_start.elapsed().as_secs_f64()
         );
     }
 
-    // Estimate: the estimator (with the reference solution of (26) when asked), used by the
-    // solve at the estimated iterations and on the reported iterate.
-    let mut warnings = unused;
-    let reference = match settings.reference_factor {
-        0 => None,
-        r => match solve::solve_reference(&settings, &layout, &stages, r, &mut timings)? {
-            Ok(reference) => Some(reference),
-            Err(w) => {
-                if layout.is_root() {
-                    crate::io::monitor::say(format_args!("nndd: warning: {w}"));
+    /// The estimator when the run estimates, with the reference solution of (26) when asked
+    /// (one that does not converge is a warning, added to `warnings`: no e_ref then).
+    fn estimator(
+        &self,
+        timings: &mut Timings,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<Estimator<'a>>, AppError> {
+        let (settings, layout) = (self.settings, self.layout);
+        let reference = match settings.estimate.reference_factor {
+            0 => None,
+            r => match solve::solve_reference(settings, layout, self.stages, r, timings)? {
+                Ok(reference) => Some(reference),
+                Err(w) => {
+                    say_warnings(layout.is_root(), std::slice::from_ref(&w));
+                    warnings.push(w);
+                    None
                 }
-                warnings.push(w);
-                None
+            },
+        };
+        let stages = Some(self.stages.estimation_parts);
+        Ok(settings.estimate.enabled.then(|| {
+            let qp = &settings.qp;
+            Estimator::new(
+                &settings.estimate,
+                qp,
+                layout,
+                self.problems,
+                reference,
+                stages,
+            )
+        }))
+    }
+
+    /// The NNDD (paper §3) with its restart points, or the monolithic check; a failure of one
+    /// rank alone ends the job.
+    fn solve(
+        &self,
+        refs: [Option<&Body>; 2],
+        estimator: Option<&Estimator>,
+        timings: &mut Timings,
+        restart: &Restart,
+    ) -> Result<Solution, AppError> {
+        let (settings, layout, stages) = (self.settings, self.layout, self.stages);
+        end_job_on_local_failure(match settings.solver {
+            SolverKind::Nndd => {
+                let restart = Some(restart);
+                solve::solve_nndd(settings, layout, refs, estimator, stages, timings, restart)
             }
-        },
-    };
-    let estimator = settings.estimate.then(|| Estimator {
-        iface: Interface::new(problems[0].contact_lengths.clone()),
-        qp: settings.qp.clone(),
-        recovery: settings.recovery,
-        warm_change: settings.warm_change,
-        nndd_variant: settings.eta_nndd,
-        layout: &layout,
-        reference,
-        problems: problems.clone(),
-        owners: Default::default(),
-        shares: Default::default(),
-        parts: Parts::new(Some(stages.estimation_parts)),
-        operators: Default::default(),
-        cheap_nndd: Default::default(),
-        cold: Default::default(),
-    });
-
-    // Solve: the NNDD (paper §3) or the monolithic check.
-    let restart = Restart {
-        identity: &identity,
-        path: checkpoint::path_for(&settings.output),
-        from,
-        agreement,
-    };
-    let mut sol = match settings.solver {
-        SolverKind::Nndd => end_job_on_local_failure(solve::solve_nndd(
-            &settings,
-            &layout,
-            refs,
-            estimator.as_ref(),
-            &stages,
-            &mut timings,
-            Some(&restart),
-        ))?,
-        SolverKind::Monolithic => end_job_on_local_failure(solve::solve_monolithic(
-            &settings,
-            &layout,
-            refs,
-            estimator.as_ref(),
-            &stages,
-            &mut timings,
-        ))?,
-    };
-
-    // Contact beyond Γc: a zone that reaches an end of Γc where the bodies go on side by side.
-    let problem_refs = [&*problems[0], &*problems[1]];
-    if let Some(w) = dd::check::zone_reaches_open_end(problem_refs, &sol.last) {
-        if layout.is_root() {
-            crate::io::monitor::say(format_args!("nndd: warning: {w}"));
-        }
-        sol.warnings.push(w);
-    }
-    sol.warnings.splice(0..0, warnings);
-    // Penetration over the whole contact curves: beyond round-off, an error.
-    let penetration = dd::check::penetration(&layout, problem_refs, &sol.last);
-    if let Some(what) = penetration.failure(&contact_curves(&settings)) {
-        return Err(AppError::Penetration(what));
-    }
-    sol.penetration = Some(penetration);
-
-    // Post-processing: energy, Schur source, timings and memory over ranks.
-    let energy = {
-        let mut e = 0.0;
-        for (k, b) in refs.iter().enumerate() {
-            if let Some(b) = b {
-                let energy = b.potential_energy(&sol.last.u[k])?;
-                if b.is_root() {
-                    e += energy; // every rank of the group has it: count it once
-                }
+            SolverKind::Monolithic => {
+                solve::solve_monolithic(settings, layout, refs, estimator, stages, timings)
             }
-        }
-        layout.sum(e)
-    };
-    let solvers = solve::body_solvers(&layout, refs, &sol);
-    if settings.schur_view {
-        write_interface_operators(&settings, &layout, refs)?;
+        })
     }
-    let logged_flops = layout.sum(Petsc::logged_flops());
-    let reference_iterations = estimator
-        .as_ref()
-        .and_then(|e| e.reference.as_ref())
-        .map(|r| r.iterations);
-    if let Some(e) = &estimator {
-        timings.estimation_parts = EstimationParts::from(e.parts.seconds());
-    }
-    drop(estimator);
-    report::max_over_ranks(&layout, &mut timings);
-    drop(bodies);
-    memory::release_free_memory(0);
 
-    // Output: PREFIX.h5 + PREFIX.xdmf (collective), PREFIX.json (rank 0).
-    let t_out = Instant::now();
-    let results = {
-        let _s = stages.output.enter();
-        let have = [layout.owns(1), layout.owns(2)];
-        let results = results_of(&settings, &problems, &sol, have);
-        let shares = fields::shares(&layout, [&problems[0], &problems[1]]);
-        output::write_results_parallel(&layout.world, &settings.output, &results, &shares)?;
-        results
-    };
-    timings.output = layout.max(t_out.elapsed().as_secs_f64());
-    timings.total = t_start.elapsed().as_secs_f64();
-    // The high-water marks of the whole run, the output's fields included.
-    let peaks = report::peak_memory_per_rank(&layout);
-    let mut written = Ok(());
-    if layout.is_root() {
-        let summary = report::summarise(
-            &settings,
-            [&problems[0], &problems[1]],
-            &layout,
-            &sol,
+    /// The contact over the whole contact curves: a zone that reaches an end of Γc where the
+    /// bodies go on side by side is a warning; a penetration beyond round-off, an error.
+    fn check_contact(&self, sol: &mut Solution) -> Result<(), AppError> {
+        let problems = [&*self.problems[0], &*self.problems[1]];
+        if let Some(w) = dd::check::zone_reaches_open_end(problems, &sol.last) {
+            say_warnings(self.layout.is_root(), std::slice::from_ref(&w));
+            sol.warnings.push(w);
+        }
+        let penetration = dd::check::penetration(self.layout, problems, &sol.last);
+        if let Some(what) = penetration.failure(&contact_curves(self.settings)) {
+            return Err(AppError::Penetration(what));
+        }
+        sol.penetration = Some(penetration);
+        Ok(())
+    }
+
+    /// The energy, each body's solver, `-nndd_schur_view`'s files, the flops and the
+    /// estimates' parts; the estimator dropped, the timings made maxima over the ranks.
+    fn post_process(
+        &self,
+        refs: [Option<&Body>; 2],
+        sol: &Solution,
+        estimator: Option<Estimator>,
+        timings: &mut Timings,
+    ) -> Result<PostProcessed, AppError> {
+        let layout = self.layout;
+        let energy = potential_energy(layout, refs, sol)?;
+        let solvers = solve::body_solvers(layout, refs, sol);
+        if self.settings.output.schur_view {
+            write_interface_operators(self.settings, layout, refs)?;
+        }
+        let logged_flops = layout.sum(Petsc::logged_flops());
+        let reference_iterations = estimator.as_ref().and_then(|e| e.reference_iterations());
+        if let Some(e) = &estimator {
+            timings.estimation_parts = EstimationParts::from(e.part_seconds());
+        }
+        drop(estimator);
+        report::max_over_ranks(layout, timings);
+        Ok(PostProcessed {
             energy,
-            &solvers,
+            solvers,
             logged_flops,
             reference_iterations,
-            &results,
-            timings.clone(),
-            &peaks,
-        );
-        let json =
-            serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;
-        written =
-            output::write_atomic(&output::with_ext(&settings.output, "json"), json.as_bytes())
+        })
+    }
+
+    /// PREFIX.h5 + PREFIX.xdmf (collective), then PREFIX.json and the closing report (rank 0;
+    /// the ranks agree on its write).
+    fn write_output(
+        &self,
+        sol: &Solution,
+        post: &PostProcessed,
+        mut timings: Timings,
+        t_start: Instant,
+    ) -> Result<(), AppError> {
+        let (settings, layout, problems) = (self.settings, self.layout, self.problems);
+        let t_out = Instant::now();
+        let results = {
+            let _s = self.stages.output.enter();
+            let have = [layout.owns(1), layout.owns(2)];
+            let results = results_of(settings, problems, sol, have);
+            let shares = fields::shares(layout, [&problems[0], &problems[1]]);
+            let prefix = settings.output.paths.prefix();
+            output::write_results_parallel(&layout.world, prefix, &results, &shares)?;
+            results
+        };
+        timings.output = layout.max(t_out.elapsed().as_secs_f64());
+        timings.total = t_start.elapsed().as_secs_f64();
+        // The high-water marks of the whole run, the output's fields included.
+        let peaks = report::peak_memory_per_rank(layout);
+        let mut written = Ok(());
+        if layout.is_root() {
+            let summary = report::summarise(
+                settings,
+                [&problems[0], &problems[1]],
+                layout,
+                sol,
+                post.energy,
+                &post.solvers,
+                post.logged_flops,
+                post.reference_iterations,
+                &results,
+                timings,
+                &peaks,
+            );
+            let json = serde_json::to_string_pretty(&summary)
+                .map_err(|e| AppError::Json(e.to_string()))?;
+            written = output::write_atomic(&settings.output.paths.json(), json.as_bytes())
                 .map_err(AppError::from);
-        if written.is_ok() {
-            report::report(&settings, &summary, &sol);
+            if written.is_ok() {
+                report::report(settings, &summary, sol);
+            }
+        }
+        agreed(self.agreement, written)?;
+        if signals::stop_requested() && !sol.interrupted && layout.is_root() {
+            // The output is not interrupted: a signal during it is read once the files exist.
+            crate::io::monitor::say(format_args!(
+                "nndd: {} arrived while the results were written; they are complete",
+                signals::received_name()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The potential energy of the reported iterate, both bodies (each counted once per group).
+fn potential_energy(
+    layout: &Layout,
+    refs: [Option<&Body>; 2],
+    sol: &Solution,
+) -> Result<f64, AppError> {
+    let mut e = 0.0;
+    for (k, b) in refs.iter().enumerate() {
+        if let Some(b) = b {
+            let energy = b.potential_energy(&sol.last.u[k])?;
+            if b.is_root() {
+                e += energy; // every rank of the group has it: count it once
+            }
         }
     }
-    agreed(agreement, written)?;
-    if signals::stop_requested() && !sol.interrupted && layout.is_root() {
-        // The output is not interrupted: a signal during it is read once the files exist.
-        crate::io::monitor::say(format_args!(
-            "nndd: {} arrived while the results were written; they are complete",
-            signals::received_name()
-        ));
-    }
-    Ok(if sol.interrupted {
-        Outcome::Interrupted
-    } else if sol.requested {
-        Outcome::Solved
-    } else {
-        Outcome::NotConverged
-    })
+    Ok(layout.sum(e))
 }
 
 /// `local` on every rank if no rank failed; else, after every rank learnt it, the rank's own
@@ -570,7 +718,7 @@ fn write_interface_operators(
             "schur": c.schur.data(),
             "delassus": c.delassus.data(),
         });
-        let path = output::with_ext(&settings.output, &format!("body{}_schur.json", k + 1));
+        let path = settings.output.paths.schur_json(k + 1);
         written = written.and_then(|()| {
             output::write_atomic(&path, view.to_string().as_bytes()).map_err(AppError::from)
         });
@@ -587,37 +735,10 @@ fn write_interface_operators(
 /// rank (the others are local and computed on overlapping element sets, see `overlap.rs`).
 fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
     let spread = layout.group_sizes.iter().any(|&n| n > 1);
-    if spread && matches!(settings.recovery, StarChoice::MinimumEnergy { .. }) && settings.estimate
-    {
+    let estimate = &settings.estimate;
+    if spread && matches!(estimate.recovery, StarChoice::MinimumEnergy { .. }) && estimate.enabled {
         return Err(LayoutError::GlobalRecovery {
             ranks: layout.group_sizes,
-        }
-        .into());
-    }
-    Ok(())
-}
-
-/// `-nndd_schur mumps_schur` needs each body on one rank and factored by MUMPS, and
-/// `mumps_inverse` a MUMPS factorisation (bad input, found alike on every rank).
-fn check_schur(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
-    use dd::body::SchurChoice;
-    let choice = settings.schur;
-    for alpha in [1, 2] {
-        let why = match choice {
-            SchurChoice::MumpsSchur | SchurChoice::MumpsInverse
-                if !options::uses_mumps(alpha)? =>
-            {
-                format!("body {alpha} is not factored by MUMPS (-body{alpha}_pc_factor_mat_solver_type mumps with -body{alpha}_pc_type cholesky or lu and -body{alpha}_ksp_type preonly); use auto or solves")
-            }
-            SchurChoice::MumpsSchur if layout.group_sizes[alpha - 1] > 1 => format!(
-                "body {alpha} is on {} ranks, and PETSc 3.18 forms MUMPS's Schur complement on one only; use auto or mumps_inverse",
-                layout.group_sizes[alpha - 1]
-            ),
-            _ => continue,
-        };
-        return Err(SettingsError::Named {
-            option: format!("-nndd_schur {}", choice.name()),
-            message: why,
         }
         .into());
     }
@@ -627,7 +748,7 @@ fn check_schur(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
 /// Fail before any work when the output cannot be written (rank 0 checks, all agree).
 fn check_output(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
     let checked = if layout.is_root() {
-        output::check_writable(&settings.output)
+        output::check_writable(settings.output.paths.prefix())
     } else {
         Ok(())
     };

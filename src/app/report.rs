@@ -3,17 +3,17 @@
 
 use super::options::Settings;
 use super::solve::{BodySolver, Solution};
-use crate::dd::nndd::Iterate;
+use crate::dd::nndd::{Iterate, Relaxation};
 use crate::estimate::EstimateRecord;
+use crate::io::fields;
 use crate::io::monitor::{self, sci};
 use crate::io::output::Results;
 use crate::io::summary::{
     ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning, MeshProblem,
     Summary, Timings,
 };
-use crate::io::{fields, output};
-use crate::os::memory;
 use crate::parallel::layout::Layout;
+use crate::os::memory;
 use crate::problem::BodyProblem;
 
 #[allow(clippy::too_many_arguments)]
@@ -31,6 +31,7 @@ pub fn summarise(
     peaks: &[f64],
 ) -> Summary {
     let contact = contact_of(body1, &sol.last);
+    let paths = &settings.output.paths;
     let builtin = settings.problem.mesh.is_none();
     let matched = settings.problem.mesh.as_ref().map(|m| &*m.matched);
     let residuals = (!sol.estimates.is_empty()).then(|| {
@@ -59,8 +60,11 @@ pub fn summarise(
         dofs: settings.problem.dofs(),
         ranks: layout.size,
         solver: settings.solver.name().into(),
-        theta: (!settings.nndd.auto).then_some(settings.nndd.theta),
-        theta_auto: settings.nndd.auto,
+        theta: match settings.nndd.relaxation {
+            Relaxation::Fixed(theta) => Some(theta),
+            Relaxation::Auto => None,
+        },
+        theta_auto: settings.nndd.relaxation == Relaxation::Auto,
         dirichlet_body: settings.nndd.dirichlet_body,
         tol: settings.nndd.tol,
         max_it: settings.nndd.max_it,
@@ -97,24 +101,16 @@ pub fn summarise(
         qp_kkt_residual: sol.last.qp_kkt,
         estimates: sol.estimates.iter().map(summary_estimate).collect(),
         equilibrium_residuals: residuals,
-        reference_factor: (settings.reference_factor > 0).then_some(settings.reference_factor),
+        reference_factor: Some(settings.estimate.reference_factor).filter(|&r| r > 0),
         reference_iterations,
         timings,
         peak_memory_mib: peaks.iter().cloned().fold(0.0, f64::max),
         peak_memory_mib_per_rank: peaks.to_vec(),
         body_ranks: layout.group_sizes,
-        h5: output::with_ext(&settings.output, "h5")
-            .display()
-            .to_string(),
-        xdmf: output::with_ext(&settings.output, "xdmf")
-            .display()
-            .to_string(),
-        xdmf_contact: output::xdmf_path(&settings.output, "contact")
-            .display()
-            .to_string(),
-        xdmf_final: output::xdmf_path(&settings.output, "final")
-            .display()
-            .to_string(),
+        h5: paths.h5().display().to_string(),
+        xdmf: paths.xdmf().display().to_string(),
+        xdmf_contact: paths.contact_xdmf().display().to_string(),
+        xdmf_final: paths.final_xdmf().display().to_string(),
         fields: fields::describe(results),
         estimate_meaning: (!sol.estimates.is_empty()).then_some(EstimateMeaning::PAPER),
         warnings: settings
@@ -156,7 +152,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         sci(summary.contact_force, 6),
         summary.contact_zone.map_or("none".to_string(), |z| format!("[{}, {}]", sci(z[0], 5), sci(z[1], 5))),
         summary.timings.total,
-        settings.output.display()
+        settings.output.paths.prefix().display()
     );
     if let Some(e) = sol.estimates.last() {
         println!(
@@ -169,7 +165,7 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         crate::io::monitor::say(format_args!(
             "nndd: interrupted by a signal after {} iterations; continue with -nndd_restart {}",
             sol.iterations,
-            crate::io::checkpoint::path_for(&settings.output).display()
+            settings.output.paths.checkpoint().display()
         ));
     } else if !sol.requested {
         let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
@@ -183,10 +179,10 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             sol.iterations,
             sci(last, 3),
             sci(settings.nndd.tol, 1),
-            if settings.nndd.auto {
-                "try a small fixed -nndd_theta (now auto; e.g. 0.01)".to_string()
-            } else {
-                format!("try a smaller -nndd_theta (now {})", settings.nndd.theta)
+            match settings.nndd.relaxation {
+                Relaxation::Auto =>
+                    "try a small fixed -nndd_theta (now auto; e.g. 0.01)".to_string(),
+                Relaxation::Fixed(theta) => format!("try a smaller -nndd_theta (now {theta})"),
             }
         ));
     }

@@ -5,18 +5,19 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use super::agreed;
-use super::options::{self, Settings, SolverKind};
+use super::options::{Settings, SolverKind};
 use super::AppError;
-use crate::dd::body::{Body, SchurMode, SchurSource};
+use crate::dd::body::{uses_superlu_dist, Body, SchurMode, SchurSource};
 use crate::dd::check::check_solution;
 use crate::dd::contact::ContactStep;
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
 use crate::dd::nndd::{
-    self, Iterate, IterationRecord, LoopState, NnddError, Status, Steps, StopRule,
+    self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddResult, Status, Steps,
+    StopRule,
 };
-use crate::estimate::{EstimateError, EstimateRecord, Estimator, NnddVariant, Reference};
+use crate::estimate::{BalancedRule, EstimateError, EstimateRecord, Estimator, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
 use crate::io::summary::Timings;
@@ -74,12 +75,12 @@ pub fn setup_bodies(
         // on any rank count), body 2 always (its contact step is condensed); with
         // SuperLU_DIST, `auto` condenses body 1's Dirichlet step (S¹ from back-solves) rather
         // than factor a second system on its communicator (`uses_superlu_dist`).
-        let superlu_dist = options::uses_superlu_dist(alpha)?;
+        let superlu_dist = uses_superlu_dist(alpha)?;
         let contact_body = settings.nndd.contact_body();
-        let schur = match (settings.solver, alpha, settings.dirichlet_step) {
+        let schur = match (settings.solver, alpha, settings.nndd.dirichlet_step) {
             (SolverKind::Monolithic, _, _) => SchurMode::Always,
             (_, a, _) if a == contact_body => SchurMode::Always,
-            _ if settings.neumann_step == NeumannChoice::Condensed => SchurMode::Always,
+            _ if settings.nndd.neumann_step == NeumannChoice::Condensed => SchurMode::Always,
             (_, _, DirichletChoice::Auto) if superlu_dist => SchurMode::Always,
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
@@ -95,7 +96,8 @@ pub fn setup_bodies(
             settings.schur,
             stages,
         )?;
-        let system = settings.dirichlet_step == DirichletChoice::System || !body.has_condensed();
+        let system =
+            settings.nndd.dirichlet_step == DirichletChoice::System || !body.has_condensed();
         if nndd_run && alpha == settings.nndd.dirichlet_body && system {
             body.add_dirichlet_system(stages)?;
         }
@@ -148,7 +150,7 @@ pub fn solve_reference(
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
     let fine = settings.refined(r);
-    if layout.is_root() && (settings.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
+    if layout.is_root() && (settings.output.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
         // Word before the long phase: the reference mesh has r² times the dofs.
         println!(
             "nndd: solving the reference solution of e_ref on mesh {} ({} dofs, -nndd_reference_factor {r})",
@@ -180,7 +182,7 @@ pub fn solve_reference(
     drop(_s);
     signals::enter(before);
     timings.reference = t.elapsed().as_secs_f64();
-    if layout.is_root() && settings.monitor {
+    if layout.is_root() && settings.output.monitor {
         println!(
             "nndd: reference solution on mesh {} ({} dofs): {} after {} iterations, {:.2} s",
             fine.problem.n,
@@ -210,7 +212,7 @@ pub fn solve_reference(
 /// Where the restart points go, and where a run starts from.
 pub struct Restart<'a> {
     /// The identity of this run's problem (written into each checkpoint).
-    pub identity: &'a Identity,
+    pub identity: Identity,
     /// Where to write them (`PREFIX.checkpoint.json`).
     pub path: std::path::PathBuf,
     /// The checkpoint this run continues from.
@@ -228,90 +230,89 @@ struct RunObserver<'a> {
     stages: &'a Stages,
     m: usize,
     estimates: Vec<EstimateRecord>,
-    /// Balanced stopping's cheap checks (iteration, η^NNDD) and the last full η^FE.
-    checks: Vec<(usize, f64)>,
-    last_fe: Option<f64>,
+    /// Balanced stopping: κ, the last full η^FE, the cheap checks.
+    balanced: BalancedRule,
+    /// The time spent estimating.
     seconds: f64,
     restart: Option<&'a Restart<'a>>,
     /// When the loop started (the monitor's elapsed time).
     started: Instant,
 }
 
+impl<'a> RunObserver<'a> {
+    /// The observer of the loop `ctx`, continuing the balanced rule's state of the restart
+    /// point `from`.
+    fn new(
+        settings: &'a Settings,
+        ctx: &nndd::Context<'a>,
+        estimator: Option<&'a Estimator<'a>>,
+        restart: Option<&'a Restart<'a>>,
+        from: Option<&Checkpoint>,
+    ) -> RunObserver<'a> {
+        let mut balanced = BalancedRule::new(&settings.nndd.stop, settings.estimate.nndd_variant);
+        if let Some(c) = from {
+            balanced = balanced.resumed(c.balanced_fe, c.checks.clone());
+        }
+        RunObserver {
+            settings,
+            layout: ctx.layout,
+            refs: ctx.bodies,
+            estimator,
+            stages: ctx.stages,
+            m: ctx.m,
+            estimates: Vec::new(),
+            balanced,
+            seconds: 0.0,
+            restart,
+            started: Instant::now(),
+        }
+    }
+
+    /// `f` in the Estimation stage, its time counted. A stop signal during it (`Stopped`)
+    /// means no estimate: the loop stops at this iteration's end.
+    fn timed(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<bool, EstimateError>,
+    ) -> Result<bool, AppError> {
+        let stages = self.stages;
+        let t = Instant::now();
+        let _s = stages.estimation.enter();
+        let r = f(self);
+        self.seconds += t.elapsed().as_secs_f64();
+        match r {
+            Err(EstimateError::Stopped) => Ok(false),
+            r => Ok(r?),
+        }
+    }
+}
+
 impl nndd::Observer<AppError> for RunObserver<'_> {
-    /// The balanced rule, once η^FE is known: the recovery-free η^NNDD from the Γc forces
-    /// alone, without the fields; an estimate only when the rule may hold.
+    /// The balanced rule's cheap check (the Γc forces alone, without the fields): an estimate
+    /// only when the rule may hold.
     fn wants_estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
-        let (Some(est), Some(fe)) = (self.estimator, self.last_fe) else {
+        let (Some(est), refs) = (self.estimator, self.refs) else {
             return Ok(true);
         };
-        let settings = self.settings;
-        if settings.nndd.stop != StopRule::Balanced
-            || settings.eta_nndd != NnddVariant::Discrete
-            || !est.eta_nndd_without_fields(self.refs)
-        {
-            return Ok(true);
-        }
-        let t = Instant::now();
-        let _s = self.stages.estimation.enter();
-        let nndd = est.eta_nndd(self.refs, it)?;
-        self.seconds += t.elapsed().as_secs_f64();
-        if nndd > settings.stop_ratio * fe {
-            self.checks.push((it.iteration, nndd));
-            return Ok(false);
-        }
-        Ok(true)
+        self.timed(|o| o.balanced.may_hold(est, refs, it))
     }
 
     fn estimate(&mut self, it: &Iterate) -> Result<bool, AppError> {
-        let Some(est) = self.estimator else {
+        let (Some(est), refs) = (self.estimator, self.refs) else {
             return Ok(false);
         };
-        let settings = self.settings;
-        let t = Instant::now();
-        let _s = self.stages.estimation.enter();
-        let balanced_rule =
-            settings.nndd.stop == StopRule::Balanced && settings.eta_nndd == NnddVariant::Discrete;
-        // Balanced stopping: check the cheap η^NNDD against κ η^FE (of the first check, which
-        // computes η^FE alone, then of the last full estimate); a full estimate only when the
-        // rule may hold.
-        if balanced_rule {
-            let fe = match self.last_fe {
-                Some(fe) => fe,
-                None => {
-                    let fe = match est.eta_fe(self.refs, it) {
-                        // A stop signal: no estimate; the loop stops at this iteration's end.
-                        Err(EstimateError::Stopped) => return Ok(false),
-                        r => r?,
-                    };
-                    self.last_fe = Some(fe);
-                    fe
-                }
-            };
-            let nndd = est.eta_nndd(self.refs, it)?;
-            if nndd > settings.stop_ratio * fe {
-                self.checks.push((it.iteration, nndd));
-                self.seconds += t.elapsed().as_secs_f64();
+        self.timed(|o| {
+            if !o.balanced.may_hold_with_fields(est, refs, it)? {
                 return Ok(false);
             }
-        }
-        let rec = match est.estimate(self.refs, it) {
-            // A stop signal: no estimate; the loop stops at this iteration's end.
-            Err(EstimateError::Stopped) => {
-                self.seconds += t.elapsed().as_secs_f64();
-                return Ok(false);
-            }
-            r => r?,
-        };
-        self.seconds += t.elapsed().as_secs_f64();
-        self.last_fe = Some(rec.eta_fe);
-        let balanced = settings.nndd.stop == StopRule::Balanced
-            && rec.eta_nndd <= settings.stop_ratio * rec.eta_fe;
-        self.estimates.push(rec);
-        Ok(balanced)
+            let rec = est.estimate(refs, it)?;
+            let holds = o.balanced.holds(&rec);
+            o.estimates.push(rec);
+            Ok(holds)
+        })
     }
 
     fn monitor(&mut self, r: &IterationRecord) {
-        if self.settings.monitor && self.layout.is_root() {
+        if self.settings.output.monitor && self.layout.is_root() {
             monitor::monitor_line(
                 r,
                 self.m,
@@ -336,13 +337,13 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
         };
         let mut state = state.clone();
         attach_estimates(&mut state.history, &self.estimates);
-        attach_checks(&mut state.history, &self.checks);
+        self.balanced.attach_checks(&mut state.history);
         let cp = Checkpoint {
             format: checkpoint::FORMAT.into(),
             identity: restart.identity.clone(),
             state,
-            balanced_fe: self.last_fe,
-            checks: self.checks.clone(),
+            balanced_fe: self.balanced.last_fe(),
+            checks: self.balanced.checks().to_vec(),
         };
         let written = fault::check(Phase::Checkpoint)
             .map_err(AppError::from)
@@ -353,7 +354,7 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
                 Ok(())
             });
         agreed(restart.agreement, written)?;
-        if self.settings.monitor && self.layout.is_root() {
+        if self.settings.output.monitor && self.layout.is_root() {
             println!(
                 "nndd: restart point after iteration {} written to {}",
                 cp.state.iteration,
@@ -375,128 +376,45 @@ pub fn solve_nndd(
     timings: &mut Timings,
     restart: Option<&Restart>,
 ) -> Result<Solution, AppError> {
-    let t = Instant::now();
-    let (dirichlet, contact) = {
-        let _s = stages.interface.enter();
-        let (di, ci) = (
-            settings.nndd.dirichlet_body - 1,
-            settings.nndd.contact_body() - 1,
-        );
-        let dirichlet = refs[di]
-            .map(|b| DirichletStep::new(b, settings.dirichlet_step))
-            .transpose()?;
-        let contact = refs[ci]
-            .map(|b| ContactStep::new(b, settings.contact.clone()))
-            .transpose()?;
-        (dirichlet, contact)
-    };
-    timings.interface += t.elapsed().as_secs_f64();
-    // The Dirichlet step's kind, from its body's ranks to every rank (for the summary).
-    let mut system = [dirichlet
-        .as_ref()
-        .map_or(0.0, |d| (d.name() == "system") as u8 as f64)];
-    layout.share(settings.nndd.dirichlet_body, &mut system);
-    let dirichlet_name = if system[0] > 0.5 {
-        "system"
-    } else {
-        "condensed"
-    };
-    let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.neumann_step)));
+    let (dirichlet, contact) = set_up_steps(settings, refs, stages, timings)?;
+    let dirichlet_name = dirichlet_step_name(layout, settings, dirichlet.as_ref());
+    let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.nndd.neumann_step)));
     let steps = Steps {
         dirichlet_body: settings.nndd.dirichlet_body,
         dirichlet: dirichlet.as_ref(),
         contact: contact.as_ref(),
         neumann,
     };
-    let every = if estimator.is_some() && settings.estimate_every > 0 {
-        Some(settings.estimate_every)
-    } else {
-        None
-    };
-    let root = layout.is_root();
-    // The number of Γc pairs (every rank holds at least one body).
-    let m = refs.iter().flatten().next().map_or(0, |b| b.gc.len());
-    let from = restart.and_then(|r| r.from.clone());
-    let mut observer = RunObserver {
-        settings,
+    let ctx = nndd::Context {
+        settings: &settings.nndd,
+        // The number of Γc pairs (every rank holds at least one body).
+        m: refs.iter().flatten().next().map_or(0, |b| b.gc.len()),
         layout,
-        refs,
-        estimator,
+        bodies: refs,
+        steps: &steps,
         stages,
-        m,
-        estimates: Vec::new(),
-        checks: from.as_ref().map_or(Vec::new(), |c| c.checks.clone()),
-        last_fe: from.as_ref().and_then(|c| c.balanced_fe),
-        seconds: 0.0,
-        restart,
-        started: Instant::now(),
+        estimate_every: Some(settings.estimate.every).filter(|&k| k > 0 && estimator.is_some()),
     };
+    let from = restart.and_then(|r| r.from.clone());
+    let mut observer = RunObserver::new(settings, &ctx, estimator, restart, from.as_ref());
     // The run's own loop stops at the end of an iteration on a signal (the reference
     // solve's, without restart points, ends at once: its phase stays).
     if restart.is_some() {
         signals::enter(StopPhase::Deferred);
     }
-    let res = nndd::solve::<AppError>(
-        &settings.nndd,
-        m,
-        layout,
-        refs,
-        &steps,
-        stages,
-        every,
-        from.map(|c| c.state),
-        &mut observer,
-    )?;
+    let res = nndd::solve::<AppError>(&ctx, from.map(|c| c.state), &mut observer)?;
     let RunObserver {
         mut estimates,
-        checks,
-        seconds: mut t_est,
+        balanced,
+        seconds,
         ..
     } = observer;
-    // The reported iterate's estimate (not when a signal stopped the run: it must end soon),
-    // its η^glo recovery cold: one bound per iterate, whichever iterates were estimated
-    // before (an estimate of it in the loop may have started warm: it is made again).
-    if let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) {
-        let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
-        if !in_loop || est.starts_warm() {
-            let t = Instant::now();
-            let _s = stages.estimation.enter();
-            let before = signals::enter(StopPhase::FinalEstimate);
-            let dofs = settings.problem.dofs();
-            if root && dofs >= LONG_PHASE_DOFS {
-                println!(
-                    "nndd: estimating the errors of iteration {} ({dofs} dofs) …",
-                    res.last.iteration
-                );
-            }
-            let rec = est.estimate_cold(refs, &res.last)?;
-            signals::enter(before);
-            t_est += t.elapsed().as_secs_f64();
-            if settings.monitor && root {
-                let again = if in_loop { " (cold recovery)" } else { "" };
-                println!("{}{again}", monitor::estimate_text(&rec));
-            }
-            if in_loop {
-                estimates.pop();
-            }
-            estimates.push(rec);
-        }
-    }
-    timings.estimation += t_est;
-    timings.dirichlet_step = res.timers.dirichlet_step.seconds();
-    timings.contact_step = res.timers.contact_step.seconds();
-    timings.neumann_step = res.timers.neumann_step.seconds();
-    timings.exchange = res.timers.exchange.seconds();
-    timings.fields = res.timers.fields.seconds();
-    timings.checks = res.timers.check.seconds()
-        + refs
-            .iter()
-            .flatten()
-            .map(|b| b.check_seconds())
-            .sum::<f64>();
+    let reported = estimate_reported(settings, &ctx, estimator, &res, &mut estimates)?;
+    timings.estimation += seconds + reported;
+    add_loop_timings(timings, &res.timers, refs);
     let mut history = res.history;
     attach_estimates(&mut history, &estimates);
-    attach_checks(&mut history, &checks);
+    balanced.attach_checks(&mut history);
     Ok(Solution {
         status: res.status.name().to_string(),
         stop_reason: res.status.stop_reason(),
@@ -515,6 +433,104 @@ pub fn solve_nndd(
         warnings: Vec::new(),
         penetration: None,
     })
+}
+
+/// The Dirichlet step on its body's ranks and the contact step on the other body's (set up in
+/// the Interface stage, their time counted as the interface operators').
+fn set_up_steps(
+    settings: &Settings,
+    refs: [Option<&Body>; 2],
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<(Option<DirichletStep>, Option<ContactStep>), AppError> {
+    let t = Instant::now();
+    let s = stages.interface.enter();
+    let (di, ci) = (
+        settings.nndd.dirichlet_body - 1,
+        settings.nndd.contact_body() - 1,
+    );
+    let dirichlet = refs[di]
+        .map(|b| DirichletStep::new(b, settings.nndd.dirichlet_step))
+        .transpose()?;
+    let contact = refs[ci]
+        .map(|b| ContactStep::new(b, settings.contact.clone()))
+        .transpose()?;
+    drop(s);
+    timings.interface += t.elapsed().as_secs_f64();
+    Ok((dirichlet, contact))
+}
+
+/// The Dirichlet step's kind, `system` or `condensed`, from its body's ranks to every rank
+/// (for the summary; collective).
+fn dirichlet_step_name(
+    layout: &Layout,
+    settings: &Settings,
+    dirichlet: Option<&DirichletStep>,
+) -> &'static str {
+    let mut system = [dirichlet.map_or(0.0, |d| (d.name() == "system") as u8 as f64)];
+    layout.share(settings.nndd.dirichlet_body, &mut system);
+    if system[0] > 0.5 {
+        "system"
+    } else {
+        "condensed"
+    }
+}
+
+/// The reported iterate's estimate (not when a signal stopped the run: it must end soon), its
+/// η^glo recovery cold: one bound per iterate, whichever iterates were estimated before (an
+/// estimate of it in the loop may have started warm: it is made again). Its time (s).
+fn estimate_reported(
+    settings: &Settings,
+    ctx: &nndd::Context,
+    estimator: Option<&Estimator>,
+    res: &NnddResult,
+    estimates: &mut Vec<EstimateRecord>,
+) -> Result<f64, AppError> {
+    let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) else {
+        return Ok(0.0);
+    };
+    let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
+    if in_loop && !est.starts_warm() {
+        return Ok(0.0);
+    }
+    let root = ctx.layout.is_root();
+    let t = Instant::now();
+    let _s = ctx.stages.estimation.enter();
+    let before = signals::enter(StopPhase::FinalEstimate);
+    let dofs = settings.problem.dofs();
+    if root && dofs >= LONG_PHASE_DOFS {
+        println!(
+            "nndd: estimating the errors of iteration {} ({dofs} dofs) …",
+            res.last.iteration
+        );
+    }
+    let rec = est.estimate_cold(ctx.bodies, &res.last)?;
+    signals::enter(before);
+    let seconds = t.elapsed().as_secs_f64();
+    if settings.output.monitor && root {
+        let again = if in_loop { " (cold recovery)" } else { "" };
+        println!("{}{again}", monitor::estimate_text(&rec));
+    }
+    if in_loop {
+        estimates.pop();
+    }
+    estimates.push(rec);
+    Ok(seconds)
+}
+
+/// The loop's phases (maxima over ranks later) and the checks into the run's timings.
+fn add_loop_timings(timings: &mut Timings, timers: &LoopTimers, refs: [Option<&Body>; 2]) {
+    timings.dirichlet_step = timers.dirichlet_step.seconds();
+    timings.contact_step = timers.contact_step.seconds();
+    timings.neumann_step = timers.neumann_step.seconds();
+    timings.exchange = timers.exchange.seconds();
+    timings.fields = timers.fields.seconds();
+    timings.checks = timers.check.seconds()
+        + refs
+            .iter()
+            .flatten()
+            .map(|b| b.check_seconds())
+            .sum::<f64>();
 }
 
 /// The discrete global contact problem at once (the NNDD's check).
@@ -583,15 +599,6 @@ pub fn solve_monolithic(
         warnings: Vec::new(),
         penetration: None,
     })
-}
-
-/// The cheap η^NNDD checks of balanced stopping, into the history.
-fn attach_checks(history: &mut [IterationRecord], checks: &[(usize, f64)]) {
-    for &(iteration, nndd) in checks {
-        if let Some(h) = history.iter_mut().find(|h| h.iteration == iteration) {
-            h.eta_nndd = Some(nndd);
-        }
-    }
 }
 
 fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord]) {

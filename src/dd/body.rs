@@ -25,7 +25,8 @@ use crate::fem::{element_dofs, element_stiffness};
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::OwnComm;
 use crate::parallel::partition::Partition;
-use crate::petsc::{self, Comm, Gather, Ksp, Matrix, Vector};
+use crate::petsc::readers::SettingsError;
+use crate::petsc::{self, Comm, Gather, Ksp, Matrix, OptionsBlock, Vector};
 use std::rc::Rc;
 
 use crate::problem::{BodyProblem, Frames};
@@ -107,6 +108,65 @@ impl SchurChoice {
             SchurChoice::Solves => "solves",
         }
     }
+
+    /// Read and register `-nndd_schur`.
+    pub fn from_options(o: &mut OptionsBlock) -> Result<SchurChoice, SettingsError> {
+        o.choice(
+            "-nndd_schur",
+            "Interface operators S, D of each body: auto (MUMPS's Schur complement on one rank, MUMPS's entries of the inverse on several, back-solves without MUMPS), mumps_schur, mumps_inverse, solves",
+            &[
+                SchurChoice::Auto,
+                SchurChoice::MumpsSchur,
+                SchurChoice::MumpsInverse,
+                SchurChoice::Solves,
+            ]
+            .map(|c| (c.name(), c)),
+        )
+    }
+
+    /// `mumps_schur` needs each body on one rank and factored by MUMPS, and `mumps_inverse` a
+    /// MUMPS factorisation; `group_sizes`: the ranks of each body (bad input, found alike on
+    /// every rank).
+    pub fn check(self, group_sizes: [usize; 2]) -> Result<(), SettingsError> {
+        for alpha in [1, 2] {
+            let why = match self {
+                SchurChoice::MumpsSchur | SchurChoice::MumpsInverse if !uses_mumps(alpha)? => {
+                    format!("body {alpha} is not factored by MUMPS (-body{alpha}_pc_factor_mat_solver_type mumps with -body{alpha}_pc_type cholesky or lu and -body{alpha}_ksp_type preonly); use auto or solves")
+                }
+                SchurChoice::MumpsSchur if group_sizes[alpha - 1] > 1 => format!(
+                    "body {alpha} is on {} ranks, and PETSc 3.18 forms MUMPS's Schur complement on one only; use auto or mumps_inverse",
+                    group_sizes[alpha - 1]
+                ),
+                _ => continue,
+            };
+            return Err(SettingsError::named(
+                &format!("-nndd_schur {}", self.name()),
+                why,
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Whether body α's solver is a MUMPS factorisation (`-body<α>_ksp_type preonly`,
+/// `-body<α>_pc_type cholesky` or `lu`, `-body<α>_pc_factor_mat_solver_type mumps`: the
+/// defaults).
+pub fn uses_mumps(alpha: usize) -> Result<bool, petsc::PetscError> {
+    let get = |what: &str, default: &str| -> Result<String, petsc::PetscError> {
+        Ok(petsc::option_string(&format!("-body{alpha}_{what}"))?
+            .unwrap_or_else(|| default.to_string()))
+    };
+    Ok(get("ksp_type", "preonly")? == "preonly"
+        && matches!(get("pc_type", "cholesky")?.as_str(), "cholesky" | "lu")
+        && get("pc_factor_mat_solver_type", "mumps")? == "mumps")
+}
+
+/// Whether body α's factorisation is SuperLU_DIST (`-body<α>_pc_factor_mat_solver_type`).
+/// PETSc 3.18 keeps one SuperLU_DIST process grid per communicator and frees it twice when two
+/// factorisations shared it, so a body that uses it gets no second factorisation.
+pub fn uses_superlu_dist(alpha: usize) -> Result<bool, petsc::PetscError> {
+    let name = format!("-body{alpha}_pc_factor_mat_solver_type");
+    Ok(petsc::option_string(&name)?.as_deref() == Some("superlu_dist"))
 }
 
 /// Where a body's interface operators came from.

@@ -28,6 +28,8 @@
 //! records, per step, which method gave the answer and its iterations.
 
 use crate::dd::body::{Body, BodyError};
+use crate::petsc::readers::{Bounds, SettingsError};
+use crate::petsc::OptionsBlock;
 use crate::qp::active_set::{self, ActiveSet, Operator};
 use crate::qp::{solve_nonneg_qp, QpError, QpMethod, QpSettings};
 
@@ -80,6 +82,51 @@ impl Default for ContactSettings {
             warm_start: true,
             clarabel: QpSettings::default(),
         }
+    }
+}
+
+/// `-nndd_qp_tol`: in (0, 1).
+const QP_TOL: Bounds<f64> = Bounds {
+    accepted: "in (0, 1)",
+    holds: |t| t > 0.0 && t < 1.0,
+};
+
+impl ContactSettings {
+    /// Read, register (for `-help`) and validate the `-nndd_qp_*` options. `clarabel` holds
+    /// Clarabel's tolerance, which the run's other QPs (the monolithic check, the estimates'
+    /// admissible tractions) take too.
+    pub fn from_options(o: &mut OptionsBlock) -> Result<ContactSettings, SettingsError> {
+        let (tol, _) = o.real_in(
+            "-nndd_qp_tol",
+            "Clarabel tolerance of the contact QPs (the result is then polished to round-off)",
+            1e-8,
+            QP_TOL,
+        )?;
+        let warm_start = o.flag(
+            "-nndd_qp_warm_start",
+            "Contact step: start the QP from the previous contact set (else from the unconstrained solution's; with -nndd_qp_solver clarabel: try the previous set, kept if the KKT conditions certify it)",
+            true,
+        )?;
+        let method = o.choice(
+            "-nndd_qp_solver",
+            "Contact step QP: active_set (primal-dual active set on S2 and D2, Clarabel if it does not certify), clarabel",
+            &[("active_set", QpMethod::ActiveSet), ("clarabel", QpMethod::Clarabel)],
+        )?;
+        let (max_steps, _) = o.int_in(
+            "-nndd_qp_max_it",
+            "Contact step: active-set steps before falling back to Clarabel",
+            50,
+            Bounds::POSITIVE_INT,
+        )?;
+        Ok(ContactSettings {
+            method,
+            max_steps,
+            warm_start,
+            clarabel: QpSettings {
+                tol,
+                ..QpSettings::default()
+            },
+        })
     }
 }
 

@@ -9,15 +9,18 @@
 //! defect, Neumann steps and update, since T¹ and T² both grow with λ whichever body holds it
 //! (docs/method.md §2, "Which body takes the Dirichlet step").
 
-use crate::dd::body::{Body, BodyError};
+use crate::dd::body::{uses_superlu_dist, Body, BodyError};
 use crate::dd::check::{check_solution, SolutionCheck};
-use crate::dd::contact::{ContactError, ContactStep};
-use crate::dd::dirichlet::DirichletStep;
-use crate::dd::neumann::NeumannStep;
-use crate::dd::secant::SecantUpdate;
+use crate::dd::contact::{ContactError, ContactSolution, ContactStep};
+use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
+use crate::dd::neumann::{NeumannChoice, NeumannStep};
+use crate::dd::secant::{SecantUpdate, AUTO_THETA_PROBE};
+use crate::fem::Material;
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::Layout;
 use crate::petsc::log::{Stages, Timer};
+use crate::petsc::readers::{Bounds, SettingsError};
+use crate::petsc::OptionsBlock;
 use crate::qp::QpMethod;
 
 #[derive(Debug, thiserror::Error)]
@@ -37,26 +40,67 @@ pub enum NnddError {
 const SECANT_MEMORY: usize = 50;
 
 /// When the NNDD stops (besides divergence and the iteration limit).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StopRule {
     /// ‖λ_{p+1} − λ_p‖ ≤ tol ‖λ_{p+1}‖ (docs/method.md §2 step 6).
     Tol,
-    /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE (the algebra no longer
-    /// matters next to the mesh): the observer of [`solve`] says when.
-    Balanced,
+    /// Also at the first estimated iteration where η^NNDD ≤ κ η^FE, κ = `ratio` (the algebra
+    /// no longer matters next to the mesh): the observer of [`solve`] says when
+    /// (`crate::estimate::balanced`).
+    Balanced { ratio: f64 },
     /// Exactly `max_it` iterations (studies at a fixed iteration count).
     None,
 }
 
-/// The settings of the NNDD loop (plain data).
+/// The relaxation of the update λ_{p+1} = λ_p + θ d_p (`-nndd_theta`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Relaxation {
+    /// A fixed θ > 0 (the paper: 0.25).
+    Fixed(f64),
+    /// The secant update of [`crate::dd::secant`] (Anderson acceleration restarted at
+    /// contact-set changes), its first θ from the first Neumann corrections.
+    Auto,
+}
+
+impl Relaxation {
+    /// `-nndd_theta`: `auto` or a number > 0.
+    fn parse(text: &str) -> Result<Relaxation, SettingsError> {
+        match text.trim() {
+            "auto" => Ok(Relaxation::Auto),
+            t => match t.parse::<f64>() {
+                Ok(v) if v > 0.0 && v.is_finite() => Ok(Relaxation::Fixed(v)),
+                _ => Err(SettingsError::out_of_range(
+                    "-nndd_theta",
+                    "a number > 0, or auto",
+                    text,
+                )),
+            },
+        }
+    }
+
+    /// `-nndd_theta` as the restart points' identity holds it: `auto` or the number.
+    pub fn text(self) -> String {
+        match self {
+            Relaxation::Fixed(theta) => theta.to_string(),
+            Relaxation::Auto => "auto".into(),
+        }
+    }
+
+    /// θ of a plain step λ + θ d: the fixed θ, or with `auto` the probe of a step before
+    /// anything is known of the interface map.
+    fn plain_theta(self) -> f64 {
+        match self {
+            Relaxation::Fixed(theta) => theta,
+            Relaxation::Auto => AUTO_THETA_PROBE,
+        }
+    }
+}
+
+/// The settings of the NNDD loop and its steps (plain data).
 #[derive(Clone, Debug)]
 pub struct NnddSettings {
-    /// Relaxation θ of the update λ ← λ + θ (w¹ − w²)·n (with `auto`, only the θ of a first
-    /// step without a stiffness estimate, see [`crate::dd::secant::SecantUpdate::new`]).
-    pub theta: f64,
-    /// `-nndd_theta auto`: the secant update of [`crate::dd::secant`] (Anderson acceleration
-    /// restarted at contact-set changes) instead of the fixed θ.
-    pub auto: bool,
+    /// θ of the update λ ← λ + θ (w¹ − w²)·n, or the secant update.
+    pub relaxation: Relaxation,
     /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
     pub tol: f64,
     pub max_it: usize,
@@ -65,6 +109,10 @@ pub struct NnddSettings {
     /// displacement, and the other body's contact step holds it behind λ (docs/method.md §2,
     /// "Which body takes the Dirichlet step").
     pub dirichlet_body: usize,
+    /// How the Dirichlet step is solved.
+    pub dirichlet_step: DirichletChoice,
+    /// How the Neumann steps are solved.
+    pub neumann_step: NeumannChoice,
 }
 
 impl NnddSettings {
@@ -72,20 +120,169 @@ impl NnddSettings {
     pub fn contact_body(&self) -> usize {
         3 - self.dirichlet_body
     }
+
+    /// Read, register (for `-help`) and validate the NNDD's options. `materials` decide the
+    /// Dirichlet step's body of `-nndd_dirichlet_body auto`; a body forced onto a much softer
+    /// body is warned about in `warnings`.
+    pub fn from_options(
+        o: &mut OptionsBlock,
+        materials: &[Material; 2],
+        warnings: &mut Vec<String>,
+    ) -> Result<NnddSettings, SettingsError> {
+        let (theta, _) = o.string(
+            "-nndd_theta",
+            "NNDD relaxation theta of the lambda update: auto (a secant update fitted to the iterates, restarted when the contact set changes) or a fixed number > 0 (the paper: 0.25)",
+            "auto",
+        )?;
+        let relaxation = Relaxation::parse(&theta)?;
+        let (tol, _) = o.real_in(
+            "-nndd_tol",
+            "NNDD stopping tolerance on |dlambda|/|lambda|",
+            1e-8,
+            Bounds::POSITIVE,
+        )?;
+        let (max_it, _) = o.int_in(
+            "-nndd_max_it",
+            "Maximum number of NNDD iterations",
+            1000,
+            Bounds::POSITIVE_INT,
+        )?;
+        let stop = o.choice(
+            "-nndd_stop",
+            "Stopping rule: tol (|dlambda| <= tol |lambda|), balanced (also when eta_NNDD <= kappa eta_FE), none (exactly -nndd_max_it iterations)",
+            &[
+                ("tol", StopRule::Tol),
+                ("balanced", StopRule::Balanced { ratio: f64::NAN }),
+                ("none", StopRule::None),
+            ],
+        )?;
+        let (ratio, _) = o.real_in(
+            "-nndd_stop_ratio",
+            "kappa of -nndd_stop balanced: stop when eta_NNDD <= kappa eta_FE",
+            0.1,
+            Bounds::POSITIVE,
+        )?;
+        let stop = match stop {
+            StopRule::Balanced { .. } => StopRule::Balanced { ratio },
+            other => other,
+        };
+        let neumann_step = o.choice(
+            "-nndd_neumann_step",
+            "Neumann steps: auto (condensed where the body has its interface operators), condensed (the trace D(-+R/2)), solve (a back-solve)",
+            &[
+                ("auto", NeumannChoice::Auto),
+                ("condensed", NeumannChoice::Condensed),
+                ("solve", NeumannChoice::Solve),
+            ],
+        )?;
+        let dirichlet_step = o.choice(
+            "-nndd_dirichlet_step",
+            "Dirichlet step (on the body of -nndd_dirichlet_body): auto (condensed when that body has its interface operators: MUMPS on any rank count, SuperLU_DIST), system, condensed",
+            &[
+                ("auto", DirichletChoice::Auto),
+                ("system", DirichletChoice::System),
+                ("condensed", DirichletChoice::Condensed),
+            ],
+        )?;
+        let dirichlet_body = match o.choice(
+            "-nndd_dirichlet_body",
+            "The body of the Dirichlet step (the other takes the contact step): auto (the stiffer body, by E/(1-nu^2)), 1, 2",
+            &[("auto", None), ("1", Some(1)), ("2", Some(2))],
+        )? {
+            Some(b) => {
+                warnings.extend(soft_dirichlet_body(materials, b));
+                b
+            }
+            None => stiffer_body(materials),
+        };
+        // A second SuperLU_DIST factorisation on the Dirichlet body's communicator: see
+        // `app::solve::setup_bodies`.
+        if dirichlet_step == DirichletChoice::System && uses_superlu_dist(dirichlet_body)? {
+            return Err(SettingsError::named(
+                "-nndd_dirichlet_step",
+                format!("system cannot be used with -body{dirichlet_body}_pc_factor_mat_solver_type superlu_dist on the body of the Dirichlet step (PETSc 3.18 frees the process grid of two SuperLU_DIST factorisations on one communicator twice); use auto or condensed"),
+            ));
+        }
+        Ok(NnddSettings {
+            relaxation,
+            tol,
+            max_it,
+            stop,
+            dirichlet_body,
+            dirichlet_step,
+            neumann_step,
+        })
+    }
+
+    /// The settings of the reference solve of (26), which must converge whatever the run's own
+    /// θ and stopping rule: θ auto, to 1e−8, with room for the iterations, and the Dirichlet
+    /// step on the stiffer body (a body other than the run's takes it the way `auto` chooses:
+    /// the run's `system` was checked against its own body's solver only).
+    pub fn for_reference(&self, materials: &[Material; 2]) -> NnddSettings {
+        let dirichlet_body = stiffer_body(materials);
+        NnddSettings {
+            relaxation: Relaxation::Auto,
+            tol: 1e-8,
+            max_it: self.max_it.max(1000),
+            stop: StopRule::Tol,
+            dirichlet_body,
+            dirichlet_step: if dirichlet_body == self.dirichlet_body {
+                self.dirichlet_step
+            } else {
+                DirichletChoice::Auto
+            },
+            neumann_step: self.neumann_step,
+        }
+    }
 }
 
 impl Default for NnddSettings {
     /// The paper's fixed θ = 0.25 and tol 1e−8 (the command line's default is `auto`).
     fn default() -> Self {
         NnddSettings {
-            theta: 0.25,
-            auto: false,
+            relaxation: Relaxation::Fixed(0.25),
             tol: 1e-8,
             max_it: 1000,
             stop: StopRule::Tol,
             dirichlet_body: 1,
+            dirichlet_step: DirichletChoice::Auto,
+            neumann_step: NeumannChoice::Auto,
         }
     }
+}
+
+/// How much softer than the other the Dirichlet step's body must be for a warning.
+pub const SOFT_DIRICHLET: f64 = 0.1;
+
+/// The plane-strain modulus E/(1 − ν²), the stiffness that decides the Dirichlet body.
+fn modulus(m: &Material) -> f64 {
+    m.young / (1.0 - m.poisson * m.poisson)
+}
+
+/// The body of the Dirichlet step for `-nndd_dirichlet_body auto`: the stiffer one by its
+/// plane-strain modulus, body 1 (the paper's) when they are equal.
+pub fn stiffer_body(materials: &[Material; 2]) -> usize {
+    if modulus(&materials[1]) > modulus(&materials[0]) {
+        2
+    } else {
+        1
+    }
+}
+
+/// The advice for a Dirichlet step given to a body much softer than the other
+/// (`-nndd_dirichlet_body`): θ auto then needs many iterations where the contact set grows (the
+/// interface operator's spectrum spreads by the stiffness ratio, `src/dd/secant.rs`).
+fn soft_dirichlet_body(materials: &[Material; 2], body: usize) -> Option<String> {
+    let (d, c) = (&materials[body - 1], &materials[2 - body]);
+    (modulus(d) < SOFT_DIRICHLET * modulus(c)).then(|| {
+        format!(
+            "body {body} takes the Dirichlet step (-nndd_dirichlet_body {body}) but is {:.0} times softer than body {} (E/(1 - nu^2), E {:e} against {:e} Pa): the NNDD converges in far fewer iterations with the Dirichlet step on the stiffer body (-nndd_dirichlet_body auto)",
+            modulus(c) / modulus(d),
+            3 - body,
+            d.young,
+            c.young
+        )
+    })
 }
 
 /// How an NNDD run ended.
@@ -254,6 +451,9 @@ fn norm(v: &[f64]) -> f64 {
 /// Iterations in a row whose ‖R‖ grows before a run is called diverged.
 const DIVERGING_STEPS: usize = 5;
 
+/// Iterations without a smaller change ‖Δλ‖/‖λ‖ before a run is called stagnated.
+const STAGNATION_STEPS: usize = 50;
+
 /// Whether the iteration diverges: ‖R_p‖ grew at each of the last [`DIVERGING_STEPS`]
 /// iterations and is 10 times its smallest so far (iterates that grow without bound). A run
 /// that still reduces ‖R‖ is never called diverged, however its ‖Δλ‖ goes.
@@ -278,9 +478,16 @@ pub struct Steps<'a> {
     pub neumann: [Option<NeumannStep>; 2],
 }
 
+impl Steps<'_> {
+    /// The indices (α − 1) of the Dirichlet step's body and of the contact step's.
+    fn indices(&self) -> (usize, usize) {
+        (self.dirichlet_body - 1, 2 - self.dirichlet_body)
+    }
+}
+
 /// What the contact body's root shares of a contact step: the contact set, the QP's KKT
 /// residual, iterations and method, the gaps and the body's normal Γc trace, packed into one
-/// broadcast.
+/// broadcast ([`ContactShare::shared`]).
 struct ContactShare {
     active: Vec<bool>,
     kkt: f64,
@@ -291,6 +498,38 @@ struct ContactShare {
 }
 
 impl ContactShare {
+    /// What the ranks other than the contact body's root hold before the broadcast.
+    fn none(m: usize) -> ContactShare {
+        ContactShare {
+            active: vec![false; m],
+            kkt: 0.0,
+            iterations: 0,
+            clarabel: false,
+            gaps: vec![0.0; m],
+            trace: vec![0.0; m],
+        }
+    }
+
+    /// The shared part of a contact step's solution.
+    fn of(sol: ContactSolution) -> ContactShare {
+        ContactShare {
+            active: sol.active,
+            kkt: sol.kkt_residual,
+            iterations: sol.qp_iterations,
+            clarabel: sol.method == QpMethod::Clarabel,
+            gaps: sol.gaps,
+            trace: sol.trace,
+        }
+    }
+
+    /// The contact body's root's share, on every rank (collective: `self` is read on that
+    /// rank only).
+    fn shared(self, layout: &Layout, contact_body: usize, m: usize) -> ContactShare {
+        let mut packed = self.pack();
+        layout.share(contact_body, &mut packed);
+        ContactShare::unpack(&packed, m)
+    }
+
     fn pack(&self) -> Vec<f64> {
         let mut v: Vec<f64> = self.active.iter().map(|&a| a as u8 as f64).collect();
         v.extend([self.kkt, self.iterations as f64, self.clarabel as u8 as f64]);
@@ -319,39 +558,9 @@ pub fn shared_trace2(layout: &Layout, body2: Option<&Body>, u2: &[f64], m: usize
     trace
 }
 
-/// Form u¹_p and u²_p on their owners where the steps did not (condensed steps give only the
-/// Γc forces).
-fn form_fields(
-    layout: &Layout,
-    it: &mut Iterate,
-    bodies: [Option<&Body>; 2],
-    steps: &Steps,
-    stages: &Stages,
-    timers: &mut LoopTimers,
-) -> Result<(), NnddError> {
-    let (dirichlet, contact) = (steps.dirichlet, steps.contact);
-    let (di, ci) = (steps.dirichlet_body - 1, 2 - steps.dirichlet_body);
-    let _s = stages.fields.enter();
-    if let (Some(b), Some(d)) = (bodies[di], dirichlet) {
-        if it.u[di].is_empty() {
-            it.u[di] = timers
-                .fields
-                .time(|| d.field(b, &it.interface, &it.forces[di]))?;
-        }
-    }
-    if let (Some(b), Some(c)) = (bodies[ci], contact) {
-        if it.u[ci].is_empty() {
-            it.u[ci] = timers
-                .fields
-                .time(|| c.field(b, &it.forces[ci], &it.interface, &it.active))?;
-        }
-    }
-    it.trace2 = shared_trace2(layout, bodies[1], &it.u[1], it.lambda.len());
-    Ok(())
-}
-
 /// What the loop needs to continue after iteration `iteration` (a restart point): written by
 /// `-nndd_checkpoint_every` and on a signal, read by `-nndd_restart`. The same on every rank.
+/// In the loop, the state after the last iteration done.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct LoopState {
     /// The iterations done; the next one is `iteration + 1`.
@@ -391,302 +600,408 @@ pub trait Observer<E> {
     fn checkpoint(&mut self, state: &LoopState) -> Result<(), E>;
 }
 
-/// Run the NNDD loop on `m` Γc node pairs. `bodies[α-1]` is `Some` on the ranks owning body
-/// α, with `steps` set up there (the Dirichlet step on the ranks of `steps.dirichlet_body`,
-/// the contact step on the other body's, each body's Neumann step on its own). Every `estimate_every`
-/// iterations (if set), the fields of step p are formed and `observer.estimate` is called
-/// with the iterate (collectively). A run continues from `start` (`-nndd_restart`) when
-/// given. Errors of type `E` (which the loop's own errors convert into) end the loop.
-#[allow(clippy::too_many_arguments)]
+/// What a run of the loop works with, the same at every iteration: its settings, the number m
+/// of Γc node pairs, the ranks, the bodies and steps set up on this rank (`bodies[α-1]` is
+/// `Some` on the ranks owning body α, with `steps` set up there: the Dirichlet step on the
+/// ranks of `steps.dirichlet_body`, the contact step on the other body's, each body's Neumann
+/// step on its own), the `-log_view` stages, and which iterations are estimated.
+pub struct Context<'a> {
+    pub settings: &'a NnddSettings,
+    pub m: usize,
+    pub layout: &'a Layout,
+    pub bodies: [Option<&'a Body>; 2],
+    pub steps: &'a Steps<'a>,
+    pub stages: &'a Stages,
+    /// Every k-th iteration is estimated (`None`: none in the loop).
+    pub estimate_every: Option<usize>,
+}
+
+/// Step 1 of an iteration, on every rank: T¹_p, T²_p, the Dirichlet step's field where it
+/// formed it, and the contact step's results.
+struct StepOne {
+    forces: [Vec<f64>; 2],
+    u_dirichlet: Vec<f64>,
+    contact: ContactShare,
+}
+
+/// The update of step 5.
+struct Update {
+    /// λ_{p+1}.
+    lambda: Vec<f64>,
+    /// θ of the update (with θ auto, of its new direction).
+    theta: f64,
+    /// θ auto: the secant columns used and the fraction of the secant correction taken.
+    columns: Option<usize>,
+    fraction: Option<f64>,
+    /// The change the stopping rule measures (see [`LoopState::update`]).
+    change: f64,
+}
+
+/// Run the NNDD loop (docs/method.md §2): from `start` (`-nndd_restart`) when given, else from
+/// λ = 0. Every `ctx.estimate_every` iterations (if set), the fields of step p are formed and
+/// `observer.estimate` is called with the iterate (collectively). Errors of type `E` (which
+/// the loop's own errors convert into) end the loop.
 pub fn solve<E: From<NnddError>>(
-    settings: &NnddSettings,
-    m: usize,
-    layout: &Layout,
-    bodies: [Option<&Body>; 2],
-    steps: &Steps,
-    stages: &Stages,
-    estimate_every: Option<usize>,
+    ctx: &Context,
     start: Option<LoopState>,
     observer: &mut impl Observer<E>,
 ) -> Result<NnddResult, E> {
     let mut timers = LoopTimers::default();
+    let mut state = ctx.start(start);
     let mut status = Status::MaxIterations;
-    let mut last: Option<Iterate> = None;
-    let fresh = LoopState {
-        iteration: 0,
-        lambda: vec![0.0; m],
-        history: Vec::new(),
-        active: Vec::new(),
-        secant: settings
-            .auto
-            .then(|| SecantUpdate::new(settings.theta, SECANT_MEMORY.min(m.max(1)))),
-        best: f64::INFINITY,
-        best_at: 0,
-    };
-    let resumed = start.is_some();
-    let LoopState {
-        iteration: done,
-        mut lambda,
-        mut history,
-        active: warm,
-        mut secant,
-        mut best,
-        mut best_at,
-    } = start.unwrap_or(fresh);
-    let (dirichlet, contact) = (steps.dirichlet, steps.contact);
-    let (di, ci) = (steps.dirichlet_body - 1, 2 - steps.dirichlet_body);
-    // The sign of the contact body's multipliers: T² ≥ 0 on body 2, T¹ ≤ 0 on body 1.
-    let sigma = if ci == 1 { 1.0 } else { -1.0 };
-    if let (Some(c), true) = (contact, resumed && !warm.is_empty()) {
-        c.set_warm_start(warm);
-    }
-    for p in done + 1..=settings.max_it {
-        // Step 1: the Dirichlet problem at λ_p and the other body's contact problem behind
-        // λ_p, concurrently; t[α − 1] = T^α_p.
-        let mut t = [vec![0.0; m], vec![0.0; m]];
-        let mut u_dirichlet = Vec::new();
-        if let (Some(b), Some(d)) = (bodies[di], dirichlet) {
-            let _s = stages.dirichlet_step.enter();
-            let (u, f) = timers
-                .dirichlet_step
-                .time(|| d.solve(b, &lambda))
-                .map_err(NnddError::from)?;
-            u_dirichlet = u.unwrap_or_default();
-            t[di] = f;
-        }
-        let mut act = ContactShare {
-            active: vec![false; m],
-            kkt: 0.0,
-            iterations: 0,
-            clarabel: false,
-            gaps: vec![0.0; m],
-            trace: vec![0.0; m],
-        }
-        .pack();
-        fault::check(Phase::Qp).map_err(NnddError::from)?;
-        // The contact QP lives on Γc: the contact body's root solves it, the broadcast below
-        // shares it.
-        if let (Some(b), Some(c)) = (bodies[ci].filter(|b| b.is_root()), contact) {
-            let _s = stages.contact_step.enter();
-            let sol = timers
-                .contact_step
-                .time(|| c.solve(b, &lambda))
-                .map_err(NnddError::from)?;
-            t[ci] = sol.forces;
-            act = ContactShare {
-                active: sol.active,
-                kkt: sol.kkt_residual,
-                iterations: sol.qp_iterations,
-                clarabel: sol.method == QpMethod::Clarabel,
-                gaps: sol.gaps,
-                trace: sol.trace,
-            }
-            .pack();
-        }
-        timers.exchange.time(|| {
-            layout.share(di + 1, &mut t[di]);
-            layout.share(ci + 1, &mut t[ci]);
-            layout.share(ci + 1, &mut act);
-        });
-        let act = ContactShare::unpack(&act, m);
-        let [t1, t2] = t;
-        // Step 3: equilibrium defect.
-        let r: Vec<f64> = t1.iter().zip(&t2).map(|(a, b)| a + b).collect();
-        // Step 4: two Neumann problems.
-        let mut w1 = vec![0.0; m];
-        let mut w2 = vec![0.0; m];
-        {
-            let _s = stages.neumann_step.enter();
-            fault::check(Phase::Ksp).map_err(NnddError::from)?;
-            if let (Some(b1), Some(n)) = (bodies[0], steps.neumann[0]) {
-                w1 = timers
-                    .neumann_step
-                    .time(|| n.solve(b1, &r))
-                    .map_err(NnddError::from)?;
-            }
-            if let (Some(b2), Some(n)) = (bodies[1], steps.neumann[1]) {
-                w2 = timers
-                    .neumann_step
-                    .time(|| n.solve(b2, &r))
-                    .map_err(NnddError::from)?;
-            }
-        }
-        timers.exchange.time(|| {
-            layout.share(1, &mut w1);
-            layout.share(2, &mut w2);
-        });
-        // Step 5: update, λ + θ d or the secant update of `-nndd_theta auto`.
-        let d: Vec<f64> = (0..m).map(|i| w1[i] - w2[i]).collect();
-        let active_now = act.active.clone();
-        let (new, theta, columns, fraction) = match secant.as_mut() {
-            Some(s) => {
-                if p == 1 {
-                    let w = [&w1, &w2];
-                    s.estimate_spectrum(w[di], w[ci]);
-                }
-                // The sign conditions of the contact step: its multipliers (T² ≥ 0, or
-                // −T¹ ≥ 0) on the contact set, gap ≥ 0 off it (each affine in λ while the set
-                // stays).
-                let tc = if ci == 1 { &t2 } else { &t1 };
-                let signs: Vec<f64> = (0..m)
-                    .map(|i| {
-                        if active_now[i] {
-                            sigma * tc[i]
-                        } else {
-                            act.gaps[i]
-                        }
-                    })
-                    .collect();
-                let step = s.step(&lambda, &d, &active_now, &signs);
-                (
-                    step.lambda,
-                    step.theta,
-                    Some(step.columns),
-                    Some(step.fraction),
-                )
-            }
-            None => (
-                (0..m).map(|i| lambda[i] + settings.theta * d[i]).collect(),
-                settings.theta,
-                None,
-                None,
-            ),
-        };
-        let dl: Vec<f64> = new.iter().zip(&lambda).map(|(a, b)| a - b).collect();
-        // With θ auto a step may be short while the iterate is not converged (the secant
-        // correction cancels most of θ d, or stops at a predicted change of the contact set):
-        // the change measured is then also the plain step θ d_p, the fixed-θ iteration's.
-        let step = match secant {
-            Some(_) => norm(&dl).max(theta * norm(&d)),
-            None => norm(&dl),
-        };
-        let nl = norm(&new);
-        let change = if nl > 0.0 { step / nl } else { step };
-        let record = IterationRecord {
-            iteration: p,
-            lambda_change: change,
-            residual: norm(&r),
-            active: act.active.iter().filter(|&&a| a).count(),
-            qp_iterations: act.iterations,
-            qp_solver: if act.clarabel {
-                QpMethod::Clarabel
-            } else {
-                QpMethod::ActiveSet
-            }
-            .name()
-            .into(),
-            theta,
-            secant_columns: columns,
-            secant_fraction: fraction,
-            eta_glo: None,
-            eta_fe: None,
-            eta_nndd: None,
-            eta_ratio: None,
-            e_ref: None,
-            effectivity: None,
-        };
-        let mut u = [Vec::new(), Vec::new()];
-        u[di] = u_dirichlet;
-        let (trace1, trace2) = if di == 0 {
-            (lambda.clone(), Vec::new())
-        } else {
-            (act.trace.clone(), lambda.clone())
-        };
-        let mut it = Iterate {
-            lambda: trace1,
-            interface: lambda.clone(),
-            u,
-            forces: [t1, t2],
-            contact_body: ci + 1,
-            trace2,
-            active: active_now,
-            qp_kkt: act.kkt,
-            iteration: p,
-        };
-        let mut balanced = false;
-        if estimate_every.is_some_and(|k| p % k == 0) && observer.wants_estimate(&it)? {
-            form_fields(layout, &mut it, bodies, steps, stages, &mut timers)?;
-            balanced = observer.estimate(&it)?;
-        }
+    let mut last = None;
+    for p in state.iteration + 1..=ctx.settings.max_it {
+        // Step 1: the Dirichlet problem at λ_p and the other body's contact problem behind λ_p.
+        let one = ctx.step_one(&state.lambda, &mut timers)?;
+        // Step 3: the equilibrium defect R_p = T¹_p + T²_p.
+        let r = one.defect();
+        // Step 4: the two Neumann problems.
+        let w = ctx.neumann_steps(&r, &mut timers)?;
+        // Step 5: the update, λ + θ d or the secant update of `-nndd_theta auto`.
+        let update = state.update(ctx, p, &one, &w);
+        let record = one.record(p, &r, &update);
+        let mut it = one.into_iterate(ctx.steps, p, &state.lambda);
+        let balanced = ctx.estimate_if_due(p, &mut it, observer, &mut timers)?;
         observer.monitor(&record);
-        history.push(record);
-        // Step 6: stop? (all ranks computed the same numbers; rank 0 decides for all)
-        let use_tol = settings.stop != StopRule::None;
-        let verdict = if !change.is_finite() {
-            Some(Status::Diverged)
-        } else if use_tol && change <= settings.tol {
-            Some(Status::Converged)
-        } else if balanced {
-            Some(Status::Balanced)
-        } else {
-            if change < best {
-                best = change;
-                best_at = p;
-            }
-            if use_tol && diverging(&history) {
-                Some(Status::Diverged)
-            } else if use_tol && p - best_at >= 50 {
-                Some(Status::Stagnated)
-            } else {
-                None
-            }
-        };
-        // Rank 0 decides for all (every rank computed the same numbers); a signal on any
-        // rank stops all at the end of this iteration.
-        let (code, interrupted) =
-            layout.agree_stop(verdict.map_or(0u8, |s| s as u8 + 1), observer.interrupted());
+        state.history.push(record);
+        // Step 6: stop? Rank 0 decides for all (every rank computed the same numbers); a
+        // signal on any rank stops all at the end of this iteration.
+        let verdict = state.check_termination(ctx.settings, p, update.change, balanced);
+        let (code, interrupted) = ctx
+            .layout
+            .agree_stop(verdict.map_or(0, |s| s as u8 + 1), observer.interrupted());
         let stop = Status::from_code(code);
-        let continues = stop.is_none() && p < settings.max_it;
-        if interrupted && continues {
-            status = Status::Interrupted;
-        }
+        let continues = stop.is_none() && p < ctx.settings.max_it;
+        state.advance(p, update.lambda, &it.active);
+        // A restart point where the loop goes on: every k iterations, or on a signal.
         if continues && (interrupted || observer.checkpoint_due(p)) {
-            let active = it.active.clone();
-            observer.checkpoint(&LoopState {
-                iteration: p,
-                lambda: new.clone(),
-                history: history.clone(),
-                active,
-                secant: secant.clone(),
-                best,
-                best_at,
-            })?;
+            observer.checkpoint(&state)?;
         }
         last = Some(it);
         if let Some(s) = stop {
             status = s;
             break;
         }
-        if status == Status::Interrupted {
+        if interrupted && continues {
+            status = Status::Interrupted;
             break;
         }
-        lambda = new;
     }
-    let iterations = history.len();
-    let mut last = last.expect("the loop runs at least once (checked by the restart)");
-    // The fields of the reported step (the loop needs only the Γc forces), checked.
-    form_fields(layout, &mut last, bodies, steps, stages, &mut timers)?;
-    let check = timers
-        .check
-        .time(|| check_solution(layout, &last, bodies))
-        .map_err(NnddError::from)?;
-    if status.succeeded() {
-        if let Some(what) = check.failure() {
-            return Err(NnddError::CheckFailed {
-                run: format!("the NNDD {} after {iterations} iterations", status.name()),
-                what,
+    let last = last.expect("the loop runs at least once (checked by the restart)");
+    Ok(ctx.finish(status, state.history, last, timers)?)
+}
+
+impl Context<'_> {
+    /// The state the loop starts from: `start` (the QP warm-started from its contact set), or
+    /// λ = 0 with a fresh secant update under θ auto.
+    fn start(&self, start: Option<LoopState>) -> LoopState {
+        if let Some(state) = start {
+            if let (Some(c), false) = (self.steps.contact, state.active.is_empty()) {
+                c.set_warm_start(state.active.clone());
             }
-            .into());
+            return state;
+        }
+        let memory = SECANT_MEMORY.min(self.m.max(1));
+        LoopState {
+            iteration: 0,
+            lambda: vec![0.0; self.m],
+            history: Vec::new(),
+            active: Vec::new(),
+            secant: (self.settings.relaxation == Relaxation::Auto)
+                .then(|| SecantUpdate::new(AUTO_THETA_PROBE, memory)),
+            best: f64::INFINITY,
+            best_at: 0,
         }
     }
-    Ok(NnddResult {
-        status,
-        check,
-        iterations,
-        history,
-        last,
-        timers,
-    })
+
+    /// Step 1 at λ_p: the Dirichlet problem on its body's ranks and the other body's contact
+    /// problem behind λ_p, concurrently; their Γc forces and the contact step's results then
+    /// shared with every rank.
+    fn step_one(&self, lambda: &[f64], timers: &mut LoopTimers) -> Result<StepOne, NnddError> {
+        let (di, ci) = self.steps.indices();
+        let mut forces = [vec![0.0; self.m], vec![0.0; self.m]];
+        let mut u_dirichlet = Vec::new();
+        if let (Some(b), Some(d)) = (self.bodies[di], self.steps.dirichlet) {
+            let _s = self.stages.dirichlet_step.enter();
+            let (u, f) = timers.dirichlet_step.time(|| d.solve(b, lambda))?;
+            u_dirichlet = u.unwrap_or_default();
+            forces[di] = f;
+        }
+        fault::check(Phase::Qp)?;
+        // The contact QP lives on Γc: the contact body's root solves it, then shares it.
+        let mut contact = ContactShare::none(self.m);
+        if let (Some(b), Some(c)) = (self.bodies[ci].filter(|b| b.is_root()), self.steps.contact) {
+            let _s = self.stages.contact_step.enter();
+            let mut sol = timers.contact_step.time(|| c.solve(b, lambda))?;
+            forces[ci] = std::mem::take(&mut sol.forces);
+            contact = ContactShare::of(sol);
+        }
+        let contact = timers.exchange.time(|| {
+            self.layout.share(di + 1, &mut forces[di]);
+            self.layout.share(ci + 1, &mut forces[ci]);
+            contact.shared(self.layout, ci + 1, self.m)
+        });
+        Ok(StepOne {
+            forces,
+            u_dirichlet,
+            contact,
+        })
+    }
+
+    /// Step 4: each body's Neumann problem with the loads ∓½R_p on Γc, on its ranks; the
+    /// normal Γc traces w¹, w² shared with every rank.
+    fn neumann_steps(
+        &self,
+        r: &[f64],
+        timers: &mut LoopTimers,
+    ) -> Result<[Vec<f64>; 2], NnddError> {
+        let mut w = [vec![0.0; self.m], vec![0.0; self.m]];
+        {
+            let _s = self.stages.neumann_step.enter();
+            fault::check(Phase::Ksp)?;
+            for (k, w) in w.iter_mut().enumerate() {
+                if let (Some(b), Some(n)) = (self.bodies[k], self.steps.neumann[k]) {
+                    *w = timers.neumann_step.time(|| n.solve(b, r))?;
+                }
+            }
+        }
+        timers.exchange.time(|| {
+            let [w1, w2] = &mut w;
+            self.layout.share(1, w1);
+            self.layout.share(2, w2);
+        });
+        Ok(w)
+    }
+
+    /// At the iterations of `estimate_every`, when the observer wants it: the fields of step
+    /// p formed and the iterate estimated. Whether the balanced stopping rule holds.
+    fn estimate_if_due<E: From<NnddError>>(
+        &self,
+        p: usize,
+        it: &mut Iterate,
+        observer: &mut impl Observer<E>,
+        timers: &mut LoopTimers,
+    ) -> Result<bool, E> {
+        let due = self.estimate_every.is_some_and(|k| p.is_multiple_of(k));
+        if !due || !observer.wants_estimate(it)? {
+            return Ok(false);
+        }
+        self.form_fields(it, timers)?;
+        observer.estimate(it)
+    }
+
+    /// Form u¹_p and u²_p on their owners where the steps did not (condensed steps give only
+    /// the Γc forces).
+    fn form_fields(&self, it: &mut Iterate, timers: &mut LoopTimers) -> Result<(), NnddError> {
+        let (di, ci) = self.steps.indices();
+        let _s = self.stages.fields.enter();
+        if let (Some(b), Some(d)) = (self.bodies[di], self.steps.dirichlet) {
+            if it.u[di].is_empty() {
+                it.u[di] = timers
+                    .fields
+                    .time(|| d.field(b, &it.interface, &it.forces[di]))?;
+            }
+        }
+        if let (Some(b), Some(c)) = (self.bodies[ci], self.steps.contact) {
+            if it.u[ci].is_empty() {
+                it.u[ci] = timers
+                    .fields
+                    .time(|| c.field(b, &it.forces[ci], &it.interface, &it.active))?;
+            }
+        }
+        it.trace2 = shared_trace2(self.layout, self.bodies[1], &it.u[1], it.lambda.len());
+        Ok(())
+    }
+
+    /// The end of the run: the fields of the reported step formed (the loop needs only the Γc
+    /// forces) and checked; a solution that fails its check is no success.
+    fn finish(
+        &self,
+        status: Status,
+        history: Vec<IterationRecord>,
+        mut last: Iterate,
+        mut timers: LoopTimers,
+    ) -> Result<NnddResult, NnddError> {
+        let iterations = history.len();
+        self.form_fields(&mut last, &mut timers)?;
+        let check = timers
+            .check
+            .time(|| check_solution(self.layout, &last, self.bodies))?;
+        if status.succeeded() {
+            if let Some(what) = check.failure() {
+                return Err(NnddError::CheckFailed {
+                    run: format!("the NNDD {} after {iterations} iterations", status.name()),
+                    what,
+                });
+            }
+        }
+        Ok(NnddResult {
+            status,
+            check,
+            iterations,
+            history,
+            last,
+            timers,
+        })
+    }
+}
+
+impl StepOne {
+    /// Step 3: the equilibrium defect R_p = T¹_p + T²_p.
+    fn defect(&self) -> Vec<f64> {
+        let [t1, t2] = &self.forces;
+        t1.iter().zip(t2).map(|(a, b)| a + b).collect()
+    }
+
+    /// The sign conditions of the contact step on body `contact_body`: its multipliers
+    /// (T² ≥ 0, or −T¹ ≥ 0) on the contact set, the gap ≥ 0 off it (each affine in λ while the
+    /// set stays).
+    fn sign_conditions(&self, contact_body: usize) -> Vec<f64> {
+        let sigma = if contact_body == 2 { 1.0 } else { -1.0 };
+        let tc = &self.forces[contact_body - 1];
+        let c = &self.contact;
+        (0..tc.len())
+            .map(|i| {
+                if c.active[i] {
+                    sigma * tc[i]
+                } else {
+                    c.gaps[i]
+                }
+            })
+            .collect()
+    }
+
+    /// The history's line of iteration p.
+    fn record(&self, p: usize, r: &[f64], update: &Update) -> IterationRecord {
+        let c = &self.contact;
+        IterationRecord {
+            iteration: p,
+            lambda_change: update.change,
+            residual: norm(r),
+            active: c.active.iter().filter(|&&a| a).count(),
+            qp_iterations: c.iterations,
+            qp_solver: if c.clarabel {
+                QpMethod::Clarabel
+            } else {
+                QpMethod::ActiveSet
+            }
+            .name()
+            .into(),
+            theta: update.theta,
+            secant_columns: update.columns,
+            secant_fraction: update.fraction,
+            ..IterationRecord::default()
+        }
+    }
+
+    /// The iterate of step 1 at λ_p (`lambda`), the fields not formed yet but the Dirichlet
+    /// step's where it gave it.
+    fn into_iterate(self, steps: &Steps, p: usize, lambda: &[f64]) -> Iterate {
+        let (di, ci) = steps.indices();
+        let mut u = [Vec::new(), Vec::new()];
+        u[di] = self.u_dirichlet;
+        let (trace1, trace2) = if di == 0 {
+            (lambda.to_vec(), Vec::new())
+        } else {
+            (self.contact.trace, lambda.to_vec())
+        };
+        Iterate {
+            lambda: trace1,
+            interface: lambda.to_vec(),
+            u,
+            forces: self.forces,
+            contact_body: ci + 1,
+            trace2,
+            active: self.contact.active,
+            qp_kkt: self.contact.kkt,
+            iteration: p,
+        }
+    }
+}
+
+impl LoopState {
+    /// Step 5: λ_{p+1} = λ_p + θ d_p, d_p = (w¹ − w²)·n, with the fixed θ, or the secant
+    /// update of θ auto ([`SecantUpdate::step`]); and the change the stopping rule measures,
+    /// ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖. With θ auto a step may be short while the iterate is not
+    /// converged (the secant correction cancels most of θ d, or stops at a predicted change of
+    /// the contact set): the change measured is then max(‖Δλ‖, θ‖d_p‖) / ‖λ_{p+1}‖, the plain
+    /// step's too.
+    fn update(&mut self, ctx: &Context, p: usize, one: &StepOne, w: &[Vec<f64>; 2]) -> Update {
+        let (di, ci) = ctx.steps.indices();
+        let lambda = &self.lambda;
+        let d: Vec<f64> = w[0].iter().zip(&w[1]).map(|(a, b)| a - b).collect();
+        let (new, theta, columns, fraction) = match self.secant.as_mut() {
+            Some(s) => {
+                if p == 1 {
+                    s.estimate_spectrum(&w[di], &w[ci]);
+                }
+                let signs = one.sign_conditions(ci + 1);
+                let step = s.step(lambda, &d, &one.contact.active, &signs);
+                let (columns, fraction) = (Some(step.columns), Some(step.fraction));
+                (step.lambda, step.theta, columns, fraction)
+            }
+            None => {
+                let theta = ctx.settings.relaxation.plain_theta();
+                let new = lambda.iter().zip(&d).map(|(l, d)| l + theta * d).collect();
+                (new, theta, None, None)
+            }
+        };
+        let dl: Vec<f64> = new.iter().zip(lambda).map(|(a, b)| a - b).collect();
+        let step = match self.secant {
+            Some(_) => norm(&dl).max(theta * norm(&d)),
+            None => norm(&dl),
+        };
+        let nl = norm(&new);
+        Update {
+            lambda: new,
+            theta,
+            columns,
+            fraction,
+            change: if nl > 0.0 { step / nl } else { step },
+        }
+    }
+
+    /// Step 6, the verdict of iteration p, whose record is the history's last (as Clarabel's
+    /// `check_termination`): diverged (a change that is not finite, or a growing ‖R‖,
+    /// [`diverging`]), converged (change ≤ tol), balanced (the estimate of this iteration says
+    /// so), stagnated (no smaller change in [`STAGNATION_STEPS`] iterations), or none: go on.
+    /// `-nndd_stop none` goes on but for a change that is not finite, or balance.
+    fn check_termination(
+        &mut self,
+        settings: &NnddSettings,
+        p: usize,
+        change: f64,
+        balanced: bool,
+    ) -> Option<Status> {
+        let use_tol = settings.stop != StopRule::None;
+        if !change.is_finite() {
+            return Some(Status::Diverged);
+        }
+        if use_tol && change <= settings.tol {
+            return Some(Status::Converged);
+        }
+        if balanced {
+            return Some(Status::Balanced);
+        }
+        if change < self.best {
+            self.best = change;
+            self.best_at = p;
+        }
+        if use_tol && diverging(&self.history) {
+            Some(Status::Diverged)
+        } else if use_tol && p - self.best_at >= STAGNATION_STEPS {
+            Some(Status::Stagnated)
+        } else {
+            None
+        }
+    }
+
+    /// Iteration p done: the next starts at `lambda`, its QP warm-started from `active`.
+    fn advance(&mut self, p: usize, lambda: Vec<f64>, active: &[bool]) {
+        self.iteration = p;
+        self.lambda = lambda;
+        self.active = active.to_vec();
+    }
 }
 
 #[cfg(test)]
@@ -718,5 +1033,52 @@ mod tests {
         ])));
         assert!(!diverging(&history(&[1.0, 0.1, 0.2, 0.4, 0.3, 1.6, 3.2])));
         assert!(!diverging(&history(&up[..5])));
+    }
+
+    #[test]
+    fn theta_is_auto_or_a_positive_number() {
+        assert_eq!(Relaxation::parse(" auto ").unwrap(), Relaxation::Auto);
+        assert_eq!(Relaxation::parse("0.250").unwrap(), Relaxation::Fixed(0.25));
+        assert_eq!(Relaxation::Fixed(0.25).text(), "0.25");
+        assert_eq!(Relaxation::Auto.text(), "auto");
+        for bad in ["0", "-0.5", "quarter", "inf", "NaN"] {
+            let e = Relaxation::parse(bad).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!("-nndd_theta must be a number > 0, or auto (got {bad})")
+            );
+        }
+    }
+
+    #[test]
+    fn the_verdict_of_an_iteration() {
+        let tol = NnddSettings::default();
+        let mut state = LoopState {
+            iteration: 0,
+            lambda: Vec::new(),
+            history: history(&[1.0]),
+            active: Vec::new(),
+            secant: None,
+            best: f64::INFINITY,
+            best_at: 0,
+        };
+        let diverged = Some(Status::Diverged);
+        assert_eq!(state.check_termination(&tol, 1, f64::NAN, false), diverged);
+        let converged = Some(Status::Converged);
+        assert_eq!(state.check_termination(&tol, 1, 1e-9, false), converged);
+        let balanced = Some(Status::Balanced);
+        assert_eq!(state.check_termination(&tol, 1, 1e-3, true), balanced);
+        assert_eq!(state.check_termination(&tol, 1, 1e-3, false), None);
+        // No smaller change in 50 iterations.
+        assert_eq!(state.check_termination(&tol, 50, 1e-2, false), None);
+        let stagnated = Some(Status::Stagnated);
+        assert_eq!(state.check_termination(&tol, 51, 1e-2, false), stagnated);
+        // -nndd_stop none: neither the tolerance nor stagnation stops it.
+        let none = NnddSettings {
+            stop: StopRule::None,
+            ..NnddSettings::default()
+        };
+        assert_eq!(state.check_termination(&none, 120, 1e-12, false), None);
+        assert_eq!(state.check_termination(&none, 200, 1.0, false), None);
     }
 }

@@ -49,6 +49,12 @@ use std::collections::VecDeque;
 /// Relative size below which a difference column is taken as dependent on the newer ones.
 const FILTER: f64 = 1e-10;
 
+/// θ of a step before anything is known of the interface map (the probe of
+/// [`SecantUpdate::new`]). The first step normally takes θ = 1/μ₀ from the first Neumann
+/// corrections instead ([`SecantUpdate::estimate_spectrum`]); this value is used only when
+/// they are zero.
+pub const AUTO_THETA_PROBE: f64 = 1e-3;
+
 /// One secant column: the differences of two iterates in the same contact set.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 struct Column {

@@ -3,7 +3,8 @@
 //! body's constitutive relation error element by element; [`equilibrate`]: strictly
 //! equilibrated stresses (EET + Johnson–Mercier, patch relaxation); [`overlap`]: a rank's
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
-//! elements; [`reference`]: the reference solution of (26).
+//! elements; [`reference`]: the reference solution of (26); [`settings`]: the estimates'
+//! options; [`balanced`]: the balanced stopping rule, η^NNDD ≤ κ η^FE.
 //!
 //! May use: `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`, `os`.
 //!
@@ -30,15 +31,22 @@
 //!
 //! Norms follow the paper: ‖σ‖²_{K⁻¹} = ∫ σ:K⁻¹:σ, ‖u‖²_E = ∫ Kε(u):ε(u) (no ½).
 
+pub mod balanced;
 pub mod cre;
 pub mod equilibrate;
 pub mod overlap;
 pub mod reference;
+pub mod settings;
 pub mod share;
 pub mod traction;
 
+pub use balanced::BalancedRule;
 pub use reference::Reference;
+pub use settings::EstimateSettings;
 pub use traction::Interface;
+
+use std::cell::{Cell, OnceCell, RefCell};
+use std::rc::Rc;
 
 use crate::dd::body::{Body, BodyError};
 use crate::dd::nndd::Iterate;
@@ -50,6 +58,7 @@ use crate::estimate::reference::interpolate_nested;
 use crate::estimate::share::{estimate_owners, Share};
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
+use crate::problem::BodyProblem;
 use crate::qp::{QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -156,32 +165,32 @@ impl Parts {
 
 /// Computes the estimates of NNDD iterates (collective over all ranks).
 pub struct Estimator<'a> {
-    pub iface: Interface,
-    pub qp: QpSettings,
-    pub recovery: StarChoice,
+    iface: Interface,
+    qp: QpSettings,
+    recovery: StarChoice,
     /// `-nndd_recovery_warm_change`: the largest relative change of a body's displacement
     /// for which a recovery starts warm ([`cre::View::prepare`]).
-    pub warm_change: f64,
-    pub nndd_variant: NnddVariant,
-    pub layout: &'a Layout,
-    pub reference: Option<Reference>,
+    warm_change: f64,
+    nndd_variant: NnddVariant,
+    layout: &'a Layout,
+    reference: Option<Reference>,
     /// The two bodies' problems (every rank has both: any rank may estimate elements of
     /// either, [`share`]).
-    pub problems: [std::rc::Rc<crate::problem::BodyProblem>; 2],
+    problems: [Rc<BodyProblem>; 2],
     /// The world rank estimating each element of each body ([`share::estimate_owners`]),
     /// and whether some of a body's elements are estimated outside its group (its fields
     /// then travel); made at the first estimate.
-    pub owners: std::cell::OnceCell<([Vec<u32>; 2], [bool; 2])>,
+    owners: OnceCell<([Vec<u32>; 2], [bool; 2])>,
     /// Per body, this rank's share of the element work (built at the first estimate).
-    pub shares: [std::cell::OnceCell<Share>; 2],
+    shares: [OnceCell<Share>; 2],
     /// The time of each part of the estimates.
-    pub parts: Parts,
+    parts: Parts,
     /// Per body, the recovery's local operators on this rank, kept across estimates.
-    pub operators: [std::cell::RefCell<OperatorCache>; 2],
+    operators: [RefCell<OperatorCache>; 2],
     /// [`Estimator::eta_nndd_without_fields`], agreed over the ranks at its first use.
-    pub cheap_nndd: std::cell::OnceCell<bool>,
+    cheap_nndd: OnceCell<bool>,
     /// The estimate in progress recovers η^glo cold ([`Estimator::estimate_cold`]).
-    pub cold: std::cell::Cell<bool>,
+    cold: Cell<bool>,
 }
 
 /// The free heap (bytes) from which an estimate gives the memory back between its two
@@ -203,7 +212,47 @@ fn nodal_contact_forces(it: &Iterate) -> Vec<f64> {
         .collect()
 }
 
-impl Estimator<'_> {
+impl<'a> Estimator<'a> {
+    /// The estimator of a run on `layout` as `settings` ask, the admissible tractions' QPs
+    /// solved with `qp`, with the `reference` solution of (26) if any; its parts timed in the
+    /// `-log_view` stages `stages` (`Stages::estimation_parts`) if given. Its caches (the
+    /// elements' owners and shares, the recovery's operators) are made at the first estimate.
+    pub fn new(
+        settings: &EstimateSettings,
+        qp: &QpSettings,
+        layout: &'a Layout,
+        problems: &[Rc<BodyProblem>; 2],
+        reference: Option<Reference>,
+        stages: Option<[LogStage; 6]>,
+    ) -> Estimator<'a> {
+        Estimator {
+            iface: Interface::new(problems[0].contact_lengths.clone()),
+            qp: qp.clone(),
+            recovery: settings.recovery,
+            warm_change: settings.warm_change,
+            nndd_variant: settings.nndd_variant,
+            layout,
+            reference,
+            problems: problems.clone(),
+            owners: Default::default(),
+            shares: Default::default(),
+            parts: Parts::new(stages),
+            operators: Default::default(),
+            cheap_nndd: Default::default(),
+            cold: Default::default(),
+        }
+    }
+
+    /// The iterations of the reference solution's NNDD (none without one).
+    pub fn reference_iterations(&self) -> Option<usize> {
+        self.reference.as_ref().map(|r| r.iterations)
+    }
+
+    /// Seconds spent in each part of the estimates on this rank, in [`Part`]'s order.
+    pub fn part_seconds(&self) -> [f64; 6] {
+        self.parts.seconds()
+    }
+
     /// Whether [`Estimator::eta_nndd`] can do without the fields of the iterate (every body
     /// has its interface operators); the same answer on every rank.
     pub fn eta_nndd_without_fields(&self, bodies: [Option<&Body>; 2]) -> bool {

@@ -189,11 +189,6 @@ impl Identity {
     }
 }
 
-/// `PREFIX.checkpoint.json`.
-pub fn path_for(output: &Path) -> PathBuf {
-    crate::io::output::with_ext(output, "checkpoint.json")
-}
-
 /// The key of the checksum in the file.
 const CHECKSUM: &str = "checksum";
 

@@ -26,6 +26,7 @@ mod ksp;
 pub mod log;
 mod mat;
 mod options;
+pub mod readers;
 mod vec;
 
 pub use comm::{comm_from_rsmpi, Comm};

@@ -3,13 +3,15 @@
 //! [`build`] from the plain-data [`ProblemSettings`]. [`benchmarks`]: the built-in problems
 //! `paper` and `uniform` (`docs/benchmarks.md`); [`meshed`]: a problem the user meshed in
 //! Gmsh, with named boundary conditions and an initial gap; [`conform`]: its contact curves,
-//! meshed on their own, made to match.
+//! meshed on their own, made to match; [`settings`]: the problem's options, read into
+//! [`ProblemSettings`].
 //!
 //! May use: `parallel`, `qp`, `fem`, `petsc`, `os`.
 
 pub mod benchmarks;
 pub mod conform;
 pub mod meshed;
+pub mod settings;
 
 use std::rc::Rc;
 
@@ -35,7 +37,8 @@ impl ProblemKind {
     }
 }
 
-/// What defines the problem to solve (plain data, filled from the options by `app`).
+/// What defines the problem to solve (plain data, read from the options by
+/// [`ProblemSettings::from_options`]).
 #[derive(Clone, Debug)]
 pub struct ProblemSettings {
     pub kind: ProblemKind,

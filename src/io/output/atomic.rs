@@ -6,9 +6,8 @@ use std::fs;
 use std::io::{self, Write as _};
 use std::os::unix::ffi::{OsStrExt, OsStringExt};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{SystemTime, UNIX_EPOCH};
 
+use super::paths::{parent_dir, temporary};
 use super::team::{agree, Writers};
 use super::OutputError;
 
@@ -99,16 +98,11 @@ struct TempFile {
 
 impl TempFile {
     fn for_target(target: &Path) -> Result<TempFile, OutputError> {
-        let name = target.file_name().ok_or_else(|| OutputError::BadPrefix {
+        let path = temporary(target).ok_or_else(|| OutputError::BadPrefix {
             path: target.to_path_buf(),
             reason: "no file name".into(),
         })?;
-        let mut tmp_name = OsString::from(".");
-        tmp_name.push(name);
-        tmp_name.push(format!(".tmp.{}", unique_suffix()));
-        Ok(TempFile {
-            path: parent_dir(target).join(tmp_name),
-        })
+        Ok(TempFile { path })
     }
 
     fn commit(self, target: &Path) -> Result<(), OutputError> {
@@ -151,32 +145,6 @@ fn sync_dir(dir: &Path) {
     if let Ok(d) = fs::File::open(dir) {
         let _ = d.sync_all();
     }
-}
-
-pub(super) fn unique_suffix() -> String {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let nanos = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.subsec_nanos())
-        .unwrap_or(0);
-    format!("{}.{n}.{nanos}", std::process::id())
-}
-
-/// The directory of `path` (`.` for a bare file name).
-pub(super) fn parent_dir(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
-}
-
-/// `PREFIX.ext`, appending (a dot in PREFIX is kept).
-pub(super) fn with_suffix(prefix: &Path, ext: &str) -> PathBuf {
-    let mut s = prefix.as_os_str().to_os_string();
-    s.push(".");
-    s.push(ext);
-    PathBuf::from(s)
 }
 
 #[cfg(test)]

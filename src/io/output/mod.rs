@@ -115,12 +115,14 @@
 //!   anything is created.
 //! - `team`: the processes writing together (one, or the ranks of a
 //!   communicator), their agreement on success and the check of their shares.
+//! - `paths`: every file name, made from PREFIX ([`OutputPaths`]).
 //! - `atomic`: writing to temporaries and renaming them into place.
 //! - `h5`: the HDF5 file (collective datasets through a few HDF5 C calls).
 //! - `xdmf`: the XDMF text.
 
 mod atomic;
 mod h5;
+pub mod paths;
 mod team;
 #[cfg(test)]
 mod testutil;
@@ -132,10 +134,11 @@ use std::io::{self, Write as _};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+use atomic::commit_files;
 pub use atomic::write_atomic;
-use atomic::{commit_files, parent_dir, unique_suffix, with_suffix};
 pub use h5::file_left_open;
 use h5::write_h5;
+pub use paths::OutputPaths;
 use team::{agree, check_team, Alone, Team, Writers};
 use validate::{prefix_name, validate};
 
@@ -409,20 +412,13 @@ fn entries(grid: Option<&Grid>, center: Center) -> usize {
     }
 }
 
-/// `PREFIX` + `.ext` (a prefix may contain dots: never replace an extension).
-pub fn with_ext(prefix: &Path, ext: &str) -> PathBuf {
-    let mut s = prefix.as_os_str().to_owned();
-    s.push(".");
-    s.push(ext);
-    s.into()
-}
-
 /// Check early (before any solve) that PREFIX's directory exists or can be
 /// created and that files can be written there: create and remove a probe
 /// file. The error names the option `-nndd_output` and the path.
 pub fn check_writable(prefix: &Path) -> Result<(), OutputError> {
     let name = prefix_name(prefix)?;
-    let dir = parent_dir(prefix);
+    let paths = OutputPaths::new(prefix);
+    let dir = paths.dir();
     let not_writable = |path: &Path, action, source| OutputError::NotWritable {
         prefix: prefix.to_path_buf(),
         path: path.to_path_buf(),
@@ -430,14 +426,13 @@ pub fn check_writable(prefix: &Path) -> Result<(), OutputError> {
         source,
     };
     fs::create_dir_all(&dir).map_err(|e| not_writable(&dir, "create directory", e))?;
-    for ext in ["h5", "xdmf", "json"] {
-        let target = with_suffix(prefix, ext);
+    for target in [paths.h5(), paths.xdmf(), paths.json()] {
         if target.is_dir() {
             let e = io::Error::other("it is a directory");
             return Err(not_writable(&target, "replace", e));
         }
     }
-    let probe = dir.join(format!(".{name}.probe.{}", unique_suffix()));
+    let probe = paths.probe(&name);
     let result = fs::OpenOptions::new()
         .write(true)
         .create_new(true)
@@ -494,28 +489,21 @@ fn time_key(time: f64) -> String {
 /// The XDMF files of `results` next to `PREFIX.h5` (file name `h5_name`): the first grid's
 /// series in `PREFIX.xdmf`, each other grid's in `PREFIX-<grid>.xdmf`, and the first grid at
 /// the last step alone in `PREFIX-final.xdmf`.
-fn xdmf_files(prefix: &Path, results: &Results, h5_name: &str) -> Vec<(PathBuf, String)> {
+fn xdmf_files(paths: &OutputPaths, results: &Results, h5_name: &str) -> Vec<(PathBuf, String)> {
     let mut files = Vec::new();
     for (i, g) in results.grids.iter().enumerate() {
         let path = if i == 0 {
-            with_suffix(prefix, "xdmf")
+            paths.xdmf()
         } else {
-            xdmf_path(prefix, &g.name)
+            paths.grid_xdmf(&g.name)
         };
         files.push((path, xdmf::series_text(results, g, h5_name)));
     }
     if let (Some(g), Some(last)) = (results.grids.first(), results.steps.last()) {
         let text = xdmf::single_text(g, last, h5_name);
-        files.push((xdmf_path(prefix, "final"), text));
+        files.push((paths.final_xdmf(), text));
     }
     files
-}
-
-/// `PREFIX-<part>.xdmf`.
-pub fn xdmf_path(prefix: &Path, part: &str) -> PathBuf {
-    let mut s = prefix.as_os_str().to_owned();
-    s.push(format!("-{part}.xdmf"));
-    s.into()
 }
 
 /// [`write_results`] and [`write_results_parallel`]: validate (and agree),
@@ -526,7 +514,8 @@ fn write_on<W: Writers>(
     results: &Results,
     shares: &[Share],
 ) -> Result<(), OutputError> {
-    let h5_path = with_suffix(prefix, "h5");
+    let paths = OutputPaths::new(prefix);
+    let h5_path = paths.h5();
     let checked =
         prefix_name(prefix).and_then(|name| validate(results, shares, &h5_path).map(|()| name));
     let name = agree(w, checked)?;
@@ -534,7 +523,7 @@ fn write_on<W: Writers>(
         path: h5_path.clone(),
         reason,
     })?;
-    let mut xdmfs = xdmf_files(prefix, results, &format!("{name}.h5"));
+    let mut xdmfs = xdmf_files(&paths, results, &format!("{name}.h5"));
     if w.rank() != 0 {
         xdmfs.iter_mut().for_each(|(_, text)| text.clear());
     }

@@ -1,0 +1,430 @@
+//! The problem's options (`-nndd_problem`, `-nndd_mesh` and its `-nndd_bc_…`, the built-in
+//! problems' meshes and loads, the materials), read and validated into [`ProblemSettings`].
+
+use std::collections::BTreeSet;
+use std::rc::Rc;
+
+use super::meshed::{CurveCondition, MeshSpec, BODY_NAMES};
+use super::{ProblemKind, ProblemSettings};
+use crate::fem::gmsh;
+use crate::fem::Material;
+use crate::petsc::readers::{Bounds, SettingsError};
+use crate::petsc::{self, OptionsBlock};
+
+/// Poisson's ratio: in (−1, 0.5).
+const POISSON: Bounds<f64> = Bounds {
+    accepted: "in (-1, 0.5)",
+    holds: |nu| nu > -1.0 && nu < 0.5,
+};
+
+const OPTS_MATERIAL: [(&str, &str); 2] = [
+    ("-nndd_body1_E", "-nndd_body1_nu"),
+    ("-nndd_body2_E", "-nndd_body2_nu"),
+];
+
+const OPTS_GRID: [[&str; 2]; 2] = [
+    ["-nndd_body1_nx", "-nndd_body1_ny"],
+    ["-nndd_body2_nx", "-nndd_body2_ny"],
+];
+
+impl ProblemSettings {
+    /// Read, register (for `-help`) and validate the problem's options; what the materials
+    /// allow but cost digits goes to `warnings`.
+    pub fn from_options(
+        o: &mut OptionsBlock,
+        warnings: &mut Vec<String>,
+    ) -> Result<ProblemSettings, SettingsError> {
+        let (kind, mesh_file, contact) = read_kind(o)?;
+        let (n, _) = o.int_in(
+            "-nndd_n",
+            "Mesh level n: each body is an n x n grid of split squares",
+            8,
+            Bounds::POSITIVE_INT,
+        )?;
+        let grids = read_grids(o, n)?;
+        let materials = read_materials(o, warnings)?;
+        let mesh = match kind {
+            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact)?),
+            _ => None,
+        };
+        let (u_d, _) = o.real_in(
+            "-nndd_u_D",
+            "Prescribed vertical displacement of the top of body 2 (m)",
+            -1e-4,
+            Bounds::FINITE,
+        )?;
+        let (f_max, _) = o.real_in(
+            "-nndd_F_max",
+            "Maximum of the linear load on the right edge of body 2 (Pa)",
+            if kind == ProblemKind::Paper { 1e7 } else { 0.0 },
+            Bounds::FINITE,
+        )?;
+        Ok(ProblemSettings {
+            kind,
+            n,
+            grids,
+            materials,
+            mesh,
+            u_d,
+            f_max,
+        })
+    }
+}
+
+/// The problem's kind (`-nndd_mesh` sets `mesh` whatever `-nndd_problem` says), the mesh file
+/// and the contact curves' names as given.
+fn read_kind(o: &mut OptionsBlock) -> Result<(ProblemKind, String, String), SettingsError> {
+    let (problem, _) = o.string(
+        "-nndd_problem",
+        "Benchmark problem: paper, uniform",
+        "paper",
+    )?;
+    let (mesh_file, mesh_given) = o.string(
+        "-nndd_mesh",
+        "Gmsh MSH 4.1 file of the two bodies (physical surfaces body1, body2); sets -nndd_problem mesh",
+        "",
+    )?;
+    let (contact, _) = o.string(
+        "-nndd_contact",
+        "With -nndd_mesh: the contact curves as body 1's curve,body 2's curve (physical curve names); either may be curved, the two meshed on their own (Gamma_c is where they overlap)",
+        "",
+    )?;
+    let unknown = |accepted: &str| SettingsError::UnknownValue {
+        option: "-nndd_problem".into(),
+        value: problem.clone(),
+        accepted: accepted.into(),
+    };
+    let kind = match problem.as_str() {
+        _ if mesh_given => ProblemKind::Mesh,
+        "paper" => ProblemKind::Paper,
+        "uniform" => ProblemKind::Uniform,
+        "mesh" => return Err(unknown("paper, uniform; mesh needs -nndd_mesh FILE.msh")),
+        _ => return Err(unknown("paper, uniform, mesh (with -nndd_mesh)")),
+    };
+    Ok((kind, mesh_file, contact))
+}
+
+/// Each body's grid (nx, ny), n × n unless given; the two grids match along Γc (the same nx).
+fn read_grids(o: &mut OptionsBlock, n: usize) -> Result<[(usize, usize); 2], SettingsError> {
+    let mut grids = [(n, n); 2];
+    for (b, grid) in grids.iter_mut().enumerate() {
+        let [nx, ny] = OPTS_GRID[b].map(|opt| {
+            let axis = &opt[opt.len() - 1..];
+            let help = format!("Body {} cells in {axis} (default n)", b + 1);
+            (opt, help)
+        });
+        grid.0 = o.int_in(nx.0, &nx.1, n, Bounds::POSITIVE_INT)?.0;
+        grid.1 = o.int_in(ny.0, &ny.1, n, Bounds::POSITIVE_INT)?.0;
+    }
+    if grids[0].0 != grids[1].0 {
+        return Err(SettingsError::out_of_range(
+            "-nndd_body2_nx",
+            "equal to -nndd_body1_nx (matching nodes on the contact interface)",
+            format!("{} vs {}", grids[1].0, grids[0].0),
+        ));
+    }
+    Ok(grids)
+}
+
+/// Both bodies' materials: `-nndd_E`, `-nndd_nu`, overridden per body by
+/// `-nndd_body<α>_{E,nu}`; refused where the solve would lose its digits.
+fn read_materials(
+    o: &mut OptionsBlock,
+    warnings: &mut Vec<String>,
+) -> Result<[Material; 2], SettingsError> {
+    let (young, _) = o.real_in(
+        "-nndd_E",
+        "Young's modulus E of both bodies (Pa)",
+        210e9,
+        Bounds::POSITIVE,
+    )?;
+    let (poisson, _) = o.real_in(
+        "-nndd_nu",
+        "Poisson's ratio of both bodies, in (-1, 0.5)",
+        0.27,
+        POISSON,
+    )?;
+    let mut materials = [Material { young, poisson }; 2];
+    let (mut e_given, mut nu_given) = ([false; 2], [false; 2]);
+    for (b, m) in materials.iter_mut().enumerate() {
+        let (e_opt, nu_opt) = OPTS_MATERIAL[b];
+        let help = format!("Young's modulus of body {} (Pa; default -nndd_E)", b + 1);
+        (m.young, e_given[b]) = o.real_in(e_opt, &help, young, Bounds::POSITIVE)?;
+        let help = format!(
+            "Poisson's ratio of body {}, in (-1, 0.5) (default -nndd_nu)",
+            b + 1
+        );
+        (m.poisson, nu_given[b]) = o.real_in(nu_opt, &help, poisson, POISSON)?;
+    }
+    warnings.extend(check_materials(&materials, e_given, nu_given)?);
+    Ok(materials)
+}
+
+/// The meshed problem of `-nndd_mesh`: the file, the contact curves, and for every physical
+/// curve of the mesh its `-nndd_bc_NAME_{ux,uy,traction,traction_end}` options.
+fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec, SettingsError> {
+    let named = SettingsError::named;
+    let gmsh = read_shared(file).map_err(|e| named("-nndd_mesh", e))?;
+    // The bodies first: without them nothing else the options name can be found.
+    let missing: Vec<&str> = BODY_NAMES
+        .into_iter()
+        .filter(|b| gmsh.tag(2, b).is_none())
+        .collect();
+    if !missing.is_empty() {
+        return Err(named(
+            "-nndd_mesh",
+            format!(
+                "{file} has no physical surface {} (its physical surfaces: {}; physical curves: {}); name the two bodies and the curves the options refer to in the .geo file: Physical Surface(\"body1\") = {{…}}; Physical Surface(\"body2\") = {{…}}; Physical Curve(\"NAME\") = {{…}};",
+                missing
+                    .iter()
+                    .map(|b| format!("'{b}'"))
+                    .collect::<Vec<_>>()
+                    .join(" or "),
+                gmsh.group_names(2),
+                gmsh.group_names(1)
+            ),
+        ));
+    }
+    let curves: Vec<String> = gmsh
+        .names
+        .iter()
+        .filter(|((d, _), _)| *d == 1)
+        .map(|(_, n)| n.clone())
+        .collect();
+    let pair: Vec<&str> = contact.split(',').map(str::trim).collect();
+    if pair.len() != 2 || pair.iter().any(|c| c.is_empty()) {
+        return Err(named(
+            "-nndd_contact",
+            format!(
+                "give body 1's and body 2's contact curves as NAME1,NAME2 (got '{contact}'; physical curves: {})",
+                gmsh.group_names(1)
+            ),
+        ));
+    }
+    let vector = |option: &str, text: &str| -> Result<[f64; 2], SettingsError> {
+        let v: Vec<f64> = text
+            .split(',')
+            .map(|t| t.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| named(option, format!("expects two numbers tx,ty (got '{text}')")))?;
+        match v[..] {
+            [a, b] if a.is_finite() && b.is_finite() => Ok([a, b]),
+            _ => Err(named(
+                option,
+                format!("expects two finite numbers tx,ty (got '{text}')"),
+            )),
+        }
+    };
+    let mut conditions = Vec::new();
+    let mut known = BTreeSet::new();
+    for c in &curves {
+        let mut cond = CurveCondition {
+            curve: c.clone(),
+            ..Default::default()
+        };
+        for (k, comp) in ["ux", "uy"].iter().enumerate() {
+            let opt = format!("-nndd_bc_{c}_{comp}");
+            let (v, set) = o.real(
+                &opt,
+                &format!("Prescribed {comp} on the curve {c} (m)"),
+                0.0,
+            )?;
+            if set {
+                if !v.is_finite() {
+                    return Err(named(&opt, format!("must be a finite number (got {v})")));
+                }
+                cond.u[k] = Some(v);
+            }
+            known.insert(opt);
+        }
+        let opt = format!("-nndd_bc_{c}_traction");
+        let opt_end = format!("-nndd_bc_{c}_traction_end");
+        let (t0, set0) = o.string(
+            &opt,
+            &format!("Traction tx,ty on the curve {c} (Pa), at its first point"),
+            "",
+        )?;
+        let (t1, set1) = o.string(
+            &opt_end,
+            &format!("Traction tx,ty at the last point of {c} (Pa; linear in between; default: as -nndd_bc_{c}_traction)"),
+            "",
+        )?;
+        if set1 && !set0 {
+            return Err(named(
+                &opt_end,
+                format!("needs {opt} (the traction at the curve's first point)"),
+            ));
+        }
+        if set0 {
+            let a = vector(&opt, &t0)?;
+            let b = if set1 { vector(&opt_end, &t1)? } else { a };
+            if cond.u.iter().any(Option::is_some) {
+                return Err(named(
+                    &opt,
+                    format!("conflicts with the prescribed displacement of the curve {c} (give one or the other)"),
+                ));
+            }
+            cond.traction = Some([a, b]);
+        }
+        known.insert(opt);
+        known.insert(opt_end);
+        if cond.traction.is_some() || cond.u.iter().any(Option::is_some) {
+            conditions.push(cond);
+        }
+    }
+    // A -nndd_bc_ option that names no curve of the mesh is a typo: refuse it.
+    for name in petsc::option_names()? {
+        if name.starts_with("-nndd_bc_") && !known.contains(&name) {
+            return Err(named(
+                &name,
+                format!(
+                    "names no physical curve of {file} or no condition (accepted: -nndd_bc_NAME_ux, _uy, _traction, _traction_end with NAME in: {})",
+                    gmsh.group_names(1)
+                ),
+            ));
+        }
+    }
+    let contact = [pair[0].to_string(), pair[1].to_string()];
+    let (gmsh, matched) = super::conform::conform(&gmsh, &contact);
+    Ok(MeshSpec {
+        gmsh: Rc::new(gmsh),
+        conditions,
+        contact,
+        nested: false,
+        matched: Rc::new(matched),
+    })
+}
+
+/// The options that define the built-in problems' meshes and loads (not a Gmsh problem's).
+pub const BUILTIN_ONLY: [&str; 7] = [
+    "-nndd_n",
+    "-nndd_body1_nx",
+    "-nndd_body1_ny",
+    "-nndd_body2_nx",
+    "-nndd_body2_ny",
+    "-nndd_u_D",
+    "-nndd_F_max",
+];
+
+/// Whether the option `name`, given, applies to a problem of `kind`: `-nndd_bc_…` only to a
+/// Gmsh problem (checked against its curves as they are read), the built-in problems' mesh
+/// and load options not to one, `-nndd_contact` only to one.
+pub fn option_applies(kind: ProblemKind, name: &str) -> Result<(), SettingsError> {
+    let mesh = kind == ProblemKind::Mesh;
+    if name.starts_with("-nndd_bc_") && !mesh {
+        return Err(SettingsError::named(
+            name,
+            "sets a boundary condition of a Gmsh problem (-nndd_mesh); the built-in problems have theirs (docs/benchmarks.md)",
+        ));
+    }
+    if mesh && BUILTIN_ONLY.contains(&name) {
+        return Err(SettingsError::named(
+            name,
+            "sets the built-in problems' mesh or load and does not apply to a Gmsh problem (-nndd_mesh): its mesh sizes are the .geo file's, its conditions -nndd_bc_NAME_ux, _uy, _traction",
+        ));
+    }
+    if !mesh && name == "-nndd_contact" {
+        return Err(SettingsError::named(
+            name,
+            "names the contact curves of a Gmsh problem and needs -nndd_mesh FILE.msh",
+        ));
+    }
+    Ok(())
+}
+
+/// The largest λ/μ = 2ν/(1 − 2ν) (plane strain) accepted: ν ≤ 0.499999995. Nearly
+/// incompressible P1 triangles lock, and the stiffness matrix carries λ/μ as a condition
+/// factor on top of the mesh's: on `paper` n = 16 the NNDD equals the monolithic solve to
+/// 1e−8 at ν = 0.49999999 (λ/μ = 5e7) but is 1.6 % off at ν = 0.4999999999 (5e9).
+pub const MAX_LAME_RATIO: f64 = 1e8;
+/// λ/μ above which a warning says so (ν > 0.4995): the locking of P1 triangles makes the
+/// displacements visibly too small.
+pub const WARN_LAME_RATIO: f64 = 1e3;
+/// The largest ratio of the two bodies' Young's moduli accepted. Beyond it the stiffer body's
+/// deformation is below the round-off of its displacement, and its energy is noise (on
+/// `paper`, E¹/E² = 1e289 gives 1.1e285 J/m against 1290.7).
+pub const MAX_STIFFNESS_RATIO: f64 = 1e16;
+
+/// Refuse materials whose solve would lose its digits; return the warnings for those that
+/// cost some. `e_given`, `nu_given`: whether `-nndd_body<α>_E`, `-nndd_body<α>_nu` were
+/// given (else a message names `-nndd_E`, `-nndd_nu`).
+fn check_materials(
+    materials: &[Material; 2],
+    e_given: [bool; 2],
+    nu_given: [bool; 2],
+) -> Result<Vec<String>, SettingsError> {
+    let mut warnings = Vec::new();
+    for (b, m) in materials.iter().enumerate() {
+        let nu_opt = if nu_given[b] {
+            OPTS_MATERIAL[b].1
+        } else {
+            "-nndd_nu"
+        };
+        let lame = 2.0 * m.poisson / (1.0 - 2.0 * m.poisson);
+        if lame > MAX_LAME_RATIO {
+            return Err(SettingsError::named(
+                &format!("{nu_opt} {}", m.poisson),
+                format!(
+                    "body {} is too nearly incompressible for a displacement formulation (λ/μ = {lame:.1e}; at most {MAX_LAME_RATIO:.0e}, ν ≤ 0.499999995, keeps 8 of the 16 digits)",
+                    b + 1
+                ),
+            ));
+        }
+        if lame > WARN_LAME_RATIO {
+            warnings.push(format!(
+                "{nu_opt} {}: body {} is nearly incompressible (λ/μ = {lame:.1e}): P1 triangles lock, so its displacements are too small, and the solve loses about {:.0} digits",
+                m.poisson,
+                b + 1,
+                lame.log10()
+            ));
+        }
+    }
+    let (e1, e2) = (materials[0].young, materials[1].young);
+    let ratio = e1.max(e2) / e1.min(e2);
+    if ratio > MAX_STIFFNESS_RATIO {
+        let b = if e_given[0] { 0 } else { 1 };
+        return Err(SettingsError::named(
+            &format!("{} {:e}", OPTS_MATERIAL[b].0, materials[b].young),
+            format!(
+                "the bodies' stiffness ratio {ratio:.1e} is beyond {MAX_STIFFNESS_RATIO:.0e}: the stiffer body deforms less than the round-off of its displacement; bring the moduli closer, or model the stiffer body as rigid (a displacement condition on the other body's contact curve)"
+            ),
+        ));
+    }
+    Ok(warnings)
+}
+
+/// The mesh file, read and parsed on world rank 0 and sent to the other ranks as bytes (a parse
+/// on every rank costs the machine one parse per rank: Hertz level 6 on 8 ranks of 2 cores took
+/// 2.6 s). Collective; an error on rank 0 reaches every rank (the others' message says so).
+fn read_shared(file: &str) -> Result<gmsh::GmshMesh, String> {
+    use crate::parallel::wait::politely;
+    use mpi::traits::{Communicator, Root};
+    let world = mpi::topology::SimpleCommunicator::world();
+    let read = || gmsh::read(std::path::Path::new(file)).map_err(|e| e.to_string());
+    if world.size() == 1 {
+        return read();
+    }
+    let root = world.process_at_rank(0);
+    // [read, length], then the bytes.
+    let mut head = [0u64; 2];
+    if world.rank() == 0 {
+        let mesh = read();
+        let mut bytes = mesh.as_ref().map_or(Vec::new(), |m| m.to_bytes());
+        head = [mesh.is_ok() as u64, bytes.len() as u64];
+        // (a non-blocking broadcast matches only non-blocking ones on the other ranks)
+        mpi::request::scope(|scope| politely(root.immediate_broadcast_into(scope, &mut head[..])));
+        if mesh.is_ok() {
+            root.broadcast_into(&mut bytes[..]);
+        }
+        return mesh;
+    }
+    // The other ranks wait for rank 0's parse without taking a core from it.
+    mpi::request::scope(|scope| politely(root.immediate_broadcast_into(scope, &mut head[..])));
+    if head[0] == 0 {
+        return Err(format!("{file}: world rank 0 could not read it"));
+    }
+    let mut bytes = vec![0u8; head[1] as usize];
+    root.broadcast_into(&mut bytes[..]);
+    gmsh::GmshMesh::from_bytes(&bytes)
+        .ok_or_else(|| format!("{file}: the mesh sent by world rank 0 is damaged"))
+}
