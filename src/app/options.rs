@@ -8,7 +8,7 @@ use crate::dd::contact::ContactSettings;
 use crate::dd::dirichlet::DirichletChoice;
 use crate::dd::neumann::NeumannChoice;
 use crate::dd::nndd::{NnddSettings, StopRule};
-use crate::estimate::equilibrate::StarChoice;
+use crate::estimate::equilibrate::Recovery;
 use crate::estimate::NnddVariant;
 use crate::fem::gmsh;
 use crate::fem::Material;
@@ -87,7 +87,7 @@ pub struct Settings {
     /// Reference mesh factor r of (26) (0: no reference solution).
     pub reference_factor: usize,
     /// How the equilibrated stresses are recovered (see `estimate::equilibrate`).
-    pub recovery: StarChoice,
+    pub recovery: Recovery,
     /// Largest relative change of a body's displacement (energy norm) between two recoveries
     /// for which the second starts warm (`estimate::cre::View::prepare`).
     pub warm_change: f64,
@@ -562,15 +562,15 @@ impl Settings {
             }
         };
         let recovery = match recovery.as_str() {
-            "patch" => StarChoice::PatchTraction {
+            "patch" => Recovery::Patch {
                 sweeps: sweeps as usize,
                 warm_sweeps: warm_sweeps as usize,
             },
-            "patch-classic" => StarChoice::PatchRelaxation {
+            "patch-classic" => Recovery::PatchClassic {
                 sweeps: sweeps as usize,
             },
-            "star" => StarChoice::minimum_energy(),
-            "eet" => StarChoice::AveragedTraction,
+            "star" => Recovery::star(),
+            "eet" => Recovery::Eet,
             _ => {
                 return Err(SettingsError::UnknownValue {
                     option: "-nndd_recovery",

@@ -45,7 +45,7 @@ use crate::dd::nndd::Iterate;
 use crate::estimate::cre::{
     body_fields, worst, BodyEstimate, BodyFields, ElementWork, IterationData,
 };
-use crate::estimate::equilibrate::{EquilibrationError, OperatorCache, Residuals, StarChoice};
+use crate::estimate::equilibrate::{EquilibrationError, OperatorCache, Recovery, Residuals};
 use crate::estimate::reference::interpolate_nested;
 use crate::estimate::share::{estimate_owners, Share};
 use crate::parallel::layout::Layout;
@@ -158,7 +158,7 @@ impl Parts {
 pub struct Estimator<'a> {
     pub iface: Interface,
     pub qp: QpSettings,
-    pub recovery: StarChoice,
+    pub recovery: Recovery,
     /// `-nndd_recovery_warm_change`: the largest relative change of a body's displacement
     /// for which a recovery starts warm ([`cre::View::prepare`]).
     pub warm_change: f64,
@@ -299,7 +299,7 @@ impl Estimator<'_> {
     /// differ from [`Estimator::estimate_cold`]).
     pub fn starts_warm(&self) -> bool {
         self.warm_change > 0.0
-            && matches!(self.recovery, StarChoice::PatchTraction { warm_sweeps, .. } if warm_sweeps > 0)
+            && matches!(self.recovery, Recovery::Patch { warm_sweeps, .. } if warm_sweeps > 0)
     }
 
     /// η^FE alone of the iterate `it` (one recovery per body, and body 2's re-solve): what

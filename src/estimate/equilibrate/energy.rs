@@ -1,4 +1,4 @@
-//! Complementary energy Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹,E} and the `MinimumEnergy` star choice: the
+//! Complementary energy Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹,E} and the `Recovery::Star` star choice: the
 //! star null-space parameters minimising it (sparse SPD system, Jacobi-preconditioned
 //! conjugate gradients).
 
@@ -223,7 +223,7 @@ mod tests {
     use super::*;
     use crate::estimate::equilibrate::johnson_mercier::traction;
     use crate::estimate::equilibrate::testutil::*;
-    use crate::estimate::equilibrate::{equilibrate_with, Boundary, StarChoice};
+    use crate::estimate::equilibrate::{equilibrate_with, Boundary, Recovery};
     use crate::fem;
 
     /// P1 interpolation of a coarse structured field onto a nested finer mesh.
@@ -255,8 +255,8 @@ mod tests {
     /// Energy-norm effectivities η/e for the star choices [averaged, minimum energy] and
     /// patch relaxation with 1, 3 and 10 sweeps.
     fn effectivities(mesh: &Mesh, bd: &Boundary, u: &[f64], e: f64) -> Vec<f64> {
-        let mut choices = vec![StarChoice::AveragedTraction, StarChoice::minimum_energy()];
-        choices.extend([1, 3, 10].map(|sweeps| StarChoice::PatchRelaxation { sweeps }));
+        let mut choices = vec![Recovery::Eet, Recovery::star()];
+        choices.extend([1, 3, 10].map(|sweeps| Recovery::PatchClassic { sweeps }));
         let mut out = Vec::new();
         for choice in choices {
             let eq = equilibrate_with(mesh, &STEEL, u, bd, choice).unwrap();

@@ -19,7 +19,7 @@
 //!     ∫_∂E F̂_E · φ_i e_k = ∫_E σ̃_h : ε(φ_i e_k) for every element E, vertex i, direction k.
 //!     Unknowns are the edge moments b_Γ^{(i,k)} = ∫_Γ F̂_Γ · e_k φ_i, solved star by star
 //!     (vertex i, direction k) as the solution of the star system A b = Q that is closest in
-//!     least squares to a reference (the averaged FE traction, see [`StarChoice`]):
+//!     least squares to a reference (the averaged FE traction, see [`Recovery`]):
 //!     b = b̄ + A⁺ (Q − A b̄). Interior stars are rank deficient by one and consistent (their
 //!     equations sum to the FE equilibrium at (i, k)); a constrained dof without any free edge
 //!     component in its star (a point constraint) is solved in least squares and its residual
@@ -36,14 +36,14 @@
 //!     the resulting equilibrium defects stay at round-off (5e-14 on a 256 × 256 mesh), and
 //!     [`EquilibratedStress::residuals`] measures them on the actual geometry.
 //!
-//! Lowering the estimate ([`StarChoice`]; every choice gives an exactly admissible field, the
+//! Lowering the estimate ([`Recovery`]; every choice gives an exactly admissible field, the
 //! choices only differ in the complementary energy Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹,E}, i.e. in η):
-//! - `AveragedTraction`: the classical EET choice above.
-//! - `MinimumEnergy`: the star free parameters minimise the complementary energy (method.md
+//! - `Recovery::Eet`: the classical EET choice above.
+//! - `Recovery::Star`: the star free parameters minimise the complementary energy (method.md
 //!   §3.2: "or better, by minimising the resulting complementary energy"); a sparse SPD
 //!   problem over 2 parameters per interior vertex (and per Dirichlet boundary star), solved
 //!   by Jacobi-preconditioned conjugate gradients.
-//! - `PatchRelaxation`: drops the prolongation condition (which admissibility does not need:
+//! - `Recovery::PatchClassic`: drops the prolongation condition (which admissibility does not need:
 //!   only the self-equilibrium of every element does) and relaxes the edge tractions by
 //!   multicolour symmetric block Gauss–Seidel over vertex patches, each step an exact
 //!   minimisation of the complementary energy over the admissible changes of the tractions on
@@ -58,7 +58,7 @@
 //! ([`vertex_colours`]) so that the steps of one colour are independent, and the sweeps run
 //! colour by colour. The result on an element therefore depends on a bounded neighbourhood
 //! (`overlap::Overlap::rings_for`), and [`equilibrate_restricted`] on an overlapping sub-mesh
-//! reproduces the full-mesh field on the owned elements (to round-off). `MinimumEnergy` (a
+//! reproduces the full-mesh field on the owned elements (to round-off). `Recovery::Star` (a
 //! global conjugate-gradient solve) has no such locality and is refused on a sub-mesh.
 //!
 //! Costs (2-core machine, release, 256 × 256 mesh, 131k triangles): averaged 0.2 s, minimum
@@ -70,7 +70,7 @@
 //! took 386 s instead of 78 s). An [`OperatorCache`] keeps them from one recovery to the next
 //! (the estimator holds one per body: 57.5 s).
 //!
-//! `PatchTraction` (the default of `-nndd_recovery patch`) makes the same sweeps
+//! `Recovery::Patch` (the default of `-nndd_recovery patch`) makes the same sweeps
 //! on the edge tractions with a per-mesh plan (`plan.rs`): one sweep of the 256 × 256 mesh
 //! takes 0.05 s instead of about 0.5 s, the patch kernels come from a pivoted QR instead of a
 //! Jacobi eigen-decomposition, the plan, the topology and the operators are built once per
@@ -79,17 +79,17 @@
 //! estimate's late in the NNDD: one sweep then lowers the energy below six cold ones, and
 //! the sweeps accumulate over the estimates). The final pass builds each element's field
 //! from its edge tractions and hands it to the caller (the estimator stores none: 216 bytes
-//! per element less), with the energy and the equilibrium check. `PatchRelaxation`
+//! per element less), with the energy and the equilibrium check. `Recovery::PatchClassic`
 //! (`-nndd_recovery patch-classic`) is the recovery it replaced, kept to compare.
 //!
 //! Files, one concept each:
 //! - `topology`: mesh edges, vertex stars, vertex colouring and sweep keys, owned elements.
 //! - `eet`: EET edge tractions (boundary codes, moments ↔ tractions) and the star operators.
 //! - `johnson_mercier`: the JM element (local frame, local problem, shape cache, JM fields).
-//! - `energy`: complementary energy and the `MinimumEnergy` star choice (Jacobi-PCG).
-//! - `relaxation`: `PatchRelaxation`, block Gauss–Seidel over vertex patches, and the patch
-//!   operators (kernel basis, inverse Hessian, the step maps of `PatchTraction`).
-//! - `plan`: `PatchTraction`, the same steps on the edge tractions with a per-mesh plan, and
+//! - `energy`: complementary energy and the `Recovery::Star` star choice (Jacobi-PCG).
+//! - `relaxation`: `Recovery::PatchClassic`, block Gauss–Seidel over vertex patches, and the patch
+//!   operators (kernel basis, inverse Hessian, the step maps of `Recovery::Patch`).
+//! - `plan`: `Recovery::Patch`, the same steps on the edge tractions with a per-mesh plan, and
 //!   its warm start.
 //! - `restricted`: the construction, [`equilibrate_restricted`] (whole mesh or sub-mesh).
 //! - `stress`: evaluation and equilibrium check of an [`EquilibratedStress`].
@@ -125,11 +125,11 @@ pub struct OperatorCache {
     pub(crate) hhat: FastMap<usize, Box<[f64; NT * NT]>>,
     /// The topology of the last mesh recovered on, with the mesh's fingerprint.
     topology: Option<(u64, topology::Topology)>,
-    /// The plan of `PatchTraction` (per mesh, boundary codes and sweep order).
+    /// The plan of `Recovery::Patch` (per mesh, boundary codes and sweep order).
     pub(crate) plan: Option<plan::Plan>,
     /// The star problems' structure (per mesh and boundary codes).
     stars: Option<eet::Stars>,
-    /// The change made by the last `PatchTraction` recovery (its warm start).
+    /// The change made by the last `Recovery::Patch` recovery (its warm start).
     pub(crate) warm: Option<plan::Warm>,
     /// The caller's record of the data that recovery was made from (the estimator keeps the
     /// body's displacement there, to decide whether the next one is close enough to start
@@ -306,34 +306,12 @@ pub struct Boundary {
     pub constrained: Vec<bool>,
 }
 
-/// How the free parameters of the star problems (one per interior vertex and direction, and
-/// one per boundary star with two free edge components) are fixed.
+/// The recovery of σ̂, named after its `-nndd_recovery` value: how the free parameters of the
+/// star problems (one per interior vertex and direction, and one per boundary star with two
+/// free edge components) are fixed, and how the estimate is lowered after them.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum StarChoice {
-    /// Closest (least squares in the edge moments) to the averaged FE traction
-    /// ½(σ̃_E + σ̃_E') n on interior edges and σ̃_E n on free boundary components
-    /// (method.md §3.2 (a), the classical EET choice).
-    AveragedTraction,
-    /// Start from `AveragedTraction`, then move every star parameter to minimise the
-    /// complementary energy Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹,E} (sparse SPD system, Jacobi-preconditioned
-    /// conjugate gradients, stopped at `tolerance` × the initial gradient or after
-    /// `max_iterations`).
-    MinimumEnergy {
-        max_iterations: usize,
-        tolerance: f64,
-    },
-    /// Start from `AveragedTraction` and relax the EET prolongation condition: `sweeps`
-    /// multicolour block Gauss–Seidel sweeps over the vertex patches, each step minimising the
-    /// complementary energy over all changes of the linear tractions on the edges through
-    /// the vertex that keep every element of the patch self-equilibrated (the patch kernel,
-    /// which contains the star parameters). The vertices are visited by increasing sweep key
-    /// ([`sweep_key`]: colour of [`vertex_colours`], then global index) in the even sweeps
-    /// (0, 2, …) and by decreasing key in the odd ones (symmetric Gauss–Seidel: colours
-    /// 0, 1, …, C−1, then C−1, …, 0). Every iterate is exactly admissible; the limit is the
-    /// minimum of the complementary energy over the whole admissible JM space (the JM mixed
-    /// solution).
-    PatchRelaxation { sweeps: usize },
-    /// The same steps as `PatchRelaxation`, carried out on the edge tractions with every
+pub enum Recovery {
+    /// `patch`: the same steps as `PatchClassic`, carried out on the edge tractions with every
     /// mesh-only datum planned once and kept in the [`OperatorCache`] (`plan.rs`; the same
     /// iterates to round-off, several times faster): `sweeps` sweeps from the
     /// averaged-traction field. With `warm_sweeps` > 0, a recovery that follows another one
@@ -344,14 +322,37 @@ pub enum StarChoice {
     /// cold after [`OperatorCache::forget_warm_start`] (the estimator calls it when the data
     /// changed too much, `cre::WARM_CHANGE`). On a sub-mesh the caller refreshes the change
     /// outside the own elements from their owners first (`overlap::Halo`).
-    PatchTraction { sweeps: usize, warm_sweeps: usize },
+    Patch { sweeps: usize, warm_sweeps: usize },
+    /// `patch-classic`: start from `Eet` and relax the EET prolongation condition: `sweeps`
+    /// multicolour block Gauss–Seidel sweeps over the vertex patches, each step minimising the
+    /// complementary energy over all changes of the linear tractions on the edges through
+    /// the vertex that keep every element of the patch self-equilibrated (the patch kernel,
+    /// which contains the star parameters). The vertices are visited by increasing sweep key
+    /// ([`sweep_key`]: colour of [`vertex_colours`], then global index) in the even sweeps
+    /// (0, 2, …) and by decreasing key in the odd ones (symmetric Gauss–Seidel: colours
+    /// 0, 1, …, C−1, then C−1, …, 0). Every iterate is exactly admissible; the limit is the
+    /// minimum of the complementary energy over the whole admissible JM space (the JM mixed
+    /// solution).
+    PatchClassic { sweeps: usize },
+    /// `star`: start from `Eet`, then move every star parameter to minimise the
+    /// complementary energy Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹,E} (sparse SPD system, Jacobi-preconditioned
+    /// conjugate gradients, stopped at `tolerance` × the initial gradient or after
+    /// `max_iterations`).
+    Star {
+        max_iterations: usize,
+        tolerance: f64,
+    },
+    /// `eet`: closest (least squares in the edge moments) to the averaged FE traction
+    /// ½(σ̃_E + σ̃_E') n on interior edges and σ̃_E n on free boundary components
+    /// (method.md §3.2 (a), the classical EET choice).
+    Eet,
 }
 
-impl StarChoice {
-    /// `MinimumEnergy` with default stopping rules (about 20 CG iterations on the
-    /// structured meshes, 8×8 to 256×256).
-    pub const fn minimum_energy() -> StarChoice {
-        StarChoice::MinimumEnergy {
+impl Recovery {
+    /// `Star` with default stopping rules (about 20 CG iterations on the structured meshes,
+    /// 8×8 to 256×256).
+    pub const fn star() -> Recovery {
+        Recovery::Star {
             max_iterations: 5000,
             tolerance: 1e-8,
         }
@@ -405,7 +406,7 @@ pub struct Restriction<'a> {
     /// the FE-equilibrium defect, the point reactions and the energies of the statistics are
     /// measured only there.
     pub owned: &'a [bool],
-    /// Called between two sweeps of a `PatchTraction` recovery (not before the first): a
+    /// Called between two sweeps of a `Recovery::Patch` recovery (not before the first): a
     /// halo exchange that gives the elements the rank does not own their owners' traction
     /// values ([`SweepValues`]), so that the overlap needs the rings of one sweep only
     /// (`overlap::Overlap::rings_exchanged`). Collective: every rank of the exchange must
@@ -413,7 +414,7 @@ pub struct Restriction<'a> {
     pub between_sweeps: Option<&'a dyn Fn(&mut SweepValues)>,
 }
 
-/// The traction values of a `PatchTraction` recovery between two sweeps, element by element
+/// The traction values of a `Recovery::Patch` recovery between two sweeps, element by element
 /// (the 12 values of a sub-mesh element in its own orientation, as [`plan`] gathers them):
 /// what [`Restriction::between_sweeps`] reads and overwrites. Writing an element's values
 /// moves the warm start's change δ with them (t − δ, the start, is kept).
@@ -481,14 +482,14 @@ pub struct EquilibrationStats {
     pub star_parameters: usize,
     /// Distinct triangle shapes met (cached local operators).
     pub shapes: usize,
-    /// Conjugate-gradient iterations of `MinimumEnergy` (0 otherwise).
+    /// Conjugate-gradient iterations of `Recovery::Star` (0 otherwise).
     pub cg_iterations: usize,
-    /// Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹} with the averaged-traction choice (NaN with `PatchTraction`,
+    /// Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹} with the averaged-traction choice (NaN with `Recovery::Patch`,
     /// which does not build that field).
     pub energy_averaged: f64,
-    /// The same after the minimisation (= `energy_averaged` for `AveragedTraction`).
+    /// The same after the minimisation (= `energy_averaged` for `Recovery::Eet`).
     pub energy_final: f64,
-    /// Distinct vertex-patch operators of `PatchRelaxation` (0 otherwise).
+    /// Distinct vertex-patch operators of `Recovery::PatchClassic` (0 otherwise).
     pub patch_patterns: usize,
     /// Largest residual of the star problems at unconstrained dofs, relative to the largest
     /// element nodal force: the FE equilibrium defect of the input (round-off for an
@@ -519,7 +520,7 @@ pub fn equilibrate(
     u: &[f64],
     boundary: &Boundary,
 ) -> Result<EquilibratedStress, EquilibrationError> {
-    equilibrate_with(mesh, material, u, boundary, StarChoice::AveragedTraction)
+    equilibrate_with(mesh, material, u, boundary, Recovery::Eet)
 }
 
 /// Build σ̂ with a given choice of the star free parameters (on the whole mesh).
@@ -528,7 +529,7 @@ pub fn equilibrate_with(
     material: &Material,
     u: &[f64],
     boundary: &Boundary,
-    choice: StarChoice,
+    choice: Recovery,
 ) -> Result<EquilibratedStress, EquilibrationError> {
     equilibrate_restricted(mesh, material, u, boundary, choice, None, None, None)
 }
@@ -684,7 +685,7 @@ pub(crate) mod tests {
     #[test]
     fn uncached_paths_agree_with_cached() {
         let (mesh, bd, u) = skewed_block();
-        let choice = StarChoice::PatchRelaxation { sweeps: 2 };
+        let choice = Recovery::PatchClassic { sweeps: 2 };
         let cached = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
         CAPACITY.with(|c| c.set((3, 2)));
         let uncached = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
@@ -710,7 +711,7 @@ pub(crate) mod tests {
             .enumerate()
             .map(|(i, x)| x * (1.0 + 0.1 * (i % 3) as f64))
             .collect();
-        let choice = StarChoice::PatchRelaxation { sweeps: 2 };
+        let choice = Recovery::PatchClassic { sweeps: 2 };
         let mut ops = OperatorCache::default();
         let with = |w: &[f64], ops: &mut OperatorCache| {
             equilibrate_restricted(&mesh, &STEEL, w, &bd, choice, None, Some(ops), None).unwrap()

@@ -1,4 +1,4 @@
-//! `PatchTraction`: the block Gauss–Seidel steps of `PatchRelaxation` carried out in the
+//! `Recovery::Patch`: the block Gauss–Seidel steps of `Recovery::PatchClassic` carried out in the
 //! space of the edge-traction values, with everything that depends on the mesh only computed
 //! once and kept from one recovery to the next.
 //!
@@ -372,7 +372,7 @@ impl Warm {
 mod tests {
     use super::super::testutil::*;
     use super::super::{
-        equilibrate_restricted, equilibrate_with, EquilibratedStress, OperatorCache, StarChoice,
+        equilibrate_restricted, equilibrate_with, EquilibratedStress, OperatorCache, Recovery,
     };
     use crate::fem::mesh::Mesh;
 
@@ -408,20 +408,15 @@ mod tests {
         let u = fe_solve(&mesh, &bd);
         for (name, (mesh, bd, u)) in [("block", (mesh, bd, u)), ("distorted", distorted())] {
             for sweeps in [1, 2, 5] {
-                let classic = equilibrate_with(
-                    &mesh,
-                    &STEEL,
-                    &u,
-                    &bd,
-                    StarChoice::PatchRelaxation { sweeps },
-                )
-                .unwrap();
+                let classic =
+                    equilibrate_with(&mesh, &STEEL, &u, &bd, Recovery::PatchClassic { sweeps })
+                        .unwrap();
                 let planned = equilibrate_with(
                     &mesh,
                     &STEEL,
                     &u,
                     &bd,
-                    StarChoice::PatchTraction {
+                    Recovery::Patch {
                         sweeps,
                         warm_sweeps: 0,
                     },
@@ -453,7 +448,7 @@ mod tests {
                 }
             }
         }
-        let choice = StarChoice::PatchTraction {
+        let choice = Recovery::Patch {
             sweeps: 3,
             warm_sweeps: 1,
         };
@@ -470,7 +465,7 @@ mod tests {
                 &STEEL,
                 &v,
                 &bd2,
-                StarChoice::PatchTraction {
+                Recovery::Patch {
                     sweeps,
                     warm_sweeps: 0,
                 },

@@ -9,8 +9,8 @@ use super::relaxation::Relaxation;
 use super::stress::FinalPass;
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
 use super::{
-    Boundary, EquilibratedStress, EquilibrationError, EquilibrationStats, OperatorCache,
-    Restriction, StarChoice, NC, NONE,
+    Boundary, EquilibratedStress, EquilibrationError, EquilibrationStats, OperatorCache, Recovery,
+    Restriction, NC, NONE,
 };
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
@@ -28,7 +28,7 @@ pub type FieldVisitor<'a> = &'a mut dyn FnMut(usize, &[f64; NC]);
 /// meaningless (the artificial boundary of the sub-mesh is treated as traction free). The
 /// statistics `fe_equilibrium`, `energy_averaged` and `energy_final` are then measured on
 /// the owned elements only (the energies sum over the ranks to the full-mesh ones); the
-/// other counts are those of the sub-mesh. `MinimumEnergy` (a global solve) is refused
+/// other counts are those of the sub-mesh. `Recovery::Star` (a global solve) is refused
 /// with a restriction ([`EquilibrationError::RestrictedMinimumEnergy`]).
 ///
 /// With `visit`, every element's field (its 27 JM coefficients) is handed to it once, in
@@ -40,7 +40,7 @@ pub fn equilibrate_restricted(
     material: &Material,
     u: &[f64],
     boundary: &Boundary,
-    choice: StarChoice,
+    choice: Recovery,
     restriction: Option<&Restriction>,
     operators: Option<&mut OperatorCache>,
     visit: Option<FieldVisitor>,
@@ -62,7 +62,7 @@ pub fn equilibrate_restricted(
         found,
     })?;
     if let Some(r) = restriction {
-        if matches!(choice, StarChoice::MinimumEnergy { .. }) {
+        if matches!(choice, Recovery::Star { .. }) {
             return Err(Error::RestrictedMinimumEnergy);
         }
         for (what, len, expected) in [
@@ -206,14 +206,14 @@ pub fn equilibrate_restricted(
     drop((force, edge_ref));
 
     // (b) JM fields.
-    let planned = matches!(choice, StarChoice::PatchTraction { .. });
+    let planned = matches!(choice, Recovery::Patch { .. });
     let mut cache = std::mem::take(&mut operators.shapes);
     let mut shape_of = vec![NONE; nt];
-    // `PatchRelaxation` and `MinimumEnergy` update the fields as they go; the others build
+    // `Recovery::PatchClassic` and `Recovery::Star` update the fields as they go; the others build
     // them once, in the final pass.
     let incremental = matches!(
         choice,
-        StarChoice::PatchRelaxation { .. } | StarChoice::MinimumEnergy { .. }
+        Recovery::PatchClassic { .. } | Recovery::Star { .. }
     );
     let mut coef = if incremental {
         vec![[0.0; NC]; nt]
@@ -221,8 +221,8 @@ pub fn equilibrate_restricted(
         Vec::new()
     };
     let mut trac = edge_tractions(&topo, &bc, &moments);
-    if !matches!(choice, StarChoice::MinimumEnergy { .. }) {
-        // Only `MinimumEnergy` needs the moments again.
+    if !matches!(choice, Recovery::Star { .. }) {
+        // Only `Recovery::Star` needs the moments again.
         moments = Vec::new();
     }
     for e in 0..nt {
@@ -236,7 +236,7 @@ pub fn equilibrate_restricted(
         }
     }
     // The averaged-traction field and its energy (of the incremental choices; the final
-    // pass gives it for `AveragedTraction`; `PatchTraction` only builds the final field).
+    // pass gives it for `Recovery::Eet`; `Recovery::Patch` only builds the final field).
     let energy_averaged = if incremental {
         jm_fields(mesh, &topo, &trac, &mut cache, &shape_of, &mut coef);
         total_energy(mesh, material, &coef, &sig, owned)
@@ -253,7 +253,7 @@ pub fn equilibrate_restricted(
         fe_equilibrium,
     };
 
-    if let StarChoice::MinimumEnergy {
+    if let Recovery::Star {
         max_iterations,
         tolerance,
     } = choice
@@ -291,8 +291,8 @@ pub fn equilibrate_restricted(
         }
     }
     let (sweeps, warm) = match choice {
-        StarChoice::PatchRelaxation { sweeps } => (sweeps, None),
-        StarChoice::PatchTraction {
+        Recovery::PatchClassic { sweeps } => (sweeps, None),
+        Recovery::Patch {
             sweeps,
             warm_sweeps,
         } => (sweeps, Some(warm_sweeps)),
@@ -405,7 +405,7 @@ pub fn equilibrate_restricted(
     };
     stats.energy_final = energy;
     if !incremental && !planned {
-        stats.energy_averaged = energy; // `AveragedTraction`: the final field is that one
+        stats.energy_averaged = energy; // `Recovery::Eet`: the final field is that one
     }
     checked.point_reaction = reactions
         .iter()
@@ -465,7 +465,7 @@ mod tests {
             equilibrate_restricted(&mesh, &STEEL, &u, &bd, choice, Some(r), None, None)
         };
         assert!(matches!(
-            restricted(StarChoice::minimum_energy(), &all),
+            restricted(Recovery::star(), &all),
             Err(EquilibrationError::RestrictedMinimumEnergy)
         ));
         let short = Restriction {
@@ -474,17 +474,14 @@ mod tests {
             ..all
         };
         assert!(matches!(
-            restricted(StarChoice::AveragedTraction, &short),
+            restricted(Recovery::Eet, &short),
             Err(EquilibrationError::RestrictionLength {
                 what: "vertex_key",
                 ..
             })
         ));
         // Everything owned with the full-mesh keys: the unrestricted computation, bitwise.
-        for choice in [
-            StarChoice::AveragedTraction,
-            StarChoice::PatchRelaxation { sweeps: 2 },
-        ] {
+        for choice in [Recovery::Eet, Recovery::PatchClassic { sweeps: 2 }] {
             let a = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
             let b = restricted(choice, &all).unwrap();
             for e in 0..mesh.triangles.len() {

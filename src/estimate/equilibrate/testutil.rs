@@ -10,11 +10,11 @@ pub(crate) const STEEL: Material = Material {
     poisson: 0.27,
 };
 
-pub(super) const CHOICES: [StarChoice; 4] = [
-    StarChoice::AveragedTraction,
-    StarChoice::minimum_energy(),
-    StarChoice::PatchRelaxation { sweeps: 3 },
-    StarChoice::PatchTraction {
+pub(super) const CHOICES: [Recovery; 4] = [
+    Recovery::Eet,
+    Recovery::star(),
+    Recovery::PatchClassic { sweeps: 3 },
+    Recovery::Patch {
         sweeps: 3,
         warm_sweeps: 1,
     },

@@ -6,7 +6,7 @@ use super::johnson_mercier::triangle_area;
 use super::{EquilibrationError, NONE};
 use crate::fem::mesh::Mesh;
 
-/// Sweep-order key of a vertex for `PatchRelaxation`: colour in the high 32 bits, global
+/// Sweep-order key of a vertex for `Recovery::PatchClassic`: colour in the high 32 bits, global
 /// vertex index in the low ones.
 pub fn sweep_key(colour: u8, global_index: usize) -> u64 {
     ((colour as u64) << 32) | global_index as u64
