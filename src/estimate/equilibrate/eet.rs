@@ -2,10 +2,12 @@
 //! moments ↔ linear tractions, the element traction vectors, and the operators (pseudo-inverse
 //! and null space) of the star problems.
 
-use super::FastMap;
+use super::fast_map::FastMap;
 
+use super::boundary::{Boundary, EdgeComponent};
+use super::error::EquilibrationError;
+use super::sizes::{NONE, NT};
 use super::topology::Topology;
-use super::{Boundary, EdgeComponent, EquilibrationError, NONE, NT};
 use crate::fem::mesh::Mesh;
 
 /// Per edge and component: interior, prescribed (values at the edge's sorted end nodes) or

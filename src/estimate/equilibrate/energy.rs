@@ -6,8 +6,8 @@ use super::eet::Stars;
 use super::johnson_mercier::{
     apply_operator, eval, local_frame, midpoint_values, midpoints, triangle_area, ShapeCache,
 };
+use super::sizes::{NC, NT};
 use super::topology::{is_owned, Topology};
-use super::{NC, NT};
 use crate::fem::mesh::Mesh;
 use crate::fem::Material;
 

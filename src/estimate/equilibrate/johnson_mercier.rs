@@ -2,11 +2,11 @@
 //! system and its least-squares operator (edge tractions → JM coefficients), the operator cache
 //! per triangle shape, and the JM fields of all elements from the edge tractions.
 
-use super::FastMap;
+use super::fast_map::FastMap;
 
 use super::eet::element_tractions;
+use super::sizes::{shape_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use super::topology::Topology;
-use super::{shape_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use crate::fem::mesh::Mesh;
 
 pub(super) fn triangle_area(p: &[[f64; 2]; 3]) -> f64 {

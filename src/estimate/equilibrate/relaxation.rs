@@ -2,14 +2,14 @@
 //! Gauss–Seidel over vertex patches, each step an exact minimisation of the complementary
 //! energy over the admissible changes of the edge tractions through the vertex.
 
-use super::FastMap;
+use super::fast_map::FastMap;
 
 use super::eet::{Bc, EdgeConditions};
 use super::johnson_mercier::{
     apply_operator, eval, local_frame, midpoints, triangle_area, ShapeCache,
 };
+use super::sizes::{patch_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use super::topology::{Topology, VertexElements};
-use super::{patch_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use crate::fem::mesh::Mesh;
 
 /// One vertex-patch pattern: an orthonormal basis N (nu × d, row-major) of the local

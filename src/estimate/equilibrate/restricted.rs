@@ -1,17 +1,19 @@
 //! The construction itself: σ̂ on a mesh or on an overlapping sub-mesh (FE stresses and nodal
 //! forces, (a) the star problems, (b) the JM fields, then the chosen lowering of the energy).
 
+use super::boundary::Boundary;
+use super::cache::OperatorCache;
 use super::eet::{edge_conditions, edge_tractions, known_moment, Bc, Stars};
 use super::energy::{compliance, total_energy, EnergyContext};
+use super::error::EquilibrationError;
 use super::johnson_mercier::{jm_fields, local_frame, traction};
 use super::plan::{fingerprint, Plan, Warm};
+use super::recovery::Recovery;
 use super::relaxation::Relaxation;
-use super::stress::FinalPass;
+use super::restriction::Restriction;
+use super::sizes::{NC, NONE};
+use super::stress::{EquilibratedStress, EquilibrationStats, FinalPass};
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
-use super::{
-    Boundary, EquilibratedStress, EquilibrationError, EquilibrationStats, OperatorCache, Recovery,
-    Restriction, NC, NONE,
-};
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
 
@@ -422,6 +424,29 @@ pub fn equilibrate_restricted(
     operators.topology = Some((mesh_fp, topo));
     operators.stars = Some(stars);
     Ok(stress)
+}
+
+/// Build σ̂ with the averaged-traction star choice (method.md §3.2 (a), (b)).
+///
+/// `u` is the FE-equilibrated displacement (length `mesh.num_dofs()`).
+pub fn equilibrate(
+    mesh: &Mesh,
+    material: &Material,
+    u: &[f64],
+    boundary: &Boundary,
+) -> Result<EquilibratedStress, EquilibrationError> {
+    equilibrate_with(mesh, material, u, boundary, Recovery::Eet)
+}
+
+/// Build σ̂ with a given choice of the star free parameters (on the whole mesh).
+pub fn equilibrate_with(
+    mesh: &Mesh,
+    material: &Material,
+    u: &[f64],
+    boundary: &Boundary,
+    choice: Recovery,
+) -> Result<EquilibratedStress, EquilibrationError> {
+    equilibrate_restricted(mesh, material, u, boundary, choice, None, None, None)
 }
 
 /// Err(error(expected, found)) if the lengths differ.

@@ -1,8 +1,9 @@
 //! Unit-test helpers of the equilibration tests, shared with `overlap.rs` (`fe_solve`,
 //! `block_rect`, `STEEL`, re-exported as `equilibrate::tests::…`).
 
+use super::sizes::NONE;
 use super::*;
-use crate::fem;
+use crate::fem::{self, Material, Mesh};
 use crate::qp::dense::SymMatrix;
 
 pub(crate) const STEEL: Material = Material {

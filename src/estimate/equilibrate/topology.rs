@@ -2,8 +2,9 @@
 //! the vertex colouring and sweep keys of the multicolour order, and the owned elements and
 //! vertices of a restriction.
 
+use super::error::EquilibrationError;
 use super::johnson_mercier::triangle_area;
-use super::{EquilibrationError, NONE};
+use super::sizes::NONE;
 use crate::fem::mesh::Mesh;
 
 /// Sweep-order key of a vertex for `Recovery::PatchClassic`: colour in the high 32 bits, global
