@@ -23,7 +23,6 @@ use crate::dd::body::BodyError;
 use crate::dd::contact::ContactError;
 use crate::dd::monolithic::MonolithicError;
 use crate::dd::nndd::NnddError;
-use crate::estimate::equilibrate::Recovery;
 use crate::estimate::{EstimateError, Estimator, Interface, Parts};
 use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
@@ -586,7 +585,7 @@ fn write_interface_operators(
 /// rank (the others are local and computed on overlapping element sets, see `overlap.rs`).
 fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
     let spread = layout.group_sizes.iter().any(|&n| n > 1);
-    if spread && matches!(settings.recovery, Recovery::Star { .. }) && settings.estimate {
+    if spread && !settings.recovery.is_local() && settings.estimate {
         return Err(LayoutError::GlobalRecovery {
             ranks: layout.group_sizes,
         }

@@ -87,8 +87,7 @@ impl View<'_> {
         if !near {
             operators.forget_warm_start();
         }
-        let warm = matches!(choice, Recovery::Patch { warm_sweeps, .. } if warm_sweeps > 0);
-        operators.starts_warm = near && warm;
+        operators.starts_warm = near && choice.starts_warm();
         if let (true, View::Overlap(_, halo, layout) | View::Idle(halo, layout)) =
             (operators.starts_warm, self)
         {
@@ -140,21 +139,9 @@ impl View<'_> {
                 ))
             }
         };
-        if let (
-            View::Idle(halo, layout),
-            Recovery::Patch {
-                sweeps,
-                warm_sweeps,
-            },
-        ) = (self, choice)
-        {
+        if let View::Idle(halo, layout) = self {
             // As many exchanges as the ranks that recover: one between two sweeps.
-            let made = if operators.starts_warm {
-                warm_sweeps
-            } else {
-                sweeps
-            };
-            for _ in 1..made {
+            for _ in 0..choice.exchanges(operators.starts_warm) {
                 halo.exchange_sweep(layout, None);
             }
         }

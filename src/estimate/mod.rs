@@ -298,8 +298,7 @@ impl Estimator<'_> {
     /// Whether an estimate may start its recoveries from an earlier one's (so that it may
     /// differ from [`Estimator::estimate_cold`]).
     pub fn starts_warm(&self) -> bool {
-        self.warm_change > 0.0
-            && matches!(self.recovery, Recovery::Patch { warm_sweeps, .. } if warm_sweeps > 0)
+        self.warm_change > 0.0 && self.recovery.starts_warm()
     }
 
     /// η^FE alone of the iterate `it` (one recovery per body, and body 2's re-solve): what

@@ -250,16 +250,11 @@ impl Overlap {
     /// two passes over one colour where a forward and a backward sweep meet cost one ring,
     /// not two, and within a sweep information only travels along increasing colours.)
     pub fn rings_for(choice: Recovery, colours: usize) -> usize {
-        match choice {
-            Recovery::Eet => 2,
-            Recovery::PatchClassic { sweeps } => 2 + sweeps * colours,
-            // A warm start's δ is refreshed from the owners (`Halo`).
-            Recovery::Patch {
-                sweeps,
-                warm_sweeps,
-            } => 2 + sweeps.max(warm_sweeps) * colours,
-            Recovery::Star { .. } => usize::MAX,
-        }
+        // A warm start's δ is refreshed from the owners (`Halo`): it needs no more rings than
+        // a cold start.
+        choice
+            .most_sweeps()
+            .map_or(usize::MAX, |sweeps| 2 + sweeps * colours)
     }
 
     /// Rings of overlap for which the recovery is exact on the own elements when the
@@ -269,9 +264,10 @@ impl Overlap {
     /// again, but for the star problems' outer ring), as `rings_for` otherwise (no
     /// exchanges).
     pub fn rings_exchanged(choice: Recovery, colours: usize) -> usize {
-        match choice {
-            Recovery::Patch { .. } => 2 + colours,
-            _ => Self::rings_for(choice, colours),
+        if choice.exchanges_between_sweeps() {
+            2 + colours
+        } else {
+            Self::rings_for(choice, colours)
         }
     }
 

@@ -64,7 +64,7 @@ pub fn equilibrate_restricted(
         found,
     })?;
     if let Some(r) = restriction {
-        if matches!(choice, Recovery::Star { .. }) {
+        if !choice.is_local() {
             return Err(Error::RestrictedMinimumEnergy);
         }
         for (what, len, expected) in [
@@ -208,22 +208,19 @@ pub fn equilibrate_restricted(
     drop((force, edge_ref));
 
     // (b) JM fields.
-    let planned = matches!(choice, Recovery::Patch { .. });
+    let planned = choice.planned_sweeps().is_some();
     let mut cache = std::mem::take(&mut operators.shapes);
     let mut shape_of = vec![NONE; nt];
     // `Recovery::PatchClassic` and `Recovery::Star` update the fields as they go; the others build
     // them once, in the final pass.
-    let incremental = matches!(
-        choice,
-        Recovery::PatchClassic { .. } | Recovery::Star { .. }
-    );
+    let incremental = choice.updates_fields();
     let mut coef = if incremental {
         vec![[0.0; NC]; nt]
     } else {
         Vec::new()
     };
     let mut trac = edge_tractions(&topo, &bc, &moments);
-    if !matches!(choice, Recovery::Star { .. }) {
+    if choice.star_minimisation().is_none() {
         // Only `Recovery::Star` needs the moments again.
         moments = Vec::new();
     }
@@ -255,11 +252,7 @@ pub fn equilibrate_restricted(
         fe_equilibrium,
     };
 
-    if let Recovery::Star {
-        max_iterations,
-        tolerance,
-    } = choice
-    {
+    if let Some((max_iterations, tolerance)) = choice.star_minimisation() {
         if star_parameters > 0 {
             let ctx = EnergyContext {
                 mesh,
@@ -292,13 +285,9 @@ pub fn equilibrate_restricted(
             stats.energy_final = total_energy(mesh, material, &coef, &sig, owned);
         }
     }
-    let (sweeps, warm) = match choice {
-        Recovery::PatchClassic { sweeps } => (sweeps, None),
-        Recovery::Patch {
-            sweeps,
-            warm_sweeps,
-        } => (sweeps, Some(warm_sweeps)),
-        _ => (0, None),
+    let (sweeps, warm) = match choice.planned_sweeps() {
+        Some((sweeps, warm_sweeps)) => (sweeps, Some(warm_sweeps)),
+        None => (choice.field_sweeps(), None),
     };
     if sweeps > 0 || planned {
         let mut relax = Relaxation {
@@ -364,7 +353,7 @@ pub fn equilibrate_restricted(
                     .warm
                     .take()
                     .filter(|w| warm_sweeps > 0 && w.apply(fp, flat));
-                let sweeps = if warm.is_some() { warm_sweeps } else { sweeps };
+                let sweeps = choice.sweeps_made(warm.is_some());
                 if warm_sweeps > 0 && warm.is_none() {
                     warm = Some(Warm::zero(fp, flat.len()));
                 }
@@ -406,7 +395,7 @@ pub fn equilibrate_restricted(
         }
     };
     stats.energy_final = energy;
-    if !incremental && !planned {
+    if choice.ends_at_averaged() {
         stats.energy_averaged = energy; // `Recovery::Eet`: the final field is that one
     }
     checked.point_reaction = reactions
