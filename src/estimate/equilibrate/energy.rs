@@ -3,11 +3,10 @@
 //! conjugate gradients).
 
 use super::eet::Stars;
-use super::johnson_mercier::{
-    apply_operator, eval, local_frame, midpoint_values, midpoints, triangle_area, ShapeCache,
-};
+use super::johnson_mercier::{apply_operator, eval, midpoint_values, midpoints, ShapeCache};
 use super::sizes::{NC, NT};
 use super::topology::{is_owned, Topology};
+use crate::fem::geometry::{local_frame, triangle_area};
 use crate::fem::mesh::Mesh;
 use crate::fem::Material;
 

@@ -23,10 +23,11 @@
 //! new data, so each warm recovery's sweeps add to the previous ones'.
 
 use super::eet::{Bc, EdgeConditions};
-use super::johnson_mercier::{local_frame, midpoints, triangle_area, ShapeCache};
+use super::johnson_mercier::{midpoints, ShapeCache};
 use super::relaxation::{PatchOp, Relaxation};
 use super::sizes::{NC, NT};
 use super::topology::Topology;
+use crate::fem::geometry::{local_frame, triangle_area};
 use crate::fem::mesh::{mix, Mesh};
 
 /// The mesh-only data of the planned sweeps (see the module documentation).

@@ -5,11 +5,10 @@
 use super::fast_map::FastMap;
 
 use super::eet::{Bc, EdgeConditions};
-use super::johnson_mercier::{
-    apply_operator, eval, local_frame, midpoints, triangle_area, ShapeCache,
-};
+use super::johnson_mercier::{apply_operator, eval, midpoints, ShapeCache};
 use super::sizes::{patch_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use super::topology::{Topology, VertexElements};
+use crate::fem::geometry::{local_frame, triangle_area};
 use crate::fem::mesh::Mesh;
 
 /// One vertex-patch pattern: an orthonormal basis N (nu × d, row-major) of the local

@@ -11,7 +11,7 @@ use super::cache::OperatorCache;
 use super::eet::{edge_conditions, edge_tractions, known_moment, Bc, EdgeConditions, Stars};
 use super::energy::{compliance, total_energy, EnergyContext};
 use super::error::EquilibrationError;
-use super::johnson_mercier::{jm_fields, local_frame, traction, ShapeCache};
+use super::johnson_mercier::{jm_fields, traction, ShapeCache};
 use super::plan::{Plan, Warm};
 use super::recovery::Recovery;
 use super::relaxation::Relaxation;
@@ -19,6 +19,7 @@ use super::restriction::Restriction;
 use super::sizes::{NC, NONE};
 use super::stress::{EquilibratedStress, EquilibrationStats, FinalPass, Residuals};
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
+use crate::fem::geometry::local_frame;
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
 

@@ -4,12 +4,10 @@
 use super::boundary::Boundary;
 use super::eet::{edge_conditions, element_tractions, Bc, EdgeConditions};
 use super::energy::quad;
-use super::johnson_mercier::{
-    apply_operator, barycentric, eval, local_frame, midpoints, traction, triangle_area, unit,
-    ShapeCache,
-};
+use super::johnson_mercier::{apply_operator, eval, midpoints, traction, ShapeCache};
 use super::sizes::{NC, NONE};
 use super::topology::{is_owned, owned_vertices, Topology};
+use crate::fem::geometry::{barycentric, local_frame, triangle_area, unit};
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
 

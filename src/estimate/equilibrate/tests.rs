@@ -3,10 +3,10 @@
 
 pub(crate) use super::testutil::{block_rect, fe_solve, STEEL};
 
-use super::johnson_mercier::triangle_area;
 use super::sizes::{CAPACITY, MAX_PATCHES, MAX_SHAPES};
 use super::testutil::*;
 use super::*;
+use crate::fem::geometry::triangle_area;
 use crate::fem::{self, Material, Mesh};
 
 #[test]

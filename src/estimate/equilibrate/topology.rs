@@ -3,8 +3,8 @@
 //! vertices of a restriction.
 
 use super::error::EquilibrationError;
-use super::johnson_mercier::triangle_area;
 use super::sizes::NONE;
+use crate::fem::geometry::triangle_area;
 use crate::fem::mesh::Mesh;
 
 /// Sweep-order key of a vertex for `Recovery::PatchClassic`: colour in the high 32 bits, global
