@@ -89,7 +89,8 @@
 //! - `cache`: the local operators kept from one recovery to the next ([`OperatorCache`]).
 //! - `sizes`: the JM element's counts, the caches' capacities; `fast_map`: the operator maps.
 //! - `topology`: mesh edges, vertex stars, vertex colouring and sweep keys, owned elements.
-//! - `eet`: EET edge tractions (boundary codes, moments ↔ tractions) and the star operators.
+//! - `eet`: EET edge tractions (boundary codes, moments ↔ tractions), the star operators and
+//!   one star's system.
 //! - `johnson_mercier`: the JM element (local problem, shape cache, JM fields); its triangle
 //!   geometry is `fem::geometry`'s.
 //! - `energy`: complementary energy and the `Recovery::Star` star choice (Jacobi-PCG).

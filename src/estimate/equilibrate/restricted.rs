@@ -8,7 +8,9 @@
 
 use super::boundary::Boundary;
 use super::cache::OperatorCache;
-use super::eet::{edge_conditions, edge_tractions, known_moment, Bc, EdgeConditions, Stars};
+use super::eet::{
+    edge_conditions, edge_tractions, known_moment, Bc, EdgeConditions, StarSystem, Stars,
+};
 use super::energy::{compliance, total_energy, EnergyContext};
 use super::error::EquilibrationError;
 use super::johnson_mercier::{jm_fields, traction, ShapeCache};
@@ -679,83 +681,6 @@ impl<'a> Recovering<'a> {
         operators.shapes = cache;
         operators.topology = Some((self.mesh_fingerprint, self.topo));
         operators.stars = Some(stars);
-    }
-}
-
-/// One star's system A b = Q (method.md §3.2 (a)): a row per element E around vertex i,
-/// Σ ±b_Γ over its two edges through i, Q_E = R_E minus the known moments of E; solved as
-/// b = b̄ + A⁺ (Q − A b̄) from the reference moments b̄. The buffers are kept from star to
-/// star.
-#[derive(Default)]
-struct StarSystem {
-    /// Per row: A's (column, sign) pairs; a zero sign marks a known component (no column).
-    rows: Vec<[(usize, f64); 2]>,
-    /// Per row: Q.
-    q: Vec<f64>,
-    /// The moments, per column: b̄, then b.
-    b: Vec<f64>,
-    /// Q − A b̄.
-    r: Vec<f64>,
-}
-
-impl StarSystem {
-    /// A and Q of star s = 2 i + k.
-    fn assemble(
-        &mut self,
-        topo: &Topology,
-        bc: &EdgeConditions,
-        stars: &Stars,
-        force: &[[f64; 6]],
-        s: usize,
-    ) {
-        let (i, k) = (s / 2, s % 2);
-        self.rows.clear();
-        self.q.clear();
-        let elems = topo.vertex_elements(i);
-        for ((e, a), rc) in elems.iter().zip(stars.row_cols(topo, s)) {
-            let mut rhs = force[e][2 * a + k];
-            let mut entries = [(0usize, 0.0); 2];
-            for (j, l) in [a, (a + 2) % 3].into_iter().enumerate() {
-                let g = topo.edges_of(e)[l];
-                let sign = topo.sign(e, g);
-                if let Bc::Known(v) = bc[g][k] {
-                    let end = topo.end_of(g, i);
-                    rhs -= sign * known_moment(topo.edge_len[g], v, end);
-                } else {
-                    entries[j] = (rc[j] as usize, sign);
-                }
-            }
-            self.rows.push(entries);
-            self.q.push(rhs);
-        }
-    }
-
-    /// (A b)_row − Q_row.
-    fn residual(&self, row: usize) -> f64 {
-        let term = |(c, s): (usize, f64)| if s != 0.0 { s * self.b[c] } else { 0.0 };
-        let [x, y] = self.rows[row];
-        term(x) + term(y) - self.q[row]
-    }
-
-    /// b of star s = 2 i + k from the reference tractions `edge_ref`; the largest residual
-    /// |A b − Q|.
-    fn solve(&mut self, topo: &Topology, stars: &Stars, edge_ref: &[[f64; 2]], s: usize) -> f64 {
-        let k = s % 2;
-        let (cols, star_op, nr) = (stars.cols(s), stars.op_of(s), self.rows.len());
-        self.b.clear();
-        self.b.extend(
-            cols.iter()
-                .map(|&g| 0.5 * topo.edge_len[g as usize] * edge_ref[g as usize][k]),
-        );
-        let mut r = std::mem::take(&mut self.r);
-        r.clear();
-        r.extend((0..nr).map(|row| -self.residual(row)));
-        for c in 0..cols.len() {
-            let corr: f64 = (0..nr).map(|row| star_op.pinv[c * nr + row] * r[row]).sum();
-            self.b[c] += corr;
-        }
-        self.r = r;
-        (0..nr).fold(0.0f64, |w, row| w.max(self.residual(row).abs()))
     }
 }
 
