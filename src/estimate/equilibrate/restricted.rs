@@ -69,13 +69,11 @@ pub fn equilibrate_restricted(
     // The FE side: stresses σ̃_h, element nodal forces R_E and their scale.
     let fe = r.fe_forces(u);
     // (a) The star problems: the EET edge moments closest to the averaged FE tractions.
-    let stars = r.star_structure(operators);
     let edge_ref = r.reference_tractions(&fe.sig);
+    let stars = r.star_structure(operators);
     let star = r.star_problems(&stars, fe.force, edge_ref, &boundary.constrained, fe.scale);
-    // (b) The edge tractions F̂, the JM operators, the averaged-traction fields.
-    let mut field = r.edge_tractions(fe.sig, &star.moments);
-    let moments = recovery.star_minimisation().map(|_| star.moments); // only `Star` moves them
-    let mut cache = r.element_shapes(operators, &mut field)?;
+    // (b) The edge tractions F̂ and the JM operators, the averaged-traction fields.
+    let (mut cache, mut field, moments) = r.jm_operators(operators, fe.sig, star.moments)?;
     let energy_averaged = r.averaged_fields(&mut cache, &mut field);
     // The lowering of the energy: the star minimisation, the patch sweeps.
     let params = star.parameters;
@@ -376,41 +374,50 @@ impl<'a> Recovering<'a> {
             }
         }
         sol.parameters = (0..2 * nn).map(|s| stars.op_of(s).nnull).sum();
+        drop((force, edge_ref));
         sol
     }
 
     /// (b) The linear edge tractions F̂ from the edge moments (the inverse edge mass matrix;
-    /// prescribed data on the Known boundary components).
-    fn edge_tractions(&self, sig: Vec<[f64; 3]>, moments: &[[[f64; 2]; 2]]) -> Field {
-        Field {
-            sig,
-            trac: edge_tractions(&self.topo, &self.bc, moments),
-            shape_of: Vec::new(),
-            coef: Vec::new(),
-        }
-    }
-
-    /// (b) The Johnson–Mercier operator of every element's shape (method.md §3.2 (b)): the
-    /// shape cache, lent by the operator cache (given back on failure: a singular local
-    /// problem).
-    fn element_shapes(
+    /// prescribed data on the Known boundary components), and the Johnson–Mercier operator of
+    /// every element's shape (method.md §3.2 (b)) in the shape cache, lent by the operator
+    /// cache (given back on failure: a singular local problem). The field the lowering
+    /// starts from (its coefficients allocated for the recoveries that update them), and the
+    /// moments again for `Star` only, which moves them (else they are freed here).
+    fn jm_operators(
         &self,
         operators: &mut OperatorCache,
-        field: &mut Field,
-    ) -> Result<ShapeCache, EquilibrationError> {
+        sig: Vec<[f64; 3]>,
+        moments: EdgeValues,
+    ) -> Result<(ShapeCache, Field, Option<EdgeValues>), EquilibrationError> {
         let mut cache = std::mem::take(&mut operators.shapes);
-        field.shape_of = vec![NONE; self.mesh.triangles.len()];
-        for e in 0..self.mesh.triangles.len() {
+        let nt = self.mesh.triangles.len();
+        let mut shape_of = vec![NONE; nt];
+        let coef = if self.recovery.updates_fields() {
+            vec![[0.0; NC]; nt]
+        } else {
+            Vec::new()
+        };
+        let trac = edge_tractions(&self.topo, &self.bc, &moments);
+        // Only `Star` moves the moments again: freed here for the others.
+        let moments = self.recovery.star_minimisation().map(|_| moments);
+        for e in 0..nt {
             let (_, _, qv) = local_frame(&self.mesh.triangle_points(e));
             match cache.index(&qv) {
-                Some(i) => field.shape_of[e] = i,
+                Some(i) => shape_of[e] = i,
                 None => {
                     operators.shapes = cache;
                     return Err(EquilibrationError::SingularLocalProblem { element: e });
                 }
             }
         }
-        Ok(cache)
+        let field = Field {
+            sig,
+            trac,
+            shape_of,
+            coef,
+        };
+        Ok((cache, field, moments))
     }
 
     /// (b) The averaged-traction JM fields and their energy, of the recoveries that update
@@ -420,8 +427,7 @@ impl<'a> Recovering<'a> {
         if !self.recovery.updates_fields() {
             return f64::NAN;
         }
-        let (mesh, nt) = (self.mesh, self.mesh.triangles.len());
-        field.coef = vec![[0.0; NC]; nt];
+        let mesh = self.mesh;
         jm_fields(
             mesh,
             &self.topo,
