@@ -24,7 +24,6 @@ use crate::dd::body::{Body, BodyError};
 use crate::dd::contact::ContactError;
 use crate::dd::monolithic::MonolithicError;
 use crate::dd::nndd::NnddError;
-use crate::estimate::equilibrate::StarChoice;
 use crate::estimate::{EstimateError, Estimator};
 use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
@@ -736,7 +735,7 @@ fn write_interface_operators(
 fn check_recovery(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
     let spread = layout.group_sizes.iter().any(|&n| n > 1);
     let estimate = &settings.estimate;
-    if spread && matches!(estimate.recovery, StarChoice::MinimumEnergy { .. }) && estimate.enabled {
+    if spread && !estimate.recovery.is_local() && estimate.enabled {
         return Err(LayoutError::GlobalRecovery {
             ranks: layout.group_sizes,
         }

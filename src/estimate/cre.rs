@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use super::equilibrate::{
     element_cre, equilibrate_restricted, Boundary, BoundaryEdge, EdgeComponent, OperatorCache,
-    Residuals, StarChoice, SweepValues, NC,
+    Recovery, Residuals, SweepValues, NC,
 };
 use super::overlap::{Halo, Overlap};
 use super::traction::Interface;
@@ -47,7 +47,7 @@ pub struct IterationData<'a> {
     /// Nodal contact forces μ̂ ≥ 0 on body 2 (for the discrete η^NNDD).
     pub mu_hat: &'a [f64],
     pub nndd_variant: NnddVariant,
-    pub recovery: StarChoice,
+    pub recovery: Recovery,
     /// η^FE alone (the balanced rule's first check): no η^glo re-solve and recovery, no
     /// η^NNDD; `glo` and `nndd` stay zero.
     pub fe_only: bool,
@@ -76,7 +76,7 @@ impl View<'_> {
         &self,
         p: &BodyProblem,
         u: &[f64],
-        choice: StarChoice,
+        choice: Recovery,
         warm_change: f64,
         operators: &mut OperatorCache,
     ) {
@@ -87,9 +87,7 @@ impl View<'_> {
         if !near {
             operators.forget_warm_start();
         }
-        let warm =
-            matches!(choice, StarChoice::PatchTraction { warm_sweeps, .. } if warm_sweeps > 0);
-        operators.starts_warm = near && warm;
+        operators.starts_warm = near && choice.starts_warm();
         if let (true, View::Overlap(_, halo, layout) | View::Idle(halo, layout)) =
             (operators.starts_warm, self)
         {
@@ -105,7 +103,7 @@ impl View<'_> {
         p: &BodyProblem,
         u: &[f64],
         gc: &[f64],
-        choice: StarChoice,
+        choice: Recovery,
         operators: &mut OperatorCache,
         visit: &mut dyn FnMut(usize, &[f64; NC]),
     ) -> Result<Residuals, EstimateError> {
@@ -141,21 +139,9 @@ impl View<'_> {
                 ))
             }
         };
-        if let (
-            View::Idle(halo, layout),
-            StarChoice::PatchTraction {
-                sweeps,
-                warm_sweeps,
-            },
-        ) = (self, choice)
-        {
+        if let View::Idle(halo, layout) = self {
             // As many exchanges as the ranks that recover: one between two sweeps.
-            let made = if operators.starts_warm {
-                warm_sweeps
-            } else {
-                sweeps
-            };
-            for _ in 1..made {
+            for _ in 0..choice.exchanges(operators.starts_warm) {
                 halo.exchange_sweep(layout, None);
             }
         }
@@ -452,7 +438,7 @@ enum Data {
 /// The default of `-nndd_recovery_warm_change`: the largest relative change of the data (the
 /// displacement, in the energy norm) from one recovery to the next for which the next starts
 /// warm, from the change the previous one's
-/// sweeps made (`StarChoice::PatchTraction`); further apart, it starts cold. The warm
+/// sweeps made (`Recovery::Patch`); further apart, it starts cold. The warm
 /// start's distance to the relaxed field is about this fraction of a cold start's. Measured
 /// on `paper` with one warm sweep against six cold ones: n = 256, θ auto, estimates every
 /// iteration, between iteration 1's η^FE recovery and iteration 2's η^glo one (change 1.0

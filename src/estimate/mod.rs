@@ -53,7 +53,7 @@ use crate::dd::nndd::Iterate;
 use crate::estimate::cre::{
     body_fields, worst, BodyEstimate, BodyFields, ElementWork, IterationData,
 };
-use crate::estimate::equilibrate::{EquilibrationError, OperatorCache, Residuals, StarChoice};
+use crate::estimate::equilibrate::{EquilibrationError, OperatorCache, Recovery, Residuals};
 use crate::estimate::reference::interpolate_nested;
 use crate::estimate::share::{estimate_owners, Share};
 use crate::parallel::layout::Layout;
@@ -167,7 +167,7 @@ impl Parts {
 pub struct Estimator<'a> {
     iface: Interface,
     qp: QpSettings,
-    recovery: StarChoice,
+    recovery: Recovery,
     /// `-nndd_recovery_warm_change`: the largest relative change of a body's displacement
     /// for which a recovery starts warm ([`cre::View::prepare`]).
     warm_change: f64,
@@ -348,7 +348,7 @@ impl<'a> Estimator<'a> {
     /// differ from [`Estimator::estimate_cold`]).
     pub fn starts_warm(&self) -> bool {
         self.warm_change > 0.0
-            && matches!(self.recovery, StarChoice::PatchTraction { warm_sweeps, .. } if warm_sweeps > 0)
+            && self.recovery.starts_warm()
     }
 
     /// η^FE alone of the iterate `it` (one recovery per body, and body 2's re-solve): what

@@ -6,7 +6,7 @@
 use std::collections::HashSet;
 
 use crate::estimate::equilibrate::{
-    sweep_key, Boundary, BoundaryEdge, OperatorCache, Restriction, StarChoice, SweepValues, NT,
+    sweep_key, Boundary, BoundaryEdge, OperatorCache, Recovery, Restriction, SweepValues, NT,
 };
 use crate::fem::mesh::Mesh;
 use crate::parallel::layout::Layout;
@@ -36,7 +36,7 @@ pub struct Overlap {
 }
 
 /// The exchanges of a body split over several ranks. A warm recovery
-/// (`StarChoice::PatchTraction`) starts from the change δ of the previous recovery of the
+/// (`Recovery::Patch`) starts from the change δ of the previous recovery of the
 /// same cache; on a sub-mesh, δ is exact on the own elements only. Before a warm recovery,
 /// [`Halo::refresh`] gives every sub-mesh element that the rank does not own its owner's
 /// values of δ, so the start is exact on the whole sub-mesh (up to the averaged-traction
@@ -207,9 +207,9 @@ impl Overlap {
 
     /// Rings of overlap for which `equilibrate_restricted` on the sub-mesh is exact on the
     /// own elements, with `colours` colours (`colour_count`): `2 + sweeps × colours` for
-    /// `PatchRelaxation`, `2 + (sweeps + warm_sweeps) × colours` for `PatchTraction` (a warm
-    /// recovery after a cold one of the same cache: see below), 2 for `AveragedTraction`,
-    /// `usize::MAX` for `MinimumEnergy` (a global solve: no overlap short of the whole mesh
+    /// `Recovery::PatchClassic`, `2 + (sweeps + warm_sweeps) × colours` for `Recovery::Patch` (a warm
+    /// recovery after a cold one of the same cache: see below), 2 for `Recovery::Eet`,
+    /// `usize::MAX` for `Recovery::Star` (a global solve: no overlap short of the whole mesh
     /// is exact, and `equilibrate_restricted` refuses it).
     ///
     /// The dependency argument. Let O be the own elements, E_r the elements within r rings of
@@ -230,7 +230,7 @@ impl Overlap {
     ///   `colours` of them, and the final rebuild of the fields from the edge tractions keeps
     ///   the exact set. Hence the own elements are exact if L − 1 − sweeps × colours ≥ 0.
     ///
-    /// - Warm start (`PatchTraction` after another recovery with the same cache on the same
+    /// - Warm start (`Recovery::Patch` after another recovery with the same cache on the same
     ///   sub-mesh): the change δ = (t_relaxed − t_EET)(previous) is exact on the own
     ///   elements, and [`Halo::refresh`] gives every other sub-mesh element its owner's δ
     ///   (without the exchange δ would only be exact on E_{L−1−sweeps × colours}, and
@@ -249,29 +249,25 @@ impl Overlap {
     /// Hence the count returned, 2 and 2 + sweeps × colours. (The argument is not tight: the
     /// two passes over one colour where a forward and a backward sweep meet cost one ring,
     /// not two, and within a sweep information only travels along increasing colours.)
-    pub fn rings_for(choice: StarChoice, colours: usize) -> usize {
-        match choice {
-            StarChoice::AveragedTraction => 2,
-            StarChoice::PatchRelaxation { sweeps } => 2 + sweeps * colours,
-            // A warm start's δ is refreshed from the owners (`Halo`).
-            StarChoice::PatchTraction {
-                sweeps,
-                warm_sweeps,
-            } => 2 + sweeps.max(warm_sweeps) * colours,
-            StarChoice::MinimumEnergy { .. } => usize::MAX,
-        }
+    pub fn rings_for(choice: Recovery, colours: usize) -> usize {
+        // A warm start's δ is refreshed from the owners (`Halo`): it needs no more rings than
+        // a cold start.
+        choice
+            .most_sweeps()
+            .map_or(usize::MAX, |sweeps| 2 + sweeps * colours)
     }
 
     /// Rings of overlap for which the recovery is exact on the own elements when the
     /// elements held but not owned take their owners' traction values between two sweeps
-    /// ([`Halo::exchange_sweep`]): `2 + colours` for `PatchTraction` (the argument of
+    /// ([`Halo::exchange_sweep`]): `2 + colours` for `Recovery::Patch` (the argument of
     /// [`Overlap::rings_for`] for one sweep: after each exchange the whole sub-mesh is exact
     /// again, but for the star problems' outer ring), as `rings_for` otherwise (no
     /// exchanges).
-    pub fn rings_exchanged(choice: StarChoice, colours: usize) -> usize {
-        match choice {
-            StarChoice::PatchTraction { .. } => 2 + colours,
-            _ => Self::rings_for(choice, colours),
+    pub fn rings_exchanged(choice: Recovery, colours: usize) -> usize {
+        if choice.exchanges_between_sweeps() {
+            2 + colours
+        } else {
+            Self::rings_for(choice, colours)
         }
     }
 
@@ -354,7 +350,7 @@ mod tests {
     };
     use crate::testutil::Lcg;
 
-    const PATCH3: StarChoice = StarChoice::PatchRelaxation { sweeps: 3 };
+    const PATCH3: Recovery = Recovery::PatchClassic { sweeps: 3 };
 
     /// Largest differences of a partitioned equilibration from the full-mesh one.
     #[derive(Debug, Default)]
@@ -379,7 +375,7 @@ mod tests {
         u: &[f64],
         full: &EquilibratedStress,
         part: &[usize],
-        choice: StarChoice,
+        choice: Recovery,
         rings: usize,
     ) -> Diff {
         let nt = mesh.triangles.len();
@@ -481,8 +477,8 @@ mod tests {
     fn check_partition(mesh: &Mesh, bd: &Boundary, part: &[usize], sweeps: usize, name: &str) {
         let u = fe_solve(mesh, bd);
         let c = colour_count(&vertex_colours(mesh));
-        let patch = StarChoice::PatchRelaxation { sweeps };
-        for (choice, too_few) in [(StarChoice::AveragedTraction, 0), (patch, 1)] {
+        let patch = Recovery::PatchClassic { sweeps };
+        for (choice, too_few) in [(Recovery::Eet, 0), (patch, 1)] {
             let full = equilibrate_with(mesh, &STEEL, &u, bd, choice).unwrap();
             let rings = Overlap::rings_for(choice, c);
             let d = partitioned(mesh, bd, &u, &full, part, choice, rings);
@@ -529,7 +525,7 @@ mod tests {
         check_partition(&mesh, &bd, &slabs(&mesh), 2, "distorted slabs");
     }
 
-    /// A chain of `PatchTraction` recoveries, one cold then two warm (an estimate's η^glo
+    /// A chain of `Recovery::Patch` recoveries, one cold then two warm (an estimate's η^glo
     /// and η^FE recoveries, then the next estimate's η^glo one), each part on its overlap of
     /// `rings_for` rings with its own cache and the warm starts refreshed from the owners
     /// before each warm recovery ([`Halo::refresh`], emulated here), equals the same chain
@@ -547,7 +543,7 @@ mod tests {
         let data = [u.clone(), scaled(0.05, 3), scaled(0.03, 5)];
         let colours = vertex_colours(&mesh);
         let c = colour_count(&colours);
-        let choice = StarChoice::PatchTraction {
+        let choice = Recovery::Patch {
             sweeps: 2,
             warm_sweeps: 1,
         };
@@ -705,9 +701,9 @@ mod tests {
             .iter()
             .enumerate()
             .all(|(k, &g)| bs.constrained[2 * k] == bd.constrained[2 * g]));
-        // Unbounded rings: the whole (connected) mesh; MinimumEnergy asks for that and is
+        // Unbounded rings: the whole (connected) mesh; Recovery::Star asks for that and is
         // refused anyway.
-        let rings = Overlap::rings_for(StarChoice::minimum_energy(), 4);
+        let rings = Overlap::rings_for(Recovery::star(), 4);
         let all = Overlap::new(&mesh, &own, rings, &colours);
         assert_eq!(all.elements.len(), nt);
         let (_, bd) = block_rect(8, 6);
@@ -716,7 +712,7 @@ mod tests {
             &STEEL,
             &all.restrict_dofs(&u),
             &all.restrict_boundary(&bd),
-            StarChoice::minimum_energy(),
+            Recovery::star(),
             Some(&all.restriction()),
             None,
             None,

@@ -1,7 +1,7 @@
 //! The estimates' options (`-nndd_estimate…`, `-nndd_reference_factor`, `-nndd_recovery…`,
 //! `-nndd_eta_nndd`), read and validated into [`EstimateSettings`].
 
-use super::equilibrate::StarChoice;
+use super::equilibrate::Recovery;
 use super::NnddVariant;
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::OptionsBlock;
@@ -16,7 +16,7 @@ pub struct EstimateSettings {
     /// Reference mesh factor r of (26) (0: no reference solution).
     pub reference_factor: usize,
     /// How the equilibrated stresses are recovered (see `estimate::equilibrate`).
-    pub recovery: StarChoice,
+    pub recovery: Recovery,
     /// Largest relative change of a body's displacement (energy norm) between two recoveries
     /// for which the second starts warm (`estimate::cre::View::prepare`).
     pub warm_change: f64,
@@ -109,13 +109,13 @@ impl EstimateSettings {
             ],
         )?;
         let recovery = match recovery {
-            "patch" => StarChoice::PatchTraction {
+            "patch" => Recovery::Patch {
                 sweeps,
                 warm_sweeps,
             },
-            "patch-classic" => StarChoice::PatchRelaxation { sweeps },
-            "star" => StarChoice::minimum_energy(),
-            _ => StarChoice::AveragedTraction, // eet
+            "patch-classic" => Recovery::PatchClassic { sweeps },
+            "star" => Recovery::star(),
+            _ => Recovery::Eet, // eet
         };
         Ok(EstimateSettings {
             // A reference solution is only of use with an estimate to compare; balanced

@@ -9,7 +9,7 @@
 //! that share a body recover it in step.
 
 use crate::estimate::cre::View;
-use crate::estimate::equilibrate::{vertex_colours, StarChoice};
+use crate::estimate::equilibrate::{vertex_colours, Recovery};
 use crate::estimate::overlap::{colour_count, Halo, Overlap};
 use crate::fem::mesh::Mesh;
 use crate::parallel::layout::Layout;
@@ -98,7 +98,7 @@ impl Share {
         mesh: &Mesh,
         owner: &[u32],
         crosses: bool,
-        recovery: StarChoice,
+        recovery: Recovery,
         layout: &Layout,
     ) -> Share {
         let me = layout.rank as usize;

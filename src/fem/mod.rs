@@ -1,12 +1,14 @@
 //! Layer `fem`: the finite-element basics every other layer builds on: triangle meshes
 //! ([`mesh`]; [`gmsh`] reads them from Gmsh MSH 4.1 files; [`checks`] finds flat, folded
-//! and overlapping triangles) and P1 plane-strain elasticity ([`elasticity`]: element stiffness, stresses,
-//! edge loads, CSR assembly).
+//! and overlapping triangles), triangle geometry ([`geometry`]: area, barycentric
+//! coordinates, local frame) and P1 plane-strain elasticity ([`elasticity`]: element
+//! stiffness, stresses, edge loads, CSR assembly).
 //!
 //! May use: `petsc`, `os` (today it uses nothing of the crate).
 
 pub mod checks;
 pub mod elasticity;
+pub mod geometry;
 pub mod gmsh;
 pub mod mesh;
 

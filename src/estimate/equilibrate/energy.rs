@@ -1,13 +1,12 @@
-//! Complementary energy Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹,E} and the `MinimumEnergy` star choice: the
+//! Complementary energy Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹,E} and the `Recovery::Star` star choice: the
 //! star null-space parameters minimising it (sparse SPD system, Jacobi-preconditioned
 //! conjugate gradients).
 
 use super::eet::Stars;
-use super::johnson_mercier::{
-    apply_operator, eval, local_frame, midpoint_values, midpoints, triangle_area, ShapeCache,
-};
+use super::johnson_mercier::{apply_operator, eval, midpoint_values, midpoints, ShapeCache};
+use super::sizes::{NC, NT};
 use super::topology::{is_owned, Topology};
-use super::{NC, NT};
+use crate::fem::geometry::{local_frame, triangle_area};
 use crate::fem::mesh::Mesh;
 use crate::fem::Material;
 
@@ -223,7 +222,7 @@ mod tests {
     use super::*;
     use crate::estimate::equilibrate::johnson_mercier::traction;
     use crate::estimate::equilibrate::testutil::*;
-    use crate::estimate::equilibrate::{equilibrate_with, Boundary, StarChoice};
+    use crate::estimate::equilibrate::{equilibrate_with, Boundary, Recovery};
     use crate::fem;
 
     /// P1 interpolation of a coarse structured field onto a nested finer mesh.
@@ -255,8 +254,8 @@ mod tests {
     /// Energy-norm effectivities η/e for the star choices [averaged, minimum energy] and
     /// patch relaxation with 1, 3 and 10 sweeps.
     fn effectivities(mesh: &Mesh, bd: &Boundary, u: &[f64], e: f64) -> Vec<f64> {
-        let mut choices = vec![StarChoice::AveragedTraction, StarChoice::minimum_energy()];
-        choices.extend([1, 3, 10].map(|sweeps| StarChoice::PatchRelaxation { sweeps }));
+        let mut choices = vec![Recovery::Eet, Recovery::star()];
+        choices.extend([1, 3, 10].map(|sweeps| Recovery::PatchClassic { sweeps }));
         let mut out = Vec::new();
         for choice in choices {
             let eq = equilibrate_with(mesh, &STEEL, u, bd, choice).unwrap();

@@ -1,48 +1,15 @@
-//! The Johnson–Mercier element: triangle geometry in the local frame, the 30 × 27 local
-//! system and its least-squares operator (edge tractions → JM coefficients), the operator cache
-//! per triangle shape, and the JM fields of all elements from the edge tractions.
+//! The Johnson–Mercier element, in the local frame of `fem::geometry::local_frame`: the
+//! 30 × 27 local system and its least-squares operator (edge tractions → JM coefficients), the
+//! operator cache per triangle shape, and the JM fields of all elements from the edge
+//! tractions.
 
-use super::FastMap;
+use super::fast_map::FastMap;
 
 use super::eet::element_tractions;
+use super::sizes::{shape_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use super::topology::Topology;
-use super::{shape_capacity, NC, NONE, NT, SHAPE_QUANTUM};
+use crate::fem::geometry::{local_frame, unit};
 use crate::fem::mesh::Mesh;
-
-pub(super) fn triangle_area(p: &[[f64; 2]; 3]) -> f64 {
-    0.5 * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]))
-}
-
-pub(super) fn barycentric(p: &[[f64; 2]; 3], x: [f64; 2]) -> [f64; 3] {
-    let a2 = 2.0 * triangle_area(p);
-    let mut lam = [0.0; 3];
-    for a in 0..3 {
-        let (j, k) = (p[(a + 1) % 3], p[(a + 2) % 3]);
-        lam[a] = ((j[0] - x[0]) * (k[1] - x[1]) - (k[0] - x[0]) * (j[1] - x[1])) / a2;
-    }
-    lam
-}
-
-/// Barycentre c, diameter h and the normalised vertices q_a = (p_a − c)/h.
-pub(super) fn local_frame(p: &[[f64; 2]; 3]) -> ([f64; 2], f64, [[f64; 2]; 3]) {
-    let c = [
-        (p[0][0] + p[1][0] + p[2][0]) / 3.0,
-        (p[0][1] + p[1][1] + p[2][1]) / 3.0,
-    ];
-    let mut h: f64 = 0.0;
-    for a in 0..3 {
-        let b = (a + 1) % 3;
-        let (dx, dy) = (p[b][0] - p[a][0], p[b][1] - p[a][1]);
-        h = h.max((dx * dx + dy * dy).sqrt());
-    }
-    let q = [0, 1, 2].map(|a| [(p[a][0] - c[0]) / h, (p[a][1] - c[1]) / h]);
-    (c, h, q)
-}
-
-pub(super) fn unit(v: [f64; 2]) -> [f64; 2] {
-    let l = v[0].hypot(v[1]);
-    [v[0] / l, v[1] / l]
-}
 
 pub(super) fn traction(s: &[f64; 3], n: [f64; 2]) -> [f64; 2] {
     [s[0] * n[0] + s[2] * n[1], s[2] * n[0] + s[1] * n[1]]
@@ -371,6 +338,7 @@ mod tests {
     use super::*;
     use crate::estimate::equilibrate::energy::{dotv, norm};
     use crate::estimate::equilibrate::relaxation::equilibrium_constraints;
+    use crate::fem::geometry::triangle_area;
     use crate::qp::dense::SymMatrix;
     use crate::testutil::Lcg;
 

@@ -1,4 +1,4 @@
-//! `PatchTraction`: the block Gauss–Seidel steps of `PatchRelaxation` carried out in the
+//! `Recovery::Patch`: the block Gauss–Seidel steps of `Recovery::PatchClassic` carried out in the
 //! space of the edge-traction values, with everything that depends on the mesh only computed
 //! once and kept from one recovery to the next.
 //!
@@ -23,10 +23,11 @@
 //! new data, so each warm recovery's sweeps add to the previous ones'.
 
 use super::eet::{Bc, EdgeConditions};
-use super::johnson_mercier::{local_frame, midpoints, triangle_area, ShapeCache};
+use super::johnson_mercier::{midpoints, ShapeCache};
 use super::relaxation::{PatchOp, Relaxation};
+use super::sizes::{NC, NT};
 use super::topology::Topology;
-use super::{NC, NT};
+use crate::fem::geometry::{local_frame, triangle_area};
 use crate::fem::mesh::{mix, Mesh};
 
 /// The mesh-only data of the planned sweeps (see the module documentation).
@@ -294,14 +295,14 @@ impl Plan {
         trac: &mut [f64],
         change: &mut [f64],
         sweeps: usize,
-        between: Option<&dyn Fn(&mut super::SweepValues)>,
+        between: Option<&dyn Fn(&mut SweepValues)>,
     ) {
         let track = !change.is_empty();
         let nv = self.vop.len();
         let mut te: Vec<[f64; NT]> = Vec::with_capacity(16);
         for s in 0..sweeps {
             if let (true, Some(f)) = (s > 0, between) {
-                f(&mut super::SweepValues {
+                f(&mut SweepValues {
                     plan: self,
                     topo,
                     trac: &mut *trac,
@@ -368,11 +369,43 @@ impl Warm {
     }
 }
 
+/// The traction values of a `Recovery::Patch` recovery between two sweeps, element by element
+/// (the 12 values of a sub-mesh element in its own orientation, as the plan gathers them):
+/// what [`Restriction::between_sweeps`] reads and overwrites. Writing an element's values
+/// moves the warm start's change δ with them (t − δ, the start, is kept).
+pub struct SweepValues<'a> {
+    plan: &'a Plan,
+    topo: &'a Topology,
+    trac: &'a mut [f64],
+    change: &'a mut [f64],
+}
+
+impl SweepValues<'_> {
+    /// The 12 traction values of sub-mesh element l.
+    pub fn get(&self, l: usize) -> [f64; NT] {
+        self.plan.element_values(self.topo, self.trac, l)
+    }
+
+    /// Overwrite the 12 traction values of sub-mesh element l (an edge shared with another
+    /// element changes for both).
+    pub fn set(&mut self, l: usize, v: &[f64; NT]) {
+        if !self.change.is_empty() {
+            let old = self.get(l);
+            let mut d = self.plan.element_values(self.topo, self.change, l);
+            for j in 0..NT {
+                d[j] += v[j] - old[j];
+            }
+            self.plan.set_element_values(self.topo, self.change, l, &d);
+        }
+        self.plan.set_element_values(self.topo, self.trac, l, v);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::testutil::*;
     use super::super::{
-        equilibrate_restricted, equilibrate_with, EquilibratedStress, OperatorCache, StarChoice,
+        equilibrate_restricted, equilibrate_with, EquilibratedStress, OperatorCache, Recovery,
     };
     use crate::fem::mesh::Mesh;
 
@@ -408,20 +441,15 @@ mod tests {
         let u = fe_solve(&mesh, &bd);
         for (name, (mesh, bd, u)) in [("block", (mesh, bd, u)), ("distorted", distorted())] {
             for sweeps in [1, 2, 5] {
-                let classic = equilibrate_with(
-                    &mesh,
-                    &STEEL,
-                    &u,
-                    &bd,
-                    StarChoice::PatchRelaxation { sweeps },
-                )
-                .unwrap();
+                let classic =
+                    equilibrate_with(&mesh, &STEEL, &u, &bd, Recovery::PatchClassic { sweeps })
+                        .unwrap();
                 let planned = equilibrate_with(
                     &mesh,
                     &STEEL,
                     &u,
                     &bd,
-                    StarChoice::PatchTraction {
+                    Recovery::Patch {
                         sweeps,
                         warm_sweeps: 0,
                     },
@@ -453,7 +481,7 @@ mod tests {
                 }
             }
         }
-        let choice = StarChoice::PatchTraction {
+        let choice = Recovery::Patch {
             sweeps: 3,
             warm_sweeps: 1,
         };
@@ -470,7 +498,7 @@ mod tests {
                 &STEEL,
                 &v,
                 &bd2,
-                StarChoice::PatchTraction {
+                Recovery::Patch {
                     sweeps,
                     warm_sweeps: 0,
                 },

@@ -1,15 +1,14 @@
-//! `PatchRelaxation`: relaxation of the EET prolongation condition by multicolour block
+//! `Recovery::PatchClassic`: relaxation of the EET prolongation condition by multicolour block
 //! Gauss–Seidel over vertex patches, each step an exact minimisation of the complementary
 //! energy over the admissible changes of the edge tractions through the vertex.
 
-use super::FastMap;
+use super::fast_map::FastMap;
 
 use super::eet::{Bc, EdgeConditions};
-use super::johnson_mercier::{
-    apply_operator, eval, local_frame, midpoints, triangle_area, ShapeCache,
-};
+use super::johnson_mercier::{apply_operator, eval, midpoints, ShapeCache};
+use super::sizes::{patch_capacity, NC, NONE, NT, SHAPE_QUANTUM};
 use super::topology::{Topology, VertexElements};
-use super::{patch_capacity, NC, NONE, NT, SHAPE_QUANTUM};
+use crate::fem::geometry::{local_frame, triangle_area};
 use crate::fem::mesh::Mesh;
 
 /// One vertex-patch pattern: an orthonormal basis N (nu × d, row-major) of the local
@@ -591,7 +590,7 @@ mod tests {
     use crate::estimate::equilibrate::energy::{compliance, dotv, quad, total_energy};
     use crate::estimate::equilibrate::johnson_mercier::midpoint_values;
     use crate::estimate::equilibrate::testutil::*;
-    use crate::estimate::equilibrate::{equilibrate_with, Boundary, StarChoice};
+    use crate::estimate::equilibrate::{equilibrate_with, Boundary, Recovery};
     use crate::fem;
 
     /// The global minimum of Σ_E ‖σ̂ − σ̃_E‖² over all admissible JM-P1 fields (all linear edge
@@ -802,10 +801,10 @@ mod tests {
         let global = global_min_energy(&mesh, &bd, &u);
         let mut energies = Vec::new();
         for choice in [
-            StarChoice::AveragedTraction,
-            StarChoice::minimum_energy(),
-            StarChoice::PatchRelaxation { sweeps: 3 },
-            StarChoice::PatchRelaxation { sweeps: 1000 },
+            Recovery::Eet,
+            Recovery::star(),
+            Recovery::PatchClassic { sweeps: 3 },
+            Recovery::PatchClassic { sweeps: 1000 },
         ] {
             let eq = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
             assert_admissible(&eq.residuals(&mesh, &bd), 1e-10);

@@ -1,16 +1,80 @@
 //! Evaluation of an [`EquilibratedStress`] (point values, coefficients, CRE) and its
 //! equilibrium check ([`Residuals`]).
 
+use super::boundary::Boundary;
 use super::eet::{edge_conditions, element_tractions, Bc, EdgeConditions};
 use super::energy::quad;
-use super::johnson_mercier::{
-    apply_operator, barycentric, eval, local_frame, midpoints, traction, triangle_area, unit,
-    ShapeCache,
-};
+use super::johnson_mercier::{apply_operator, eval, midpoints, traction, ShapeCache};
+use super::sizes::{NC, NONE};
 use super::topology::{is_owned, owned_vertices, Topology};
-use super::{Boundary, EquilibratedStress, EquilibrationStats, Residuals, NC, NONE};
+use crate::fem::geometry::{barycentric, local_frame, triangle_area, unit};
 use crate::fem::mesh::Mesh;
 use crate::fem::{self, Material};
+
+/// Equilibrium check of an [`EquilibratedStress`]; every entry is relative to max |σ̂| (the
+/// boundary entry to max(|σ̂|, |g|); the star entries to the largest element nodal force).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Residuals {
+    /// max |div σ̂| × element diameter, over every sub-triangle.
+    pub divergence: f64,
+    /// Traction jumps across the 3 internal edges of every element (at their end points).
+    pub internal_jump: f64,
+    /// Traction jumps across every inter-element edge (at its end points).
+    pub element_jump: f64,
+    /// σ̂n − g on every Known boundary component (at the end points).
+    pub boundary: f64,
+    /// Largest least-squares residual of a point-constraint star (a constrained dof whose
+    /// star has no free edge component): the point reaction, relative.
+    pub point_reaction: f64,
+}
+
+impl Residuals {
+    /// The largest of the field residuals (divergence, jumps, boundary) and the point
+    /// reaction.
+    pub fn max(&self) -> f64 {
+        self.divergence
+            .max(self.internal_jump)
+            .max(self.element_jump)
+            .max(self.boundary)
+            .max(self.point_reaction)
+    }
+}
+
+/// Figures of the construction.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EquilibrationStats {
+    /// Number of star free parameters (null-space directions of the star problems).
+    pub star_parameters: usize,
+    /// Distinct triangle shapes met (cached local operators).
+    pub shapes: usize,
+    /// Conjugate-gradient iterations of `Recovery::Star` (0 otherwise).
+    pub cg_iterations: usize,
+    /// Σ_E ‖σ̂ − σ̃_h‖²_{K⁻¹} with the averaged-traction choice (NaN with `Recovery::Patch`,
+    /// which does not build that field).
+    pub energy_averaged: f64,
+    /// The same after the minimisation (= `energy_averaged` for `Recovery::Eet`).
+    pub energy_final: f64,
+    /// Distinct vertex-patch operators of `Recovery::PatchClassic` (0 otherwise).
+    pub patch_patterns: usize,
+    /// Largest residual of the star problems at unconstrained dofs, relative to the largest
+    /// element nodal force: the FE equilibrium defect of the input (round-off for an
+    /// FE-equilibrated ũ). A large value means the input was not FE-equilibrated and σ̂ is
+    /// not admissible (which `Residuals::element_jump`/`boundary` then show too).
+    pub fe_equilibrium: f64,
+}
+
+/// The equilibrated stress: per element, the JM coefficients (3 sub-triangles × (xx, yy, xy)
+/// × (1, ξ, η)) in the local frame ξ = (x − barycentre) / diameter. Sub-triangle a is
+/// (barycentre, p_a, p_{a+1}) of the element's vertices p.
+#[derive(Clone, Debug)]
+pub struct EquilibratedStress {
+    pub(super) coef: Vec<[f64; NC]>,
+    /// Per constrained star (vertex, relative least-squares residual): the point reactions.
+    pub(super) reactions: Vec<(usize, f64)>,
+    pub(super) stats: EquilibrationStats,
+    /// The equilibrium check made by the construction (on the owned elements).
+    pub(super) checked: Residuals,
+}
 
 /// ∫_E (σ̂ − τ) : K⁻¹ : (σ̂ − τ) of the JM field `coef` of element e and a constant stress τ
 /// (Voigt), plane-strain compliance: exact quadrature (quadratic integrand per

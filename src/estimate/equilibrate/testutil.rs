@@ -1,8 +1,9 @@
 //! Unit-test helpers of the equilibration tests, shared with `overlap.rs` (`fe_solve`,
 //! `block_rect`, `STEEL`, re-exported as `equilibrate::tests::…`).
 
+use super::sizes::NONE;
 use super::*;
-use crate::fem;
+use crate::fem::{self, Material, Mesh};
 use crate::qp::dense::SymMatrix;
 
 pub(crate) const STEEL: Material = Material {
@@ -10,11 +11,11 @@ pub(crate) const STEEL: Material = Material {
     poisson: 0.27,
 };
 
-pub(super) const CHOICES: [StarChoice; 4] = [
-    StarChoice::AveragedTraction,
-    StarChoice::minimum_energy(),
-    StarChoice::PatchRelaxation { sweeps: 3 },
-    StarChoice::PatchTraction {
+pub(super) const CHOICES: [Recovery; 4] = [
+    Recovery::Eet,
+    Recovery::star(),
+    Recovery::PatchClassic { sweeps: 3 },
+    Recovery::Patch {
         sweeps: 3,
         warm_sweeps: 1,
     },

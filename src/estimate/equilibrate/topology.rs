@@ -2,11 +2,12 @@
 //! the vertex colouring and sweep keys of the multicolour order, and the owned elements and
 //! vertices of a restriction.
 
-use super::johnson_mercier::triangle_area;
-use super::{EquilibrationError, NONE};
+use super::error::EquilibrationError;
+use super::sizes::NONE;
+use crate::fem::geometry::triangle_area;
 use crate::fem::mesh::Mesh;
 
-/// Sweep-order key of a vertex for `PatchRelaxation`: colour in the high 32 bits, global
+/// Sweep-order key of a vertex for `Recovery::PatchClassic`: colour in the high 32 bits, global
 /// vertex index in the low ones.
 pub fn sweep_key(colour: u8, global_index: usize) -> u64 {
     ((colour as u64) << 32) | global_index as u64

@@ -7,6 +7,10 @@ use std::ops::Range;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use hdf5_metno_sys::h5i::hid_t;
+use hdf5_metno_sys::h5p::H5P_DEFAULT;
+
+use super::collective::RowSelection;
 use super::team::{agree, Writers};
 use super::{entries, time_key, OutputError, Results, Share};
 
@@ -66,7 +70,7 @@ pub(super) fn write_h5<W: Writers>(
     let out = H5Out {
         w,
         target,
-        xfer: xfer.as_ref().map_or(ffi::H5P_DEFAULT, |p| p.id()),
+        xfer: xfer.as_ref().map_or(H5P_DEFAULT, |p| p.id()),
         datasets: RefCell::new(Vec::new()),
         writing: Cell::new(false),
     };
@@ -146,7 +150,7 @@ struct H5Out<'a, W> {
     w: &'a W,
     target: &'a Path,
     /// Data transfer property list.
-    xfer: ffi::Hid,
+    xfer: hid_t,
     /// The datasets created by the first walk, in order, each with whether it is empty.
     datasets: RefCell<Vec<(hdf5::Dataset, bool)>>,
     /// The second walk: the objects exist, the datasets are written.
@@ -329,148 +333,4 @@ fn fill_h5<W: Writers>(
         }
     }
     Ok(())
-}
-
-/// The few HDF5 C functions used directly: the `hdf5` crate writes with the
-/// default transfer property list (independent I/O in parallel) and skips
-/// empty selections, while a collective write needs a collective transfer
-/// list and every rank in `H5Dwrite`. They come from the libhdf5 the crate
-/// links (HDF5 1.10 or later: `hid_t` is 64-bit).
-mod ffi {
-    use std::ffi::{c_int, c_void};
-
-    pub type Hid = i64;
-    pub type Herr = c_int;
-    pub type Hsize = u64;
-
-    pub const H5P_DEFAULT: Hid = 0;
-    /// `H5S_SELECT_SET` of `H5S_seloper_t`.
-    pub const H5S_SELECT_SET: c_int = 0;
-    /// `H5FD_MPIO_COLLECTIVE` of `H5FD_mpio_xfer_t`.
-    pub const H5FD_MPIO_COLLECTIVE: c_int = 1;
-
-    extern "C" {
-        pub fn H5Pcreate(cls_id: Hid) -> Hid;
-        pub fn H5Pset_dxpl_mpio(dxpl_id: Hid, xfer_mode: c_int) -> Herr;
-        pub fn H5Sselect_none(space_id: Hid) -> Herr;
-        pub fn H5Sselect_hyperslab(
-            space_id: Hid,
-            op: c_int,
-            start: *const Hsize,
-            stride: *const Hsize,
-            count: *const Hsize,
-            block: *const Hsize,
-        ) -> Herr;
-        pub fn H5Dwrite(
-            dset_id: Hid,
-            mem_type_id: Hid,
-            mem_space_id: Hid,
-            file_space_id: Hid,
-            dxpl_id: Hid,
-            buf: *const c_void,
-        ) -> Herr;
-    }
-}
-
-/// The error of a failed HDF5 C call: the library's error stack.
-fn h5_error() -> hdf5::Error {
-    hdf5::Error::query().unwrap_or_else(|e| e)
-}
-
-fn h5check(code: ffi::Herr) -> hdf5::Result<()> {
-    if code < 0 {
-        Err(h5_error())
-    } else {
-        Ok(())
-    }
-}
-
-/// A data transfer property list asking for collective MPI-IO.
-pub(super) fn collective_transfer() -> hdf5::Result<hdf5::PropertyList> {
-    hdf5::sync::sync(|| {
-        // SAFETY: plain HDF5 calls on a property list this function owns.
-        unsafe {
-            let id = ffi::H5Pcreate(*hdf5::globals::H5P_DATASET_XFER);
-            if id < 0 {
-                return Err(h5_error());
-            }
-            let plist: hdf5::PropertyList = hdf5::from_id(id)?;
-            h5check(ffi::H5Pset_dxpl_mpio(plist.id(), ffi::H5FD_MPIO_COLLECTIVE))?;
-            Ok(plist)
-        }
-    })
-}
-
-/// This rank's rows of a dataset: the file selection and the memory space
-/// (none for no rows: the empty file selection serves as both).
-struct RowSelection {
-    file: hdf5::Dataspace,
-    memory: Option<hdf5::Dataspace>,
-}
-
-impl RowSelection {
-    /// Rows `rows` (first dimension, all of the others) of `ds`, to be
-    /// written from `len` values.
-    fn new(ds: &hdf5::Dataset, rows: Range<usize>, len: usize) -> hdf5::Result<RowSelection> {
-        let file = ds.space()?;
-        let mut count: Vec<usize> = file.shape();
-        if count.is_empty() || rows.end > count[0] {
-            return Err(format!("rows {rows:?} outside shape {count:?}").into());
-        }
-        count[0] = rows.len();
-        if count.iter().product::<usize>() != len {
-            return Err(format!("{len} values for {count:?} entries").into());
-        }
-        if rows.is_empty() {
-            // SAFETY: `file` is a dataspace this function owns.
-            h5check(hdf5::sync::sync(|| unsafe {
-                ffi::H5Sselect_none(file.id())
-            }))?;
-            return Ok(RowSelection { file, memory: None });
-        }
-        let memory = hdf5::Dataspace::try_new(count.clone())?;
-        let mut start = vec![0 as ffi::Hsize; count.len()];
-        start[0] = rows.start as ffi::Hsize;
-        let count: Vec<ffi::Hsize> = count.iter().map(|&c| c as ffi::Hsize).collect();
-        // SAFETY: `start` and `count` have the rank of `file`; null stride
-        // and block mean 1.
-        h5check(hdf5::sync::sync(|| unsafe {
-            ffi::H5Sselect_hyperslab(
-                file.id(),
-                ffi::H5S_SELECT_SET,
-                start.as_ptr(),
-                std::ptr::null(),
-                count.as_ptr(),
-                std::ptr::null(),
-            )
-        }))?;
-        Ok(RowSelection {
-            file,
-            memory: Some(memory),
-        })
-    }
-
-    /// `H5Dwrite` of `data` (as many values as selected) with transfer list
-    /// `xfer`: collective when `xfer` says so, so every rank calls it.
-    fn write<T: hdf5::H5Type>(
-        &self,
-        ds: &hdf5::Dataset,
-        data: &[T],
-        xfer: ffi::Hid,
-    ) -> hdf5::Result<()> {
-        let dtype = hdf5::Datatype::from_type::<T>()?;
-        let memory = self.memory.as_ref().unwrap_or(&self.file);
-        // SAFETY: `data` holds exactly the selected number of `T`s (checked
-        // in `new`), laid out as the memory space says; the ids are alive.
-        h5check(hdf5::sync::sync(|| unsafe {
-            ffi::H5Dwrite(
-                ds.id(),
-                dtype.id(),
-                memory.id(),
-                self.file.id(),
-                xfer,
-                data.as_ptr().cast(),
-            )
-        }))
-    }
 }

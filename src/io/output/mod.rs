@@ -117,10 +117,13 @@
 //!   communicator), their agreement on success and the check of their shares.
 //! - `paths`: every file name, made from PREFIX ([`OutputPaths`]).
 //! - `atomic`: writing to temporaries and renaming them into place.
-//! - `h5`: the HDF5 file (collective datasets through a few HDF5 C calls).
+//! - `h5`: the HDF5 file.
+//! - `collective`: the HDF5 C calls of a collective write (hdf5-metno-sys): the collective
+//!   transfer list and a rank's rows of a dataset.
 //! - `xdmf`: the XDMF text.
 
 mod atomic;
+mod collective;
 mod h5;
 pub mod paths;
 mod team;

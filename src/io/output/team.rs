@@ -9,7 +9,7 @@ use std::ops::Range;
 
 use hdf5::plist::FileAccessBuilder;
 
-use super::h5::collective_transfer;
+use super::collective::collective_transfer;
 use super::{OutputError, Results, Share};
 
 /// The processes writing one file together, and what they need from each
