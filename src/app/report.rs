@@ -12,8 +12,8 @@ use crate::io::summary::{
     ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning, MeshProblem,
     Summary, Timings,
 };
-use crate::parallel::layout::Layout;
 use crate::os::memory;
+use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 
 #[allow(clippy::too_many_arguments)]

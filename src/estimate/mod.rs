@@ -347,8 +347,7 @@ impl<'a> Estimator<'a> {
     /// Whether an estimate may start its recoveries from an earlier one's (so that it may
     /// differ from [`Estimator::estimate_cold`]).
     pub fn starts_warm(&self) -> bool {
-        self.warm_change > 0.0
-            && self.recovery.starts_warm()
+        self.warm_change > 0.0 && self.recovery.starts_warm()
     }
 
     /// η^FE alone of the iterate `it` (one recovery per body, and body 2's re-solve): what
