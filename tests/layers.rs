@@ -150,35 +150,6 @@ fn the_reference_parser_finds_grouped_and_inline_paths() {
     assert_eq!(refs, want);
 }
 
-/// Import circles among the modules inside a layer that exist today and are being taken apart
-/// elsewhere, each as the set of its modules: the test passes while a circle is exactly one of
-/// these (or of [`UNCLAIMED_CIRCLES`]), and fails on any other.
-const KNOWN_CIRCLES: &[&[&str]] = &[
-    // being removed
-    &[
-        "estimate::equilibrate::eet",
-        "estimate::equilibrate::johnson_mercier",
-        "estimate::equilibrate::topology",
-    ],
-    // being removed
-    &["io::output::h5", "io::output::team"],
-];
-
-/// The other import circles inside a layer that exist today, which nobody is removing yet: a
-/// parent `mod.rs` and a child that use each other's items count as a circle too. Tolerated
-/// like [`KNOWN_CIRCLES`]; remove an entry with its circle.
-const UNCLAIMED_CIRCLES: &[&[&str]] = &[
-    &["dd::check", "dd::nndd"],
-    &[
-        "estimate",
-        "estimate::cre",
-        "estimate::reference",
-        "estimate::share",
-    ],
-    &["problem::conform", "problem::meshed"],
-    &["qp::active_set", "qp::solver"],
-];
-
 /// `text` without its comments and without the contents of its string and character
 /// literals (kept as `""` and `' '`), so that neither a commented-out path nor a brace in a
 /// format string counts.
@@ -555,14 +526,8 @@ fn no_layer_has_an_import_circle_inside() {
         .filter(|(m, _)| m.first().is_some_and(|l| rank(l).is_some()))
         .collect();
     let graph = layer_graph(&files);
-    let known: Vec<BTreeSet<String>> = KNOWN_CIRCLES
-        .iter()
-        .chain(UNCLAIMED_CIRCLES)
-        .map(|c| c.iter().map(|s| s.to_string()).collect())
-        .collect();
     let new: Vec<String> = circles(&graph)
         .into_iter()
-        .filter(|(_, set)| !known.contains(set))
         .map(|(circle, set)| format!("{} (the circle of {set:?})", circle.join(" → ")))
         .collect();
     assert!(

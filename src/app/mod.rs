@@ -5,7 +5,7 @@
 //! ([`solve`]), post-processing and output ([`report`]).
 //!
 //! May use: every layer below (`io`, `estimate`, `dd`, `problem`, `parallel`, `qp`, `fem`,
-//! `petsc`).
+//! `petsc`, `os`).
 
 pub mod capacity;
 pub mod options;

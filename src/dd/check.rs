@@ -7,7 +7,7 @@
 use std::collections::HashMap;
 
 use crate::dd::body::{Body, BodyError};
-use crate::dd::nndd::Iterate;
+use crate::dd::iterate::Iterate;
 use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 

@@ -1,10 +1,10 @@
 //! Layer `dd`: the Neumann–Neumann domain decomposition (paper §3, `docs/method.md` §2).
 //! [`body`]: one subdomain's PETSc systems and solves; the steps of an iteration:
-//! [`dirichlet`] (step 1 on Ω¹, (8)–(10)), [`contact`] (step 1 on Ω², (11)–(14)), [`neumann`]
-//! (step 2, (15)–(16)); [`nndd`]: the loop and its update of λ; [`secant`]: the self-tuning
-//! update of `-nndd_theta auto`; [`monolithic`]: the discrete
-//! global contact problem solved at once, the check of the NNDD; [`check`]: the final check
-//! of a reported solution.
+//! [`dirichlet`] (step 1 on the Dirichlet body, Ω¹ in the paper, (8)–(10)), [`contact`] (step 1
+//! on the other body, (11)–(14)), [`neumann`] (step 2, (15)–(16)); [`nndd`]: the loop and its
+//! update of λ; [`secant`]: the self-tuning update of `-nndd_theta auto`; [`iterate`]: an
+//! iterate's fields and Γc data; [`monolithic`]: the discrete global contact problem solved at
+//! once, the check of the NNDD; [`check`]: the final check of a reported solution.
 //!
 //! May use: `problem`, `parallel`, `qp`, `fem`, `petsc`, `os`.
 
@@ -12,6 +12,7 @@ pub mod body;
 pub mod check;
 pub mod contact;
 pub mod dirichlet;
+pub mod iterate;
 pub mod monolithic;
 pub mod neumann;
 pub mod nndd;

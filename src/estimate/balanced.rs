@@ -6,7 +6,9 @@
 //! (at the first check, η^FE computed alone). A full estimate is made only when that check
 //! says the rule may hold, and its own η^NNDD and η^FE decide.
 
-use super::{EstimateError, EstimateRecord, Estimator, NnddVariant};
+use super::error::EstimateError;
+use super::estimator::{EstimateRecord, Estimator};
+use super::settings::NnddVariant;
 use crate::dd::body::Body;
 use crate::dd::nndd::{Iterate, IterationRecord, StopRule};
 

@@ -8,9 +8,11 @@ use super::equilibrate::{
     element_cre, equilibrate_restricted, Boundary, BoundaryEdge, EdgeComponent, OperatorCache,
     Recovery, Residuals, SweepValues, NC,
 };
+use super::error::EstimateError;
 use super::overlap::{Halo, Overlap};
+use super::parts::{Part, Parts};
+use super::settings::NnddVariant;
 use super::traction::Interface;
-use super::{EstimateError, NnddVariant, Part, Parts};
 use crate::dd::body::Body;
 use crate::fem::mesh::Mesh;
 use crate::fem::{element_dofs, element_stiffness, element_stress};
@@ -68,7 +70,7 @@ pub enum View<'a> {
 impl View<'_> {
     /// Before a recovery of the data u: start it warm only from nearby data (a relative
     /// change of at most `warm_change`, `-nndd_recovery_warm_change`, default
-    /// [`WARM_CHANGE`]; every rank decides alike, from the whole-body displacement), and on a
+    /// [`super::settings::WARM_CHANGE`]; every rank decides alike, from the whole-body displacement), and on a
     /// split body refresh the warm start from the owners (collective over all ranks: the
     /// estimator prepares every body's recovery before making any, so that no rank waits for
     /// another's).
@@ -434,18 +436,6 @@ enum Data {
     Glo,
     Fe,
 }
-
-/// The default of `-nndd_recovery_warm_change`: the largest relative change of the data (the
-/// displacement, in the energy norm) from one recovery to the next for which the next starts
-/// warm, from the change the previous one's
-/// sweeps made (`Recovery::Patch`); further apart, it starts cold. The warm
-/// start's distance to the relaxed field is about this fraction of a cold start's. Measured
-/// on `paper` with one warm sweep against six cold ones: n = 256, θ auto, estimates every
-/// iteration, between iteration 1's η^FE recovery and iteration 2's η^glo one (change 1.0
-/// and 0.73 on the two bodies) η^glo came out 5.8 % higher warm; from iteration 2 on
-/// (changes ≤ 8·10⁻⁵) 1 % lower, the sweeps accumulating over the estimates. At n = 64,
-/// θ = 0.25, changes of 0.07–0.7 cost at most 0.03 %. The bound holds either way.
-pub const WARM_CHANGE: f64 = 1.0 / 32.0;
 
 /// dᵀ K_E d of an element stiffness K_E and element dofs d.
 fn energy(ke: &[[f64; 6]; 6], d: &[f64; 6]) -> f64 {

@@ -1,7 +1,7 @@
 //! The reference solution of (26) and the exact transfer of a coarse P1 field to it (for
 //! e_ref and the effectivity).
 
-use super::EstimateError;
+use super::error::EstimateError;
 use crate::dd::body::Body;
 use crate::fem::mesh::Mesh;
 

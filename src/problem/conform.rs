@@ -19,10 +19,11 @@
 //!
 //! On matching meshes nothing is inserted or moved: the mesh is the user's.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 
 use crate::fem::gmsh::GmshMesh;
 
+pub use super::matched::{point_key, Matched};
 use super::meshed::{chain, node_normals, BODY_NAMES};
 
 /// Relative distance (to the segment's length) under which a partner is the node itself.
@@ -31,24 +32,6 @@ pub const COINCIDENT: f64 = 1e-8;
 /// part of its curve is moved onto its partner's projection instead of a new node next to it,
 /// which would cut a sliver, of relative area below about [`SNAP`], off the body's triangle.
 pub const SNAP: f64 = 0.2;
-
-/// What was done to make the contact curves match.
-#[derive(Clone, Debug, Default)]
-pub struct Matched {
-    /// Body 1's contact direction at the nodes inserted into its curve (the interpolated normal
-    /// field there; by the node's coordinates), which the pairing uses instead of the mean of
-    /// the (collinear) segments' normals.
-    pub normals: BTreeMap<[u64; 2], [f64; 2]>,
-    /// Nodes inserted into body 1's and body 2's curves.
-    pub inserted: [usize; 2],
-    /// Nodes moved onto a partner's projection, per body.
-    pub moved: [usize; 2],
-}
-
-/// The key of a point in [`Matched::normals`].
-pub fn point_key(p: [f64; 2]) -> [u64; 2] {
-    [p[0].to_bits(), p[1].to_bits()]
-}
 
 fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
     a[0] * b[1] - a[1] * b[0]

@@ -45,7 +45,7 @@ pub struct MeshSpec {
     pub nested: bool,
     /// What [`super::conform`] did to make the contact curves match (nothing on matching
     /// meshes).
-    pub matched: Rc<super::conform::Matched>,
+    pub matched: Rc<super::matched::Matched>,
 }
 
 /// What is wrong with a meshed problem: one line, naming the option.
@@ -576,7 +576,7 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
     // inserted to match body 2's, the normal field it was projected along.
     let mut all_normals = node_normals(&segments);
     for (k, &a) in chain1.iter().enumerate() {
-        if let Some(n) = spec.matched.normals.get(&super::conform::point_key(p1[a])) {
+        if let Some(n) = spec.matched.normals.get(&super::matched::point_key(p1[a])) {
             all_normals[k] = *n;
         }
     }

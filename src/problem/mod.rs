@@ -3,13 +3,15 @@
 //! [`build`] from the plain-data [`ProblemSettings`]. [`benchmarks`]: the built-in problems
 //! `paper` and `uniform` (`docs/benchmarks.md`); [`meshed`]: a problem the user meshed in
 //! Gmsh, with named boundary conditions and an initial gap; [`conform`]: its contact curves,
-//! meshed on their own, made to match; [`settings`]: the problem's options, read into
+//! meshed on their own, made to match ([`matched`]: what it did); [`settings`]: the problem's
+//! options, read into
 //! [`ProblemSettings`].
 //!
 //! May use: `parallel`, `qp`, `fem`, `petsc`, `os`.
 
 pub mod benchmarks;
 pub mod conform;
+pub mod matched;
 pub mod meshed;
 pub mod settings;
 

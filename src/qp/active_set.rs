@@ -36,7 +36,7 @@
 use std::collections::HashSet;
 
 use crate::qp::dense::{Cholesky, SymMatrix};
-use crate::qp::solver::{inf_norm, kkt_residual_with, QpMethod, QpSolution, POLISH_EPS};
+use crate::qp::solution::{inf_norm, kkt_residual_with, QpMethod, QpSolution, POLISH_EPS};
 
 /// The QP's operator P, and its inverse when the caller has it.
 #[derive(Clone, Copy)]

@@ -2,13 +2,16 @@
 //! min ½xᵀPx + qᵀx subject to x ≥ 0 by two methods: [`active_set`], the primal–dual
 //! active-set method (the contact step, warm-started from the previous contact set), and
 //! [`solver`], Clarabel polished to round-off on its contact set (the fallback of the contact
-//! step, the monolithic check, the admissible contact traction of the estimates); [`dense`]:
-//! dense SPD matrices (Schur complements on Γc) and their Cholesky factorisation.
+//! step, the monolithic check, the admissible contact traction of the estimates); [`solution`]:
+//! what either gives and its KKT check; [`dense`]: dense SPD matrices (Schur complements on
+//! Γc) and their Cholesky factorisation.
 //!
 //! May use: `fem`, `petsc`, `os` (today it uses nothing of the crate).
 
 pub mod active_set;
 pub mod dense;
+pub mod solution;
 pub mod solver;
 
-pub use solver::{kkt_residual, solve_nonneg_qp, QpError, QpMethod, QpSettings, QpSolution};
+pub use solution::{kkt_residual, QpMethod, QpSolution};
+pub use solver::{solve_nonneg_qp, QpError, QpSettings};

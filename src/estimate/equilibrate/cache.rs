@@ -49,7 +49,7 @@ impl OperatorCache {
     }
 
     /// The next recovery starts cold (the estimator calls it when the data moved too far
-    /// since the last recovery, `cre::WARM_CHANGE`).
+    /// since the last recovery, `settings::WARM_CHANGE`).
     pub fn forget_warm_start(&mut self) {
         self.warm = None;
         self.warm_data = None;

@@ -23,7 +23,7 @@ pub enum Recovery {
     /// is admissible (the change lies in the data-independent patch kernel) and, for nearby
     /// data, nearly relaxed already; it then makes `warm_sweeps` sweeps. A recovery starts
     /// cold after [`OperatorCache::forget_warm_start`](super::OperatorCache::forget_warm_start) (the estimator calls it when the data
-    /// changed too much, `cre::WARM_CHANGE`). On a sub-mesh the caller refreshes the change
+    /// changed too much, `settings::WARM_CHANGE`). On a sub-mesh the caller refreshes the change
     /// outside the own elements from their owners first (`overlap::Halo`).
     Patch { sweeps: usize, warm_sweeps: usize },
     /// `patch-classic`: start from `Eet` and relax the EET prolongation condition: `sweeps`

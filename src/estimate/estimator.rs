@@ -1,0 +1,473 @@
+//! The estimator: η^glo, η^FE, η^NNDD of an NNDD iterate (paper (22)–(24)), and e_ref
+//! against the reference solution (26), collective over all ranks (the module docs of
+//! [`crate::estimate`] give the estimates).
+
+use std::cell::{Cell, OnceCell, RefCell};
+use std::rc::Rc;
+
+use crate::dd::body::Body;
+use crate::dd::nndd::Iterate;
+use crate::estimate::cre::{
+    body_fields, worst, BodyEstimate, BodyFields, ElementWork, IterationData,
+};
+use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
+use crate::estimate::reference::interpolate_nested;
+use crate::estimate::share::{estimate_owners, Share};
+use crate::parallel::layout::Layout;
+use crate::petsc::LogStage;
+use crate::problem::BodyProblem;
+use crate::qp::QpSettings;
+
+use crate::estimate::error::EstimateError;
+use crate::estimate::parts::{Part, Parts};
+use crate::estimate::reference::Reference;
+use crate::estimate::settings::{EstimateSettings, NnddVariant};
+use crate::estimate::traction::Interface;
+
+/// The estimates of one iteration: totals (on every rank) and element maps η_E (on the ranks
+/// of each body's group,
+/// for output; η² = Σ_E η_E²).
+#[derive(Clone, Debug)]
+pub struct EstimateRecord {
+    pub iteration: usize,
+    pub eta_glo: f64,
+    pub eta_fe: f64,
+    pub eta_nndd: f64,
+    /// (η^FE² + η^NNDD²) / η^glo², the paper's relation (25).
+    pub eta_ratio: f64,
+    pub e_ref: Option<f64>,
+    pub effectivity: Option<f64>,
+    pub residuals: Residuals,
+    /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (on the body's ranks, empty elsewhere).
+    pub maps: [[Vec<f64>; 3]; 2],
+    /// The iterate, with u^α_p gathered on rank 0 (for output), and t̂^c.
+    pub iterate: Iterate,
+    pub t_hat: Vec<f64>,
+}
+
+/// Computes the estimates of NNDD iterates (collective over all ranks).
+pub struct Estimator<'a> {
+    iface: Interface,
+    qp: QpSettings,
+    recovery: Recovery,
+    /// `-nndd_recovery_warm_change`: the largest relative change of a body's displacement
+    /// for which a recovery starts warm ([`crate::estimate::cre::View::prepare`]).
+    warm_change: f64,
+    nndd_variant: NnddVariant,
+    layout: &'a Layout,
+    reference: Option<Reference>,
+    /// The two bodies' problems (every rank has both: any rank may estimate elements of
+    /// either, [`crate::estimate::share`]).
+    problems: [Rc<BodyProblem>; 2],
+    /// The world rank estimating each element of each body ([`crate::estimate::share::estimate_owners`]),
+    /// and whether some of a body's elements are estimated outside its group (its fields
+    /// then travel); made at the first estimate.
+    owners: OnceCell<([Vec<u32>; 2], [bool; 2])>,
+    /// Per body, this rank's share of the element work (built at the first estimate).
+    shares: [OnceCell<Share>; 2],
+    /// The time of each part of the estimates.
+    parts: Parts,
+    /// Per body, the recovery's local operators on this rank, kept across estimates.
+    operators: [RefCell<OperatorCache>; 2],
+    /// [`Estimator::eta_nndd_without_fields`], agreed over the ranks at its first use.
+    cheap_nndd: OnceCell<bool>,
+    /// The estimate in progress recovers η^glo cold ([`Estimator::estimate_cold`]).
+    cold: Cell<bool>,
+}
+
+/// The free heap (bytes) from which an estimate gives the memory back between its two
+/// recoveries ([`crate::os::memory::release_free_memory`]): large meshes only.
+const TRIM_BYTES: usize = 64 << 20;
+
+/// The nodal contact forces μ̂ ≥ 0 of the discrete η^NNDD: max(½(T² − T¹), 0) on the contact
+/// set, 0 where body 2 is off the obstacle (any μ̂ ≥ 0 is admissible; this one is exact at the
+/// discrete solution in both terms).
+fn nodal_contact_forces(it: &Iterate) -> Vec<f64> {
+    (0..it.lambda.len())
+        .map(|i| {
+            if it.active[i] {
+                (0.5 * (it.forces[1][i] - it.forces[0][i])).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+impl<'a> Estimator<'a> {
+    /// The estimator of a run on `layout` as `settings` ask, the admissible tractions' QPs
+    /// solved with `qp`, with the `reference` solution of (26) if any; its parts timed in the
+    /// `-log_view` stages `stages` (`Stages::estimation_parts`) if given. Its caches (the
+    /// elements' owners and shares, the recovery's operators) are made at the first estimate.
+    pub fn new(
+        settings: &EstimateSettings,
+        qp: &QpSettings,
+        layout: &'a Layout,
+        problems: &[Rc<BodyProblem>; 2],
+        reference: Option<Reference>,
+        stages: Option<[LogStage; 6]>,
+    ) -> Estimator<'a> {
+        Estimator {
+            iface: Interface::new(problems[0].contact_lengths.clone()),
+            qp: qp.clone(),
+            recovery: settings.recovery,
+            warm_change: settings.warm_change,
+            nndd_variant: settings.nndd_variant,
+            layout,
+            reference,
+            problems: problems.clone(),
+            owners: Default::default(),
+            shares: Default::default(),
+            parts: Parts::new(stages),
+            operators: Default::default(),
+            cheap_nndd: Default::default(),
+            cold: Default::default(),
+        }
+    }
+
+    /// The iterations of the reference solution's NNDD (none without one).
+    pub fn reference_iterations(&self) -> Option<usize> {
+        self.reference.as_ref().map(|r| r.iterations)
+    }
+
+    /// Seconds spent in each part of the estimates on this rank, in [`Part`]'s order.
+    pub fn part_seconds(&self) -> [f64; 6] {
+        self.parts.seconds()
+    }
+
+    /// Whether [`Estimator::eta_nndd`] can do without the fields of the iterate (every body
+    /// has its interface operators); the same answer on every rank.
+    pub fn eta_nndd_without_fields(&self, bodies: [Option<&Body>; 2]) -> bool {
+        *self.cheap_nndd.get_or_init(|| {
+            let missing = bodies.iter().flatten().any(|b| !b.has_condensed());
+            self.layout.max(missing as u8 as f64) == 0.0
+        })
+    }
+
+    /// η^NNDD alone, discrete variant, without any stress recovery: what the balanced
+    /// stopping rule checks at every iteration, the same number as [`Estimator::estimate`]
+    /// gives. Per body, ũ − u_p solves the Neumann system with loads on the Γc normal dofs
+    /// only: the re-solve's nodal forces ∓μ̂ less the iterate's Γc forces T^α_p (u¹_p, the
+    /// Dirichlet step's solution, is the Neumann solution with its reaction T¹_p). So
+    /// (ũ − u_p)ᵀK(ũ − u_p) = Δᵀ D^α Δ, Δ = ∓μ̂ − T^α_p, with the body's Delassus operator
+    /// D^α = (S^α)⁻¹ (m × m, on its first rank): no back-solve. A body without its interface
+    /// operators makes the Neumann re-solve and (ũ − u_p)ᵀK(ũ − u_p) instead.
+    /// Plus the nodal contact pairing of body 2, 2 μ̂ᵀ(u²_n − λ + g₀), when body 2's field is
+    /// formed; it is zero anyway (μ̂ vanishes off the contact set, and on it the contact step
+    /// puts u²_n = λ − g₀ exactly), so the check needs the Γc forces only when every body
+    /// has its S^α ([`Estimator::eta_nndd_without_fields`]).
+    pub fn eta_nndd(&self, bodies: [Option<&Body>; 2], it: &Iterate) -> Result<f64, EstimateError> {
+        let mu_hat = nodal_contact_forces(it);
+        let mut sum = 0.0;
+        for (k, body) in bodies.iter().enumerate() {
+            if let Some(b) = body {
+                let sign = if k == 0 { 1.0 } else { -1.0 };
+                let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
+                let energy = match (b.has_condensed(), b.condensed()) {
+                    (true, None) => 0.0, // another rank of the group holds D^α
+                    (true, Some(c)) => self.parts.run(Part::ElementSums, || {
+                        let delta: Vec<f64> =
+                            f.iter().zip(&it.forces[k]).map(|(a, t)| a - t).collect();
+                        let mut x = vec![0.0; delta.len()];
+                        c.delassus.matvec(&delta, &mut x);
+                        delta.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>()
+                    }),
+                    (false, _) => {
+                        let u_d = self
+                            .parts
+                            .run(Part::Resolves, || b.neumann_solve(&f, true))?;
+                        let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
+                        let kd = self.parts.run(Part::ElementSums, || b.apply_k(&d))?;
+                        d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
+                    }
+                };
+                if !b.is_root() {
+                    continue; // counted once per group
+                }
+                sum += energy;
+                if k == 1 && !it.u[1].is_empty() {
+                    let u2n = b.normal_trace(&it.u[1]);
+                    let obstacle = b.problem.obstacle(&it.lambda);
+                    sum += (0..mu_hat.len())
+                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]))
+                        .sum::<f64>();
+                }
+            }
+        }
+        Ok(self
+            .parts
+            .run(Part::Reduction, || self.layout.sum(sum))
+            .max(0.0)
+            .sqrt())
+    }
+
+    /// η^glo, η^FE, η^NNDD (and e_ref, γ with a reference) of the iterate `it`.
+    pub fn estimate(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+    ) -> Result<EstimateRecord, EstimateError> {
+        self.run(bodies, it, false)
+    }
+
+    /// [`Estimator::estimate`] with its η^glo recovery started cold, whatever the estimates
+    /// before (its η^FE recovery may start from that one, as in any estimate):
+    /// the bound of an iterate that does not depend on which iterates were estimated before it
+    /// (the warm start of `-nndd_recovery_warm_change` changes the recovered stress, and η^glo
+    /// by up to a few per cent: `paper` n = 16, 2.9514 warm against 3.0217 cold).
+    pub fn estimate_cold(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+    ) -> Result<EstimateRecord, EstimateError> {
+        self.cold.set(true);
+        let rec = self.run(bodies, it, false);
+        self.cold.set(false);
+        rec
+    }
+
+    /// Whether an estimate may start its recoveries from an earlier one's (so that it may
+    /// differ from [`Estimator::estimate_cold`]).
+    pub fn starts_warm(&self) -> bool {
+        self.warm_change > 0.0 && self.recovery.starts_warm()
+    }
+
+    /// η^FE alone of the iterate `it` (one recovery per body, and body 2's re-solve): what
+    /// the balanced stopping rule compares η^NNDD with at its first check.
+    pub fn eta_fe(&self, bodies: [Option<&Body>; 2], it: &Iterate) -> Result<f64, EstimateError> {
+        Ok(self.run(bodies, it, true)?.eta_fe)
+    }
+
+    /// Whether a stop signal arrived on any rank (`Err(Stopped)` on every rank then): one
+    /// reduction over all ranks, at points every rank passes in the same order. Between the
+    /// estimate's parts, so that a signal during an estimate of the NNDD loop is acted on
+    /// before the next part rather than after the whole estimate.
+    fn stop_point(&self) -> Result<(), EstimateError> {
+        let mine = crate::os::signals::stop_requested() as u8 as f64;
+        // (an agreement over the ranks: part of the reductions, with its waits)
+        if self.parts.run(Part::Reduction, || self.layout.max(mine)) > 0.0 {
+            return Err(EstimateError::Stopped);
+        }
+        Ok(())
+    }
+
+    /// The estimates of `it`; with `fe_only`, η^FE alone (the other totals are zero, and
+    /// there is no e_ref).
+    fn run(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+        fe_only: bool,
+    ) -> Result<EstimateRecord, EstimateError> {
+        crate::parallel::fault::check(crate::parallel::fault::Phase::Estimate)?;
+        self.stop_point()?;
+        let layout = self.layout;
+        // The admissible Γc tractions (the same small QPs on every rank).
+        let target: Vec<f64> = it.forces[0]
+            .iter()
+            .zip(&it.forces[1])
+            .map(|(a, b)| 0.5 * (a - b))
+            .collect();
+        let minus_t2: Vec<f64> = it.forces[1].iter().map(|t| -t).collect();
+        let (t_glo, t_fe) = self.parts.run(Part::TractionQp, || {
+            let t_fe = self.iface.admissible_traction(&minus_t2, &self.qp)?;
+            let t_glo = if fe_only {
+                t_fe.clone() // unused
+            } else {
+                self.iface.admissible_traction(&target, &self.qp)?
+            };
+            Ok::<_, EstimateError>((t_glo, t_fe))
+        })?;
+        let mu_hat = nodal_contact_forces(it);
+        let data = IterationData {
+            lambda: &it.lambda,
+            t_glo: &t_glo,
+            t_fe: &t_fe,
+            reaction1: &it.forces[0],
+            mu_hat: &mu_hat,
+            nndd_variant: self.nndd_variant,
+            recovery: self.recovery,
+            fe_only,
+        };
+        let mut sums = [0.0; 3];
+        let mut res = Residuals::default();
+        let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
+        let mut e_ref2 = 0.0;
+        let (owners, crosses) = self.owners.get_or_init(|| {
+            let owners = estimate_owners(
+                [&self.problems[0].mesh, &self.problems[1].mesh],
+                layout.size as usize,
+            );
+            let crosses = [0, 1].map(|k| {
+                let group = layout.group_ranks(k + 1);
+                owners[k].iter().any(|&r| !group.contains(&(r as usize)))
+            });
+            (owners, crosses)
+        });
+        // The re-solves on each body's group, their fields to the other ranks estimating
+        // elements of the body.
+        let mut fields: [BodyFields; 2] = Default::default();
+        for (k, body) in bodies.iter().enumerate() {
+            if let Some(b) = body {
+                fields[k] = body_fields(b, &it.u[k], &self.iface, &data, &self.parts)?;
+            }
+            if crosses[k] {
+                let f = &mut fields[k];
+                self.parts.run(Part::Reduction, || {
+                    layout.share_vec(k + 1, f.u_p.to_mut());
+                    for v in [&mut f.u_tilde, &mut f.u_d, &mut f.u_fe] {
+                        layout.share_vec(k + 1, v);
+                    }
+                });
+            }
+        }
+        self.stop_point()?;
+        // The element work: each recovery prepared for both bodies before any is made (the
+        // warm-start exchanges are the only collectives in it, so no rank waits for another
+        // between them).
+        let shares = [0, 1].map(|k| {
+            self.shares[k].get_or_init(|| {
+                self.parts.run(Part::Recovery, || {
+                    let p = &self.problems[k];
+                    Share::new(
+                        k + 1,
+                        &p.mesh,
+                        &owners[k],
+                        crosses[k],
+                        self.recovery,
+                        layout,
+                    )
+                })
+            })
+        });
+        let views = shares.map(|s| s.view(layout));
+        let mut works: Vec<(usize, ElementWork)> = (0..2)
+            .filter_map(|k| {
+                let view = views[k].as_ref()?;
+                Some((k, ElementWork::new(&self.problems[k], &fields[k], view)))
+            })
+            .collect();
+        // Before each recovery, every body's is prepared (η^FE's data when `fe`).
+        let prepare = |works: &[(usize, ElementWork)], fe: bool| {
+            for (k, w) in works {
+                let view = views[*k].as_ref().expect("a view");
+                let u = if fe { w.fe_data() } else { w.glo_data() };
+                let ops = &mut self.operators[*k].borrow_mut();
+                // (a negative change bound: no earlier recovery is near enough to start from;
+                // a cold estimate's η^FE recovery may start from its own η^glo recovery)
+                let warm_change = if self.cold.get() && !fe {
+                    -1.0
+                } else {
+                    self.warm_change
+                };
+                view.prepare(&self.problems[*k], u, self.recovery, warm_change, ops);
+            }
+        };
+        if !fe_only {
+            prepare(&works, false);
+            for (k, w) in works.iter_mut() {
+                w.glo(&data, &mut self.operators[*k].borrow_mut(), &self.parts)?;
+            }
+        }
+        // The η^glo recovery's temporaries back to the system before the η^FE one allocates
+        // its own (the first estimate's high-water mark on large meshes: paper n = 1024 out of
+        // core, 3018 / 3055 → 2921 / 2971 MiB).
+        crate::os::memory::release_free_memory(TRIM_BYTES);
+        self.stop_point()?;
+        prepare(&works, true);
+        for (k, w) in works.iter_mut() {
+            w.fe(
+                &self.iface,
+                &data,
+                &mut self.operators[*k].borrow_mut(),
+                &self.parts,
+            )?;
+        }
+        let mut done: [Option<BodyEstimate>; 2] = [None, None];
+        for (k, w) in works {
+            done[k] = Some(w.finish(&self.iface, &data, &self.parts));
+        }
+        for (k, body) in bodies.iter().enumerate() {
+            let ne = self.problems[k].mesh.triangles.len();
+            let mut map: [Vec<f64>; 3] = Default::default();
+            if let Some(est) = done[k].take() {
+                let t = est.totals();
+                for c in 0..3 {
+                    sums[c] += t[c];
+                }
+                res = worst(res, est.residuals);
+                map = [est.glo, est.fe, est.nndd];
+                for v in map.iter_mut().flatten() {
+                    *v = v.max(0.0).sqrt();
+                }
+            }
+            // The element maps onto the body's ranks, each element from its estimating rank.
+            self.parts.run(Part::Reduction, || {
+                if crosses[k] {
+                    for m in map.iter_mut() {
+                        m.resize(ne, 0.0);
+                        layout.world_sum(m);
+                    }
+                } else if body.is_some() {
+                    for m in map.iter_mut() {
+                        layout.group_sum(m);
+                    }
+                }
+            });
+            if body.is_some() {
+                maps[k] = map;
+            }
+            if let (Some(b), Some(r)) = (body, self.reference.as_ref().filter(|_| !fe_only)) {
+                e_ref2 += self.parts.run(Part::ReferenceError, || {
+                    let fine = r.bodies[k]
+                        .as_ref()
+                        .expect("reference body on the same ranks");
+                    let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &it.u[k])?;
+                    let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
+                    let kd = fine.apply_k(&d)?;
+                    // Every rank of the group has it: count it once.
+                    Ok::<f64, EstimateError>(if b.is_root() {
+                        d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
+                    } else {
+                        0.0
+                    })
+                })?;
+            }
+        }
+        drop(fields);
+        let (sums, e_ref, res) = self.parts.run(Part::Reduction, || {
+            let e_ref = self
+                .reference
+                .as_ref()
+                .map(|_| layout.sum(e_ref2).max(0.0).sqrt());
+            let res = Residuals {
+                divergence: layout.max(res.divergence),
+                internal_jump: layout.max(res.internal_jump),
+                element_jump: layout.max(res.element_jump),
+                boundary: layout.max(res.boundary),
+                point_reaction: layout.max(res.point_reaction),
+            };
+            (sums.map(|s| layout.sum(s)), e_ref, res)
+        });
+        let [glo, fe, nndd] = sums;
+        let iterate = it.clone();
+        let eta_glo = glo.max(0.0).sqrt();
+        Ok(EstimateRecord {
+            iteration: it.iteration,
+            eta_glo,
+            eta_fe: fe.max(0.0).sqrt(),
+            eta_nndd: nndd.max(0.0).sqrt(),
+            eta_ratio: if glo > 0.0 {
+                (fe + nndd) / glo
+            } else {
+                f64::NAN
+            },
+            e_ref,
+            effectivity: e_ref.map(|e| eta_glo / e),
+            residuals: res,
+            maps,
+            iterate,
+            t_hat: t_glo,
+        })
+    }
+}

@@ -1,0 +1,22 @@
+//! What [`super::conform`] did to make two contact curves meshed on their own match, as the
+//! pairing of [`super::meshed`] reads it.
+
+use std::collections::BTreeMap;
+
+/// What was done to make the contact curves match.
+#[derive(Clone, Debug, Default)]
+pub struct Matched {
+    /// Body 1's contact direction at the nodes inserted into its curve (the interpolated normal
+    /// field there; by the node's coordinates), which the pairing uses instead of the mean of
+    /// the (collinear) segments' normals.
+    pub normals: BTreeMap<[u64; 2], [f64; 2]>,
+    /// Nodes inserted into body 1's and body 2's curves.
+    pub inserted: [usize; 2],
+    /// Nodes moved onto a partner's projection, per body.
+    pub moved: [usize; 2],
+}
+
+/// The key of a point in [`Matched::normals`].
+pub fn point_key(p: [f64; 2]) -> [u64; 2] {
+    [p[0].to_bits(), p[1].to_bits()]
+}
