@@ -467,13 +467,9 @@ fn dirichlet_step_name(
     settings: &Settings,
     dirichlet: Option<&DirichletStep>,
 ) -> &'static str {
-    let mut system = [dirichlet.map_or(0.0, |d| (d.name() == "system") as u8 as f64)];
+    let mut system = [dirichlet.is_some_and(|d| d.is_system()) as u8 as f64];
     layout.share(settings.nndd.dirichlet_body, &mut system);
-    if system[0] > 0.5 {
-        "system"
-    } else {
-        "condensed"
-    }
+    DirichletStep::name_of(system[0] > 0.5)
 }
 
 /// The reported iterate's estimate (not when a signal stopped the run: it must end soon), its

@@ -47,10 +47,20 @@ impl DirichletStep {
     }
 
     pub fn name(&self) -> &'static str {
-        match self {
-            DirichletStep::System => "system",
-            DirichletStep::Condensed { .. } => "condensed",
+        Self::name_of(self.is_system())
+    }
+
+    /// The name of a step solved with its own system (`system`) or condensed (`condensed`).
+    pub fn name_of(system: bool) -> &'static str {
+        if system {
+            "system"
+        } else {
+            "condensed"
         }
+    }
+
+    pub fn is_system(&self) -> bool {
+        matches!(self, DirichletStep::System)
     }
 
     /// T¹_p for the interface position λ_p, and u¹_p when it came for free. Condensed, T¹_p is

@@ -255,15 +255,10 @@ impl Default for NnddSettings {
 /// How much softer than the other the Dirichlet step's body must be for a warning.
 pub const SOFT_DIRICHLET: f64 = 0.1;
 
-/// The plane-strain modulus E/(1 − ν²), the stiffness that decides the Dirichlet body.
-fn modulus(m: &Material) -> f64 {
-    m.young / (1.0 - m.poisson * m.poisson)
-}
-
 /// The body of the Dirichlet step for `-nndd_dirichlet_body auto`: the stiffer one by its
 /// plane-strain modulus, body 1 (the paper's) when they are equal.
 pub fn stiffer_body(materials: &[Material; 2]) -> usize {
-    if modulus(&materials[1]) > modulus(&materials[0]) {
+    if materials[1].plane_strain_modulus() > materials[0].plane_strain_modulus() {
         2
     } else {
         1
@@ -275,10 +270,10 @@ pub fn stiffer_body(materials: &[Material; 2]) -> usize {
 /// interface operator's spectrum spreads by the stiffness ratio, `src/dd/secant.rs`).
 fn soft_dirichlet_body(materials: &[Material; 2], body: usize) -> Option<String> {
     let (d, c) = (&materials[body - 1], &materials[2 - body]);
-    (modulus(d) < SOFT_DIRICHLET * modulus(c)).then(|| {
+    (d.plane_strain_modulus() < SOFT_DIRICHLET * c.plane_strain_modulus()).then(|| {
         format!(
             "body {body} takes the Dirichlet step (-nndd_dirichlet_body {body}) but is {:.0} times softer than body {} (E/(1 - nu^2), E {:e} against {:e} Pa): the NNDD converges in far fewer iterations with the Dirichlet step on the stiffer body (-nndd_dirichlet_body auto)",
-            modulus(c) / modulus(d),
+            c.plane_strain_modulus() / d.plane_strain_modulus(),
             3 - body,
             d.young,
             c.young

@@ -12,6 +12,12 @@ pub struct Material {
 }
 
 impl Material {
+    /// The plane-strain modulus E/(1 − ν²): the stiffness of the body under a normal load on
+    /// its boundary (which body takes the NNDD's Dirichlet step).
+    pub fn plane_strain_modulus(&self) -> f64 {
+        self.young / (1.0 - self.poisson * self.poisson)
+    }
+
     /// Hooke's matrix K (Voigt: xx, yy, xy with engineering shear strain).
     pub fn hooke(&self) -> [[f64; 3]; 3] {
         let (e, nu) = (self.young, self.poisson);
@@ -203,6 +209,13 @@ mod tests {
         young: 210e9,
         poisson: 0.27,
     };
+
+    #[test]
+    fn plane_strain_modulus_by_hand() {
+        // 210e9 / (1 − 0.27²) = 210e9 / 0.9271.
+        let e = STEEL.plane_strain_modulus();
+        assert!((e - 2.2651278179268686e11).abs() < 1e-15 * e, "{e}");
+    }
 
     #[test]
     fn stiffness_of_unit_right_triangle_by_hand() {
