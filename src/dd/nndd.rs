@@ -148,25 +148,21 @@ impl NnddSettings {
             1000,
             Bounds::POSITIVE_INT,
         )?;
-        let stop = o.choice(
-            "-nndd_stop",
-            "Stopping rule: tol (|dlambda| <= tol |lambda|), balanced (also when eta_NNDD <= kappa eta_FE), none (exactly -nndd_max_it iterations)",
-            &[
-                ("tol", StopRule::Tol),
-                ("balanced", StopRule::Balanced { ratio: f64::NAN }),
-                ("none", StopRule::None),
-            ],
-        )?;
         let (ratio, _) = o.real_in(
             "-nndd_stop_ratio",
             "kappa of -nndd_stop balanced: stop when eta_NNDD <= kappa eta_FE",
             0.1,
             Bounds::POSITIVE,
         )?;
-        let stop = match stop {
-            StopRule::Balanced { .. } => StopRule::Balanced { ratio },
-            other => other,
-        };
+        let stop = o.choice(
+            "-nndd_stop",
+            "Stopping rule: tol (|dlambda| <= tol |lambda|), balanced (also when eta_NNDD <= kappa eta_FE), none (exactly -nndd_max_it iterations)",
+            &[
+                ("tol", StopRule::Tol),
+                ("balanced", StopRule::Balanced { ratio }),
+                ("none", StopRule::None),
+            ],
+        )?;
         let neumann_step = o.choice(
             "-nndd_neumann_step",
             "Neumann steps: auto (condensed where the body has its interface operators), condensed (the trace D(-+R/2)), solve (a back-solve)",
