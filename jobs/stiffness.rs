@@ -8,6 +8,10 @@
 //!   body (auto) and on body 1 (the paper's choice, `-nndd_dirichlet_body 1`). The contact set
 //!   grows over the iterations here (from nothing to some 60 pairs), unlike `paper`'s.
 //!
+//! - `--limits`: `paper` n = 16 at the stiffness ratios 1e2, 1e4 and 1e6 (the largest accepted)
+//!   either way, θ auto with the Dirichlet step on either body, each against the monolithic
+//!   solve: the iterations, the stop, the interface force balance and the energy difference.
+//!
 //! Run: `jobs/stiffness [--n N]` → a table on stdout and `results/stiffness.txt` (n = 16) or
 //! `results/stiffness-nN.txt`; `jobs/stiffness --hertz` → `results/stiffness-hertz.txt`.
 
@@ -92,10 +96,82 @@ fn hertz(levels: &[usize]) {
     std::fs::write("results/stiffness-hertz.txt", &table).expect("results/stiffness-hertz.txt");
 }
 
+/// `paper` n = 16 at the ratios up to the accepted limit, either body the stiffer, the
+/// Dirichlet step on either body.
+fn limits() {
+    let dir = runner::scratch("stiffness-limits");
+    let mut table =
+        String::from("  stiffer   ratio  dirichlet   stop         iter   force_balance   dE\n");
+    for stiffer in [2, 1] {
+        for ratio in [1e2, 1e4, 1e6] {
+            let e2 = if stiffer == 2 {
+                2.1e11 * ratio
+            } else {
+                2.1e11 / ratio
+            };
+            let e2 = format!("{e2:e}");
+            let base = [
+                "-nndd_n",
+                "16",
+                "-nndd_E",
+                "2.1e11",
+                "-nndd_body2_E",
+                &e2,
+                "-nndd_theta",
+                "auto",
+                "-nndd_max_it",
+                "1000",
+                "-nndd_estimate_every",
+                "0",
+                "-nndd_reference_factor",
+                "0",
+            ];
+            let paper = "petsc-options/paper.opts";
+            let mut a = base.to_vec();
+            a.extend(["-nndd_solver", "monolithic"]);
+            let (mono, _) = runner::try_run(1, paper, &[], &dir.join("mono"), &a)
+                .unwrap_or_else(|e| panic!("monolithic: {e}"));
+            let em = runner::num(&mono, "potential_energy");
+            for body in ["1", "2"] {
+                eprintln!(
+                    "stiffness: body {stiffer} {ratio:e} times stiffer, Dirichlet body {body} …"
+                );
+                let mut a = base.to_vec();
+                a.extend(["-nndd_dirichlet_body", body]);
+                let (j, _) = match runner::try_run(2, paper, &[], &dir.join("nndd"), &a) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        table.push_str(&format!(
+                            "{stiffer:>9} {ratio:>7.0e}  {body:>9}   failed: {e}\n"
+                        ));
+                        continue;
+                    }
+                };
+                let fb = j["history"]
+                    .as_array()
+                    .and_then(|h| h.last())
+                    .map_or(f64::NAN, |h| runner::num(h, "force_balance"));
+                let de = (runner::num(&j, "potential_energy") - em).abs() / em.abs();
+                table.push_str(&format!(
+                    "{stiffer:>9} {ratio:>7.0e}  {body:>9}   {:<10} {:>6}   {fb:>13.1e}   {de:.1e}\n",
+                    j["stop_reason"].as_str().unwrap_or("?"),
+                    j["iterations"],
+                ));
+            }
+        }
+    }
+    table.push_str("(paper n = 16, 2 ranks, theta auto, tol 1e-8 on dlambda and on the force balance |T1 + T2|/max(|T1|, |T2|); dE: relative energy difference to the monolithic solve; beyond 1e6 nndd refuses the moduli)\n");
+    print!("{table}");
+    std::fs::create_dir_all("results").ok();
+    std::fs::write("results/stiffness-limits.txt", &table).expect("results/stiffness-limits.txt");
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = || -> ! {
-        eprintln!("stiffness: usage: jobs/stiffness [--n N] | --hertz [--levels 1,2,3,4]");
+        eprintln!(
+            "stiffness: usage: jobs/stiffness [--n N] | --hertz [--levels 1,2,3,4] | --limits"
+        );
         std::process::exit(1);
     };
     let levels = |v: &str| -> Vec<usize> {
@@ -107,6 +183,7 @@ fn main() {
         [] => "16".to_string(),
         [flag, v] if flag == "--n" && v.parse::<usize>().is_ok() => v.clone(),
         [h] if h == "--hertz" => return hertz(&[1, 2, 3, 4]),
+        [l] if l == "--limits" => return limits(),
         [h, flag, v] if h == "--hertz" && flag == "--levels" => return hertz(&levels(v)),
         _ => usage(),
     };

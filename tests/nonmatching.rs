@@ -283,7 +283,8 @@ fn the_rounded_punch_on_non_matching_meshes_is_bounded_and_equals_the_monolithic
 
 /// The cylinder's named arc (half-width 0.05) narrower than the contact zone (0.08) while the
 /// block's curve is wide: the cylinder passes through the block's curve beyond Γc, an error
-/// (exit 2, no results); on 1 and 3 ranks alike.
+/// (exit 2, no results) naming the deepest node, the cylinder's beyond its arc; on 1 and 3
+/// ranks alike.
 #[test]
 fn a_penetration_beyond_the_contact_curves_is_an_error() {
     let dir = scratch("nm-penetration");
@@ -301,9 +302,9 @@ fn a_penetration_beyond_the_contact_curves_is_an_error() {
             ],
             Some(2),
             &[
-                "-nndd_contact: body 1's node",
-                "on the contact curve 'block_top'",
-                "inside body 2",
+                "-nndd_contact: body 2's node",
+                "off the contact curve 'cylinder_arc'",
+                "inside body 1",
                 "no results are written",
             ],
         );

@@ -489,7 +489,7 @@ impl<'a> Run<'a> {
             say_warnings(self.layout.is_root(), std::slice::from_ref(&w));
             sol.warnings.push(w);
         }
-        let penetration = dd::check::penetration(self.layout, problems, &sol.last);
+        let penetration = dd::penetration::penetration(self.layout, problems, &sol.last);
         if let Some(what) = penetration.failure(&contact_curves(self.settings)) {
             return Err(AppError::Penetration(what));
         }

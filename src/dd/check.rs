@@ -1,7 +1,7 @@
 //! The final check of a reported solution, NNDD or monolithic: its fields, formed by solves
 //! with the iterate's Γc forces, must be in the discrete equilibrium of each body with those
-//! forces, and body 2's Γc trace must satisfy the contact conditions against body 1's
-//! (no penetration, no tension, complementarity). What the iteration computed by condensed
+//! forces, the two bodies' Γc forces must balance, and body 2's Γc trace must satisfy the
+//! contact conditions against body 1's (no penetration, no tension, complementarity). What the iteration computed by condensed
 //! algebra (S^α, D^α, the contact QP) is thus checked against the bodies' own systems.
 
 use std::collections::HashMap;
@@ -23,6 +23,9 @@ pub const CONTACT_LIMIT: f64 = 1e-8;
 pub struct SolutionCheck {
     /// Each body's discrete equilibrium with its Γc forces ([`Body::equilibrium_residual`]).
     pub equilibrium: [f64; 2],
+    /// The interface force balance ‖T¹ + T²‖ / max(‖T¹‖, ‖T²‖) (each body in equilibrium with
+    /// its own forces says nothing of whether the two forces are equal and opposite).
+    pub balance: f64,
     /// The largest penetration of body 2 into body 1's Γc trace, max(0, λ − g₀ − u²_n),
     /// over the largest |λ|, |u²_n|, |g₀|.
     pub penetration: f64,
@@ -34,13 +37,23 @@ pub struct SolutionCheck {
 }
 
 impl SolutionCheck {
-    /// The first failed check, as a phrase (`None`: all hold).
-    pub fn failure(&self) -> Option<String> {
+    /// The first failed check, as a phrase (`None`: all hold); the force balance is checked
+    /// against `balance_limit` where given (a converged or a monolithic solution; an iterate
+    /// stopped early by the balanced rule is not balanced by design).
+    pub fn failure(&self, balance_limit: Option<f64>) -> Option<String> {
         for (k, r) in self.equilibrium.iter().enumerate() {
             if r.is_nan() || *r > EQUILIBRIUM_LIMIT {
                 return Some(format!(
                     "body {b}'s equilibrium residual {r:.1e} > {EQUILIBRIUM_LIMIT:.0e} (its solves: -body{b}_ksp_rtol, -body{b}_pc_type)",
                     b = k + 1
+                ));
+            }
+        }
+        if let Some(limit) = balance_limit {
+            let b = self.balance;
+            if b.is_nan() || b > limit {
+                return Some(format!(
+                    "the bodies' contact forces do not balance: |T1 + T2|/max(|T1|, |T2|) = {b:.1e} > {limit:.0e}"
                 ));
             }
         }
@@ -75,6 +88,13 @@ pub fn check_solution(
     layout.share(1, &mut r[0]);
     layout.share(2, &mut r[1]);
     check.equilibrium = [r[0][0], r[1][0]];
+    // Every rank holds both bodies' Γc forces.
+    let r: Vec<f64> = it.forces[0]
+        .iter()
+        .zip(&it.forces[1])
+        .map(|(a, b)| a + b)
+        .collect();
+    check.balance = crate::dd::nndd::force_balance(&r, &it.forces);
     if let Some(b) = bodies[it.contact_body - 1] {
         let gap0 = &b.problem.gap;
         let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
@@ -151,146 +171,6 @@ pub fn zone_reaches_open_end(problems: [&BodyProblem; 2], it: &Iterate) -> Optio
     })
 }
 
-/// The largest penetration found over the whole contact curves ([`penetration`]).
-#[derive(Clone, Debug, Default, serde::Serialize)]
-pub struct Penetration {
-    /// How far (m) the node is inside the other body, linearised: max(0, −g), g the gap along
-    /// the node's normal after the displacements; 0 when nothing penetrates.
-    pub depth: f64,
-    /// The depth over the displacements' scale (the largest |u| on both bodies' boundaries).
-    pub relative: f64,
-    /// The node, in the reference configuration, and its body (0 when nothing penetrates).
-    pub at: [f64; 2],
-    pub body: usize,
-    /// Whether the node is on Γc (a pair, whose gap the contact step keeps ≥ 0) or a
-    /// candidate beyond it, where nothing keeps the bodies apart.
-    pub on_gc: bool,
-}
-
-impl Penetration {
-    /// The error of a penetration beyond round-off: where, how deep, what to do.
-    pub fn failure(&self, curves: &[String; 2]) -> Option<String> {
-        (self.relative.is_nan() || self.relative > CONTACT_LIMIT).then(|| {
-            let (own, other) = (&curves[self.body - 1], &curves[2 - self.body]);
-            format!(
-                "body {}'s node ({:.6e}, {:.6e}) on the contact curve '{own}' is {:.3e} m inside body {} ({:.1e} of the displacements), {}; no results are written",
-                self.body,
-                self.at[0],
-                self.at[1],
-                self.depth,
-                3 - self.body,
-                self.relative,
-                if self.on_gc {
-                    "on Γc".to_string()
-                } else {
-                    format!("beyond the part of it that '{other}' faces: the bodies meet where the contact curves do not reach (name longer curves)")
-                }
-            )
-        })
-    }
-}
-
-/// The boundary nodes of a mesh and body α's displacement there, [x, y] per node, shared from
-/// its owners (collective).
-fn boundary_displacements(
-    layout: &Layout,
-    p: &BodyProblem,
-    u: &[f64],
-) -> (HashMap<usize, usize>, Vec<f64>) {
-    let mut nodes: Vec<usize> = p.mesh.boundary_edges().into_iter().flatten().collect();
-    nodes.sort_unstable();
-    nodes.dedup();
-    let mut values = vec![0.0; 2 * nodes.len()];
-    if !u.is_empty() {
-        for (k, &n) in nodes.iter().enumerate() {
-            values[2 * k] = u[2 * n];
-            values[2 * k + 1] = u[2 * n + 1];
-        }
-    }
-    layout.share(p.alpha, &mut values);
-    (
-        nodes.into_iter().enumerate().map(|(k, n)| (n, k)).collect(),
-        values,
-    )
-}
-
-/// The largest penetration over both bodies' whole contact curves (collective; every rank
-/// finds the same). On Γc it is the pairs' gap g₀ + u²_n − u¹_n; at a candidate node beyond Γc,
-/// the gap along the body's outward normal to the other body's boundary (anywhere on it, not
-/// only its contact curve), linearised: s + (u_other(q) − u(x))·ν, where x + sν meets the
-/// other boundary at q, the nearest such point ahead (s ≥ 0).
-pub fn penetration(layout: &Layout, problems: [&BodyProblem; 2], it: &Iterate) -> Penetration {
-    let shared = [0, 1].map(|k| boundary_displacements(layout, problems[k], &it.u[k]));
-    let scale = shared
-        .iter()
-        .flat_map(|(_, v)| v.iter())
-        .fold(0.0_f64, |m, x| m.max(x.abs()));
-    let disp = |k: usize, node: usize| -> [f64; 2] {
-        let (index, v) = &shared[k];
-        let i = index[&node];
-        [v[2 * i], v[2 * i + 1]]
-    };
-    let mut worst = Penetration::default();
-    let mut consider = |depth: f64, body: usize, node: usize, on_gc: bool| {
-        if depth > worst.depth || depth.is_nan() {
-            worst = Penetration {
-                depth,
-                relative: 0.0,
-                at: problems[body - 1].mesh.points[node],
-                body,
-                on_gc,
-            };
-        }
-    };
-    // Γc: the pairs.
-    let p1 = problems[0];
-    for k in 0..it.lambda.len() {
-        let gap = it.trace2[k] - (it.lambda[k] - p1.gap[k]);
-        consider(-gap, 1, p1.contact_nodes[k], true);
-    }
-    // Beyond Γc: the rest of each contact curve against the other body's boundary.
-    for a in 0..2 {
-        let (p, q) = (problems[a], problems[1 - a]);
-        let on_gc: std::collections::HashSet<usize> = p.contact_nodes.iter().copied().collect();
-        let edges = q.mesh.boundary_edges();
-        for (&node, nu) in p.contact_candidates.iter().zip(&p.candidate_normals) {
-            if on_gc.contains(&node) {
-                continue;
-            }
-            let x = p.mesh.points[node];
-            let mut hit: Option<(f64, [f64; 2])> = None;
-            for &[ea, eb] in &edges {
-                let (pa, pb) = (q.mesh.points[ea], q.mesh.points[eb]);
-                let w = [pb[0] - pa[0], pb[1] - pa[1]];
-                let r = [pa[0] - x[0], pa[1] - x[1]];
-                let det = nu[0] * w[1] - nu[1] * w[0];
-                if det == 0.0 {
-                    continue;
-                }
-                let s = (r[0] * w[1] - r[1] * w[0]) / det;
-                let t = (r[0] * nu[1] - r[1] * nu[0]) / det;
-                if !(0.0..=1.0).contains(&t) || s < 0.0 || hit.is_some_and(|(h, _)| h <= s) {
-                    continue;
-                }
-                let (ua, ub) = (disp(1 - a, ea), disp(1 - a, eb));
-                let uq = [ua[0] + t * (ub[0] - ua[0]), ua[1] + t * (ub[1] - ua[1])];
-                hit = Some((s, uq));
-            }
-            if let Some((s, uq)) = hit {
-                let ux = disp(a, node);
-                let gap = s + (uq[0] - ux[0]) * nu[0] + (uq[1] - ux[1]) * nu[1];
-                consider(-gap, a + 1, node, false);
-            }
-        }
-    }
-    worst.relative = if scale > 0.0 {
-        worst.depth / scale
-    } else {
-        worst.depth
-    };
-    worst
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -299,28 +179,41 @@ mod tests {
     fn the_solution_check_names_its_first_failure() {
         let ok = SolutionCheck {
             equilibrium: [2e-16, 1e-15],
+            balance: 1e-12,
             penetration: 1e-14,
             tension: 0.0,
             complementarity: 3e-15,
         };
-        assert_eq!(ok.failure(), None);
+        assert_eq!(ok.failure(Some(1e-8)), None);
         let bad = SolutionCheck {
             equilibrium: [2e-16, 2e-2],
             ..ok
         };
         assert!(bad
-            .failure()
+            .failure(None)
             .unwrap()
             .starts_with("body 2's equilibrium residual 2.0e-2"));
         let nan = SolutionCheck {
             equilibrium: [f64::NAN, 0.0],
             ..ok
         };
-        assert!(nan.failure().unwrap().starts_with("body 1's"));
+        assert!(nan.failure(None).unwrap().starts_with("body 1's"));
         let through = SolutionCheck {
             penetration: 1e-6,
             ..ok
         };
-        assert!(through.failure().unwrap().contains("penetration 1.0e-6"));
+        assert!(through
+            .failure(None)
+            .unwrap()
+            .contains("penetration 1.0e-6"));
+        let unbalanced = SolutionCheck {
+            balance: 3e-4,
+            ..ok
+        };
+        assert_eq!(unbalanced.failure(None), None);
+        assert!(unbalanced
+            .failure(Some(1e-8))
+            .unwrap()
+            .contains("do not balance: |T1 + T2|/max(|T1|, |T2|) = 3.0e-4 > 1e-8"));
     }
 }

@@ -4,7 +4,8 @@
 //! on the other body, (11)–(14)), [`neumann`] (step 2, (15)–(16)); [`nndd`]: the loop and its
 //! update of λ; [`secant`]: the self-tuning update of `-nndd_theta auto`; [`iterate`]: an
 //! iterate's fields and Γc data; [`monolithic`]: the discrete global contact problem solved at
-//! once, the check of the NNDD; [`check`]: the final check of a reported solution.
+//! once, the check of the NNDD; [`check`]: the final check of a reported solution; [`penetration`]: that the bodies do not
+//! pass through each other anywhere.
 //!
 //! May use: `problem`, `parallel`, `qp`, `fem`, `petsc`, `os`.
 
@@ -16,4 +17,5 @@ pub mod iterate;
 pub mod monolithic;
 pub mod neumann;
 pub mod nndd;
+pub mod penetration;
 pub mod secant;

@@ -104,6 +104,9 @@ pub struct NnddSettings {
     pub relaxation: Relaxation,
     /// Stopping tolerance on ‖λ_{p+1} − λ_p‖ / ‖λ_{p+1}‖.
     pub tol: f64,
+    /// Stopping tolerance on the interface force balance ‖R_p‖ / max(‖T¹_p‖, ‖T²_p‖): a
+    /// converged iterate satisfies both (a short step is no balance of the forces).
+    pub force_tol: f64,
     pub max_it: usize,
     pub stop: StopRule,
     /// The body of the Dirichlet step (1, as in the paper, or 2): λ is its normal Γc
@@ -139,6 +142,12 @@ impl NnddSettings {
         let (tol, _) = o.real_in(
             "-nndd_tol",
             "NNDD stopping tolerance on |dlambda|/|lambda|",
+            1e-8,
+            Bounds::POSITIVE,
+        )?;
+        let (force_tol, _) = o.real_in(
+            "-nndd_force_tol",
+            "NNDD stopping tolerance on the interface force balance |T1 + T2|/max(|T1|, |T2|), required with -nndd_tol",
             1e-8,
             Bounds::POSITIVE,
         )?;
@@ -203,6 +212,7 @@ impl NnddSettings {
         Ok(NnddSettings {
             relaxation,
             tol,
+            force_tol,
             max_it,
             stop,
             dirichlet_body,
@@ -220,6 +230,7 @@ impl NnddSettings {
         NnddSettings {
             relaxation: Relaxation::Auto,
             tol: 1e-8,
+            force_tol: 1e-8,
             max_it: self.max_it.max(1000),
             stop: StopRule::Tol,
             dirichlet_body,
@@ -239,6 +250,7 @@ impl Default for NnddSettings {
         NnddSettings {
             relaxation: Relaxation::Fixed(0.25),
             tol: 1e-8,
+            force_tol: 1e-8,
             max_it: 1000,
             stop: StopRule::Tol,
             dirichlet_body: 1,
@@ -339,6 +351,9 @@ pub struct IterationRecord {
     pub lambda_change: f64,
     /// ‖R_p‖ = ‖T¹_p + T²_p‖ (N/m, nodal forces).
     pub residual: f64,
+    /// The interface force balance ‖R_p‖ / max(‖T¹_p‖, ‖T²_p‖) (0 where both vanish).
+    #[serde(default)]
+    pub force_balance: f64,
     /// Number of Γc nodes in contact at step p.
     pub active: usize,
     /// The contact step's QP iterations: the active-set steps (1: the previous contact set
@@ -400,6 +415,26 @@ pub struct NnddResult {
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// The interface force balance ‖R‖ / max(‖T¹‖, ‖T²‖), R = T¹ + T² (0 where both vanish).
+pub fn force_balance(r: &[f64], forces: &[Vec<f64>; 2]) -> f64 {
+    let scale = norm(&forces[0]).max(norm(&forces[1]));
+    let r = norm(r);
+    if scale > 0.0 {
+        r / scale
+    } else {
+        r
+    }
+}
+
+/// What the stopping rule measures at an iteration.
+#[derive(Clone, Copy, Debug)]
+struct Measures {
+    /// The change of λ ([`LoopState::update`]).
+    change: f64,
+    /// [`force_balance`] of step 1's forces.
+    force_balance: f64,
 }
 
 /// Iterations in a row whose ‖R‖ grows before a run is called diverged.
@@ -614,13 +649,17 @@ pub fn solve<E: From<NnddError>>(
         // Step 5: the update, λ + θ d or the secant update of `-nndd_theta auto`.
         let update = state.update(ctx, p, &one, &w);
         let record = one.record(p, &r, &update);
+        let measures = Measures {
+            change: update.change,
+            force_balance: record.force_balance,
+        };
         let mut it = one.into_iterate(ctx.steps, p, &state.lambda);
         let balanced = ctx.estimate_if_due(p, &mut it, observer, &mut timers)?;
         observer.monitor(&record);
         state.history.push(record);
         // Step 6: stop? Rank 0 decides for all (every rank computed the same numbers); a
         // signal on any rank stops all at the end of this iteration.
-        let verdict = state.check_termination(ctx.settings, p, update.change, balanced);
+        let verdict = state.check_termination(ctx.settings, p, measures, balanced);
         let (code, interrupted) = ctx
             .layout
             .agree_stop(verdict.map_or(0, |s| s as u8 + 1), observer.interrupted());
@@ -782,7 +821,8 @@ impl Context<'_> {
             .check
             .time(|| check_solution(self.layout, &last, self.bodies))?;
         if status.succeeded() {
-            if let Some(what) = check.failure() {
+            let balance = (status == Status::Converged).then_some(self.settings.force_tol);
+            if let Some(what) = check.failure(balance) {
                 return Err(NnddError::CheckFailed {
                     run: format!("the NNDD {} after {iterations} iterations", status.name()),
                     what,
@@ -832,6 +872,7 @@ impl StepOne {
             iteration: p,
             lambda_change: update.change,
             residual: norm(r),
+            force_balance: force_balance(r, &self.forces),
             active: c.active.iter().filter(|&&a| a).count(),
             qp_iterations: c.iterations,
             qp_solver: if c.clarabel {
@@ -917,28 +958,34 @@ impl LoopState {
 
     /// Step 6, the verdict of iteration p, whose record is the history's last (as Clarabel's
     /// `check_termination`): diverged (a change that is not finite, or a growing ‖R‖,
-    /// [`diverging`]), converged (change ≤ tol), balanced (the estimate of this iteration says
-    /// so), stagnated (no smaller change in [`STAGNATION_STEPS`] iterations), or none: go on.
-    /// `-nndd_stop none` goes on but for a change that is not finite, or balance.
+    /// [`diverging`]), converged (change ≤ tol and the force balance ≤ force_tol: a short step
+    /// alone is not convergence where a stiff body's forces amplify what is left of λ's
+    /// error), balanced (the estimate of this iteration says so), stagnated (no smaller change
+    /// in [`STAGNATION_STEPS`] iterations), or none: go on. `-nndd_stop none` goes on but for
+    /// a change that is not finite, or balance.
     fn check_termination(
         &mut self,
         settings: &NnddSettings,
         p: usize,
-        change: f64,
+        m: Measures,
         balanced: bool,
     ) -> Option<Status> {
         let use_tol = settings.stop != StopRule::None;
-        if !change.is_finite() {
+        let change = m.change;
+        if !change.is_finite() || !m.force_balance.is_finite() {
             return Some(Status::Diverged);
         }
-        if use_tol && change <= settings.tol {
+        if use_tol && change <= settings.tol && m.force_balance <= settings.force_tol {
             return Some(Status::Converged);
         }
         if balanced {
             return Some(Status::Balanced);
         }
-        if change < self.best {
-            self.best = change;
+        // Progress: the distance to convergence, the larger of the two measures over their
+        // tolerances.
+        let distance = (change / settings.tol).max(m.force_balance / settings.force_tol);
+        if distance < self.best {
+            self.best = distance;
             self.best_at = p;
         }
         if use_tol && diverging(&self.history) {
@@ -1016,23 +1063,61 @@ mod tests {
             best: f64::INFINITY,
             best_at: 0,
         };
+        let at = |change: f64, force_balance: f64| Measures {
+            change,
+            force_balance,
+        };
         let diverged = Some(Status::Diverged);
-        assert_eq!(state.check_termination(&tol, 1, f64::NAN, false), diverged);
+        assert_eq!(
+            state.check_termination(&tol, 1, at(f64::NAN, 0.0), false),
+            diverged
+        );
+        assert_eq!(
+            state.check_termination(&tol, 1, at(0.0, f64::NAN), false),
+            diverged
+        );
         let converged = Some(Status::Converged);
-        assert_eq!(state.check_termination(&tol, 1, 1e-9, false), converged);
+        assert_eq!(
+            state.check_termination(&tol, 1, at(1e-9, 1e-9), false),
+            converged
+        );
+        // A short step whose forces do not balance is not convergence.
+        assert_eq!(
+            state.check_termination(&tol, 1, at(1e-9, 1e-3), false),
+            None
+        );
         let balanced = Some(Status::Balanced);
-        assert_eq!(state.check_termination(&tol, 1, 1e-3, true), balanced);
-        assert_eq!(state.check_termination(&tol, 1, 1e-3, false), None);
-        // No smaller change in 50 iterations.
-        assert_eq!(state.check_termination(&tol, 50, 1e-2, false), None);
+        assert_eq!(
+            state.check_termination(&tol, 1, at(1e-3, 1e-3), true),
+            balanced
+        );
+        assert_eq!(
+            state.check_termination(&tol, 1, at(1e-3, 1e-3), false),
+            None
+        );
+        // No nearer convergence in 50 iterations (the forces count: a change of 1e-12 with a
+        // force balance of 1e-2 is farther than 1e-9 and 1e-3).
+        assert_eq!(
+            state.check_termination(&tol, 50, at(1e-12, 1e-2), false),
+            None
+        );
         let stagnated = Some(Status::Stagnated);
-        assert_eq!(state.check_termination(&tol, 51, 1e-2, false), stagnated);
+        assert_eq!(
+            state.check_termination(&tol, 51, at(1e-2, 1e-9), false),
+            stagnated
+        );
         // -nndd_stop none: neither the tolerance nor stagnation stops it.
         let none = NnddSettings {
             stop: StopRule::None,
             ..NnddSettings::default()
         };
-        assert_eq!(state.check_termination(&none, 120, 1e-12, false), None);
-        assert_eq!(state.check_termination(&none, 200, 1.0, false), None);
+        assert_eq!(
+            state.check_termination(&none, 120, at(1e-12, 0.0), false),
+            None
+        );
+        assert_eq!(
+            state.check_termination(&none, 200, at(1.0, 1.0), false),
+            None
+        );
     }
 }

@@ -211,7 +211,7 @@ pub enum Overlap {
 
 /// A uniform grid of square cells over a box, each cell listing the items whose bounding box
 /// meets it (compressed rows).
-struct Grid {
+pub(crate) struct Grid {
     lo: [f64; 2],
     cell: f64,
     dims: [usize; 2],
@@ -219,11 +219,11 @@ struct Grid {
     items: Vec<u32>,
 }
 
-type BBox = [[f64; 2]; 2];
+pub(crate) type BBox = [[f64; 2]; 2];
 
 impl Grid {
     /// A grid over `area` with about `target` cells, holding `boxes` (id, bounding box).
-    fn new(area: BBox, target: usize, boxes: &[(u32, BBox)]) -> Grid {
+    pub(crate) fn new(area: BBox, target: usize, boxes: &[(u32, BBox)]) -> Grid {
         let size = [area[1][0] - area[0][0], area[1][1] - area[0][1]];
         let cell = ((size[0] * size[1]) / target.max(1) as f64)
             .sqrt()
@@ -276,7 +276,7 @@ impl Grid {
 
     /// Calls `f` on the items listed in the cells that `b` meets (an item may come more than
     /// once) until it returns true; whether it did.
-    fn query(&self, b: BBox, mut f: impl FnMut(u32) -> bool) -> bool {
+    pub(crate) fn query(&self, b: BBox, mut f: impl FnMut(u32) -> bool) -> bool {
         self.span(b).any(|c| {
             self.items[self.start[c] as usize..self.start[c + 1] as usize]
                 .iter()
@@ -285,7 +285,7 @@ impl Grid {
     }
 }
 
-fn bbox(points: &[[f64; 2]]) -> BBox {
+pub(crate) fn bbox(points: &[[f64; 2]]) -> BBox {
     let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
     for p in points {
         for k in 0..2 {

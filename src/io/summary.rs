@@ -230,7 +230,7 @@ pub struct ContactCurves {
     pub moved: [usize; 2],
     /// The largest penetration of the reported solution over both whole curves (a value
     /// beyond round-off is an error, so this is round-off or 0).
-    pub max_penetration: crate::dd::check::Penetration,
+    pub max_penetration: crate::dd::penetration::Penetration,
 }
 
 /// The contact zone of the reported iterate (the pairs in contact), on body 1's side of Γc.
