@@ -13,11 +13,18 @@ fn paper_iterations_for_the_two_thetas() {
         a["iterations"].as_u64().unwrap(),
         b["iterations"].as_u64().unwrap(),
     );
-    assert!((30..=45).contains(&ia), "θ = 0.25: {ia} iterations");
+    // Converged needs the forces balanced to 1e-8 as well as the change in λ: at θ = 0.25 the
+    // force balance is about 15 times the change, which takes 9 iterations more than the
+    // change alone (38).
+    assert!((40..=55).contains(&ia), "θ = 0.25: {ia} iterations");
     assert!((12..=25).contains(&ib), "θ = 0.5: {ib} iterations");
-    // The NNDD history: the change in λ decreases overall by the tolerance.
+    // The NNDD history: the change in λ and the force balance decrease by the tolerance.
     let h = a["history"].as_array().unwrap();
-    assert!(h.last().unwrap()["lambda_change"].as_f64().unwrap() <= 1e-8);
+    let last = h.last().unwrap();
+    assert!(last["lambda_change"].as_f64().unwrap() <= 1e-8);
+    assert!(last["force_balance"].as_f64().unwrap() <= 1e-8);
+    let before = &h[h.len() - 2];
+    assert!(before["force_balance"].as_f64().unwrap() > 1e-8, "{before}");
     assert!(h[5]["lambda_change"].as_f64().unwrap() > 1e-3);
     std::fs::remove_dir_all(&dir).ok();
 }

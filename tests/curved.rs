@@ -144,6 +144,10 @@ fn paper_turned_is_the_same_problem() {
         "eta_nndd: turned {x:e}, flat {y:e}"
     );
     assert!(f(eb, "eta_glo") >= f(eb, "e_ref"), "the bound, turned");
+    // A straight side, turned or not: the bound is proved.
+    for j in [&ja, &jb] {
+        assert_eq!(j["estimate_meaning"]["bound"], "proved");
+    }
     // The displacements are the flat ones turned; every contact direction is the turned (0, 1).
     for body in ["body1", "body2"] {
         let (ua, ub) = (
@@ -249,6 +253,10 @@ fn pin_in_a_groove() {
         assert!(f(r, key) < 1e-12, "residual {key}: {}", f(r, key));
     }
     let est = &j3["estimates"][0];
+    // A curved side: the summary says the bound is checked, not proved.
+    let meaning = &j3["estimate_meaning"];
+    assert_eq!(meaning["bound"], "checked", "{meaning}");
+    assert!(meaning["eta_glo"].as_str().unwrap().contains("not proved"));
     let (glo, eref) = (f(est, "eta_glo"), f(est, "e_ref"));
     assert!(
         glo >= eref && glo < 2.0 * eref,

@@ -43,8 +43,9 @@ use solve::{Restart, Solution};
 /// Printed by `-help` before the option list.
 pub const HELP: &str =
     "nndd: two-body frictionless contact in 2D plane-strain elasticity, solved by the\n\
-Neumann-Neumann domain decomposition of Gallimard, Choi & Sassi (2013), with guaranteed\n\
-error bounds (eta_glo) split into discretisation (eta_FE) and algebraic (eta_NNDD) parts.\n\
+Neumann-Neumann domain decomposition of Gallimard, Choi & Sassi (2013), with error\n\
+bounds (eta_glo; guaranteed where the contact side is straight, checked on curved ones)\n\
+split into discretisation (eta_FE) and algebraic (eta_NNDD) parts.\n\
 Usage: mpirun -n 2 nndd -options_file petsc-options/paper.opts [-nndd_monitor] [-log_view]\n\
 Subdomain solvers take the prefixes body1_ and body2_ (default: MUMPS Cholesky).\n\n";
 

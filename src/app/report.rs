@@ -9,14 +9,27 @@ use crate::io::fields;
 use crate::io::monitor::{self, sci};
 use crate::io::output::Results;
 use crate::io::summary::{
-    ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning, MeshProblem,
-    Summary, Timings,
+    Bound, ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning,
+    MeshProblem, Summary, Timings,
 };
 use crate::os::memory;
 use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 
 #[allow(clippy::too_many_arguments)]
+/// Whether η^glo is a proved bound: on a straight body-1 side (one contact normal).
+fn bound(body1: &BodyProblem) -> Bound {
+    let n = &body1.contact_normals;
+    let straight = n
+        .iter()
+        .all(|v| (v[0] - n[0][0]).abs() + (v[1] - n[0][1]).abs() <= 1e-12);
+    if straight {
+        Bound::Proved
+    } else {
+        Bound::Checked
+    }
+}
+
 pub fn summarise(
     settings: &Settings,
     [body1, body2]: [&BodyProblem; 2],
@@ -112,7 +125,7 @@ pub fn summarise(
         xdmf_contact: paths.contact_xdmf().display().to_string(),
         xdmf_final: paths.final_xdmf().display().to_string(),
         fields: fields::describe(results),
-        estimate_meaning: (!sol.estimates.is_empty()).then_some(EstimateMeaning::PAPER),
+        estimate_meaning: (!sol.estimates.is_empty()).then(|| EstimateMeaning::of(bound(body1))),
         warnings: settings
             .warnings
             .iter()

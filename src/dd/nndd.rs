@@ -10,7 +10,7 @@
 //! (docs/method.md §2, "Which body takes the Dirichlet step").
 
 use crate::dd::body::{uses_superlu_dist, Body, BodyError};
-use crate::dd::check::{check_solution, SolutionCheck};
+use crate::dd::check::{check_solution, force_balance, SolutionCheck};
 use crate::dd::contact::{ContactError, ContactSolution, ContactStep};
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 pub use crate::dd::iterate::Iterate;
@@ -415,17 +415,6 @@ pub struct NnddResult {
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
-/// The interface force balance ‖R‖ / max(‖T¹‖, ‖T²‖), R = T¹ + T² (0 where both vanish).
-pub fn force_balance(r: &[f64], forces: &[Vec<f64>; 2]) -> f64 {
-    let scale = norm(&forces[0]).max(norm(&forces[1]));
-    let r = norm(r);
-    if scale > 0.0 {
-        r / scale
-    } else {
-        r
-    }
 }
 
 /// What the stopping rule measures at an iteration.

@@ -74,10 +74,24 @@ pub struct EquilibriumResiduals {
     pub point_reaction: f64,
 }
 
+/// Whether η^glo's upper-bound property is proved for the run's contact side
+/// (docs/method.md §5, "Γc traction of the estimates").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Bound {
+    /// A straight body-1 side: the admissible traction is normal, the bound is proved.
+    Proved,
+    /// A curved (polygonal) body-1 side: the admissible traction that carries the FE nodal
+    /// forces has a small tangential part, so the bound is checked against reference
+    /// solutions, not proved.
+    Checked,
+}
+
 /// What η^glo, η^FE and η^NNDD bound (docs/output.md, docs/method.md §3.3), for the reader of
 /// the summary.
 #[derive(Clone, Debug, Serialize)]
 pub struct EstimateMeaning {
+    pub bound: Bound,
     pub eta_glo: &'static str,
     pub eta_fe: &'static str,
     pub eta_nndd: &'static str,
@@ -85,12 +99,19 @@ pub struct EstimateMeaning {
 }
 
 impl EstimateMeaning {
-    pub const PAPER: EstimateMeaning = EstimateMeaning {
-        eta_glo: "guaranteed upper bound of the energy-norm error of the iterate against the exact solution of the continuous contact problem (paper (22))",
-        eta_fe: "the part of the error due to the mesh: the same bound for the contact problem at the iterate's interface displacement lambda_p (paper (23)); built from other admissible fields, so it may exceed eta_glo near convergence",
-        eta_nndd: "the part of the error due to stopping the NNDD: the error of the iterate against the discrete contact problem's solution (paper (24)); tends to 0 as the NNDD converges",
-        unit: "(J/m)^(1/2), the energy norm per unit thickness",
-    };
+    /// The meaning of the estimates where the bound is `bound`.
+    pub fn of(bound: Bound) -> EstimateMeaning {
+        EstimateMeaning {
+            bound,
+            eta_glo: match bound {
+                Bound::Proved => "guaranteed upper bound of the energy-norm error of the iterate against the exact solution of the continuous contact problem (paper (22))",
+                Bound::Checked => "estimate of the energy-norm error of the iterate against the exact solution of the continuous contact problem (paper (22)); on this curved contact side its upper-bound property is checked against reference solutions, not proved (docs/method.md section 5)",
+            },
+            eta_fe: "the part of the error due to the mesh: the same bound for the contact problem at the iterate's interface displacement lambda_p (paper (23)); built from other admissible fields, so it may exceed eta_glo near convergence",
+            eta_nndd: "the part of the error due to stopping the NNDD: the error of the iterate against the discrete contact problem's solution (paper (24)); tends to 0 as the NNDD converges",
+            unit: "(J/m)^(1/2), the energy norm per unit thickness",
+        }
+    }
 }
 
 /// Where a field lives in `PREFIX.h5`.
