@@ -53,6 +53,58 @@ fn malformed_numbers_are_refused() {
     refused(1, &["-nndd_theta", "quarter"], "-nndd_theta");
 }
 
+/// A tolerance of 1 or more is met at the first iteration: it used to "converge" to a wrong
+/// answer (1e300: one iteration, twice the contact force).
+#[test]
+fn tolerance_must_be_below_one() {
+    for (np, tol) in [(1, "1e300"), (2, "1"), (1, "0")] {
+        let line = fails_with(np, &["-nndd_n", "4", "-nndd_tol", tol], Some(1), &[]);
+        assert_eq!(
+            line,
+            format!("nndd: error: -nndd_tol must be in (0, 1) (got {tol})")
+        );
+    }
+}
+
+/// A valued option given without its value (last on the line, or followed by another
+/// option) is refused, naming what it accepts; PETSc reads a number so given as not given.
+#[test]
+fn options_without_their_value_are_refused() {
+    let cases: [(&[&str], &str); 5] = [
+        (&["-nndd_tol"], "-nndd_tol: needs a value (in (0, 1))"),
+        (
+            &["-nndd_E", "-nndd_monitor"],
+            "-nndd_E: needs a value (> 0)",
+        ),
+        (
+            &["-nndd_max_it"],
+            "-nndd_max_it: needs a value (a positive integer (at most 65536))",
+        ),
+        (&["-nndd_theta"], "-nndd_theta: needs a value"),
+        (
+            &["-nndd_stop"],
+            "-nndd_stop: needs a value (accepted: tol, balanced, none)",
+        ),
+    ];
+    for (k, (args, message)) in cases.iter().enumerate() {
+        let mut all = vec!["-nndd_n", "4"];
+        all.extend_from_slice(args);
+        let line = fails_with(1 + k % 2, &all, Some(1), &[message]);
+        assert!(line.starts_with("nndd: error: -nndd_"), "{line}");
+    }
+}
+
+/// PETSc's integers are 32-bit: 4294967295 reads as -1 and 4294967297 as 1 (which used to
+/// run one iteration); the message quotes the number written.
+#[test]
+fn integers_beyond_32_bits_are_quoted_as_written() {
+    for (np, v) in [(1, "4294967295"), (2, "4294967297")] {
+        let line = fails_with(np, &["-nndd_n", "4", "-nndd_max_it", v], Some(1), &[]);
+        let expected = format!("-nndd_max_it must be a positive integer (at most 65536) (got {v})");
+        assert_eq!(line, format!("nndd: error: {expected}"));
+    }
+}
+
 #[test]
 fn recovery_sweeps_out_of_range_are_refused() {
     refused(1, &["-nndd_recovery_sweeps", "0"], "-nndd_recovery_sweeps");

@@ -140,7 +140,7 @@ impl NnddSettings {
             "-nndd_tol",
             "NNDD stopping tolerance on |dlambda|/|lambda|",
             1e-8,
-            Bounds::POSITIVE,
+            Bounds::FRACTION,
         )?;
         let (max_it, _) = o.int_in(
             "-nndd_max_it",
