@@ -240,6 +240,55 @@ fn body1_ranks_out_of_range_are_refused() {
     refused(1, &["-nndd_body1_ranks", "-1"], "-nndd_body1_ranks");
 }
 
+/// A bodies' solver option naming a type PETSc does not know is bad input (exit 1, the
+/// option named), not a failure of the solve: it ended with exit 2 and PETSc's raw message
+/// (`PETSc error 86 in KSPSetFromOptions: …`). Every rank of the body's group meets it, on
+/// either body and any rank count.
+#[test]
+fn unknown_solver_types_are_refused() {
+    let known = "is not a known type";
+    for (np, n, args, option) in [
+        (
+            1,
+            "4",
+            &["-body1_ksp_type", "foo"][..],
+            "-body1_ksp_type: 'foo'",
+        ),
+        (
+            2,
+            "4",
+            &["-body2_pc_type", "bar"][..],
+            "-body2_pc_type: 'bar'",
+        ),
+        (
+            3,
+            "8",
+            &["-body1_ksp_type", "foo"][..],
+            "-body1_ksp_type: 'foo'",
+        ),
+        (
+            2,
+            "4",
+            &[
+                "-body1_pc_type",
+                "lu",
+                "-body1_pc_factor_mat_solver_type",
+                "baz",
+            ][..],
+            "-body1_pc_factor_mat_solver_type: 'baz'",
+        ),
+    ] {
+        let all = [&["-nndd_n", n][..], args].concat();
+        let line = fails_with(
+            np,
+            &all,
+            Some(1),
+            &[&format!("nndd: error: {option} {known}")],
+        );
+        assert!(line.ends_with("; -help lists the types)"), "{line}");
+    }
+}
+
 #[test]
 fn superlu_dist_refuses_a_second_factorisation_on_body_1() {
     refused(
