@@ -1,11 +1,12 @@
-//! Readers of one validated option each, on top of [`OptionsBlock`]'s `string`, `real` and
-//! `int` (PETSc's way: each object reads its own options, a choice is registered, listed in
-//! `-help` and checked in one call): [`OptionsBlock::choice`], one of a list of named values,
-//! and [`OptionsBlock::real_in`] / [`OptionsBlock::int_in`], a number within [`Bounds`]. Each
-//! registers its option (for `-help` and the check of the options given) and refuses a bad
-//! value with a one-line [`SettingsError`] naming the option and what it accepts. Every
-//! valued option read here refuses to be given without its value (`-nndd_tol` last on the
-//! line, or followed by another option), which PETSc reads as not given.
+//! Readers of one validated option each, on top of the options database's `read_string`,
+//! `read_real` and `read_int` (PETSc's way: each object reads its own options, a choice is
+//! registered, listed in `-help` and checked in one call): [`OptionsBlock::string`],
+//! [`OptionsBlock::real`] and [`OptionsBlock::int`], any value; [`OptionsBlock::choice`], one
+//! of a list of named values; and [`OptionsBlock::real_in`] / [`OptionsBlock::int_in`], a
+//! number within [`Bounds`]. Each registers its option (for `-help` and the check of the
+//! options given) and refuses a bad value with a one-line [`SettingsError`] naming the option
+//! and what it accepts. Each refuses its option given without a value (`-nndd_tol` last on
+//! the line, or followed by another option), which PETSc reads as not given.
 
 use super::{option_present, option_string, OptionsBlock, PetscError};
 
