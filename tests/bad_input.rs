@@ -43,14 +43,128 @@ fn mesh_size_must_be_positive() {
 #[test]
 fn unknown_names_are_refused() {
     refused(1, &["-nndd_problem", "hertz"], "-nndd_problem");
+    // Beside -nndd_mesh too (the name is checked before the file is read).
+    let line = fails_with(
+        2,
+        &["-nndd_problem", "hertz", "-nndd_mesh", "no.msh"],
+        Some(1),
+        &["-nndd_problem: unknown value 'hertz'"],
+    );
+    assert!(line.contains("(accepted: paper, uniform, mesh (with -nndd_mesh))"));
     refused(1, &["-nndd_solver", "penalty"], "-nndd_solver");
     refused(1, &["-nndd_stop", "never"], "-nndd_stop");
     refused(1, &["-nndd_recovery", "spr"], "-nndd_recovery");
 }
 
+/// `-nndd_mesh` solves the meshed problem: another problem named beside it used to be
+/// ignored; `-nndd_problem mesh` is accepted.
+#[test]
+fn another_problem_beside_a_mesh_is_refused() {
+    for (np, problem) in [(1, "paper"), (2, "uniform")] {
+        fails_with(
+            np,
+            &["-nndd_problem", problem, "-nndd_mesh", "no.msh"],
+            Some(1),
+            &[&format!(
+                "nndd: error: -nndd_problem: '{problem}' conflicts with -nndd_mesh no.msh, which solves the meshed problem (beside -nndd_mesh: -nndd_problem mesh, or none)"
+            )],
+        );
+    }
+    // `mesh` goes on to the file.
+    fails_with(
+        1,
+        &["-nndd_problem", "mesh", "-nndd_mesh", "no.msh"],
+        Some(1),
+        &["nndd: error: -nndd_mesh: cannot read no.msh"],
+    );
+}
+
+/// A mesh path that is not a regular file (a device, a pipe, a directory) is refused before
+/// it is read: `/dev/zero` used to be read until the memory ran out.
+#[test]
+fn a_mesh_that_is_not_a_regular_file_is_refused() {
+    let dir = scratch("mesh-not-file");
+    let dir_name = dir.to_str().unwrap();
+    for (np, path) in [(1, "/dev/zero"), (2, "/dev/zero"), (2, dir_name)] {
+        let t = std::time::Instant::now();
+        fails_with(
+            np,
+            &["-nndd_mesh", path],
+            Some(1),
+            &[&format!(
+                "nndd: error: -nndd_mesh: cannot read {path}: it is not a regular file"
+            )],
+        );
+        assert!(t.elapsed().as_secs() < 30, "{:?}", t.elapsed());
+    }
+    // A file beyond 4 GiB (sparse: no disk used) is refused before it is read.
+    let huge = dir.join("huge.msh");
+    let f = std::fs::File::create(&huge).unwrap();
+    f.set_len((4 << 30) + 1).unwrap();
+    fails_with(
+        2,
+        &["-nndd_mesh", huge.to_str().unwrap()],
+        Some(1),
+        &["4294967297 bytes, more than a mesh file may have (4 GiB)"],
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn malformed_numbers_are_refused() {
     refused(1, &["-nndd_theta", "quarter"], "-nndd_theta");
+}
+
+/// A tolerance of 1 or more is met at the first iteration: it used to "converge" to a wrong
+/// answer (1e300: one iteration, twice the contact force).
+#[test]
+fn tolerance_must_be_below_one() {
+    for (np, tol) in [(1, "1e300"), (2, "1"), (1, "0")] {
+        let line = fails_with(np, &["-nndd_n", "4", "-nndd_tol", tol], Some(1), &[]);
+        assert_eq!(
+            line,
+            format!("nndd: error: -nndd_tol must be in (0, 1) (got {tol})")
+        );
+    }
+}
+
+/// A valued option given without its value (last on the line, or followed by another
+/// option) is refused, naming what it accepts; PETSc reads a number so given as not given.
+#[test]
+fn options_without_their_value_are_refused() {
+    let cases: [(&[&str], &str); 5] = [
+        (&["-nndd_tol"], "-nndd_tol: needs a value (in (0, 1))"),
+        (
+            &["-nndd_E", "-nndd_monitor"],
+            "-nndd_E: needs a value (> 0)",
+        ),
+        (
+            &["-nndd_max_it"],
+            "-nndd_max_it: needs a value (a positive integer (at most 65536))",
+        ),
+        (&["-nndd_theta"], "-nndd_theta: needs a value"),
+        (
+            &["-nndd_stop"],
+            "-nndd_stop: needs a value (accepted: tol, balanced, none)",
+        ),
+    ];
+    for (k, (args, message)) in cases.iter().enumerate() {
+        let mut all = vec!["-nndd_n", "4"];
+        all.extend_from_slice(args);
+        let line = fails_with(1 + k % 2, &all, Some(1), &[message]);
+        assert!(line.starts_with("nndd: error: -nndd_"), "{line}");
+    }
+}
+
+/// PETSc's integers are 32-bit: 4294967295 reads as -1 and 4294967297 as 1 (which used to
+/// run one iteration); the message quotes the number written.
+#[test]
+fn integers_beyond_32_bits_are_quoted_as_written() {
+    for (np, v) in [(1, "4294967295"), (2, "4294967297")] {
+        let line = fails_with(np, &["-nndd_n", "4", "-nndd_max_it", v], Some(1), &[]);
+        let expected = format!("-nndd_max_it must be a positive integer (at most 65536) (got {v})");
+        assert_eq!(line, format!("nndd: error: {expected}"));
+    }
 }
 
 #[test]
@@ -83,8 +197,34 @@ fn unwritable_output_is_refused() {
     let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
     assert_eq!(ours.len(), 1, "{stderr}");
     assert!(ours[0].contains("-nndd_output"), "{}", ours[0]);
+    // Not "File exists": the directory part names the file.
+    let expected = format!(
+        "its directory {} is a file, not a directory",
+        blocker.display()
+    );
+    assert!(ours[0].ends_with(&expected), "{}", ours[0]);
     assert!(!stderr.contains("panicked"));
     assert_eq!(walk(&dir), vec![blocker]);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `DIR/.` and `DIR/..` name no file: `DIR/.` used to write the hidden `DIR/..h5`, `..json`
+/// and an `.xdmf` referring to a file it did not name.
+#[test]
+fn output_prefix_without_a_file_name_is_refused() {
+    let dir = scratch("dot-prefix");
+    for (np, last) in [(1, "."), (2, ".."), (2, ".")] {
+        let prefix = format!("{}/{last}", dir.display());
+        let out = mpirun(np, &["-nndd_n", "4", "-nndd_output", &prefix]);
+        assert_eq!(out.status.code(), Some(1));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let ours: Vec<&str> = stderr.lines().filter(|l| l.starts_with("nndd:")).collect();
+        let expected = format!(
+            "nndd: error: -nndd_output {prefix}: not a usable output prefix: its file name is '{last}'; give a directory and a file-name prefix, e.g. results/run1"
+        );
+        assert_eq!(ours, vec![expected.as_str()], "{stderr}");
+    }
+    assert_eq!(walk(&dir), Vec::<std::path::PathBuf>::new());
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -98,6 +238,55 @@ fn more_ranks_than_the_mesh_can_use_are_refused() {
 fn body1_ranks_out_of_range_are_refused() {
     refused(2, &["-nndd_body1_ranks", "2"], "-nndd_body1_ranks");
     refused(1, &["-nndd_body1_ranks", "-1"], "-nndd_body1_ranks");
+}
+
+/// A bodies' solver option naming a type PETSc does not know is bad input (exit 1, the
+/// option named), not a failure of the solve: it ended with exit 2 and PETSc's raw message
+/// (`PETSc error 86 in KSPSetFromOptions: …`). Every rank of the body's group meets it, on
+/// either body and any rank count.
+#[test]
+fn unknown_solver_types_are_refused() {
+    let known = "is not a known type";
+    for (np, n, args, option) in [
+        (
+            1,
+            "4",
+            &["-body1_ksp_type", "foo"][..],
+            "-body1_ksp_type: 'foo'",
+        ),
+        (
+            2,
+            "4",
+            &["-body2_pc_type", "bar"][..],
+            "-body2_pc_type: 'bar'",
+        ),
+        (
+            3,
+            "8",
+            &["-body1_ksp_type", "foo"][..],
+            "-body1_ksp_type: 'foo'",
+        ),
+        (
+            2,
+            "4",
+            &[
+                "-body1_pc_type",
+                "lu",
+                "-body1_pc_factor_mat_solver_type",
+                "baz",
+            ][..],
+            "-body1_pc_factor_mat_solver_type: 'baz'",
+        ),
+    ] {
+        let all = [&["-nndd_n", n][..], args].concat();
+        let line = fails_with(
+            np,
+            &all,
+            Some(1),
+            &[&format!("nndd: error: {option} {known}")],
+        );
+        assert!(line.ends_with("; -help lists the types)"), "{line}");
+    }
 }
 
 #[test]

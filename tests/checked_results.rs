@@ -353,6 +353,125 @@ fn an_edited_restart_point_is_refused() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The checksum of a restart point as `src/io/checkpoint.rs` documents it, made again after an
+/// edit: the 64-bit `mix` hash of the canonical JSON text without its `checksum` key.
+fn reseal(value: &mut serde_json::Value) {
+    use nndd::fem::mesh::mix;
+    value.as_object_mut().unwrap().remove("checksum");
+    let text = serde_json::to_vec(&value).unwrap();
+    let mut h = mix(text.len() as u64, 0x6e6e_6464);
+    for chunk in text.chunks(8) {
+        let mut word = [0u8; 8];
+        word[..chunk.len()].copy_from_slice(chunk);
+        h = mix(h, u64::from_le_bytes(word));
+    }
+    value["checksum"] = format!("{h:016x}").into();
+}
+
+/// The last value of the JSON array `v` removed.
+fn pop(v: &mut serde_json::Value) {
+    v.as_array_mut().unwrap().pop();
+}
+
+/// `value` with `edit` made to its state and its checksum made again, written to
+/// `dir/name.json`; the options that restart `paper` n = 4 from it.
+fn doctored(
+    dir: &Path,
+    name: &str,
+    value: &serde_json::Value,
+    edit: fn(&mut serde_json::Value),
+) -> Vec<String> {
+    let mut v = value.clone();
+    edit(&mut v["state"]);
+    reseal(&mut v);
+    let file = dir.join(format!("{name}.json"));
+    std::fs::write(&file, serde_json::to_string(&v).unwrap()).unwrap();
+    let file = file.to_str().unwrap();
+    ["-nndd_n", "4", "-nndd_max_it", "40", "-nndd_restart", file]
+        .map(String::from)
+        .to_vec()
+}
+
+/// A restart point whose λ, contact flags, secant vectors or history do not fit the run, with
+/// its checksum made again (so that only the contents can tell), is refused with one line,
+/// exit 1: a λ one value short or long (with as many contact flags) used to panic on every
+/// rank in the contact step (src/qp/dense.rs, src/dd/contact.rs). No contact flags (none
+/// before the first contact step) are accepted.
+#[test]
+fn a_restart_point_of_the_wrong_length_is_refused() {
+    let dir = scratch("restart-lengths");
+    let prefix = dir.join("a");
+    let p = prefix.to_str().unwrap();
+    let first = [
+        "-nndd_n",
+        "4",
+        "-nndd_checkpoint_every",
+        "2",
+        "-nndd_max_it",
+        "3",
+    ];
+    let out = mpirun(2, &[&first[..], &["-nndd_output", p]].concat());
+    assert_eq!(out.status.code(), Some(3), "max_it: exit 3");
+    let text = std::fs::read_to_string(dir.join("a.checkpoint.json")).unwrap();
+    let value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(value["state"]["lambda"].as_array().unwrap().len(), 5);
+    let differs = "the checkpoint does not match this run: its λ has";
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(usize, &str, Edit, &str); 5] = [
+        (
+            2,
+            "shorter",
+            |s| {
+                pop(&mut s["lambda"]);
+                pop(&mut s["active"]);
+            },
+            &format!("{differs} 4 values, this run's contact interface 5 pairs"),
+        ),
+        (
+            1,
+            "longer",
+            |s| {
+                s["lambda"].as_array_mut().unwrap().push(0.0.into());
+                s["active"].as_array_mut().unwrap().push(true.into());
+            },
+            &format!("{differs} 6 values, this run's contact interface 5 pairs"),
+        ),
+        (
+            2,
+            "flags",
+            |s| pop(&mut s["active"]),
+            "inconsistent state: 5 λ values, 4 contact flags",
+        ),
+        (
+            1,
+            "secant",
+            |s| pop(&mut s["secant"]["previous"]["d"]),
+            "the secant update's 'd' has 4 values, λ 5",
+        ),
+        (
+            2,
+            "best",
+            |s| s["best_at"] = 7.into(),
+            "best iteration 7 after iteration 2",
+        ),
+    ];
+    for (np, name, edit, message) in cases {
+        let args = doctored(&dir, name, &value, edit);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let line = failed(np, &args, 1, &[message]);
+        let file = dir.join(format!("{name}.json"));
+        let start = format!("nndd: error: -nndd_restart {}: ", file.display());
+        assert!(line.starts_with(&start), "{line}");
+    }
+    let args = doctored(&dir, "no-flags", &value, |s| {
+        s["active"] = serde_json::json!([])
+    });
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = mpirun(2, &[&args[..], &["-nndd_output", p]].concat());
+    assert_eq!(out.status.code(), Some(0), "{out:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A syntax error in an options file is one line naming the file and the line, exit 1, on
 /// every rank count, before PETSc starts (PETSc itself printed 22 error lines after 5 s).
 #[test]

@@ -5,9 +5,9 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use super::agreed;
-use super::options::{Settings, SolverKind};
+use super::options::{Settings, SettingsError, SolverKind};
 use super::AppError;
-use crate::dd::body::{uses_superlu_dist, Body, SchurMode, SchurSource};
+use crate::dd::body::{uses_superlu_dist, Body, BodyError, SchurMode, SchurSource};
 use crate::dd::check::check_solution;
 use crate::dd::contact::ContactStep;
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
@@ -95,11 +95,13 @@ pub fn setup_bodies(
             schur,
             settings.schur,
             stages,
-        )?;
+        )
+        .map_err(|e| unknown_type(e, alpha))?;
         let system =
             settings.nndd.dirichlet_step == DirichletChoice::System || !body.has_condensed();
         if nndd_run && alpha == settings.nndd.dirichlet_body && system {
-            body.add_dirichlet_system(stages)?;
+            body.add_dirichlet_system(stages)
+                .map_err(|e| unknown_type(e, alpha))?;
         }
         timings.assembly += body.setup_seconds.0;
         timings.factorisation += body.setup_seconds.1;
@@ -107,6 +109,26 @@ pub fn setup_bodies(
         bodies[alpha - 1] = Some(body);
     }
     Ok(bodies)
+}
+
+/// A solver option of body α naming a type PETSc does not know (`-body1_ksp_type foo`) is bad
+/// input (exit 1, one line naming the option), not a failure of the solve; every rank of the
+/// body's group meets it in the same call.
+fn unknown_type(e: BodyError, alpha: usize) -> AppError {
+    let BodyError::Petsc(p) = &e else {
+        return e.into();
+    };
+    match petsc::unknown_type_option(&format!("body{alpha}_"), p) {
+        Some((option, value)) => SettingsError::named(
+            &option,
+            format!(
+                "'{value}' is not a known type ({}; -help lists the types)",
+                p.message
+            ),
+        )
+        .into(),
+        None => e.into(),
+    }
 }
 
 /// A phase with at least this many dofs may take seconds or more: a line says so before it.

@@ -143,7 +143,7 @@ impl NnddSettings {
             "-nndd_tol",
             "NNDD stopping tolerance on |dlambda|/|lambda|",
             1e-8,
-            Bounds::POSITIVE,
+            Bounds::FRACTION,
         )?;
         let (force_tol, _) = o.real_in(
             "-nndd_force_tol",

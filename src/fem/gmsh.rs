@@ -171,13 +171,29 @@ impl Reader<'_> {
     }
 }
 
-/// Read a Gmsh MSH 4.1 file.
+/// The largest mesh file read: 4 GiB (tens of millions of nodes).
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
+
+/// Read a Gmsh MSH 4.1 file: a regular file of at most [`MAX_FILE_BYTES`] (not a device or a
+/// pipe, which may never end).
 pub fn read(path: &Path) -> Result<GmshMesh, GmshError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| GmshError::Io {
+    let io = |reason: String| GmshError::Io {
         path: name.clone(),
-        reason: e.to_string(),
-    })?;
+        reason,
+    };
+    let meta = std::fs::metadata(path).map_err(|e| io(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(io("it is not a regular file".into()));
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(io(format!(
+            "{} bytes, more than a mesh file may have ({} GiB)",
+            meta.len(),
+            MAX_FILE_BYTES >> 30
+        )));
+    }
+    let bytes = std::fs::read(path).map_err(|e| io(e.to_string()))?;
     parse(&bytes, &name)
 }
 

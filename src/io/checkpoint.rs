@@ -69,6 +69,10 @@ pub struct Identity {
     /// (`-nndd_dirichlet_body`; body 1 in checkpoints that do not say).
     #[serde(default = "body_one")]
     pub dirichlet_body: usize,
+    /// The number m of Γc pairs, the length of λ (not stored: a checkpoint's is that of its λ,
+    /// and its contact fingerprints cover it).
+    #[serde(skip)]
+    pub pairs: usize,
 }
 
 fn body_one() -> usize {
@@ -132,6 +136,7 @@ impl Identity {
             bodies: [BodyIdentity::of(&bodies[0]), BodyIdentity::of(&bodies[1])],
             theta,
             dirichlet_body,
+            pairs: bodies[0].contact_nodes.len(),
         }
     }
 
@@ -255,14 +260,16 @@ pub fn read(
             path: path.to_path_buf(),
         });
     }
+    let secant = secant_mismatch(&value["state"], identity.pairs);
     let cp: Checkpoint = serde_json::from_value(value).map_err(|e| format(e.to_string()))?;
-    if let Some(what) = cp.identity.difference(identity) {
+    let differs = cp.identity.difference(identity);
+    if let Some(what) = differs.or_else(|| length_mismatch(&cp.state, identity.pairs)) {
         return Err(CheckpointError::Differs {
             path: path.to_path_buf(),
             what,
         });
     }
-    if let Some(reason) = inconsistency(&cp.state) {
+    if let Some(reason) = inconsistency(&cp.state).or(secant) {
         return Err(format(reason));
     }
     if cp.state.iteration >= max_it {
@@ -275,19 +282,57 @@ pub fn read(
     Ok(cp)
 }
 
-/// Why a state's sizes do not match each other (a damaged or hand-edited file), if they do not.
+/// How λ of a checkpoint of this problem does not fit this run's `m` Γc pairs (a file edited
+/// and its checksum made again), if it does not.
+fn length_mismatch(state: &LoopState, m: usize) -> Option<String> {
+    (state.lambda.len() != m).then(|| {
+        format!(
+            "its λ has {} values, this run's contact interface {m} pairs",
+            state.lambda.len()
+        )
+    })
+}
+
+/// Why a state's sizes do not match each other (a damaged or hand-edited file), if they do not:
+/// a contact flag per λ value (none before the first contact step), a history line per
+/// iteration, numbered from 1, and the stagnation guard's best iteration among them.
 fn inconsistency(state: &LoopState) -> Option<String> {
     let m = state.lambda.len();
-    if state.active.len() != m || state.history.len() != state.iteration {
+    let flags = state.active.len();
+    let numbered = (1..).zip(&state.history).all(|(k, r)| r.iteration == k);
+    if (flags != m && flags != 0) || state.history.len() != state.iteration || !numbered {
         return Some(format!(
-            "inconsistent state: {} λ values, {} contact flags, {} history lines at iteration {}",
-            m,
-            state.active.len(),
+            "inconsistent state: {m} λ values, {flags} contact flags, {} history lines at iteration {}",
             state.history.len(),
             state.iteration
         ));
     }
+    if state.best_at > state.iteration {
+        return Some(format!(
+            "inconsistent state: best iteration {} after iteration {}",
+            state.best_at, state.iteration
+        ));
+    }
     None
+}
+
+/// How the secant update's vectors (in the JSON `state`: its previous iterate's, its columns')
+/// do not have the length `m` of λ, if they do not.
+fn secant_mismatch(state: &serde_json::Value, m: usize) -> Option<String> {
+    let secant = state.get("secant")?;
+    let columns = secant.get("columns").and_then(|c| c.as_array());
+    let parts = secant
+        .get("previous")
+        .into_iter()
+        .chain(columns.into_iter().flatten());
+    let (name, len) = parts
+        .filter_map(|p| p.as_object())
+        .flatten()
+        .filter_map(|(k, v)| Some((k, v.as_array()?.len())))
+        .find(|&(_, len)| len != m)?;
+    Some(format!(
+        "inconsistent state: the secant update's '{name}' has {len} values, λ {m}"
+    ))
 }
 
 #[cfg(test)]

@@ -22,6 +22,13 @@ pub struct PetscError {
 
 pub type Result<T> = std::result::Result<T, PetscError>;
 
+/// `PETSC_ERR_ARG_UNKNOWN_TYPE` (petscerror.h): a type name nothing registered
+/// (`-body1_ksp_type foo`).
+pub const ERR_UNKNOWN_TYPE: i32 = 86;
+/// `PETSC_ERR_MISSING_FACTOR` (petscerror.h): no package factors this matrix so
+/// (`-body1_pc_factor_mat_solver_type foo`).
+pub const ERR_MISSING_FACTOR: i32 = 92;
+
 impl PetscError {
     /// The same error, reported as a bad value of option `name`.
     pub(super) fn for_option(mut self, name: &str) -> PetscError {

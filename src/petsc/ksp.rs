@@ -6,7 +6,7 @@ use std::ffi::CStr;
 use std::ptr;
 
 use super::comm::Comm;
-use super::error::{call, cstr, Result};
+use super::error::{call, cstr, PetscError, Result, ERR_MISSING_FACTOR, ERR_UNKNOWN_TYPE};
 use super::is::Is;
 use super::mat::Matrix;
 use super::options::{option_default, option_present, option_string};
@@ -15,6 +15,29 @@ use super::{ffi, Int};
 
 /// The largest block of right-hand sides of [`Ksp::mumps_inverse_block`] (MUMPS's ICNTL(27)).
 const INVERSE_BLOCK: Int = 1024;
+
+/// The solver options whose value PETSc may not know, each with the error code that says so
+/// and the words of PETSc's message before the value ("Unable to find requested KSP type foo").
+const TYPE_OPTIONS: [(i32, &str, &str); 3] = [
+    (ERR_UNKNOWN_TYPE, "ksp_type", "KSP type "),
+    (ERR_UNKNOWN_TYPE, "pc_type", "PC type "),
+    (
+        ERR_MISSING_FACTOR,
+        "pc_factor_mat_solver_type",
+        "solver type ",
+    ),
+];
+
+/// The option of the solver of options prefix `prefix` whose value `e` says PETSc does not know
+/// (`-body1_ksp_type`), and that value; `None` for any other error.
+pub fn unknown_type_option(prefix: &str, e: &PetscError) -> Option<(String, String)> {
+    TYPE_OPTIONS.iter().find_map(|&(code, name, words)| {
+        let option = format!("-{prefix}{name}");
+        let value = option_string(&option).ok().flatten()?;
+        let said = e.code == code && e.message.contains(&format!("{words}{value}"));
+        said.then_some((option, value))
+    })
+}
 
 /// What a solve did.
 #[derive(Clone, Copy, Debug)]

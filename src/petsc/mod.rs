@@ -34,7 +34,7 @@ pub use error::{PetscError, Result};
 /// PETSc's `PetscInt` (32-bit in Debian's build).
 pub use ffi::PetscInt as Int;
 pub use init::Petsc;
-pub use ksp::{Ksp, SolveInfo};
+pub use ksp::{unknown_type_option, Ksp, SolveInfo};
 pub use log::{LogStage, StageGuard};
 pub use mat::Matrix;
 pub use options::{

@@ -142,7 +142,14 @@ impl OptionsBlock {
         })
     }
 
-    pub fn real(&mut self, name: &str, help: &str, default: f64) -> Result<(f64, bool)> {
+    /// A real option, registered with its help text and default, and whether it was given
+    /// (given without a value, it reads as not given: see `readers.rs`).
+    pub(super) fn read_real(
+        &mut self,
+        name: &str,
+        help: &str,
+        default: f64,
+    ) -> Result<(f64, bool)> {
         self.queried.push(name.to_string());
         self.real_(name, help, default)
             .map_err(|e| e.for_option(name))
@@ -164,7 +171,8 @@ impl OptionsBlock {
         Ok((value, to_bool(set)))
     }
 
-    pub fn int(&mut self, name: &str, help: &str, default: i64) -> Result<(i64, bool)> {
+    /// An integer option, as [`OptionsBlock::read_real`].
+    pub(super) fn read_int(&mut self, name: &str, help: &str, default: i64) -> Result<(i64, bool)> {
         self.queried.push(name.to_string());
         self.int_(name, help, default)
             .map_err(|e| e.for_option(name))
@@ -188,7 +196,14 @@ impl OptionsBlock {
         Ok((value as i64, to_bool(set)))
     }
 
-    pub fn string(&mut self, name: &str, help: &str, default: &str) -> Result<(String, bool)> {
+    /// A string option, as [`OptionsBlock::read_real`] (given without a value, it reads as
+    /// given and empty).
+    pub(super) fn read_string(
+        &mut self,
+        name: &str,
+        help: &str,
+        default: &str,
+    ) -> Result<(String, bool)> {
         self.queried.push(name.to_string());
         let (n, h, m, d) = (cstr(name), cstr(help), cstr("None"), cstr(default));
         let mut buf = vec![0 as c_char; 4096];

@@ -1,11 +1,14 @@
-//! Readers of one validated option each, on top of [`OptionsBlock`]'s `string`, `real` and
-//! `int` (PETSc's way: each object reads its own options, a choice is registered, listed in
-//! `-help` and checked in one call): [`OptionsBlock::choice`], one of a list of named values,
-//! and [`OptionsBlock::real_in`] / [`OptionsBlock::int_in`], a number within [`Bounds`]. Each
-//! registers its option (for `-help` and the check of the options given) and refuses a bad
-//! value with a one-line [`SettingsError`] naming the option and what it accepts.
+//! Readers of one validated option each, on top of the options database's `read_string`,
+//! `read_real` and `read_int` (PETSc's way: each object reads its own options, a choice is
+//! registered, listed in `-help` and checked in one call): [`OptionsBlock::string`],
+//! [`OptionsBlock::real`] and [`OptionsBlock::int`], any value; [`OptionsBlock::choice`], one
+//! of a list of named values; and [`OptionsBlock::real_in`] / [`OptionsBlock::int_in`], a
+//! number within [`Bounds`]. Each registers its option (for `-help` and the check of the
+//! options given) and refuses a bad value with a one-line [`SettingsError`] naming the option
+//! and what it accepts. Each refuses its option given without a value (`-nndd_tol` last on
+//! the line, or followed by another option), which PETSc reads as not given.
 
-use super::{OptionsBlock, PetscError};
+use super::{option_present, option_string, OptionsBlock, PetscError};
 
 /// Bad input, naming the option and what it accepts (every layer's settings).
 #[derive(Debug, thiserror::Error)]
@@ -63,6 +66,11 @@ impl Bounds<f64> {
         accepted: "> 0",
         holds: |x| x > 0.0 && x.is_finite(),
     };
+    /// A fraction strictly between 0 and 1 (a relative tolerance: 1 or more is met at once).
+    pub const FRACTION: Bounds<f64> = Bounds {
+        accepted: "in (0, 1)",
+        holds: |x| x > 0.0 && x < 1.0,
+    };
     /// A finite number ≥ 0.
     pub const NON_NEGATIVE: Bounds<f64> = Bounds {
         accepted: ">= 0",
@@ -88,7 +96,80 @@ impl Bounds<i64> {
     };
 }
 
+/// Whether `option` was given without a value (PETSc reads a real or an integer option so
+/// given as not given, a string option as given and empty).
+fn without_value(option: &str) -> Result<bool, SettingsError> {
+    Ok(option_present(option) && option_string(option)?.is_some_and(|v| v.is_empty()))
+}
+
+/// `option: needs a value (accepted: …)` where `option` was given without one.
+fn needs_value(option: &str, accepted: &str) -> Result<(), SettingsError> {
+    match without_value(option)? {
+        true => Err(SettingsError::named(
+            option,
+            format!("needs a value ({accepted})"),
+        )),
+        false => Ok(()),
+    }
+}
+
+/// What the user wrote for `option` (to quote in a message: PETSc's integers wrap around),
+/// or `value` where it was not given.
+fn as_given(option: &str, value: impl ToString) -> String {
+    match option_string(option) {
+        Ok(Some(text)) if !text.is_empty() => text,
+        _ => value.to_string(),
+    }
+}
+
+/// Whether the integer PETSc read, `value`, is not the number written (PETSc's 32-bit
+/// integers wrap around: 4294967295 reads as -1); a text that is not a plain decimal
+/// integer (hexadecimal, a keyword) is left to PETSc.
+fn wrapped(option: &str, value: i64) -> bool {
+    let written = option_string(option).ok().flatten();
+    written
+        .and_then(|t| t.trim().parse::<i128>().ok())
+        .is_some_and(|n| n != i128::from(value))
+}
+
 impl OptionsBlock {
+    /// A real option, registered with its help text and default, and whether it was given;
+    /// refused given without a value.
+    pub fn real(
+        &mut self,
+        option: &str,
+        help: &str,
+        default: f64,
+    ) -> Result<(f64, bool), SettingsError> {
+        let read = self.read_real(option, help, default)?;
+        needs_value(option, "a number")?;
+        Ok(read)
+    }
+
+    /// An integer option, as [`OptionsBlock::real`].
+    pub fn int(
+        &mut self,
+        option: &str,
+        help: &str,
+        default: i64,
+    ) -> Result<(i64, bool), SettingsError> {
+        let read = self.read_int(option, help, default)?;
+        needs_value(option, "an integer")?;
+        Ok(read)
+    }
+
+    /// A string option, as [`OptionsBlock::real`].
+    pub fn string(
+        &mut self,
+        option: &str,
+        help: &str,
+        default: &str,
+    ) -> Result<(String, bool), SettingsError> {
+        let read = self.read_string(option, help, default)?;
+        needs_value(option, "-help describes it")?;
+        Ok(read)
+    }
+
     /// An option whose value is one of `values` (the first is the default): registered with
     /// its help text and the accepted values (`(choose one of) a b c`, as PETSc lists a
     /// choice), or refused naming them: `option: unknown value 'v' (accepted: a, b, c)`.
@@ -100,7 +181,8 @@ impl OptionsBlock {
     ) -> Result<T, SettingsError> {
         let names: Vec<&str> = values.iter().map(|(n, _)| *n).collect();
         let help = format!("{help} (choose one of) {}", names.join(" "));
-        let (given, _) = self.string(option, &help, values[0].0)?;
+        let (given, _) = self.read_string(option, &help, values[0].0)?;
+        needs_value(option, &format!("accepted: {}", names.join(", ")))?;
         values
             .iter()
             .find(|(name, _)| *name == given)
@@ -121,9 +203,11 @@ impl OptionsBlock {
         default: f64,
         bounds: Bounds<f64>,
     ) -> Result<(f64, bool), SettingsError> {
-        let (v, given) = self.real(option, help, default)?;
+        let (v, given) = self.read_real(option, help, default)?;
+        needs_value(option, bounds.accepted)?;
         if !(bounds.holds)(v) {
-            return Err(SettingsError::out_of_range(option, bounds.accepted, v));
+            let value = as_given(option, v);
+            return Err(SettingsError::out_of_range(option, bounds.accepted, value));
         }
         Ok((v, given))
     }
@@ -136,10 +220,14 @@ impl OptionsBlock {
         default: usize,
         bounds: Bounds<i64>,
     ) -> Result<(usize, bool), SettingsError> {
-        let (v, given) = self.int(option, help, default as i64)?;
+        let (v, given) = self.read_int(option, help, default as i64)?;
+        needs_value(option, bounds.accepted)?;
         match usize::try_from(v) {
-            Ok(count) if (bounds.holds)(v) => Ok((count, given)),
-            _ => Err(SettingsError::out_of_range(option, bounds.accepted, v)),
+            Ok(count) if (bounds.holds)(v) && !wrapped(option, v) => Ok((count, given)),
+            _ => {
+                let value = as_given(option, v);
+                Err(SettingsError::out_of_range(option, bounds.accepted, value))
+            }
         }
     }
 }
@@ -155,6 +243,9 @@ mod tests {
         assert!(!positive(f64::NAN));
         assert!((Bounds::NON_NEGATIVE.holds)(0.0) && !(Bounds::NON_NEGATIVE.holds)(-1e-300));
         assert!((Bounds::FINITE.holds)(-1e300) && !(Bounds::FINITE.holds)(f64::NAN));
+        let fraction = Bounds::FRACTION.holds;
+        assert!(fraction(1e-300) && fraction(0.999) && !fraction(1.0) && !fraction(1e300));
+        assert!(!fraction(0.0) && !fraction(f64::NAN));
         let count = Bounds::POSITIVE_INT.holds;
         assert!(count(1) && count(65536) && !count(0) && !count(65537));
         assert!((Bounds::NON_NEGATIVE_INT.holds)(0) && !(Bounds::NON_NEGATIVE_INT.holds)(-1));

@@ -71,10 +71,10 @@ impl ProblemSettings {
     }
 }
 
-/// The problem's kind (`-nndd_mesh` sets `mesh` whatever `-nndd_problem` says), the mesh file
-/// and the contact curves' names as given.
+/// The problem's kind (`-nndd_mesh` sets `mesh`; another `-nndd_problem` beside it is
+/// refused, as is an unknown name), the mesh file and the contact curves' names as given.
 fn read_kind(o: &mut OptionsBlock) -> Result<(ProblemKind, String, String), SettingsError> {
-    let (problem, _) = o.string(
+    let (problem, problem_given) = o.string(
         "-nndd_problem",
         "Benchmark problem: paper, uniform",
         "paper",
@@ -95,13 +95,22 @@ fn read_kind(o: &mut OptionsBlock) -> Result<(ProblemKind, String, String), Sett
         accepted: accepted.into(),
     };
     let kind = match problem.as_str() {
-        _ if mesh_given => ProblemKind::Mesh,
         "paper" => ProblemKind::Paper,
         "uniform" => ProblemKind::Uniform,
+        "mesh" if mesh_given => ProblemKind::Mesh,
         "mesh" => return Err(unknown("paper, uniform; mesh needs -nndd_mesh FILE.msh")),
         _ => return Err(unknown("paper, uniform, mesh (with -nndd_mesh)")),
     };
-    Ok((kind, mesh_file, contact))
+    if !mesh_given {
+        return Ok((kind, mesh_file, contact));
+    }
+    if problem_given && kind != ProblemKind::Mesh {
+        return Err(SettingsError::named(
+            "-nndd_problem",
+            format!("'{problem}' conflicts with -nndd_mesh {mesh_file}, which solves the meshed problem (beside -nndd_mesh: -nndd_problem mesh, or none)"),
+        ));
+    }
+    Ok((ProblemKind::Mesh, mesh_file, contact))
 }
 
 /// Each body's grid (nx, ny), n × n unless given; the two grids match along Γc (the same nx).

@@ -428,6 +428,7 @@ pub fn check_writable(prefix: &Path) -> Result<(), OutputError> {
         action,
         source,
     };
+    directory_not_a_file(prefix, &dir)?;
     fs::create_dir_all(&dir).map_err(|e| not_writable(&dir, "create directory", e))?;
     for target in [paths.h5(), paths.xdmf(), paths.json()] {
         if target.is_dir() {
@@ -446,6 +447,26 @@ pub fn check_writable(prefix: &Path) -> Result<(), OutputError> {
         return Err(not_writable(&probe, "create a file", e));
     }
     fs::remove_file(&probe).map_err(|e| not_writable(&probe, "remove probe file", e))
+}
+
+/// `Ok` unless `dir`, PREFIX's directory, or a directory above it is a file (where creating
+/// it would say only "File exists").
+fn directory_not_a_file(prefix: &Path, dir: &Path) -> Result<(), OutputError> {
+    let not_dir = |a: &&Path| fs::metadata(a).is_ok_and(|m| !m.is_dir());
+    let Some(file) = dir.ancestors().find(not_dir) else {
+        return Ok(());
+    };
+    let within = match file == dir {
+        true => String::new(),
+        false => format!(" is inside {}, which", file.display()),
+    };
+    Err(OutputError::BadPrefix {
+        path: prefix.to_path_buf(),
+        reason: format!(
+            "its directory {}{within} is a file, not a directory",
+            dir.display()
+        ),
+    })
 }
 
 /// Write PREFIX.h5 and PREFIX.xdmf (atomically: write to temporaries in the

@@ -17,6 +17,14 @@ pub(super) fn prefix_name(prefix: &Path) -> Result<String, OutputError> {
             "it names a directory; give a directory and a file-name prefix, e.g. results/run1",
         ));
     }
+    // `DIR/.` and `DIR/..` end in no file name, but `Path::file_name` reads `DIR/.` as `DIR`:
+    // the files would be `DIR/..h5` and the like.
+    let last = raw.rsplit('/').next().unwrap_or_default();
+    if matches!(last, "." | "..") {
+        return Err(bad(&format!(
+            "its file name is '{last}'; give a directory and a file-name prefix, e.g. results/run1"
+        )));
+    }
     let name = prefix
         .file_name()
         .ok_or_else(|| bad("no file name; give e.g. results/run1"))?;
