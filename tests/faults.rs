@@ -465,14 +465,18 @@ fn started_at(np: usize, args: &[&str], at: impl Fn(&str) -> bool) -> (Child, Ve
     (child, lines)
 }
 
-/// The monitor line of an NNDD iteration that meets the tolerance 1e-8 (the last one).
+/// The monitor line of an NNDD iteration that meets the tolerances 1e-8 on the change and on
+/// the force balance (the last one).
 fn converged_line(line: &str) -> bool {
-    let mut words = line.split_whitespace();
-    words.any(|w| w == "dlambda/lambda")
-        && words
-            .next()
-            .and_then(|v| v.parse::<f64>().ok())
-            .is_some_and(|v| v <= 1e-8)
+    let value = |key: &str| {
+        let mut words = line.split_whitespace();
+        words.any(|w| w == key)
+            && words
+                .next()
+                .and_then(|v| v.parse::<f64>().ok())
+                .is_some_and(|v| v <= 1e-8)
+    };
+    value("dlambda/lambda") && value("balance")
 }
 
 /// One case of [`sigterm_outside_the_nndd_loop_ends_the_run_at_once`]: the run, the monitor

@@ -204,3 +204,115 @@ fn a_material_per_body() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+const BORE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/conditions/bore.geo");
+
+/// tests/conditions/bore.geo's options: the block clamped at its base, the lid pushed down,
+/// and `bore` the condition curves' extra options.
+fn bore_args(msh: &Path, bore: &[&str]) -> Vec<String> {
+    let mut a: Vec<String> = [
+        "-nndd_mesh",
+        msh.to_str().unwrap(),
+        "-nndd_contact",
+        "top1,bottom2",
+        "-nndd_bc_base_ux",
+        "0",
+        "-nndd_bc_base_uy",
+        "0",
+        "-nndd_bc_lid_ux",
+        "0",
+        "-nndd_bc_lid_uy",
+        "-1e-4",
+        "-nndd_tol",
+        "1e-10",
+    ]
+    .map(String::from)
+    .to_vec();
+    a.extend(bore.iter().map(|s| s.to_string()));
+    a
+}
+
+/// A closed physical curve (a bore) carries a displacement or a constant traction: the same
+/// answer as its two open halves with the same condition (the same mesh), on 1 and 2 ranks.
+/// A linear traction needs an open curve, and a curve inside a body carries nothing: both
+/// refused in one line (they used to be: the closed bore refused as "closed or in several
+/// pieces", the inner line's load taken silently as a load inside the body).
+#[test]
+fn a_closed_curve_carries_a_condition_and_an_inner_one_is_refused() {
+    let dir = scratch("gmsh-bore");
+    let closed = dir.join("bore.msh");
+    let split = dir.join("bore-split.msh");
+    let inner = dir.join("bore-inner.msh");
+    gmsh(BORE, &[], &[], &closed);
+    gmsh(BORE, &[("split", "1")], &[], &split);
+    gmsh(BORE, &[("inner", "1")], &[], &inner);
+    let traction = "3e7,-1e7";
+    for np in [1, 2] {
+        let a = bore_args(&closed, &["-nndd_bc_bore_traction", traction]);
+        let j = solve(np, &dir.join(format!("closed{np}")), &strs(&a));
+        let halves = [
+            "-nndd_bc_bore_a_traction",
+            traction,
+            "-nndd_bc_bore_b_traction",
+            traction,
+        ];
+        let b = bore_args(&split, &halves);
+        let k = solve(np, &dir.join(format!("split{np}")), &strs(&b));
+        for key in ["potential_energy", "contact_force"] {
+            assert!(rel(f(&j, key), f(&k, key)) < 1e-12, "{key}: {j} vs {k}");
+        }
+        // The traction does work: the energy differs from the bore left free.
+        let free = solve(
+            np,
+            &dir.join(format!("free{np}")),
+            &strs(&bore_args(&closed, &[])),
+        );
+        let (e, e0) = (f(&j, "potential_energy"), f(&free, "potential_energy"));
+        assert!(rel(e, e0) > 1e-3, "{e} vs {e0}");
+    }
+    // A displacement on the closed bore.
+    let a = bore_args(&closed, &["-nndd_bc_bore_ux", "0"]);
+    let b = bore_args(
+        &split,
+        &["-nndd_bc_bore_a_ux", "0", "-nndd_bc_bore_b_ux", "0"],
+    );
+    let (j, k) = (
+        solve(2, &dir.join("closed-u"), &strs(&a)),
+        solve(2, &dir.join("split-u"), &strs(&b)),
+    );
+    assert!(rel(f(&j, "potential_energy"), f(&k, "potential_energy")) < 1e-12);
+    // Refused: a linear traction on the closed bore; a traction on the inner line.
+    let a = bore_args(
+        &closed,
+        &[
+            "-nndd_bc_bore_traction",
+            "0,-1e7",
+            "-nndd_bc_bore_traction_end",
+            "0,-2e7",
+        ],
+    );
+    fails_with(
+        2,
+        &strs(&a),
+        Some(1),
+        &["-nndd_bc_bore_traction_end", "closed", "constant traction"],
+    );
+    let a = bore_args(&inner, &["-nndd_bc_inner_traction", "0,-1e7"]);
+    for np in [1, 2] {
+        fails_with(
+            np,
+            &strs(&a),
+            Some(1),
+            &[
+                "-nndd_bc_inner_*",
+                "not on body 1's boundary",
+                "inside the body",
+            ],
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn strs(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}

@@ -181,9 +181,12 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             settings.output.paths.checkpoint().display()
         ));
     } else if !sol.requested {
-        let last = sol.history.last().map_or(f64::NAN, |r| r.lambda_change);
+        let (last, balance) = sol
+            .history
+            .last()
+            .map_or((f64::NAN, f64::NAN), |r| (r.lambda_change, r.force_balance));
         crate::io::monitor::say(format_args!(
-            "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} > -nndd_tol {}); {}",
+            "nndd: warning: the NNDD {} after {} iterations (dlambda/lambda {} for -nndd_tol {}, force balance {} for -nndd_force_tol {}); {}",
             match sol.status.as_str() {
                 "diverged" => "diverged",
                 "stagnated" => "stagnated",
@@ -192,6 +195,8 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             sol.iterations,
             sci(last, 3),
             sci(settings.nndd.tol, 1),
+            sci(balance, 3),
+            sci(settings.nndd.force_tol, 1),
             match settings.nndd.relaxation {
                 Relaxation::Auto =>
                     "try a small fixed -nndd_theta (now auto; e.g. 0.01)".to_string(),

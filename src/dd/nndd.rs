@@ -149,7 +149,7 @@ impl NnddSettings {
             "-nndd_force_tol",
             "NNDD stopping tolerance on the interface force balance |T1 + T2|/max(|T1|, |T2|), required with -nndd_tol",
             1e-8,
-            Bounds::POSITIVE,
+            Bounds::FRACTION,
         )?;
         let (max_it, _) = o.int_in(
             "-nndd_max_it",

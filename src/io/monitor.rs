@@ -27,10 +27,11 @@ pub fn monitor_line(
         ""
     };
     println!(
-        "{:4} NNDD dlambda/lambda {} |R| {} active {}/{} qp_its {}{clarabel}{secant} time {:.3} s",
+        "{:4} NNDD dlambda/lambda {} |R| {} balance {} active {}/{} qp_its {}{clarabel}{secant} time {:.3} s",
         r.iteration,
         sci(r.lambda_change, 12),
         sci(r.residual, 6),
+        sci(r.force_balance, 3),
         r.active,
         contact_nodes,
         r.qp_iterations,

@@ -185,7 +185,8 @@ fn conditions(
             continue;
         };
         let option = |comp: &str| format!("-nndd_bc_{}_{comp}", c.curve);
-        let nodes = chain(edges, &c.curve, &option("*"))?;
+        on_boundary(body, alpha, edges, &c.curve, &option("*"))?;
+        let nodes = condition_chain(edges, c, &option("traction_end"))?;
         for (k, value) in c.u.iter().enumerate() {
             let Some(v) = *value else { continue };
             let name = option(["ux", "uy"][k]);
@@ -232,6 +233,90 @@ fn conditions(
         fixed.into_iter().map(|(d, (v, _))| (d, v)).collect(),
         neumann,
     ))
+}
+
+/// A condition acts on the body's boundary: a curve with an edge inside body `alpha` (an
+/// internal line of the .geo, or a curve of the other body's that touches this one) is
+/// refused, naming the first such edge (a load there would be taken as a point load inside).
+fn on_boundary(
+    body: &GmshBody,
+    alpha: usize,
+    edges: &[[usize; 2]],
+    curve: &str,
+    option: &str,
+) -> Result<(), MeshedError> {
+    let boundary: BTreeSet<[usize; 2]> = body
+        .mesh
+        .boundary_edges()
+        .into_iter()
+        .map(|[a, b]| [a.min(b), a.max(b)])
+        .collect();
+    match edges
+        .iter()
+        .find(|&&[a, b]| !boundary.contains(&[a.min(b), a.max(b)]))
+    {
+        None => Ok(()),
+        Some(&[a, b]) => {
+            let (pa, pb) = (body.mesh.points[a], body.mesh.points[b]);
+            Err(opt_err(
+                option,
+                format!(
+                    "the curve '{curve}' is not on body {alpha}'s boundary: its edge ({:.6e}, {:.6e})–({:.6e}, {:.6e}) lies inside the body (a condition acts on the boundary only)",
+                    pa[0], pa[1], pb[0], pb[1]
+                ),
+            ))
+        }
+    }
+}
+
+/// The nodes of a condition's curve in order: [`chain`] for an open curve; for a closed one (a
+/// bore) the loop from its lowest node back to it, which carries displacements and a constant
+/// traction, but not a linear one (it has no first and last point).
+fn condition_chain(
+    edges: &[[usize; 2]],
+    c: &CurveCondition,
+    option_end: &str,
+) -> Result<Vec<usize>, MeshedError> {
+    let closed = closed_loop(edges);
+    let Some(nodes) = closed else {
+        return chain(edges, &c.curve, &format!("-nndd_bc_{}_*", c.curve));
+    };
+    if let Some([t0, t1]) = c.traction {
+        if t0 != t1 {
+            return Err(opt_err(
+                option_end,
+                format!(
+                    "the curve '{}' is closed: a traction linear from its first point to its last needs an open curve; give a constant traction (no _traction_end)",
+                    c.curve
+                ),
+            ));
+        }
+    }
+    Ok(nodes)
+}
+
+/// A closed curve's nodes from its lowest node around and back to it; `None` unless the edges
+/// form one loop (every node with one successor and one predecessor, all connected).
+fn closed_loop(edges: &[[usize; 2]]) -> Option<Vec<usize>> {
+    let mut next: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut prev: BTreeSet<usize> = BTreeSet::new();
+    for &[a, b] in edges {
+        if next.insert(a, b).is_some() || !prev.insert(b) {
+            return None;
+        }
+    }
+    if edges.len() < 3 || next.keys().any(|a| !prev.contains(a)) {
+        return None;
+    }
+    let start = *next.keys().next()?;
+    let mut nodes = vec![start];
+    while let Some(&b) = next.get(nodes.last()?) {
+        nodes.push(b);
+        if b == start || nodes.len() > edges.len() + 1 {
+            break;
+        }
+    }
+    (nodes.len() == edges.len() + 1 && nodes.last() == Some(&start)).then_some(nodes)
 }
 
 fn invalid(gmsh: &GmshMesh, reason: String) -> MeshedError {
@@ -799,5 +884,18 @@ mod tests {
         assert_eq!(chain(&edges, "c", "-o").unwrap(), vec![1, 5, 2, 7]);
         assert!(chain(&[[1, 2], [2, 1]], "c", "-o").is_err(), "closed");
         assert!(chain(&[[1, 2], [3, 4]], "c", "-o").is_err(), "two pieces");
+    }
+
+    #[test]
+    fn a_closed_curve_is_one_loop_from_its_lowest_node() {
+        let square = [[4, 2], [2, 7], [7, 9], [9, 4]];
+        assert_eq!(closed_loop(&square), Some(vec![2, 7, 9, 4, 2]));
+        // Open, two loops, a branch: not one loop.
+        assert_eq!(closed_loop(&[[1, 2], [2, 3]]), None);
+        assert_eq!(
+            closed_loop(&[[1, 2], [2, 3], [3, 1], [4, 5], [5, 6], [6, 4]]),
+            None
+        );
+        assert_eq!(closed_loop(&[[1, 2], [1, 3], [3, 1]]), None);
     }
 }
