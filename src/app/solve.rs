@@ -14,8 +14,8 @@ use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
 use crate::dd::nndd::{
-    self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddResult, Status, Steps,
-    StopRule,
+    self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddResult, NnddSettings,
+    Relaxation, Status, Steps, StopRule,
 };
 use crate::estimate::{BalancedRule, EstimateError, EstimateRecord, Estimator, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
@@ -27,7 +27,7 @@ use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
 use crate::petsc;
 use crate::petsc::log::Stages;
-use crate::problem::{self, BodyProblem};
+use crate::problem::{self, BodyProblem, ProblemKind};
 
 /// What a solver hands to post-processing.
 pub struct Solution {
@@ -175,8 +175,8 @@ pub fn solve_reference(
     if layout.is_root() && (settings.output.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
         // Word before the long phase: the reference mesh has r² times the dofs.
         println!(
-            "nndd: solving the reference solution of e_ref on mesh {} ({} dofs, -nndd_reference_factor {r})",
-            fine.problem.n,
+            "nndd: solving the reference solution of e_ref on {} ({} dofs, -nndd_reference_factor {r})",
+            reference_mesh(&fine, r),
             fine.problem.dofs(),
         );
     }
@@ -192,35 +192,54 @@ pub fn solve_reference(
         &mut scratch,
     )?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
-    let sol = super::end_job_on_local_failure(solve_nndd(
-        &fine,
-        layout,
-        refs,
-        None,
-        stages,
-        &mut scratch,
-        None,
-    ))?;
+    let mesh = reference_mesh(&fine, r);
+    // θ auto first; where it does not converge, the run's own fixed θ, then a small fixed θ
+    // with room for its iterations (the factorisations are kept: only Γc iterations repeat).
+    let mut tried = Vec::new();
+    let mut sol = None;
+    for nndd in reference_relaxations(&settings.nndd, &fine.nndd) {
+        let attempt = Settings {
+            nndd,
+            ..fine.clone()
+        };
+        let s = super::end_job_on_local_failure(solve_nndd(
+            &attempt,
+            layout,
+            refs,
+            None,
+            stages,
+            &mut scratch,
+            None,
+        ))?;
+        tried.push(format!(
+            "{} after {} iterations with -nndd_theta {}",
+            s.status,
+            s.iterations,
+            attempt.nndd.relaxation.text()
+        ));
+        let converged = s.converged;
+        sol = Some(s);
+        if converged {
+            break;
+        }
+    }
+    let sol = sol.expect("at least one relaxation is tried");
     drop(_s);
     signals::enter(before);
     timings.reference = t.elapsed().as_secs_f64();
     if layout.is_root() && settings.output.monitor {
         println!(
-            "nndd: reference solution on mesh {} ({} dofs): {} after {} iterations, {:.2} s",
-            fine.problem.n,
+            "nndd: reference solution on {mesh} ({} dofs): {}, {:.2} s",
             fine.problem.dofs(),
-            sol.status,
-            sol.iterations,
+            tried.join("; "),
             timings.reference
         );
     }
     if !sol.converged {
         return Ok(Err(format!(
-            "the reference solution on mesh {} ({} dofs) {} after {} iterations: e_ref and the effectivity are not reported",
-            fine.problem.n,
+            "the reference solution on {mesh} ({} dofs) did not converge ({}): e_ref and the effectivity are not reported",
             fine.problem.dofs(),
-            sol.status,
-            sol.iterations
+            tried.join("; ")
         )));
     }
     Ok(Ok(Reference {
@@ -230,6 +249,38 @@ pub fn solve_reference(
         bodies,
     }))
 }
+
+/// The reference mesh in words: the built-in problems' level, or the user's mesh refined.
+fn reference_mesh(fine: &Settings, r: usize) -> String {
+    match fine.problem.kind {
+        ProblemKind::Mesh => format!("the mesh refined {r} times"),
+        _ => format!("mesh {}", fine.problem.n),
+    }
+}
+
+/// The relaxations the reference solve tries in turn: its own (θ auto), the run's fixed θ if
+/// the run has one, and θ = [`REFERENCE_FALLBACK_THETA`] with room for its iterations.
+fn reference_relaxations(run: &NnddSettings, reference: &NnddSettings) -> Vec<NnddSettings> {
+    let mut list = vec![reference.clone()];
+    if let Relaxation::Fixed(theta) = run.relaxation {
+        list.push(NnddSettings {
+            relaxation: Relaxation::Fixed(theta),
+            max_it: reference.max_it.max(run.max_it),
+            ..reference.clone()
+        });
+    }
+    list.push(NnddSettings {
+        relaxation: Relaxation::Fixed(REFERENCE_FALLBACK_THETA),
+        max_it: reference.max_it.max(REFERENCE_FALLBACK_MAX_IT),
+        ..reference.clone()
+    });
+    list
+}
+
+/// The last fixed θ the reference solve tries, and its iteration limit: small enough to
+/// converge where θ auto does not (the cases needed 639–1177 iterations at 0.01).
+pub const REFERENCE_FALLBACK_THETA: f64 = 0.01;
+pub const REFERENCE_FALLBACK_MAX_IT: usize = 5000;
 
 /// Where the restart points go, and where a run starts from.
 pub struct Restart<'a> {
@@ -680,4 +731,29 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
             setup_seconds: facts[3],
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reference_tries_auto_then_the_runs_theta_then_a_small_one() {
+        let reference = NnddSettings {
+            relaxation: Relaxation::Auto,
+            ..NnddSettings::default()
+        };
+        let thetas = |run: &NnddSettings| -> Vec<String> {
+            reference_relaxations(run, &reference)
+                .iter()
+                .map(|s| s.relaxation.text())
+                .collect()
+        };
+        let fixed = NnddSettings::default();
+        assert_eq!(thetas(&fixed), ["auto", "0.25", "0.01"]);
+        assert_eq!(thetas(&reference), ["auto", "0.01"]);
+        let last = reference_relaxations(&fixed, &reference).pop().unwrap();
+        assert_eq!(last.max_it, REFERENCE_FALLBACK_MAX_IT.max(reference.max_it));
+        assert_eq!(last.tol, reference.tol);
+    }
 }
