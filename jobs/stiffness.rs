@@ -141,9 +141,13 @@ fn limits() {
                 let (j, _) = match runner::try_run(2, paper, &[], &dir.join("nndd"), &a) {
                     Ok(r) => r,
                     Err(e) => {
-                        table.push_str(&format!(
-                            "{stiffer:>9} {ratio:>7.0e}  {body:>9}   failed: {e}\n"
-                        ));
+                        let said = if e.starts_with("exit 3") {
+                            "not converged (exit 3)".to_string()
+                        } else {
+                            format!("failed: {e}")
+                        };
+                        table
+                            .push_str(&format!("{stiffer:>9} {ratio:>7.0e}  {body:>9}   {said}\n"));
                         continue;
                     }
                 };
@@ -155,7 +159,7 @@ fn limits() {
                 table.push_str(&format!(
                     "{stiffer:>9} {ratio:>7.0e}  {body:>9}   {:<10} {:>6}   {fb:>13.1e}   {de:.1e}\n",
                     j["stop_reason"].as_str().unwrap_or("?"),
-                    j["iterations"],
+                    j["iterations"].as_u64().unwrap_or(0),
                 ));
             }
         }

@@ -225,7 +225,9 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     // Solve: the NNDD (paper §3) or the monolithic check; the contact checked on the curves.
     let mut sol = run.solve(refs, estimator.as_ref(), &mut timings, &restart)?;
     sol.warnings.splice(0..0, warnings);
+    let t_contact = Instant::now();
     run.check_contact(&mut sol)?;
+    timings.checks += layout.max(t_contact.elapsed().as_secs_f64());
     // Post-processing: energy, Schur source, timings and memory over ranks.
     let post = run.post_process(refs, &sol, estimator, &mut timings)?;
     drop(bodies);
