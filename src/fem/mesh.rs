@@ -101,23 +101,42 @@ impl Mesh {
     /// The boundary edges (edges of exactly one triangle), oriented as in their triangle
     /// (counter-clockwise: the body is on the left), in triangle order.
     pub fn boundary_edges(&self) -> Vec<[usize; 2]> {
-        // Every triangle side keyed by its sorted end nodes, sorted: a side met once is on
-        // the boundary (no hashing: this runs at every recovery of large meshes).
-        let key = |a: usize, b: usize| ((a.min(b) as u128) << 64) | a.max(b) as u128;
-        let mut sides: Vec<(u128, usize)> = Vec::with_capacity(3 * self.triangles.len());
-        for (e, t) in self.triangles.iter().enumerate() {
+        // Every triangle side bucketed by its smaller end node (a counting sort, O(N)), each
+        // bucket sorted by the larger end: a side met once is on the boundary. No hashing and
+        // no global sort: this runs at every recovery and at the final check of large meshes.
+        // (A rank that holds a body's triangles only, not its points, still finds its sides.)
+        let n = self.triangles.iter().flatten().max().map_or(0, |&m| m + 1);
+        let mut start = vec![0u32; n + 1];
+        for t in &self.triangles {
             for k in 0..3 {
-                sides.push((key(t[k], t[(k + 1) % 3]), 3 * e + k));
+                start[t[k].min(t[(k + 1) % 3]) + 1] += 1;
             }
         }
-        sides.sort_unstable();
-        let mut boundary = vec![false; sides.len()];
-        for (i, &(k, side)) in sides.iter().enumerate() {
-            let repeated =
-                (i > 0 && sides[i - 1].0 == k) || sides.get(i + 1).is_some_and(|s| s.0 == k);
-            boundary[side] = !repeated;
+        for i in 0..n {
+            start[i + 1] += start[i];
         }
-        (0..sides.len())
+        let mut fill = start.clone();
+        let mut sides = vec![(0u32, 0u32); 3 * self.triangles.len()];
+        for (e, t) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let slot = &mut fill[a.min(b)];
+                sides[*slot as usize] = (a.max(b) as u32, (3 * e + k) as u32);
+                *slot += 1;
+            }
+        }
+        let mut boundary = vec![false; sides.len()];
+        for i in 0..n {
+            let bucket = &mut sides[start[i] as usize..start[i + 1] as usize];
+            bucket.sort_unstable();
+            for j in 0..bucket.len() {
+                let k = bucket[j].0;
+                let repeated = (j > 0 && bucket[j - 1].0 == k)
+                    || bucket.get(j + 1).is_some_and(|s| s.0 == k);
+                boundary[bucket[j].1 as usize] = !repeated;
+            }
+        }
+        (0..boundary.len())
             .filter(|&s| boundary[s])
             .map(|s| {
                 let t = self.triangles[s / 3];
