@@ -316,3 +316,44 @@ fn a_closed_curve_carries_a_condition_and_an_inner_one_is_refused() {
 fn strs(v: &[String]) -> Vec<&str> {
     v.iter().map(String::as_str).collect()
 }
+
+/// A mesh drawn in millimetres (examples/pin-hole scaled by 1000: 80 m as nndd reads it) with
+/// moduli in pascals gets a warning naming the remedy, and the user's mesh in metres none. The
+/// scaled bodies do not touch (a 50 µm push against a 20 mm clearance): the run converges on
+/// the change in λ alone (with no pair in contact there is no force to balance).
+#[test]
+fn a_mesh_in_millimetres_is_warned_and_bodies_apart_converge() {
+    let dir = scratch("gmsh-units");
+    let geo = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/pin-hole/pin-hole.geo"
+    );
+    let opts = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/pin-hole/pin-hole.opts"
+    );
+    let (mm, m) = (dir.join("mm.msh"), dir.join("m.msh"));
+    gmsh(
+        geo,
+        &[("level", "1")],
+        &["-string", "Mesh.ScalingFactor=1000;"],
+        &mm,
+    );
+    gmsh(geo, &[("level", "1")], &[], &m);
+    let j = solve_meshed(2, opts, &mm, &dir.join("mm"), &[]);
+    let warnings = j["warnings"].to_string();
+    assert!(
+        warnings.contains("spans 80 m") && warnings.contains("Mesh.ScalingFactor"),
+        "{warnings}"
+    );
+    assert_eq!(j["status"], "converged");
+    assert_eq!(f(&j, "contact_force"), 0.0);
+    assert!(f(&j, "iterations") <= 20.0, "{}", j["iterations"]);
+    let j = solve_meshed(2, opts, &m, &dir.join("m"), &[]);
+    assert!(
+        !j["warnings"].to_string().contains("ScalingFactor"),
+        "{}",
+        j["warnings"]
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

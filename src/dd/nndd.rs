@@ -861,7 +861,7 @@ impl StepOne {
             iteration: p,
             lambda_change: update.change,
             residual: norm(r),
-            force_balance: force_balance(r, &self.forces),
+            force_balance: force_balance(r, &self.forces, &c.active),
             active: c.active.iter().filter(|&&a| a).count(),
             qp_iterations: c.iterations,
             qp_solver: if c.clarabel {

@@ -154,9 +154,10 @@ impl<'a> EdgeGrid<'a> {
             .map(|(e, &[a, b])| (e as u32, bbox(&[pts[a], pts[b]])))
             .collect();
         let mut area = bbox(&boundary.nodes.iter().map(|&n| pts[n]).collect::<Vec<_>>());
-        for k in 0..2 {
-            area[0][k] -= reach;
-            area[1][k] += reach;
+        let [lo, hi] = &mut area;
+        for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
+            *l -= reach;
+            *h += reach;
         }
         EdgeGrid {
             problem,

@@ -131,8 +131,8 @@ impl Mesh {
             bucket.sort_unstable();
             for j in 0..bucket.len() {
                 let k = bucket[j].0;
-                let repeated = (j > 0 && bucket[j - 1].0 == k)
-                    || bucket.get(j + 1).is_some_and(|s| s.0 == k);
+                let repeated =
+                    (j > 0 && bucket[j - 1].0 == k) || bucket.get(j + 1).is_some_and(|s| s.0 == k);
                 boundary[bucket[j].1 as usize] = !repeated;
             }
         }

@@ -12,7 +12,9 @@
 //! curve: the boundary segment is split there and so is the body's triangle on it (from the
 //! opposite vertex); the segments of the Gmsh lines on it likewise. The shapes do not change.
 //! A node that a partner would come within [`SNAP`] of a segment's length of is moved onto it
-//! instead where its curve is straight (no sliver; the shape still does not change).
+//! instead where its curve is straight (no sliver; the shape still does not change), or where
+//! it is an end node of body 1's curve (moved along its one segment: the curve keeps its shape,
+//! the boundary beyond it turns by O(d/h)).
 //!
 //! Γc is then where the curves overlap: nodes that project outside the other curve keep no
 //! partner (they stay candidates, which the final penetration check covers).
@@ -258,7 +260,7 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
         return (conformed, out);
     };
     let g = &mut conformed;
-    let n1 = node_normals(&c1.segment_normals);
+    let mut n1 = node_normals(&c1.segment_normals);
     let points = |g: &GmshMesh, c: &Curve| -> Vec<[f64; 2]> {
         c.nodes.iter().map(|&a| g.points[a]).collect()
     };
@@ -278,8 +280,19 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
         let local = local_length(&p1, i).min(local_length(&p2, j));
         if d <= COINCIDENT * local {
             source2[j] = true;
-        } else if d < SNAP * local && straight_at(&c1.segment_normals, i) && !moved[0][i] {
+        } else if d < SNAP * local
+            && (straight_at(&c1.segment_normals, i) || i == 0 || i + 1 == c1.nodes.len())
+            && !moved[0][i]
+        {
+            // (an end node of body 1's curve moves along its one segment: the curve keeps
+            // its shape, the boundary beyond turns by O(d/h); inserting the partner instead
+            // would cut a sliver of relative size d/h off the end triangle). Its contact
+            // direction is the normal it was projected along, so that its partner is exact.
             g.points[c1.nodes[i]] = foot;
+            if !straight_at(&c1.segment_normals, i) {
+                n1[i] = f.normal;
+                out.normals.insert(point_key(foot), f.normal);
+            }
             moved[0][i] = true;
             source2[j] = true;
         }

@@ -40,9 +40,10 @@ pub struct MeshSpec {
     pub conditions: Vec<CurveCondition>,
     /// Γc: body 1's curve and body 2's curve.
     pub contact: [String; 2],
-    /// The mesh is a uniform refinement of the user's (the reference solution): its Γc
-    /// keeps the user's pairing, each coarse pair's children paired in order.
-    pub nested: bool,
+    /// `Some(r)`: the mesh is the user's refined r times (the reference solution): its Γc
+    /// keeps the user's pairing, each coarse pair's children paired in order, and the contact
+    /// direction at a new node is the user's mesh's normal field there (docs/method.md §5).
+    pub nested: Option<usize>,
     /// What [`super::conform`] did to make the contact curves match (nothing on matching
     /// meshes).
     pub matched: Rc<super::matched::Matched>,
@@ -626,6 +627,47 @@ pub(super) fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
         .collect()
 }
 
+/// The contact directions along body 1's curve `chain` of a mesh refined r times
+/// (`spec.nested`): at the user's nodes (every r-th, from the first) the user's mesh's, i.e.
+/// `fine`'s there (the mean of the two coarse segments' normals, or an inserted node's own);
+/// at a new node a fraction t along a coarse segment, the normalised interpolation
+/// (1 − t) n_k + t n_{k+1} of its ends' — the normal field of the problem nndd solves
+/// (docs/method.md §5). With the fine segments' own normals instead, the reference would
+/// solve a polygon whose corners lock the sliding the coarse problem allows.
+fn refined_normals(
+    chain: &[usize],
+    r: usize,
+    fine: &[[f64; 2]],
+) -> Result<Vec<[f64; 2]>, MeshedError> {
+    if r == 0 || !(chain.len() - 1).is_multiple_of(r) {
+        return Err(opt_err(
+            "-nndd_reference_factor",
+            format!(
+                "the refined contact curve has {} segments, not a multiple of {r}",
+                chain.len() - 1
+            ),
+        ));
+    }
+    Ok((0..chain.len())
+        .map(|i| {
+            let (c, j) = (i / r, i % r);
+            if j == 0 {
+                return fine[i];
+            }
+            let (a, b) = (fine[c * r], fine[(c + 1) * r]);
+            let t = j as f64 / r as f64;
+            let n = [(1.0 - t) * a[0] + t * b[0], (1.0 - t) * a[1] + t * b[1]];
+            let h = n[0].hypot(n[1]);
+            let n = [n[0] / h, n[1] / h];
+            if n[0].abs() <= 1e-12 && n[1] > 0.0 {
+                super::UP
+            } else {
+                n
+            }
+        })
+        .collect())
+}
+
 /// Pair the contact curves: every node of body 1's side with the node of body 2's side on
 /// its normal line (within 1e−8 of the curve's length), the nearer one if several. After
 /// [`super::conform`] the curves match wherever they overlap: Γc is the run of body 1's nodes
@@ -664,6 +706,9 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
         if let Some(n) = spec.matched.normals.get(&super::matched::point_key(p1[a])) {
             all_normals[k] = *n;
         }
+    }
+    if let Some(r) = spec.nested {
+        all_normals = refined_normals(&chain1, r, &all_normals)?;
     }
     let curve1: Vec<[f64; 2]> = chain1.iter().map(|&n| p1[n]).collect();
     let tol = 1e-8
@@ -715,7 +760,7 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
         sides[1][j1..=j0].iter().rev().copied().collect()
     };
     let s1 = chain1[first..=last].to_vec();
-    let s2: Vec<usize> = if spec.nested {
+    let s2: Vec<usize> = if spec.nested.is_some() {
         piece2
     } else {
         let mut s2 = Vec::with_capacity(s1.len());

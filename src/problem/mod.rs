@@ -73,7 +73,7 @@ impl ProblemSettings {
         }
         if let Some(spec) = s.mesh.as_mut() {
             spec.gmsh = Rc::new(spec.gmsh.refined(r));
-            spec.nested = true;
+            spec.nested = Some(r);
         }
         s
     }

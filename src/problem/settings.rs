@@ -47,6 +47,9 @@ impl ProblemSettings {
             ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact)?),
             _ => None,
         };
+        if let Some(w) = mesh.as_ref().and_then(|m| units_warning(m, &materials)) {
+            warnings.push(w);
+        }
         let (u_d, _) = o.real_in(
             "-nndd_u_D",
             "Prescribed vertical displacement of the top of body 2 (m)",
@@ -299,7 +302,7 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
         gmsh: Rc::new(gmsh),
         conditions,
         contact,
-        nested: false,
+        nested: None,
         matched: Rc::new(matched),
     })
 }
@@ -339,6 +342,34 @@ pub fn option_applies(kind: ProblemKind, name: &str) -> Result<(), SettingsError
         ));
     }
     Ok(())
+}
+
+/// A mesh at least this large (m, its bounding box's larger side) with moduli in the
+/// pascals' range ([`PASCAL_MODULI`]) is probably drawn in millimetres.
+pub const MILLIMETRE_MESH: f64 = 10.0;
+/// Young's moduli above this (Pa) are a metal's or a polymer's in pascals, not in MPa.
+pub const PASCAL_MODULI: f64 = 1e8;
+
+/// The warning of a mesh whose size suggests millimetres while the moduli are in pascals
+/// (nndd reads coordinates in metres: a part drawn in mm is 1000 times too large, and a
+/// prescribed displacement strains it 1000 times too little).
+fn units_warning(mesh: &MeshSpec, materials: &[Material; 2]) -> Option<String> {
+    let pts = &mesh.gmsh.points;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in pts {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    let e = materials[0].young.max(materials[1].young);
+    (size >= MILLIMETRE_MESH && e > PASCAL_MODULI).then(|| {
+        format!(
+            "-nndd_mesh {}: the mesh spans {size} m as nndd reads it (coordinates in metres) with moduli in pascals (E up to {e:.3e} Pa); if it is drawn in millimetres, scale it (Gmsh: Mesh.ScalingFactor = 0.001) or give moduli and tractions in MPa and displacements in mm",
+            mesh.gmsh.path
+        )
+    })
 }
 
 /// The largest λ/μ = 2ν/(1 − 2ν) (plane strain) accepted: ν ≤ 0.499999995. Nearly
