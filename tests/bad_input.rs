@@ -243,7 +243,7 @@ fn body1_ranks_out_of_range_are_refused() {
 /// A bodies' solver option naming a type PETSc does not know is bad input (exit 1, the
 /// option named), not a failure of the solve: it ended with exit 2 and PETSc's raw message
 /// (`PETSc error 86 in KSPSetFromOptions: …`). Every rank of the body's group meets it, on
-/// either body and any rank count.
+/// either body and any rank count, and under -help.
 #[test]
 fn unknown_solver_types_are_refused() {
     let known = "is not a known type";
@@ -287,6 +287,20 @@ fn unknown_solver_types_are_refused() {
         );
         assert!(line.ends_with("; -help lists the types)"), "{line}");
     }
+    // With -help too (the listing of the bodies' options meets it first; PETSc's own help text
+    // is on stdout, so only the error line is looked at).
+    let out = mpirun(2, &["-help", "-body2_ksp_type", "foo"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let ours: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("nndd: error"))
+        .collect();
+    assert_eq!(
+        ours,
+        ["nndd: error: -body2_ksp_type: 'foo' is not a known type (Unable to find requested KSP type foo; -help lists the types)"],
+        "{stderr}"
+    );
 }
 
 #[test]

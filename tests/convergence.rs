@@ -62,6 +62,35 @@ fn too_large_theta_is_reported_not_converged() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A load that overflows double precision (`-nndd_F_max 1e300`: the energy is its square)
+/// is reported as not finite, exit 3, with the data's magnitudes named as the cause, not a
+/// relaxation to make smaller.
+#[test]
+fn an_overflowing_load_is_named_not_blamed_on_theta() {
+    let dir = scratch("conv-overflow");
+    let p = dir.join("big");
+    let out = mpirun(
+        2,
+        &[
+            "-nndd_n",
+            "8",
+            "-nndd_F_max",
+            "1e300",
+            "-nndd_output",
+            p.to_str().unwrap(),
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("not finite") && stderr.contains("overflow"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("-nndd_theta ("), "{stderr}");
+    assert!(!stderr.contains("panicked"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `-nndd_theta auto` (the default: a secant update restarted at contact-set changes,
 /// src/dd/secant.rs) converges to the monolithic solution for bodies of very different stiffness,
 /// E¹/E² = 1000 … 0.001, where no fixed θ suits them all (θ = 0.25 diverges at 1000 and at 0.001,

@@ -378,7 +378,9 @@ fn a_floating_piece_is_refused_loaded_or_not() {
 }
 
 /// Contact curves that do not face each other: body 1's top paired with body 2's top
-/// (reported: contact force 0, body 2 inside body 1 by 1.19e−4 m, exit 0).
+/// (reported: contact force 0, body 2 inside body 1 by 1.19e−4 m, exit 0); body 1's base
+/// paired with body 2's top, back to back (their normals opposite, body 2's curve behind body
+/// 1's): named as curves that face away, not as overlapping bodies.
 #[test]
 fn contact_curves_that_do_not_face_each_other_are_refused() {
     let dir = scratch("mc-facing");
@@ -391,5 +393,11 @@ fn contact_curves_that_do_not_face_each_other_are_refused() {
             &["face"],
         );
     }
+    refused_with(
+        2,
+        &paper_args(&good, "bottom,top", &[]),
+        "-nndd_contact",
+        &["face away", "behind"],
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -763,14 +763,20 @@ fn check_output(settings: &Settings, layout: &Layout) -> Result<(), AppError> {
 
 /// With `-help`: let both bodies' KSPs register their options (on a tiny matrix), so that
 /// `-help` lists `-body1_ksp_type`, `-body2_pc_type`, ….
-fn list_solver_options() -> Result<(), PetscError> {
-    for prefix in ["body1_", "body2_"] {
-        let mut a = Matrix::preallocated(Petsc::comm_self(), 2, &[1, 1], &[0, 0])?;
-        for i in 0..2 {
-            a.add_values(&[i], &[i], &[1.0])?;
-        }
-        a.assemble()?;
-        let _ksp = Ksp::new(Petsc::comm_self(), a, prefix, None)?;
+fn list_solver_options() -> Result<(), AppError> {
+    for alpha in [1, 2] {
+        let prefix = format!("body{alpha}_");
+        let listed = (|| {
+            let mut a = Matrix::preallocated(Petsc::comm_self(), 2, &[1, 1], &[0, 0])?;
+            for i in 0..2 {
+                a.add_values(&[i], &[i], &[1.0])?;
+            }
+            a.assemble()?;
+            Ksp::new(Petsc::comm_self(), a, &prefix, None).map(drop)
+        })();
+        // An unknown type among the listed options is bad input here too (exit 1, its option
+        // named), as in a run.
+        listed.map_err(|e| solve::unknown_type(crate::dd::body::BodyError::Petsc(e), alpha))?;
     }
     Ok(())
 }

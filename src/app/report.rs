@@ -197,10 +197,16 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
             sci(settings.nndd.tol, 1),
             sci(balance, 3),
             sci(settings.nndd.force_tol, 1),
-            match settings.nndd.relaxation {
-                Relaxation::Auto =>
-                    "try a small fixed -nndd_theta (now auto; e.g. 0.01)".to_string(),
-                Relaxation::Fixed(theta) => format!("try a smaller -nndd_theta (now {theta})"),
+            if !(last.is_finite() && balance.is_finite()) {
+                // Not a relaxation too large: the numbers left double precision.
+                "the iterate is not finite: the data's magnitudes overflow double precision (a load, traction or displacement of order 1e150 or more makes the energy overflow) or a body's solve failed; check the input's units and sizes".to_string()
+            } else {
+                match settings.nndd.relaxation {
+                    Relaxation::Auto => {
+                        "try a small fixed -nndd_theta (now auto; e.g. 0.01)".to_string()
+                    }
+                    Relaxation::Fixed(theta) => format!("try a smaller -nndd_theta (now {theta})"),
+                }
             }
         ));
     }

@@ -114,7 +114,7 @@ pub fn setup_bodies(
 /// A solver option of body α naming a type PETSc does not know (`-body1_ksp_type foo`) is bad
 /// input (exit 1, one line naming the option), not a failure of the solve; every rank of the
 /// body's group meets it in the same call.
-fn unknown_type(e: BodyError, alpha: usize) -> AppError {
+pub(super) fn unknown_type(e: BodyError, alpha: usize) -> AppError {
     let BodyError::Petsc(p) = &e else {
         return e.into();
     };

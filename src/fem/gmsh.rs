@@ -35,6 +35,14 @@ pub enum GmshError {
     },
     #[error("{path}: {reason}")]
     Invalid { path: String, reason: String },
+    #[error("{path}: '{body}' has a degenerate triangle, {element}: relative area 2·area/(longest edge)² = {quality:.3e}, below {min:e}", min = checks::MIN_QUALITY)]
+    Degenerate {
+        path: String,
+        body: String,
+        element: String,
+        corners: [[f64; 2]; 3],
+        quality: f64,
+    },
 }
 
 /// A 2D triangle mesh as Gmsh wrote it (nodes numbered 0.. in the file's order).
@@ -709,13 +717,12 @@ impl GmshMesh {
             let mut l = t.map(|a| local[a]);
             let q = checks::quality(l.map(|a| points[a]));
             if checks::degenerate(q) {
-                return Err(GmshError::Invalid {
+                return Err(GmshError::Degenerate {
                     path: self.path.clone(),
-                    reason: format!(
-                        "'{name}' has a degenerate triangle, {}: relative area 2·area/(longest edge)² = {q:.3e}, below {:e}",
-                        self.describe(i),
-                        checks::MIN_QUALITY
-                    ),
+                    body: name.to_string(),
+                    element: self.describe(i),
+                    corners: t.map(|a| self.points[a]),
+                    quality: q,
                 });
             }
             if q < 0.0 {

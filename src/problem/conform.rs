@@ -289,6 +289,7 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
             // would cut a sliver of relative size d/h off the end triangle). Its contact
             // direction is the normal it was projected along, so that its partner is exact.
             g.points[c1.nodes[i]] = foot;
+            out.made.insert(point_key(foot));
             if !straight_at(&c1.segment_normals, i) {
                 n1[i] = f.normal;
                 out.normals.insert(point_key(foot), f.normal);
@@ -311,6 +312,7 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
         }
         if straight_at(&c2.segment_normals, j) && !moved[1][j] {
             g.points[c2.nodes[j]] = foot;
+            out.made.insert(point_key(foot));
             moved[1][j] = true;
             continue;
         }
@@ -323,11 +325,13 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
         match under {
             Some(to) if straight_at(&c1.segment_normals, i) && !moved[0][i] => {
                 g.points[c1.nodes[i]] = to;
+                out.made.insert(point_key(to));
                 moved[0][i] = true;
                 source2[j] = true;
             }
             _ if !moved[1][j] => {
                 g.points[c2.nodes[j]] = foot;
+                out.made.insert(point_key(foot));
                 moved[1][j] = true;
             }
             _ => {}
@@ -358,8 +362,9 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
         out.inserted[alpha] = new.len();
         let pts = if alpha == 0 { &p1 } else { &p2 };
         let made = insert(g, body_tags[alpha], &curve.nodes, pts, new);
-        if alpha == 0 {
-            for (p, n) in made {
+        for &(p, n) in &made {
+            out.made.insert(point_key(p));
+            if alpha == 0 {
                 out.normals.insert(point_key(p), n);
             }
         }

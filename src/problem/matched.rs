@@ -14,6 +14,9 @@ pub struct Matched {
     pub inserted: [usize; 2],
     /// Nodes moved onto a partner's projection, per body.
     pub moved: [usize; 2],
+    /// The points of the nodes inserted or moved (by [`point_key`]), to tell a triangle nndd
+    /// made from the user's in messages.
+    pub made: std::collections::BTreeSet<[u64; 2]>,
 }
 
 /// The key of a point in [`Matched::normals`].

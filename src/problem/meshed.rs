@@ -105,12 +105,45 @@ pub fn chain(edges: &[[usize; 2]], curve: &str, option: &str) -> Result<Vec<usiz
     Ok(nodes)
 }
 
+/// A degenerate triangle at a node that the matching of the contact curves inserted or moved
+/// ([`super::conform`]) is nndd's doing, not the user's mesh's: say so, and what to change.
+fn made_by_matching(spec: &MeshSpec, e: GmshError) -> MeshedError {
+    if let GmshError::Degenerate {
+        corners, quality, ..
+    } = &e
+    {
+        if let Some(p) = corners
+            .iter()
+            .find(|p| spec.matched.made.contains(&super::matched::point_key(**p)))
+        {
+            return opt_err(
+                "-nndd_contact",
+                format!(
+                    "the contact curves '{}' and '{}' are meshed on their own, and making them match put a node at ({:.6e}, {:.6e}) so near another that its triangle ({:.6e}, {:.6e}), ({:.6e}, {:.6e}), ({:.6e}, {:.6e}) is degenerate (relative area {quality:.3e}, below {:e}); give the two curves the same points near there, or sizes that differ by more",
+                    spec.contact[0],
+                    spec.contact[1],
+                    p[0],
+                    p[1],
+                    corners[0][0],
+                    corners[0][1],
+                    corners[1][0],
+                    corners[1][1],
+                    corners[2][0],
+                    corners[2][1],
+                    checks::MIN_QUALITY
+                ),
+            );
+        }
+    }
+    e.into()
+}
+
 /// Both bodies of a meshed problem.
 pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 2], MeshedError> {
     shared_triangles(&spec.gmsh)?;
     let bodies: Vec<GmshBody> = BODY_NAMES
         .iter()
-        .map(|n| spec.gmsh.body(n))
+        .map(|n| spec.gmsh.body(n).map_err(|e| made_by_matching(spec, e)))
         .collect::<Result<_, _>>()?;
     overlap(&spec.gmsh, &bodies)?;
     // Every curve named by an option must lie on a body.
@@ -824,21 +857,25 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
     let normals = all_normals[first..=last].to_vec();
     let side1 = curve1[first..=last].to_vec();
     let lengths = super::segment_lengths(&side1);
+    // (facing first: curves whose normals point the same way are named as such)
+    let normals2 = facing(spec, &bodies[1], &sides[1], &side1, &s2, &normals, p2)?;
     let mut gap = Vec::with_capacity(s1.len());
     for (i, &b) in s2.iter().enumerate() {
         let g = offset(first + i, b).1;
         if g < -tol {
+            // Bodies that overlap were refused by the mesh checks ([`overlap`]) before: a
+            // partner behind body 1's curve is on the far side of it, the curves back to back.
+            let n = normals[i];
             return Err(opt_err(
                 OPT,
                 format!(
-                    "the bodies overlap at ({:.6e}, {:.6e}): body 2's node is {:.3e} inside body 1 along the normal (initial gap must be >= 0)",
-                    side1[i][0], side1[i][1], -g
+                    "the curves '{}' and '{}' face away from each other: body 2's node ({:.6e}, {:.6e}) is {:.3e} behind body 1's node ({:.6e}, {:.6e}) along its outward normal ({:.4}, {:.4}); name the curves that face each other across the gap (the initial gap must be >= 0)",
+                    spec.contact[0], spec.contact[1], p2[b][0], p2[b][1], -g, side1[i][0], side1[i][1], n[0], n[1]
                 ),
             ));
         }
         gap.push(g.max(0.0));
     }
-    let normals2 = facing(spec, &bodies[1], &sides[1], &side1, &s2, &normals, p2)?;
     Ok(Pairing {
         sides: [s1, s2],
         candidates: [chain1, sides[1].clone()],
