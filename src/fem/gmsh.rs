@@ -35,14 +35,23 @@ pub enum GmshError {
     },
     #[error("{path}: {reason}")]
     Invalid { path: String, reason: String },
-    #[error("{path}: '{body}' has a degenerate triangle, {element}: relative area 2·area/(longest edge)² = {quality:.3e}, below {min:e}", min = checks::MIN_QUALITY)]
+    #[error("{path}: '{}' has a degenerate triangle, {}: relative area 2·area/(longest edge)² = {:.3e}, below {:e}", .triangle.body, .triangle.element, .triangle.quality, checks::MIN_QUALITY)]
     Degenerate {
         path: String,
-        body: String,
-        element: String,
-        corners: [[f64; 2]; 3],
-        quality: f64,
+        triangle: Box<DegenerateTriangle>,
     },
+}
+
+/// A triangle whose relative area is below [`checks::MIN_QUALITY`] ([`GmshError::Degenerate`]).
+#[derive(Debug)]
+pub struct DegenerateTriangle {
+    /// The physical surface.
+    pub body: String,
+    /// The Gmsh element and its corners, in words.
+    pub element: String,
+    pub corners: [[f64; 2]; 3],
+    /// 2·area/(longest edge)².
+    pub quality: f64,
 }
 
 /// A 2D triangle mesh as Gmsh wrote it (nodes numbered 0.. in the file's order).
@@ -719,10 +728,12 @@ impl GmshMesh {
             if checks::degenerate(q) {
                 return Err(GmshError::Degenerate {
                     path: self.path.clone(),
-                    body: name.to_string(),
-                    element: self.describe(i),
-                    corners: t.map(|a| self.points[a]),
-                    quality: q,
+                    triangle: Box::new(DegenerateTriangle {
+                        body: name.to_string(),
+                        element: self.describe(i),
+                        corners: t.map(|a| self.points[a]),
+                        quality: q,
+                    }),
                 });
             }
             if q < 0.0 {

@@ -108,10 +108,8 @@ pub fn chain(edges: &[[usize; 2]], curve: &str, option: &str) -> Result<Vec<usiz
 /// A degenerate triangle at a node that the matching of the contact curves inserted or moved
 /// ([`super::conform`]) is nndd's doing, not the user's mesh's: say so, and what to change.
 fn made_by_matching(spec: &MeshSpec, e: GmshError) -> MeshedError {
-    if let GmshError::Degenerate {
-        corners, quality, ..
-    } = &e
-    {
+    if let GmshError::Degenerate { triangle, .. } = &e {
+        let (corners, quality) = (&triangle.corners, triangle.quality);
         if let Some(p) = corners
             .iter()
             .find(|p| spec.matched.made.contains(&super::matched::point_key(**p)))
