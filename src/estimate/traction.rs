@@ -1,15 +1,11 @@
 //! The contact interface Γc as a 1D P1 space (its mass matrix M_Γ, densities and nodal
 //! forces), and the admissible contact traction of docs/method.md §3.2: the P1 density t̂ ≤ 0
-//! closest in L²(Γc) to a target, a small QP solved exactly by Clarabel.
+//! closest in L²(Γc) to a target with the target's resultant, small QPs solved exactly by
+//! Clarabel.
 
 use crate::problem::interface_mass;
 use crate::qp::dense::SymMatrix;
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
-
-/// Tensile nodal forces up to this fraction of the forces' sum are noise, not tension: a
-/// converged iterate's forces at free nodes are 0 to the NNDD's tolerance (4e−9 of the sum on
-/// the pin in its hole at tol 1e−8), and clipping them moves the resultant by as little.
-const ROUND_OFF: f64 = 1e-6;
 
 /// The contact interface Γc seen as a 1D P1 space on body 1's side (parametrised by its arc
 /// length): its mass matrix M_Γ and integrals.
@@ -105,6 +101,49 @@ impl Interface {
             .collect()
     }
 
+    /// The admissible contact traction (docs/method.md §3.2) of the nodal forces G = `target`:
+    /// a P1 density t̂ ≤ 0 at every node (hence on every edge) that carries the same resultant
+    /// Σ(M_Γt̂)_k = ΣG_k where G is compressive overall (ΣG < 0).
+    /// - Where the consistent density g = M_Γ⁻¹G is ≤ 0 at every node, t̂ = g: it carries G
+    ///   exactly.
+    /// - Otherwise the L² projection of g onto t̂ ≤ 0 with the resultant kept:
+    ///   ‖t̂ − g‖²_M = t̂ᵀMt̂ − 2t̂ᵀG + const, so with x = −t̂ ≥ 0 it is
+    ///   min ½ xᵀM_Γx + xᵀG subject to mᵀx = −ΣG (m = M_Γ1, the lumped masses: mᵀx is x's
+    ///   resultant). For the multiplier ν of the resultant the problem is the bound-constrained
+    ///   QP with G − νm (Clarabel, polished to its exact active set), whose resultant grows
+    ///   with ν: ν is found by regula falsi ([`Self::resultant_multiplier`]). Clipping alone
+    ///   adds the clipped tensile lobes' force: nodal forces that alternate from node to node
+    ///   (curves meshed on their own) have a consistent density that alternates three times
+    ///   as much, and the pin in its hole meshed 2:3 got 1.5 times its contact force.
+    pub fn admissible_traction(
+        &self,
+        target: &[f64],
+        qp: &QpSettings,
+    ) -> Result<Vec<f64>, QpError> {
+        let g = self.density(target);
+        if g.iter().all(|&v| v <= 0.0) {
+            return Ok(g);
+        }
+        let mass = self.mass();
+        let lumped = self.lumped();
+        let project = |nu: f64| -> Result<Vec<f64>, QpError> {
+            let q: Vec<f64> = target
+                .iter()
+                .zip(&lumped)
+                .map(|(f, m)| f - nu * m)
+                .collect();
+            Ok(solve_nonneg_qp(&mass, &q, qp)?.x)
+        };
+        let x = project(0.0)?;
+        let want = -target.iter().sum::<f64>();
+        if want <= 0.0 {
+            return Ok(x.iter().map(|v| -v).collect()); // no net compression to keep
+        }
+        let nu = self.resultant_multiplier(&project, &lumped, want, &x)?;
+        let x = if nu == 0.0 { x } else { project(nu)? };
+        Ok(x.iter().map(|v| -v).collect())
+    }
+
     /// The lumped mass of each node (the row sums of M_Γ: half its segments' lengths).
     fn lumped(&self) -> Vec<f64> {
         let m = self.len();
@@ -117,39 +156,62 @@ impl Interface {
             .collect()
     }
 
-    /// The admissible contact traction (docs/method.md §3.2) of the nodal forces G = `target`:
-    /// a P1 density t̂ ≤ 0 at every node (hence on every edge).
-    /// - Where the consistent density g = M_Γ⁻¹G is ≤ 0 at every node, t̂ = g: it carries G
-    ///   exactly.
-    /// - Where G ≤ 0 at every node (compressive forces, to [`ROUND_OFF`] of their sum) but g
-    ///   is not (forces that alternate
-    ///   from node to node, as on curves meshed independently: M_Γ⁻¹ amplifies the alternation
-    ///   threefold), the lumped density t̂_k = G_k/m_k: ≤ 0, and its resultant Σ(M_Γt̂)_k =
-    ///   Σ m_k t̂_k is ΣG exactly (clipping g would add the clipped lobes' force, 1.5 times
-    ///   on the pin in its hole meshed 2:3).
-    /// - Otherwise (tensile nodal forces, an early NNDD iterate) the L² projection onto
-    ///   t̂ ≤ 0: ‖t̂ − g‖²_M = t̂ᵀMt̂ − 2t̂ᵀG + const, so with x = −t̂ ≥ 0 the QP is
-    ///   min ½ xᵀM_Γx + xᵀG (Clarabel, polished).
-    pub fn admissible_traction(
+    /// The multiplier ν at which the projection `project(ν)` has the resultant mᵀx = `want`
+    /// (`x0` = project(0)). mᵀx(ν) is continuous, nondecreasing and piecewise linear in ν
+    /// (linear while the active set stays), 0 as ν → −∞ and unbounded as ν → ∞: a bracket by
+    /// doubling, then regula falsi (Illinois), exact once both ends share an active set.
+    fn resultant_multiplier(
         &self,
-        target: &[f64],
-        qp: &QpSettings,
-    ) -> Result<Vec<f64>, QpError> {
-        let g = self.density(target);
-        if g.iter().all(|&v| v <= 0.0) {
-            return Ok(g);
+        project: &dyn Fn(f64) -> Result<Vec<f64>, QpError>,
+        lumped: &[f64],
+        want: f64,
+        x0: &[f64],
+    ) -> Result<f64, QpError> {
+        let resultant = |x: &[f64]| x.iter().zip(lumped).map(|(a, m)| a * m).sum::<f64>();
+        let tol = 1e-13 * want;
+        let f0 = resultant(x0) - want;
+        if f0.abs() <= tol {
+            return Ok(0.0);
         }
-        let tensile: f64 = target.iter().map(|&v| v.max(0.0)).sum();
-        let total: f64 = target.iter().map(|v| v.abs()).sum();
-        if tensile <= ROUND_OFF * total {
-            return Ok(target
-                .iter()
-                .zip(self.lumped())
-                .map(|(f, m)| f.min(0.0) / m)
-                .collect());
+        // ν has the units of a density: start the bracket at the largest |M_Γ⁻¹G|-like size.
+        let total_mass: f64 = lumped.iter().sum();
+        let mut step = want / total_mass;
+        let (mut a, mut fa) = (0.0, f0);
+        let (mut b, mut fb);
+        loop {
+            b = if f0 > 0.0 { -step } else { step };
+            fb = resultant(&project(b)?) - want;
+            if fb.abs() <= tol {
+                return Ok(b);
+            }
+            if fb.signum() != fa.signum() {
+                break;
+            }
+            (a, fa) = (b, fb);
+            step *= 2.0;
         }
-        let sol = solve_nonneg_qp(&self.mass(), target, qp)?;
-        Ok(sol.x.iter().map(|v| -v).collect())
+        let mut side = 0;
+        for _ in 0..100 {
+            let c = (a * fb - b * fa) / (fb - fa);
+            let fc = resultant(&project(c)?) - want;
+            if fc.abs() <= tol {
+                return Ok(c);
+            }
+            if fc.signum() == fb.signum() {
+                (b, fb) = (c, fc);
+                if side == -1 {
+                    fa *= 0.5;
+                }
+                side = -1;
+            } else {
+                (a, fa) = (c, fc);
+                if side == 1 {
+                    fb *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        Ok(if fa.abs() < fb.abs() { a } else { b })
     }
 }
 
@@ -185,7 +247,8 @@ mod tests {
         for (a, b) in t.iter().zip(&got) {
             assert!((a - b).abs() < 1e-12 * 3.0, "{got:?}");
         }
-        // Compressive nodal forces that alternate: the lumped density, with their resultant.
+        // Compressive nodal forces that alternate: a density ≤ 0 with their resultant (to
+        // round-off), where clipping their consistent density would add force.
         let forces = vec![-1.0, 0.0, -2.0, 0.0, -1.0];
         let iface = Interface::new(vec![0.25; 4]);
         assert!(iface.density(&forces).iter().any(|&v| v > 0.0));
@@ -194,7 +257,14 @@ mod tests {
             .unwrap();
         assert!(got.iter().all(|&v| v <= 0.0), "{got:?}");
         let (sum, want): (f64, f64) = (iface.forces(&got).iter().sum(), forces.iter().sum());
-        assert!((sum - want).abs() < 1e-14, "resultant {sum} vs {want}");
+        assert!((sum - want).abs() < 1e-12, "resultant {sum} vs {want}");
+        let clipped = solve_nonneg_qp(&iface.mass(), &forces, &QpSettings::default()).unwrap();
+        let more: f64 = iface.forces(&clipped.x).iter().sum();
+        assert!(
+            more + want > 0.1,
+            "clipping alone adds force: {more} vs {}",
+            -want
+        );
         let iface = Interface::new(vec![0.5, 0.5]);
         // A positive (tensile) target gives 0.
         let got = iface
