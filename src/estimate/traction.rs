@@ -177,8 +177,10 @@ impl Interface {
         let total_mass: f64 = lumped.iter().sum();
         let mut step = want / total_mass;
         let (mut a, mut fa) = (0.0, f0);
-        let (mut b, mut fb);
-        loop {
+        let (mut b, mut fb) = (a, fa);
+        // (2^200 times the mean density brackets any finite data: the QP refuses a
+        // non-finite one)
+        for _ in 0..200 {
             b = if f0 > 0.0 { -step } else { step };
             fb = resultant(&project(b)?) - want;
             if fb.abs() <= tol {
@@ -189,6 +191,11 @@ impl Interface {
             }
             (a, fa) = (b, fb);
             step *= 2.0;
+        }
+        if fb.signum() == fa.signum() {
+            return Err(QpError::InvalidData(format!(
+                "no multiplier gives the contact traction the resultant {want:e}"
+            )));
         }
         let mut side = 0;
         for _ in 0..100 {
