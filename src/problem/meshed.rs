@@ -958,6 +958,45 @@ fn facing(
 mod tests {
     use super::*;
 
+    /// A degenerate triangle at a node the matching placed is reported as the matching's, on
+    /// -nndd_contact, with its corners; one at the user's nodes stays the mesh's error.
+    #[test]
+    fn a_degenerate_triangle_at_a_matched_node_is_the_matchings() {
+        let corners = [[0.0, 0.0], [1.0, 0.0], [0.5, 1e-9]];
+        let mut matched = super::super::matched::Matched::default();
+        matched
+            .made
+            .insert(super::super::matched::point_key(corners[2]));
+        let spec = MeshSpec {
+            gmsh: Rc::new(GmshMesh::default()),
+            conditions: Vec::new(),
+            contact: ["top1".into(), "bottom2".into()],
+            nested: None,
+            matched: Rc::new(matched),
+        };
+        let degenerate = |corners: [[f64; 2]; 3]| GmshError::Degenerate {
+            path: "m.msh".into(),
+            triangle: Box::new(crate::fem::gmsh::DegenerateTriangle {
+                body: "body2".into(),
+                element: "element 7".into(),
+                corners,
+                quality: 2e-9,
+            }),
+        };
+        let e = made_by_matching(&spec, degenerate(corners)).to_string();
+        assert!(
+            e.starts_with("-nndd_contact: the contact curves 'top1' and 'bottom2' are meshed on their own, and making them match put a node at (5.000000e-1, 1.000000e-9)"),
+            "{e}"
+        );
+        assert!(e.contains("relative area 2.000e-9"), "{e}");
+        let mine = [[0.0, 0.0], [1.0, 0.0], [0.5, 2e-9]];
+        let e = made_by_matching(&spec, degenerate(mine)).to_string();
+        assert!(
+            e.contains("'body2' has a degenerate triangle, element 7"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn chain_orders_a_curve_from_its_start() {
         let edges = [[5, 2], [1, 5], [2, 7]];
