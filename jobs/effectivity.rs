@@ -7,9 +7,12 @@
 //!
 //! Run: `jobs/effectivity` → a table on stdout and in `results/effectivity/table.txt`.
 
+#[path = "extrapolate.rs"]
+mod extrapolate;
 #[path = "runner.rs"]
 mod runner;
 
+use extrapolate::extrapolate;
 use runner::num;
 use std::path::Path;
 
@@ -92,28 +95,6 @@ const CASES: &[Case] = &[
 ];
 
 const FACTORS: [usize; 4] = [2, 4, 6, 8];
-
-/// (q, e∞) of e(r)² = e∞² − K r^(−q) through (r, e) at three factors.
-fn extrapolate(r: [f64; 3], e: [f64; 3]) -> Option<(f64, f64)> {
-    let e2 = e.map(|x| x * x);
-    let rho = (e2[1] - e2[0]) / (e2[2] - e2[1]);
-    let ratio = |q: f64| (r[0].powf(-q) - r[1].powf(-q)) / (r[1].powf(-q) - r[2].powf(-q));
-    let (mut lo, mut hi) = (0.05, 8.0);
-    if !(ratio(lo)..=ratio(hi)).contains(&rho) {
-        return None; // not monotone in r, or outside the fitted family
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if ratio(mid) < rho {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let q = 0.5 * (lo + hi);
-    let k = (e2[2] - e2[1]) / (r[1].powf(-q) - r[2].powf(-q));
-    Some((q, (e2[2] + k * r[2].powf(-q)).sqrt()))
-}
 
 fn main() {
     let dir = Path::new("results/effectivity");

@@ -294,27 +294,6 @@ const HOLE_OPTS: &str = concat!(
     "/examples/pin-hole/pin-hole.opts"
 );
 
-/// The exponent q and limit e∞ of e_ref(r)² = e∞² − K r^(−q) through three reference factors
-/// (the extrapolated true error).
-fn extrapolated(r: [f64; 3], e: [f64; 3]) -> (f64, f64) {
-    let e2 = e.map(|x| x * x);
-    let rho = (e2[1] - e2[0]) / (e2[2] - e2[1]);
-    let ratio = |q: f64| (r[0].powf(-q) - r[1].powf(-q)) / (r[1].powf(-q) - r[2].powf(-q));
-    let (mut lo, mut hi) = (0.05, 8.0);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        // ratio(q) increases with q
-        if ratio(mid) < rho {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let q = 0.5 * (lo + hi);
-    let k = (e2[2] - e2[1]) / (r[1].powf(-q) - r[2].powf(-q));
-    (q, (e2[2] + k * r[2].powf(-q)).sqrt())
-}
-
 /// The estimates of the pin in its hole at reference factors 4, 6, 8: (η^glo, [e_ref]),
 /// after the per-run checks (converged, equilibrium to round-off, the bound `checked`).
 fn hole_estimates(dir: &Path, msh: &Path, name: &str) -> (f64, [f64; 3], serde_json::Value) {
@@ -368,7 +347,7 @@ fn pin_in_its_hole() {
     let warnings = j["warnings"].to_string();
     assert!(!warnings.contains("degenerate"), "{warnings}");
     assert!(e_ref[0] < e_ref[1] && e_ref[1] < e_ref[2], "{e_ref:?}");
-    let (q, e_inf) = extrapolated([4.0, 6.0, 8.0], e_ref);
+    let (q, e_inf) = extrapolate::extrapolate([4.0, 6.0, 8.0], e_ref).expect("e_ref grows with r");
     println!("pin in its hole (matched): extrapolated true error {e_inf:.6e} (q = {q:.2}), effectivity {:.4}", eta / e_inf);
     for e in e_ref.iter().chain([&e_inf]) {
         assert!(eta >= *e, "eta_glo {eta:e} < {e:e}");

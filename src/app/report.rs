@@ -272,8 +272,7 @@ fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
     }
     let point = |k: usize| p1.mesh.points[p1.contact_nodes[k]];
     // The lumped nodal pressure, as the output's `pressure`.
-    let share =
-        crate::estimate::traction::Interface::new(p1.contact_lengths.clone()).forces(&vec![1.0; m]);
+    let share = crate::estimate::traction::Interface::new(p1.contact_lengths.clone()).lumped();
     let force = last.contact_forces();
     let ends = on.first().zip(on.last()).map(|(&a, &b)| (a, b));
     let peak = (0..m)

@@ -111,7 +111,7 @@ impl Interface {
     ///   min ½ xᵀM_Γx + xᵀG subject to mᵀx = −ΣG (m = M_Γ1, the lumped masses: mᵀx is x's
     ///   resultant). For the multiplier ν of the resultant the problem is the bound-constrained
     ///   QP with G − νm (Clarabel, polished to its exact active set), whose resultant grows
-    ///   with ν: ν is found by regula falsi ([`Self::resultant_multiplier`]). Clipping alone
+    ///   with ν: ν is found by regula falsi ([`resultant_multiplier`]). Clipping alone
     ///   adds the clipped tensile lobes' force: nodal forces that alternate from node to node
     ///   (curves meshed on their own) have a consistent density that alternates three times
     ///   as much, and the pin in its hole meshed 2:3 got 1.5 times its contact force.
@@ -139,87 +139,79 @@ impl Interface {
         if want <= 0.0 {
             return Ok(x.iter().map(|v| -v).collect()); // no net compression to keep
         }
-        let nu = self.resultant_multiplier(&project, &lumped, want, &x)?;
+        let nu = resultant_multiplier(&project, &lumped, want, &x)?;
         let x = if nu == 0.0 { x } else { project(nu)? };
         Ok(x.iter().map(|v| -v).collect())
     }
 
-    /// The lumped mass of each node (the row sums of M_Γ: half its segments' lengths).
-    fn lumped(&self) -> Vec<f64> {
-        let m = self.len();
-        (0..m)
-            .map(|i| {
-                let left = if i > 0 { self.lengths[i - 1] } else { 0.0 };
-                let right = if i + 1 < m { self.lengths[i] } else { 0.0 };
-                0.5 * (left + right)
-            })
-            .collect()
+    /// The lumped mass of each node, M_Γ1 (half its segments' lengths): a node's share of Γc.
+    pub fn lumped(&self) -> Vec<f64> {
+        self.forces(&vec![1.0; self.len()])
     }
+}
 
-    /// The multiplier ν at which the projection `project(ν)` has the resultant mᵀx = `want`
-    /// (`x0` = project(0)). mᵀx(ν) is continuous, nondecreasing and piecewise linear in ν
-    /// (linear while the active set stays), 0 as ν → −∞ and unbounded as ν → ∞: a bracket by
-    /// doubling, then regula falsi (Illinois), exact once both ends share an active set.
-    fn resultant_multiplier(
-        &self,
-        project: &dyn Fn(f64) -> Result<Vec<f64>, QpError>,
-        lumped: &[f64],
-        want: f64,
-        x0: &[f64],
-    ) -> Result<f64, QpError> {
-        let resultant = |x: &[f64]| x.iter().zip(lumped).map(|(a, m)| a * m).sum::<f64>();
-        let tol = 1e-13 * want;
-        let f0 = resultant(x0) - want;
-        if f0.abs() <= tol {
-            return Ok(0.0);
-        }
-        // ν has the units of a density: start the bracket at the largest |M_Γ⁻¹G|-like size.
-        let total_mass: f64 = lumped.iter().sum();
-        let mut step = want / total_mass;
-        let (mut a, mut fa) = (0.0, f0);
-        let (mut b, mut fb) = (a, fa);
-        // (2^200 times the mean density brackets any finite data: the QP refuses a
-        // non-finite one)
-        for _ in 0..200 {
-            b = if f0 > 0.0 { -step } else { step };
-            fb = resultant(&project(b)?) - want;
-            if fb.abs() <= tol {
-                return Ok(b);
-            }
-            if fb.signum() != fa.signum() {
-                break;
-            }
-            (a, fa) = (b, fb);
-            step *= 2.0;
-        }
-        if fb.signum() == fa.signum() {
-            return Err(QpError::InvalidData(format!(
-                "no multiplier gives the contact traction the resultant {want:e}"
-            )));
-        }
-        let mut side = 0;
-        for _ in 0..100 {
-            let c = (a * fb - b * fa) / (fb - fa);
-            let fc = resultant(&project(c)?) - want;
-            if fc.abs() <= tol {
-                return Ok(c);
-            }
-            if fc.signum() == fb.signum() {
-                (b, fb) = (c, fc);
-                if side == -1 {
-                    fa *= 0.5;
-                }
-                side = -1;
-            } else {
-                (a, fa) = (c, fc);
-                if side == 1 {
-                    fb *= 0.5;
-                }
-                side = 1;
-            }
-        }
-        Ok(if fa.abs() < fb.abs() { a } else { b })
+/// The multiplier ν at which the projection `project(ν)` has the resultant mᵀx = `want`
+/// (`x0` = project(0)). mᵀx(ν) is continuous, nondecreasing and piecewise linear in ν
+/// (linear while the active set stays), 0 as ν → −∞ and unbounded as ν → ∞: a bracket by
+/// doubling, then regula falsi (Illinois), exact once both ends share an active set.
+fn resultant_multiplier(
+    project: &dyn Fn(f64) -> Result<Vec<f64>, QpError>,
+    lumped: &[f64],
+    want: f64,
+    x0: &[f64],
+) -> Result<f64, QpError> {
+    let resultant = |x: &[f64]| x.iter().zip(lumped).map(|(a, m)| a * m).sum::<f64>();
+    let tol = 1e-13 * want;
+    let f0 = resultant(x0) - want;
+    if f0.abs() <= tol {
+        return Ok(0.0);
     }
+    // ν has the units of a density: start the bracket at the largest |M_Γ⁻¹G|-like size.
+    let total_mass: f64 = lumped.iter().sum();
+    let mut step = want / total_mass;
+    let (mut a, mut fa) = (0.0, f0);
+    let (mut b, mut fb) = (a, fa);
+    // (2^200 times the mean density brackets any finite data: the QP refuses a
+    // non-finite one)
+    for _ in 0..200 {
+        b = if f0 > 0.0 { -step } else { step };
+        fb = resultant(&project(b)?) - want;
+        if fb.abs() <= tol {
+            return Ok(b);
+        }
+        if fb.signum() != fa.signum() {
+            break;
+        }
+        (a, fa) = (b, fb);
+        step *= 2.0;
+    }
+    if fb.signum() == fa.signum() {
+        return Err(QpError::InvalidData(format!(
+            "no multiplier gives the contact traction the resultant {want:e}"
+        )));
+    }
+    let mut side = 0;
+    for _ in 0..100 {
+        let c = (a * fb - b * fa) / (fb - fa);
+        let fc = resultant(&project(c)?) - want;
+        if fc.abs() <= tol {
+            return Ok(c);
+        }
+        if fc.signum() == fb.signum() {
+            (b, fb) = (c, fc);
+            if side == -1 {
+                fa *= 0.5;
+            }
+            side = -1;
+        } else {
+            (a, fa) = (c, fc);
+            if side == 1 {
+                fb *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    Ok(if fa.abs() < fb.abs() { a } else { b })
 }
 
 #[cfg(test)]

@@ -82,8 +82,10 @@ pub fn segments_cross(p: [[f64; 2]; 2], q: [[f64; 2]; 2], tol: f64) -> bool {
 /// Every side of every triangle as (larger node, 3 e + k) for side k (from node k to node
 /// k + 1) of triangle e, grouped by the smaller node (compressed rows, a counting sort) and
 /// sorted within each group: the runs of equal entries are the sides met more than once.
+/// (A rank that holds a body's triangles only, not its points, still finds its sides: the
+/// groups run over the nodes the triangles name.)
 fn side_groups(mesh: &Mesh) -> (Vec<u32>, Vec<(u32, u32)>) {
-    let n = mesh.points.len();
+    let n = mesh.triangles.iter().flatten().max().map_or(0, |&m| m + 1);
     let mut start = vec![0u32; n + 1];
     for t in &mesh.triangles {
         for k in 0..3 {
@@ -110,9 +112,9 @@ fn side_groups(mesh: &Mesh) -> (Vec<u32>, Vec<(u32, u32)>) {
 }
 
 /// Calls `f` on each run of sides with the same two nodes (3 e + k of each, at least one).
-fn for_each_side(mesh: &Mesh, mut f: impl FnMut(&[(u32, u32)]) -> bool) -> bool {
+pub(crate) fn for_each_side(mesh: &Mesh, mut f: impl FnMut(&[(u32, u32)]) -> bool) -> bool {
     let (start, sides) = side_groups(mesh);
-    for a in 0..mesh.points.len() {
+    for a in 0..start.len() - 1 {
         let group = &sides[start[a] as usize..start[a + 1] as usize];
         let mut i = 0;
         while i < group.len() {

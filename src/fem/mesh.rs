@@ -101,41 +101,16 @@ impl Mesh {
     /// The boundary edges (edges of exactly one triangle), oriented as in their triangle
     /// (counter-clockwise: the body is on the left), in triangle order.
     pub fn boundary_edges(&self) -> Vec<[usize; 2]> {
-        // Every triangle side bucketed by its smaller end node (a counting sort, O(N)), each
-        // bucket sorted by the larger end: a side met once is on the boundary. No hashing and
-        // no global sort: this runs at every recovery and at the final check of large meshes.
-        // (A rank that holds a body's triangles only, not its points, still finds its sides.)
-        let n = self.triangles.iter().flatten().max().map_or(0, |&m| m + 1);
-        let mut start = vec![0u32; n + 1];
-        for t in &self.triangles {
-            for k in 0..3 {
-                start[t[k].min(t[(k + 1) % 3]) + 1] += 1;
+        // A side met once is on the boundary (the sides grouped by their smaller node, a
+        // counting sort: no hashing and no global sort, as this runs at every recovery and at
+        // the final check of large meshes).
+        let mut boundary = vec![false; 3 * self.triangles.len()];
+        super::checks::for_each_side(self, |run| {
+            if let [(_, side)] = run {
+                boundary[*side as usize] = true;
             }
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut sides = vec![(0u32, 0u32); 3 * self.triangles.len()];
-        for (e, t) in self.triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let slot = &mut fill[a.min(b)];
-                sides[*slot as usize] = (a.max(b) as u32, (3 * e + k) as u32);
-                *slot += 1;
-            }
-        }
-        let mut boundary = vec![false; sides.len()];
-        for i in 0..n {
-            let bucket = &mut sides[start[i] as usize..start[i + 1] as usize];
-            bucket.sort_unstable();
-            for j in 0..bucket.len() {
-                let k = bucket[j].0;
-                let repeated =
-                    (j > 0 && bucket[j - 1].0 == k) || bucket.get(j + 1).is_some_and(|s| s.0 == k);
-                boundary[bucket[j].1 as usize] = !repeated;
-            }
-        }
+            false
+        });
         (0..boundary.len())
             .filter(|&s| boundary[s])
             .map(|s| {

@@ -647,15 +647,21 @@ pub(super) fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
                 n[0] += segments[s][0];
                 n[1] += segments[s][1];
             }
-            let h = n[0].hypot(n[1]);
-            let n = [n[0] / h, n[1] / h];
-            if n[0].abs() <= 1e-12 && n[1] > 0.0 {
-                super::UP
-            } else {
-                n
-            }
+            unit_or_up(n)
         })
         .collect()
+}
+
+/// The unit vector of n, exactly (0, 1) where it is that to 1e−12 (so that a straight
+/// horizontal side keeps unrotated frames).
+fn unit_or_up(n: [f64; 2]) -> [f64; 2] {
+    let h = n[0].hypot(n[1]);
+    let n = [n[0] / h, n[1] / h];
+    if n[0].abs() <= 1e-12 && n[1] > 0.0 {
+        super::UP
+    } else {
+        n
+    }
 }
 
 /// The contact directions along body 1's curve `chain` of a mesh refined r times
@@ -687,14 +693,7 @@ fn refined_normals(
             }
             let (a, b) = (fine[c * r], fine[(c + 1) * r]);
             let t = j as f64 / r as f64;
-            let n = [(1.0 - t) * a[0] + t * b[0], (1.0 - t) * a[1] + t * b[1]];
-            let h = n[0].hypot(n[1]);
-            let n = [n[0] / h, n[1] / h];
-            if n[0].abs() <= 1e-12 && n[1] > 0.0 {
-                super::UP
-            } else {
-                n
-            }
+            unit_or_up([(1.0 - t) * a[0] + t * b[0], (1.0 - t) * a[1] + t * b[1]])
         })
         .collect())
 }

@@ -354,14 +354,7 @@ pub const PASCAL_MODULI: f64 = 1e8;
 /// (nndd reads coordinates in metres: a part drawn in mm is 1000 times too large, and a
 /// prescribed displacement strains it 1000 times too little).
 fn units_warning(mesh: &MeshSpec, materials: &[Material; 2]) -> Option<String> {
-    let pts = &mesh.gmsh.points;
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in pts {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let [lo, hi] = crate::fem::checks::bbox(&mesh.gmsh.points);
     let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
     let e = materials[0].young.max(materials[1].young);
     (size >= MILLIMETRE_MESH && e > PASCAL_MODULI).then(|| {

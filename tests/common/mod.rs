@@ -9,6 +9,9 @@ use std::time::{Duration, Instant};
 #[path = "../../jobs/hertz_fit.rs"]
 pub mod hertz_fit;
 
+#[path = "../../jobs/extrapolate.rs"]
+pub mod extrapolate;
+
 /// The materials of the Hertz examples (block, cylinder): (E, ν).
 pub const HERTZ_MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
