@@ -105,7 +105,7 @@ impl Mesh {
         // counting sort: no hashing and no global sort, as this runs at every recovery and at
         // the final check of large meshes).
         let mut boundary = vec![false; 3 * self.triangles.len()];
-        super::checks::for_each_side(self, |run| {
+        for_each_side(self, |run| {
             if let [(_, side)] = run {
                 boundary[*side as usize] = true;
             }
@@ -173,6 +173,58 @@ impl Mesh {
         }
         nb
     }
+}
+
+/// Every side of every triangle as (larger node, 3 e + k) for side k (from node k to node
+/// k + 1) of triangle e, grouped by the smaller node (compressed rows, a counting sort) and
+/// sorted within each group: the runs of equal entries are the sides met more than once.
+/// (A rank that holds a body's triangles only, not its points, still finds its sides: the
+/// groups run over the nodes the triangles name.)
+fn side_groups(mesh: &Mesh) -> (Vec<u32>, Vec<(u32, u32)>) {
+    let n = mesh.triangles.iter().flatten().max().map_or(0, |&m| m + 1);
+    let mut start = vec![0u32; n + 1];
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            start[t[k].min(t[(k + 1) % 3]) + 1] += 1;
+        }
+    }
+    for a in 0..n {
+        start[a + 1] += start[a];
+    }
+    let mut fill = start.clone();
+    let mut sides = vec![(0u32, 0u32); 3 * mesh.triangles.len()];
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let lo = a.min(b);
+            sides[fill[lo] as usize] = (a.max(b) as u32, (3 * e + k) as u32);
+            fill[lo] += 1;
+        }
+    }
+    for a in 0..n {
+        sides[start[a] as usize..start[a + 1] as usize].sort_unstable();
+    }
+    (start, sides)
+}
+
+/// Calls `f` on each run of sides with the same two nodes (3 e + k of each, at least one).
+pub(crate) fn for_each_side(mesh: &Mesh, mut f: impl FnMut(&[(u32, u32)]) -> bool) -> bool {
+    let (start, sides) = side_groups(mesh);
+    for a in 0..start.len() - 1 {
+        let group = &sides[start[a] as usize..start[a + 1] as usize];
+        let mut i = 0;
+        while i < group.len() {
+            let mut j = i + 1;
+            while j < group.len() && group[j].0 == group[i].0 {
+                j += 1;
+            }
+            if f(&group[i..j]) {
+                return true;
+            }
+            i = j;
+        }
+    }
+    false
 }
 
 #[cfg(test)]
