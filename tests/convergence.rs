@@ -265,3 +265,29 @@ fn theta_auto_on_curves_meshed_1_to_10() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// examples/pin-hole with a 1 mm clearance instead of 20 µm, the pin pushed 1.05 mm: the gap
+/// closes over a millimetre before the contact zone (±1.9 mm) forms, on matching arcs and on
+/// the pin's arc meshed 1.5 times finer.
+#[test]
+fn theta_auto_on_a_pin_with_1_mm_clearance() {
+    let dir = scratch("conv-clearance");
+    let geo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/pin-hole/pin-hole.geo");
+    let opts = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/pin-hole/pin-hole.opts");
+    for ratio in ["1", "1.5"] {
+        let msh = dir.join(format!("pin-{ratio}.msh"));
+        let set = [("level", "1"), ("ratio", ratio), ("clearance", "1e-3")];
+        gmsh(geo, &set, &[], &msh);
+        let m = msh.to_str().unwrap().to_string();
+        let args = [
+            "-options_file",
+            opts,
+            "-nndd_mesh",
+            &m,
+            "-nndd_bc_bore_uy",
+            "-1.05e-3",
+        ];
+        theta_auto_case(&dir, &format!("pin 1 mm clearance ratio {ratio}"), &args, 30);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

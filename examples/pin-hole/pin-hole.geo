@@ -5,8 +5,9 @@
 // concave polyline, N segments); body 2's is the pin's lower arc at the same angles
 // (ratio = 1: the curves match but for the end nodes, which are radial, not on the end
 // segments' normals) or meshed on its own with Round(ratio N) segments; `arc` sets the arcs'
-// half-angle (up to 180: the contact curves may span more than a half circle).
-//   gmsh -2 -format msh41 -setnumber level 1 [-setnumber ratio 1.5] [-setnumber arc 120] pin-hole.geo -o pin-hole-1.msh
+// half-angle (up to 180: the contact curves may span more than a half circle); `clearance`
+// the radial clearance (m; 20e-6 by default).
+//   gmsh -2 -format msh41 -setnumber level 1 [-setnumber ratio 1.5] [-setnumber arc 120] [-setnumber clearance 1e-3] pin-hole.geo -o pin-hole-1.msh
 If (!Exists(level))
   level = 1;
 EndIf
@@ -16,7 +17,10 @@ EndIf
 If (!Exists(arc))
   arc = 80;                  // half-angle of the contact arcs (deg)
 EndIf
-R1 = 10.02e-3; R2 = 10e-3; Rb = 3e-3; L = 40e-3;
+If (!Exists(clearance))
+  clearance = 20e-6;
+EndIf
+R2 = 10e-3; R1 = R2 + clearance; Rb = 3e-3; L = 40e-3;
 Th = arc * Pi / 180;
 N = 16 * 2^level;            // hole's arc segments
 N2 = Round(ratio * N);       // pin's arc segments
