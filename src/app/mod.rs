@@ -190,7 +190,7 @@ impl Outcome {
 pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, AppError> {
     let t_start = Instant::now();
     // Settings: every -nndd_ option, validated; the ranks agree before going on.
-    let settings = read_settings(agreement, world.rank())?;
+    let mut settings = read_settings(agreement, world.rank())?;
     if let Some(outcome) = help_or_version(world.rank())? {
         return Ok(outcome);
     }
@@ -199,10 +199,13 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         agreement,
         capacity::check(&settings, &world).map_err(AppError::from),
     )?;
-    say_warnings(world.rank() == 0, &settings.warnings);
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
     // the whole geometry, for the interface and the output).
     let problems = build_problems(&settings, agreement, world.rank() == 0)?;
+    // A body held only by contact decides the Dirichlet step's body (the same on every rank).
+    agreed(agreement, settings.hold_by_contact(&problems).map_err(AppError::from))?;
+    let settings = settings;
+    say_warnings(world.rank() == 0, &settings.warnings);
     let mut timings = Timings {
         input: t_start.elapsed().as_secs_f64(),
         ..Timings::default()

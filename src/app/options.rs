@@ -6,9 +6,11 @@
 //! option given is one of them and applies to the problem.
 
 use std::path::PathBuf;
+use std::rc::Rc;
 
 use crate::dd::body::SchurChoice;
 use crate::dd::contact::ContactSettings;
+use crate::dd::dirichlet::DirichletChoice;
 use crate::dd::nndd::NnddSettings;
 use crate::estimate::EstimateSettings;
 use crate::io::settings::OutputSettings;
@@ -17,7 +19,7 @@ use crate::petsc::readers::Bounds;
 pub use crate::petsc::readers::SettingsError;
 use crate::petsc::{self, Comm, OptionsBlock};
 use crate::problem::settings::option_applies;
-use crate::problem::{ProblemKind, ProblemSettings};
+use crate::problem::{BodyProblem, ProblemKind, ProblemSettings, Support};
 use crate::qp::QpSettings;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,6 +146,45 @@ impl Settings {
         s.checkpoint_every = 0;
         s.restart = None;
         s
+    }
+
+    /// The choices a body held only by contact ([`Support::Contact`], found when the mesh is
+    /// read) decides: it takes the NNDD's Dirichlet step, which its Dirichlet system solves
+    /// (its Neumann system is singular); the estimates, whose admissible tractions are not yet
+    /// balanced against its free rigid motion, are refused.
+    pub fn hold_by_contact(&mut self, problems: &[Rc<BodyProblem>; 2]) -> Result<(), SettingsError> {
+        let Some(held) = problems.iter().find(|p| p.support == Support::Contact) else {
+            return Ok(());
+        };
+        let alpha = held.alpha;
+        let why = format!("body {alpha} is held only by contact (its prescribed displacements leave a rigid motion free)");
+        if self.estimate.enabled {
+            return Err(SettingsError::named(
+                "-nndd_estimate",
+                format!("{why}: the error estimates are not available for such a body yet (their admissible tractions would have to balance its load in that motion too); solve without -nndd_estimate, -nndd_estimate_every, -nndd_reference_factor and -nndd_stop balanced"),
+            ));
+        }
+        if self.solver == SolverKind::Monolithic {
+            return Ok(());
+        }
+        let named = petsc::option_string("-nndd_dirichlet_body")?;
+        if named.as_deref().is_some_and(|b| b != "auto" && b != alpha.to_string()) {
+            return Err(SettingsError::named(
+                "-nndd_dirichlet_body",
+                format!("{why}, so it takes the Dirichlet step (its Neumann problem is singular); use auto or {alpha}"),
+            ));
+        }
+        if self.nndd.dirichlet_step == DirichletChoice::Condensed {
+            return Err(SettingsError::named(
+                "-nndd_dirichlet_step condensed",
+                format!("{why}: its Neumann system is singular, so its Dirichlet step has no condensed form; use auto or system"),
+            ));
+        }
+        // The stiffness warning of a forced Dirichlet body does not apply: there is no choice.
+        let soft = format!("takes the Dirichlet step (-nndd_dirichlet_body {alpha})");
+        self.warnings.retain(|w| !w.contains(&soft));
+        self.nndd.dirichlet_body = alpha;
+        Ok(())
     }
 }
 

@@ -27,7 +27,7 @@ use crate::parallel::layout::Layout;
 use crate::parallel::partition::Partition;
 use crate::petsc;
 use crate::petsc::log::Stages;
-use crate::problem::{self, BodyProblem, ProblemKind};
+use crate::problem::{self, BodyProblem, ProblemKind, Support};
 
 /// What a solver hands to post-processing.
 pub struct Solution {
@@ -77,7 +77,10 @@ pub fn setup_bodies(
         // than factor a second system on its communicator (`uses_superlu_dist`).
         let superlu_dist = uses_superlu_dist(alpha)?;
         let contact_body = settings.nndd.contact_body();
+        let held = problems[alpha - 1].support == Support::Conditions;
         let schur = match (settings.solver, alpha, settings.nndd.dirichlet_step) {
+            // A body held only by contact has no Neumann system to condense.
+            _ if !held => SchurMode::None,
             (SolverKind::Monolithic, _, _) => SchurMode::Always,
             (_, a, _) if a == contact_body => SchurMode::Always,
             _ if settings.nndd.neumann_step == NeumannChoice::Condensed => SchurMode::Always,
@@ -99,7 +102,9 @@ pub fn setup_bodies(
         .map_err(|e| unknown_type(e, alpha))?;
         let system =
             settings.nndd.dirichlet_step == DirichletChoice::System || !body.has_condensed();
-        if nndd_run && alpha == settings.nndd.dirichlet_body && system {
+        // A body held only by contact takes the Dirichlet step, and the monolithic solve
+        // condenses it through its Dirichlet system too (`monolithic::solve`).
+        if (nndd_run && alpha == settings.nndd.dirichlet_body && system) || !held {
             body.add_dirichlet_system(stages)
                 .map_err(|e| unknown_type(e, alpha))?;
         }
@@ -700,7 +705,11 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
         SchurSource::MumpsInverse,
         SchurSource::Solves,
     ];
-    const STEPS: [NeumannStep; 2] = [NeumannStep::Condensed, NeumannStep::Solve];
+    const STEPS: [NeumannStep; 3] = [
+        NeumannStep::Condensed,
+        NeumannStep::Solve,
+        NeumannStep::Omitted,
+    ];
     [1, 2].map(|alpha| {
         let mut facts = [-1.0, -1.0, f64::NAN, 0.0];
         if let Some(b) = refs[alpha - 1] {

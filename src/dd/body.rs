@@ -29,7 +29,7 @@ use crate::petsc::readers::SettingsError;
 use crate::petsc::{self, Comm, Gather, Ksp, Matrix, OptionsBlock, Vector};
 use std::rc::Rc;
 
-use crate::problem::{BodyProblem, Frames};
+use crate::problem::{BodyProblem, Frames, Support};
 use crate::qp::dense::{DenseError, SymMatrix};
 
 #[derive(Debug, thiserror::Error)]
@@ -64,6 +64,10 @@ pub enum BodyError {
     },
     #[error(transparent)]
     Fault(#[from] InjectedFault),
+    /// A Neumann solve asked of a body held only by contact ([`Support::Contact`]), whose
+    /// Neumann system is singular and never formed.
+    #[error("body {alpha} is held only by contact: it has no Neumann system (its rigid motion is free without the contact)")]
+    NoNeumannSystem { alpha: usize },
 }
 
 /// The largest backward error accepted from a factorisation applied once (`preonly`): a
@@ -227,7 +231,9 @@ pub struct Body {
     /// Value on the diagonal of eliminated rows (mean diagonal of K, for conditioning).
     diag: f64,
     comm: Comm,
-    neumann: Ksp,
+    /// The Neumann system, factored; `None` on a body held only by contact
+    /// ([`Support::Contact`]), where it is singular.
+    neumann: Option<Ksp>,
     dirichlet: Option<Ksp>,
     /// Γc normal dofs in pair order.
     pub gc: Vec<usize>,
@@ -270,14 +276,20 @@ impl Body {
         let alpha = problem.alpha;
         let t0 = std::time::Instant::now();
         let frames = problem.frames();
+        let held = problem.support == Support::Conditions;
         let (k, diag, k_neu) = {
             let _s = stages.assembly.enter();
             fault::check(Phase::Assembly)?;
             let (k, diag) = assemble(&problem, &frames, comm, &partition)?;
-            let rows = owned_rows(&partition, problem.dirichlet.iter().map(|d| d.0));
-            let mut k_neu = k.duplicate()?;
-            k_neu.zero_rows_columns(&rows, diag)?;
-            k_neu.set_near_null_space(comm, &rigid_modes(&problem, &frames, &partition))?;
+            let k_neu = if held {
+                let rows = owned_rows(&partition, problem.dirichlet.iter().map(|d| d.0));
+                let mut k_neu = k.duplicate()?;
+                k_neu.zero_rows_columns(&rows, diag)?;
+                k_neu.set_near_null_space(comm, &rigid_modes(&problem, &frames, &partition))?;
+                Some(k_neu)
+            } else {
+                None
+            };
             (k, diag, k_neu)
         };
         let gc = problem.contact_normal_dofs();
@@ -291,8 +303,14 @@ impl Body {
             && matches!(choice, SchurChoice::Auto | SchurChoice::MumpsSchur))
         .then_some(&gc_rows[..]);
         fault::check(Phase::Factorisation)?;
-        let neumann = Ksp::new(comm, k_neu, &format!("body{alpha}_"), want)?;
-        let factorisation_flops = neumann.mumps_factorisation_flops()?;
+        let neumann = match k_neu {
+            Some(k_neu) => Some(Ksp::new(comm, k_neu, &format!("body{alpha}_"), want)?),
+            None => None,
+        };
+        let factorisation_flops = match &neumann {
+            Some(n) => n.mumps_factorisation_flops()?,
+            None => None,
+        };
         let x = Vector::new(comm, partition.local_rows())?;
         let whole = Gather::new(&x, &partition.rows_in_mesh_order())?;
         let trace = Gather::new(&x, &gc_rows)?;
@@ -347,11 +365,11 @@ impl Body {
             choice: choice.name(),
             why,
         };
-        if mode == SchurMode::None {
+        let Some(neumann) = self.neumann.as_ref().filter(|_| mode != SchurMode::None) else {
             return Ok(None);
-        }
-        let mumps = self.neumann.has_mumps_factor()?;
-        let schur = self.neumann.schur_complement().is_some();
+        };
+        let mumps = neumann.has_mumps_factor()?;
+        let schur = neumann.schur_complement().is_some();
         Ok(Some(match choice {
             SchurChoice::MumpsSchur if schur => SchurSource::MumpsSchur,
             SchurChoice::MumpsSchur if !mumps => return Err(refuse("is not factored by MUMPS")),
@@ -418,10 +436,11 @@ impl Body {
         let m = self.gc.len();
         let alpha = self.alpha();
         let rows: Vec<petsc::Int> = self.gc.iter().map(|&d| self.partition.row(d)).collect();
+        let neumann = self.ksp(System::Neumann)?;
         // One of S^α, D^α (column-major), the other its inverse.
         let (block, is_schur) = match source {
             SchurSource::MumpsSchur => (
-                self.neumann
+                neumann
                     .schur_complement()
                     .map(<[f64]>::to_vec)
                     .expect("MUMPS formed the Schur complement"),
@@ -430,7 +449,7 @@ impl Body {
             SchurSource::MumpsInverse => {
                 let root = self.is_root();
                 (
-                    self.neumann
+                    neumann
                         .mumps_inverse_block(self.comm, root, &rows)?
                         .unwrap_or_default(),
                     false,
@@ -439,7 +458,7 @@ impl Body {
             SchurSource::Solves => {
                 let nodes = self.partition.owned_nodes();
                 let owned = (2 * nodes.start) as petsc::Int..(2 * nodes.end) as petsc::Int;
-                let (cols, reason, backward) = self.neumann.inverse_block(
+                let (cols, reason, backward) = neumann.inverse_block(
                     self.comm,
                     owned,
                     &rows,
@@ -537,16 +556,19 @@ impl Body {
 
     /// Seconds this rank spent checking the body's solves (their backward errors).
     pub fn check_seconds(&self) -> f64 {
-        self.neumann.check_seconds() + self.dirichlet.as_ref().map_or(0.0, Ksp::check_seconds)
+        self.neumann.as_ref().map_or(0.0, Ksp::check_seconds)
+            + self.dirichlet.as_ref().map_or(0.0, Ksp::check_seconds)
     }
 
-    fn ksp(&self, system: System) -> &Ksp {
+    fn ksp(&self, system: System) -> Result<&Ksp, BodyError> {
         match system {
-            System::Neumann => &self.neumann,
-            System::Dirichlet => self
+            System::Neumann => self.neumann.as_ref().ok_or(BodyError::NoNeumannSystem {
+                alpha: self.alpha(),
+            }),
+            System::Dirichlet => Ok(self
                 .dirichlet
                 .as_ref()
-                .expect("body 1 has a Dirichlet system"),
+                .expect("the Dirichlet step's body has its Dirichlet system")),
         }
     }
 
@@ -584,7 +606,7 @@ impl Body {
                 reason,
             }));
         }
-        let ksp = self.ksp(system);
+        let ksp = self.ksp(system)?;
         let direct = ksp.is_direct()?;
         let rtol = ksp.rtol()?;
         let limit = if direct {
@@ -627,8 +649,8 @@ impl Body {
         homogeneous: bool,
         gc_values: Option<&[f64]>,
     ) -> Result<Vec<(usize, f64)>, BodyError> {
+        let ksp = self.ksp(system)?;
         let (rhs, fixed) = self.right_hand_side(load, homogeneous, gc_values)?;
-        let ksp = self.ksp(system);
         let mut b = self.b.borrow_mut();
         let mut x = self.x.borrow_mut();
         b.copy_from(&rhs)?;
@@ -755,7 +777,8 @@ impl Body {
             columns.push(rhs);
             fixed = fx;
         }
-        let (solved, reason, backward) = self.neumann.solve_many(self.comm, &columns)?;
+        let neumann = self.ksp(System::Neumann)?;
+        let (solved, reason, backward) = neumann.solve_many(self.comm, &columns)?;
         self.solves.set(self.solves.get() + solved.len());
         self.check_solve(System::Neumann, reason, backward)?;
         solved

@@ -8,8 +8,19 @@
 //! (v²* − v¹*) + (D¹ + D²) μ). The problem is the QP
 //!   minimise ½ μᵀ(D¹ + D²)μ + μᵀ(g₀ + v²* − v¹*)  subject to μ ≥ 0
 //! (KKT: g ≥ 0, μ ≥ 0, μᵀg = 0), solved by Clarabel on world rank 0 and polished.
+//!
+//! A body held only by contact ([`Support::Contact`]) has no D^α: its Neumann system is
+//! singular. Its energy as a function of its normal Γc trace v is ½vᵀS^αv + c^αᵀv with the
+//! Schur complement S^α (singular: the free rigid motion costs nothing) and c^α its Γc reaction
+//! at v = 0, both from its Dirichlet system ([`condensed_by_dirichlet`]); a body held by its
+//! conditions has S^α, and c^α = −S^α v^α*. With the gaps z = v² − v¹ + g₀ ≥ 0 and v¹ free,
+//! minimising over v¹ (M = S¹ + S², SPD) leaves the QP
+//!   minimise ½ zᵀH z + (h − H g₀)ᵀz  subject to  z ≥ 0,
+//! H = S² − S²M⁻¹S², h = c² − S²M⁻¹(c¹ + c²), whose multiplier is the contact force
+//! μ = T² = S²v² + c² ≥ 0 and v¹ = −M⁻¹(c¹ + c² + S²(z − g₀)) ([`held_by_contact`]).
 
 use crate::dd::body::{Body, BodyError};
+use crate::problem::Support;
 use crate::parallel::layout::Layout;
 use crate::qp::dense::SymMatrix;
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
@@ -37,6 +48,17 @@ pub fn solve(
     bodies: [Option<&Body>; 2],
     qp: &QpSettings,
 ) -> Result<MonolithicResult, MonolithicError> {
+    // Whether each body is held only by contact, from its root to every rank.
+    let mut held = [0.0; 2];
+    for (k, body) in bodies.iter().enumerate() {
+        if let Some(b) = body {
+            held[k] = f64::from(u8::from(b.problem.support == Support::Contact));
+        }
+        layout.share(k + 1, &mut held[k..k + 1]);
+    }
+    if held.iter().any(|&h| h > 0.5) {
+        return held_by_contact(layout, bodies, qp);
+    }
     // Each body: u₀ (own data, free Γc), v* = B u₀, D = S⁻¹; shared with rank 0.
     let mut free = [Vec::new(), Vec::new()];
     let mut v_star = [Vec::new(), Vec::new()];
@@ -100,5 +122,144 @@ pub fn solve(
         active: act.iter().map(|&a| a > 0.5).collect(),
         qp_iterations: stats[0] as u32,
         kkt_residual: stats[1],
+    })
+}
+
+/// Body α's Γc energy ½vᵀSv + cᵀv as (S row-major, c), shared with every rank: S, c from its
+/// Dirichlet system (c the reaction at v = 0, S's columns the reactions to unit v less c: m
+/// solves) for a body held only by contact, else S from its interface operators and
+/// c = −S v* (v* the normal trace of its solution with Γc free).
+fn condensed_by_dirichlet(
+    layout: &Layout,
+    body: Option<&Body>,
+    alpha: usize,
+    m: usize,
+) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
+    let (mut s, mut c) = (Vec::new(), Vec::new());
+    if let Some(b) = body {
+        if b.problem.support == Support::Contact {
+            let (_, c0) = b.dirichlet_solve(&vec![0.0; m])?;
+            s = vec![0.0; m * m];
+            let mut e = vec![0.0; m];
+            for j in 0..m {
+                e[j] = 1.0;
+                let (_, t) = b.dirichlet_solve(&e)?;
+                e[j] = 0.0;
+                for i in 0..m {
+                    // Symmetric: column j is row j.
+                    s[j * m + i] = t[i] - c0[i];
+                }
+            }
+            c = c0;
+        } else {
+            let u0 = b.neumann_solve(&vec![0.0; m], true)?;
+            let v_star = b.normal_trace(&u0);
+            if let Some(cond) = b.condensed() {
+                s = cond.schur.data().to_vec();
+                c = vec![0.0; m];
+                cond.schur.matvec(&v_star, &mut c);
+                c.iter_mut().for_each(|x| *x = -*x);
+            }
+        }
+    }
+    layout.share_vec(alpha, &mut s);
+    layout.share_vec(alpha, &mut c);
+    Ok((s, c))
+}
+
+fn matvec(a: &[f64], x: &[f64]) -> Vec<f64> {
+    let m = x.len();
+    (0..m)
+        .map(|i| (0..m).map(|j| a[i * m + j] * x[j]).sum())
+        .collect()
+}
+
+/// The monolithic solve with a body held only by contact (module docs): both bodies' Γc
+/// energies, the QP in the gaps on world rank 0, then each body's field (a Dirichlet solve at
+/// its trace for the body held by contact, u₀ plus a back-solve with its Γc forces for the
+/// other).
+fn held_by_contact(
+    layout: &Layout,
+    bodies: [Option<&Body>; 2],
+    qp: &QpSettings,
+) -> Result<MonolithicResult, MonolithicError> {
+    let mut gap = bodies
+        .iter()
+        .flatten()
+        .next()
+        .map(|b| b.problem.gap.clone())
+        .unwrap_or_default();
+    layout.share_vec(1, &mut gap);
+    let m = gap.len();
+    let (s1, c1) = condensed_by_dirichlet(layout, bodies[0], 1, m)?;
+    let (s2, c2) = condensed_by_dirichlet(layout, bodies[1], 2, m)?;
+    // v¹, v², μ, contact set, QP statistics: found on rank 0, shared.
+    let mut out = vec![0.0; 4 * m + 2];
+    if layout.is_root() {
+        let sum: Vec<f64> = s1.iter().zip(&s2).map(|(a, b)| a + b).collect();
+        let m_inv = SymMatrix::from_rows(m, sum)
+            .inverse_spd()
+            .map_err(QpError::from)?;
+        // S²M⁻¹ (row-major), H = S² − S²M⁻¹S², h = c² − S²M⁻¹(c¹ + c²).
+        let mut s2_minv = vec![0.0; m * m];
+        for i in 0..m {
+            for j in 0..m {
+                s2_minv[i * m + j] = (0..m).map(|k| s2[i * m + k] * m_inv.get(k, j)).sum();
+            }
+        }
+        let mut h_mat = SymMatrix::new(m);
+        for i in 0..m {
+            for j in 0..m {
+                let x: f64 = (0..m).map(|k| s2_minv[i * m + k] * s2[k * m + j]).sum();
+                h_mat.set(i, j, s2[i * m + j] - x);
+            }
+        }
+        h_mat.symmetrize();
+        let c12: Vec<f64> = c1.iter().zip(&c2).map(|(a, b)| a + b).collect();
+        let hg = {
+            let mut y = vec![0.0; m];
+            h_mat.matvec(&gap, &mut y);
+            y
+        };
+        let q: Vec<f64> = matvec(&s2_minv, &c12)
+            .iter()
+            .enumerate()
+            .map(|(i, x)| c2[i] - x - hg[i])
+            .collect();
+        let sol = solve_nonneg_qp(&h_mat, &q, qp)?;
+        let w: Vec<f64> = sol.x.iter().zip(&gap).map(|(z, g)| z - g).collect();
+        let rhs: Vec<f64> = matvec(&s2, &w).iter().zip(&c12).map(|(a, b)| a + b).collect();
+        let mut v1 = vec![0.0; m];
+        m_inv.matvec(&rhs, &mut v1);
+        v1.iter_mut().for_each(|x| *x = -*x);
+        for i in 0..m {
+            out[i] = v1[i];
+            out[m + i] = v1[i] + w[i];
+            out[2 * m + i] = sol.y[i];
+            // The bound z_i ≥ 0 is active where the pair is in contact.
+            out[3 * m + i] = f64::from(u8::from(sol.active[i]));
+        }
+        out[4 * m] = sol.iterations as f64;
+        out[4 * m + 1] = sol.kkt_residual;
+    }
+    layout.share(1, &mut out);
+    let mut u = [Vec::new(), Vec::new()];
+    for (k, body) in bodies.iter().enumerate() {
+        let Some(b) = body else { continue };
+        let trace = &out[k * m..(k + 1) * m];
+        u[k] = if b.problem.support == Support::Contact {
+            b.dirichlet_solve(trace)?.0
+        } else {
+            let sign = if k == 0 { -1.0 } else { 1.0 };
+            let load: Vec<f64> = out[2 * m..3 * m].iter().map(|x| sign * x).collect();
+            b.neumann_solve(&load, true)?
+        };
+    }
+    Ok(MonolithicResult {
+        u,
+        forces: out[2 * m..3 * m].to_vec(),
+        active: out[3 * m..4 * m].iter().map(|&a| a > 0.5).collect(),
+        qp_iterations: out[4 * m] as u32,
+        kkt_residual: out[4 * m + 1],
     })
 }

@@ -5,9 +5,14 @@
 //! D^α(∓½R_p) with the body's Delassus operator D^α ([`crate::dd::body::Condensed`]): an m × m
 //! product on the body's first rank (`Condensed`), exactly the back-solve's trace. Without the
 //! interface operators (a body whose Dirichlet step is its own system, `-nndd_neumann_step
-//! solve`) it is a KSP back-solve on the body's ranks (`Solve`).
+//! solve`) it is a KSP back-solve on the body's ranks (`Solve`). A body held only by contact
+//! ([`crate::problem::Support::Contact`]) has no Neumann problem to solve: ∓½R would move it
+//! as a rigid body. It takes none (`Omitted`, w = 0), and the update is the other body's
+//! correction alone, a Dirichlet–Neumann iteration (docs/method.md §2, "A body held only by
+//! contact").
 
 use crate::dd::body::{Body, BodyError};
+use crate::problem::Support;
 
 /// How the Neumann steps are solved (`-nndd_neumann_step`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -23,12 +28,16 @@ pub enum NeumannChoice {
 pub enum NeumannStep {
     Condensed,
     Solve,
+    /// None: the body is held only by contact.
+    Omitted,
 }
 
 impl NeumannStep {
     /// `Condensed` when the body has D^α and the choice allows it.
     pub fn new(body: &Body, choice: NeumannChoice) -> NeumannStep {
-        if body.has_condensed() && choice != NeumannChoice::Solve {
+        if body.problem.support == Support::Contact {
+            NeumannStep::Omitted
+        } else if body.has_condensed() && choice != NeumannChoice::Solve {
             NeumannStep::Condensed
         } else {
             NeumannStep::Solve
@@ -39,6 +48,7 @@ impl NeumannStep {
         match self {
             NeumannStep::Condensed => "condensed",
             NeumannStep::Solve => "solve",
+            NeumannStep::Omitted => "none",
         }
     }
 
@@ -58,6 +68,7 @@ impl NeumannStep {
                 Ok(w)
             }
             NeumannStep::Solve => body.neumann_trace(&load, false),
+            NeumannStep::Omitted => Ok(vec![0.0; load.len()]),
         }
     }
 }

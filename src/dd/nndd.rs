@@ -192,7 +192,7 @@ impl NnddSettings {
         )?;
         let dirichlet_body = match o.choice(
             "-nndd_dirichlet_body",
-            "The body of the Dirichlet step (the other takes the contact step): auto (the stiffer body, by E/(1-nu^2)), 1, 2",
+            "The body of the Dirichlet step (the other takes the contact step): auto (the stiffer body, by E/(1-nu^2), or the body held only by contact), 1, 2",
             &[("auto", None), ("1", Some(1)), ("2", Some(2))],
         )? {
             Some(b) => {

@@ -186,8 +186,8 @@ pub struct Summary {
     pub schur_source: [String; 2],
     /// How the Dirichlet step was solved: "condensed" or "system" ("" for monolithic).
     pub dirichlet_step: String,
-    /// How each body's Neumann steps were solved: "condensed" (the trace D^α(∓½R)) or "solve"
-    /// (a back-solve); "" for monolithic.
+    /// How each body's Neumann steps were solved: "condensed" (the trace D^α(∓½R)), "solve"
+    /// (a back-solve) or "none" (a body held only by contact takes none); "" for monolithic.
     pub neumann_step: [String; 2],
     /// MUMPS's count of each body's factorisation flops (RINFOG(3); null without MUMPS).
     pub factorisation_flops: [Option<f64>; 2],

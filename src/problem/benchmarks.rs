@@ -76,5 +76,6 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
         gap,
         contact_normals,
         contact_lengths,
+        support: super::Support::Conditions,
     }
 }

@@ -14,7 +14,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::rc::Rc;
 
-use super::{BodyProblem, NeumannEdge};
+use super::{BodyProblem, NeumannEdge, Support};
 use crate::fem::checks::{self, Overlap};
 use crate::fem::gmsh::{GmshBody, GmshError, GmshMesh};
 use crate::fem::Material;
@@ -161,7 +161,8 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
     let body = |k: usize| -> Result<BodyProblem, MeshedError> {
         let alpha = k + 1;
         let (dirichlet, neumann) = conditions(spec, &bodies[k], alpha)?;
-        check_pieces(&spec.gmsh, &bodies[k], &dirichlet, alpha)?;
+        let contact = (&pairing.sides[k][..], &pairing.normals[..]);
+        let support = check_pieces(&spec.gmsh, &bodies[k], &dirichlet, contact, alpha)?;
         // A rotated frame's dofs are not x and y: no prescribed component there.
         for (&node, n) in pairing.sides[k].iter().zip(&pairing.normals) {
             if *n != super::UP && dirichlet.iter().any(|&(d, _)| d / 2 == node) {
@@ -198,9 +199,17 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
             gap: pairing.gap.clone(),
             contact_normals: pairing.normals.clone(),
             contact_lengths: pairing.lengths.clone(),
+            support,
         })
     };
-    Ok([body(0)?, body(1)?])
+    let bodies = [body(0)?, body(1)?];
+    if bodies.iter().all(|b| b.support == Support::Contact) {
+        return Err(opt_err(
+            "-nndd_bc_*",
+            "neither body is held by its prescribed displacements: both can move together as a rigid body; prescribe displacements on one body that fix both translations and the rotation".into(),
+        ));
+    }
+    Ok(bodies)
 }
 
 /// Dirichlet dofs and Neumann edges of body `alpha` from the curve conditions.
@@ -448,26 +457,35 @@ fn same_points(a: [[f64; 2]; 3], b: [[f64; 2]; 3]) -> bool {
     a.iter().all(|p| b.contains(p))
 }
 
-/// Every piece of a body ([`checks::pieces`]) must be held: a body in one piece as
-/// [`rigid_motions_fixed`] says, and each piece of a body in several pieces on its own nodes.
+/// Every piece of a body ([`checks::pieces`]) must be held: a body in one piece by its
+/// prescribed displacements ([`Support::Conditions`]) or, where they leave a rigid motion free
+/// that Γc's normal directions fix (`contact`: its Γc nodes and the contact directions), by
+/// the contact ([`Support::Contact`]); each piece of a body in several pieces on its own nodes.
 fn check_pieces(
     gmsh: &GmshMesh,
     body: &GmshBody,
     dirichlet: &[(usize, f64)],
+    contact: (&[usize], &[[f64; 2]]),
     alpha: usize,
-) -> Result<(), MeshedError> {
+) -> Result<Support, MeshedError> {
     let mesh = &body.mesh;
     let (count, piece) = checks::pieces(mesh);
     if count == 1 {
-        return match rigid_motions_fixed(&mesh.points, dirichlet) {
-            true => Ok(()),
-            false => Err(opt_err(
-                "-nndd_bc_*",
-                format!(
-                    "body {alpha} can move as a rigid body: prescribe displacements (-nndd_bc_NAME_ux, -nndd_bc_NAME_uy) that fix both translations and the rotation"
-                ),
-            )),
-        };
+        let prescribed = dirichlet_rows(&mesh.points, dirichlet);
+        if rigid_motions_fixed(prescribed.clone()) {
+            return Ok(Support::Conditions);
+        }
+        let (nodes, normals) = contact;
+        let held = nodes.iter().zip(normals).map(|(&a, &n)| (mesh.points[a], n));
+        if rigid_motions_fixed(prescribed.chain(held)) {
+            return Ok(Support::Contact);
+        }
+        return Err(opt_err(
+            "-nndd_bc_*",
+            format!(
+                "body {alpha} can move as a rigid body, even pressed onto the other body along its contact curve: prescribe displacements (-nndd_bc_NAME_ux, -nndd_bc_NAME_uy) that fix, with the contact, both translations and the rotation"
+            ),
+        ));
     }
     // Each piece's nodes, and the prescribed dofs on them.
     let mut nodes: Vec<Vec<usize>> = vec![Vec::new(); count];
@@ -491,7 +509,7 @@ fn check_pieces(
             pts.push(mesh.points[a]);
             local.extend(fixed[a].iter().map(|&(d, v)| (2 * i + d % 2, v)));
         }
-        if !rigid_motions_fixed(&pts, &local) {
+        if !rigid_motions_fixed(dirichlet_rows(&pts, &local)) {
             let e = piece
                 .iter()
                 .position(|&p| p == k)
@@ -518,34 +536,41 @@ fn check_pieces(
             ));
         }
     }
-    Ok(())
+    Ok(Support::Conditions)
 }
 
-/// Whether prescribed dofs (`2 node + component`, of `pts`) remove the three rigid motions
-/// (two translations and the rotation): the rigid modes restricted to them have rank 3.
-fn rigid_motions_fixed(pts: &[[f64; 2]], dirichlet: &[(usize, f64)]) -> bool {
-    let n = pts.len() as f64;
-    let c = pts
-        .iter()
-        .fold([0.0; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+/// The prescribed dofs (`2 node + component`, of `pts`) as (point, direction) rows.
+fn dirichlet_rows<'a>(
+    pts: &'a [[f64; 2]],
+    dirichlet: &'a [(usize, f64)],
+) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + Clone + 'a {
+    dirichlet.iter().map(|&(d, _)| {
+        let dir = if d % 2 == 0 { [1.0, 0.0] } else { [0.0, 1.0] };
+        (pts[d / 2], dir)
+    })
+}
+
+/// Whether displacements held along `rows` (a point and a unit direction each: a prescribed
+/// component, or a Γc node's contact direction) remove the three rigid motions (two
+/// translations and the rotation): the rigid modes' components along them have rank 3.
+fn rigid_motions_fixed(rows: impl Iterator<Item = ([f64; 2], [f64; 2])> + Clone) -> bool {
+    let n = rows.clone().count().max(1) as f64;
+    let c = rows
+        .clone()
+        .fold([0.0; 2], |a, (p, _)| [a[0] + p[0] / n, a[1] + p[1] / n]);
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in pts {
+    for (p, _) in rows.clone() {
         for k in 0..2 {
             lo[k] = lo[k].min(p[k]);
             hi[k] = hi[k].max(p[k]);
         }
     }
     let scale = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(f64::MIN_POSITIVE);
-    // Gram matrix of the modes (1,0), (0,1), (−y, x) on the prescribed dofs.
+    // Gram matrix of the modes (1,0), (0,1), (−y, x) along the rows.
     let mut g = [[0.0f64; 3]; 3];
-    for &(d, _) in dirichlet {
-        let p = pts[d / 2];
+    for (p, d) in rows {
         let r = [(p[0] - c[0]) / scale, (p[1] - c[1]) / scale];
-        let row = if d % 2 == 0 {
-            [1.0, 0.0, -r[1]]
-        } else {
-            [0.0, 1.0, r[0]]
-        };
+        let row = [d[0], d[1], -r[1] * d[0] + r[0] * d[1]];
         for i in 0..3 {
             for j in 0..3 {
                 g[i][j] += row[i] * row[j];

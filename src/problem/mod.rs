@@ -172,6 +172,20 @@ pub struct BodyProblem {
     pub contact_candidates: Vec<usize>,
     /// The body's outward unit normal at each candidate node (the mean of its segments').
     pub candidate_normals: Vec<[f64; 2]>,
+    /// What holds the body against rigid motion.
+    pub support: Support,
+}
+
+/// What holds a body against rigid motion (translations and rotation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Support {
+    /// Its own prescribed displacements (Γ_D): its Neumann system is nonsingular.
+    Conditions,
+    /// Its prescribed displacements leave a rigid motion free that the contact holds (a
+    /// roller and a load: force-controlled contact). Its Neumann system is singular, so it
+    /// takes the NNDD's Dirichlet step (Γc normal displacements prescribed, which fix the
+    /// motion) and no Neumann step (docs/method.md §2, "A body held only by contact").
+    Contact,
 }
 
 /// The Γc normal of a horizontal side with the body below: its contact node needs no

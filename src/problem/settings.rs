@@ -270,11 +270,15 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
         if set0 {
             let a = vector(&opt, &t0)?;
             let b = if set1 { vector(&opt_end, &t1)? } else { a };
-            if cond.u.iter().any(Option::is_some) {
-                return Err(named(
-                    &opt,
-                    format!("conflicts with the prescribed displacement of the curve {c} (give one or the other)"),
-                ));
+            // A roller and a load on one curve: the traction may act only along the free
+            // component (its component along a prescribed one would go to the reaction).
+            for (k, comp) in ["x", "y"].iter().enumerate() {
+                if cond.u[k].is_some() && (a[k] != 0.0 || b[k] != 0.0) {
+                    return Err(named(
+                        &opt,
+                        format!("has a nonzero t{comp} on the curve {c}, where -nndd_bc_{c}_u{comp} prescribes the displacement (a traction acts only along a free component: t{comp} = 0)"),
+                    ));
+                }
             }
             cond.traction = Some([a, b]);
         }
