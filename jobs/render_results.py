@@ -6,8 +6,8 @@ PREFIX is the run's -nndd_output prefix (PREFIX.xdmf, PREFIX-contact.xdmf, PREFI
 exist). Writes into OUTDIR:
   results-displacement.png      both bodies warped by `displacement`, coloured by its magnitude
   results-von-mises.png         the same, coloured by the cell field `von_mises`
-  results-eta-fe.png            the same, coloured by the cell field `eta_fe` (log scale; the
-                                run needs -nndd_estimate)
+  results-eta-fe.png            the same, coloured by the cell field `eta_fe` (log scale; only
+                                when the run estimated, -nndd_estimate)
   results-contact-pressure.png  the contact zone (x in [-W, W], by default all of Γc): the
                                 bodies warped (grey, mesh edges) and over them Γc
                                 (PREFIX-contact.xdmf) warped by its own `displacement` (body
@@ -188,9 +188,14 @@ def main():
     scene = GetAnimationScene()  # every view shows the scene's time: the last step
     scene.UpdateAnimationUsingDataTimeSteps()
     scene.AnimationTime = time
-    for name in ("displacement", "von_mises", "eta_fe"):
+    for name in ("displacement", "von_mises"):
         if name not in bodies.PointData.keys() and name not in bodies.CellData.keys():
-            fail(f"{prefix}.xdmf has no field '{name}' (eta_fe needs -nndd_estimate)")
+            fail(f"{prefix}.xdmf has no field '{name}'")
+    # eta_fe only where the run estimated (-nndd_estimate); without it that picture is left out.
+    estimated = "eta_fe" in bodies.CellData.keys()
+    if not estimated:
+        print(f"render_results: {prefix}.xdmf has no 'eta_fe' (the run did not estimate): "
+              "no results-eta-fe.png")
     if "pressure" not in contact.PointData.keys():
         fail(f"{prefix}-contact.xdmf has no field 'pressure'")
 
@@ -212,6 +217,8 @@ def main():
     ]
     written = []
     for png, colour, name, what, title, log in pictures:
+        if name == "eta_fe" and not estimated:
+            continue
         view = new_view(f"{label}{what}, {step}")
         rep = Show(warped, view)
         ColorBy(rep, colour)

@@ -139,6 +139,14 @@ fn force_controlled_hertz_equals_the_monolithic_solve() {
         solve(np, &dir.join(format!("h-{np}-{solver}")), &a)
     };
     let mono = run(2, "monolithic");
+    let fit = hertz_fit_of(&dir.join("h-2-monolithic"));
+    println!(
+        "force-controlled hertz level 1: a {:.5} vs Hertz {:.5} ({:.2} %), p0 {:.4e} vs {:.4e} ({:.2} %)",
+        fit.a_h, fit.a, 100.0 * fit.a_err(), fit.p0_h, fit.p0, 100.0 * fit.p0_err()
+    );
+    // Hertz's a and p₀ for the applied force (0.7 % and 2.0 % here, level 1).
+    assert!((fit.force - 6e8).abs() < 1e-8 * 6e8, "force {}", fit.force);
+    assert!(fit.a_err() < 0.05 && fit.p0_err() < 0.05, "{fit:?}");
     let em = f(&mono, "potential_energy");
     for np in [1, 2, 3] {
         let j = run(np, "nndd");
@@ -152,6 +160,19 @@ fn force_controlled_hertz_equals_the_monolithic_solve() {
         let force = f(&j, "contact_force");
         assert!((force - 6e8).abs() < 1e-8 * 6e8, "{np} ranks: force {force:e}");
     }
+    // Level 3: Hertz's half-width and peak pressure for the applied force within 3 %.
+    let msh3 = gmsh_level(geo, &dir, "hertz", 3);
+    let mut a = args.to_vec();
+    let m3 = msh3.to_str().unwrap().to_string();
+    a[1] = &m3;
+    let j = solve(2, &dir.join("h3"), &a);
+    assert_eq!(j["status"], "converged");
+    let fit = hertz_fit_of(&dir.join("h3"));
+    println!(
+        "force-controlled hertz level 3: {} iterations, a {:.5} vs Hertz {:.5} ({:.2} %), p0 {:.4e} vs {:.4e} ({:.2} %)",
+        j["iterations"], fit.a_h, fit.a, 100.0 * fit.a_err(), fit.p0_h, fit.p0, 100.0 * fit.p0_err()
+    );
+    assert!(fit.a_err() < 0.03 && fit.p0_err() < 0.03, "{fit:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
