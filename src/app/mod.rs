@@ -373,12 +373,12 @@ struct Run<'a> {
 }
 
 /// What post-processing gives the summary.
-struct PostProcessed {
+pub(crate) struct PostProcessed {
     /// The potential energy of the reported iterate, both bodies (J/m).
-    energy: f64,
-    solvers: [solve::BodySolver; 2],
-    logged_flops: f64,
-    reference_iterations: Option<usize>,
+    pub(crate) energy: f64,
+    pub(crate) solvers: [solve::BodySolver; 2],
+    pub(crate) logged_flops: f64,
+    pub(crate) reference_iterations: Option<usize>,
 }
 
 impl<'a> Run<'a> {
@@ -559,19 +559,13 @@ impl<'a> Run<'a> {
         let peaks = report::peak_memory_per_rank(layout);
         let mut written = Ok(());
         if layout.is_root() {
-            let summary = report::summarise(
-                settings,
-                [&problems[0], &problems[1]],
-                layout,
-                sol,
-                post.energy,
-                &post.solvers,
-                post.logged_flops,
-                post.reference_iterations,
-                &results,
+            let measured = report::Measured {
+                results: &results,
                 timings,
-                &peaks,
-            );
+                peaks: &peaks,
+            };
+            let problems = [&*problems[0], &*problems[1]];
+            let summary = report::summarise(settings, problems, layout, sol, post, measured);
             let json = serde_json::to_string_pretty(&summary)
                 .map_err(|e| AppError::Json(e.to_string()))?;
             written = output::write_atomic(&settings.output.paths.json(), json.as_bytes())

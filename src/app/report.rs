@@ -2,7 +2,8 @@
 //! and memory over ranks.
 
 use super::options::Settings;
-use super::solve::{BodySolver, Solution};
+use super::solve::Solution;
+use super::PostProcessed;
 use crate::dd::nndd::{Iterate, Relaxation};
 use crate::estimate::EstimateRecord;
 use crate::io::fields;
@@ -30,19 +31,33 @@ fn bound(body1: &BodyProblem) -> Bound {
     }
 }
 
+/// What the run measured at its end, for the summary: the result files' content, the timings
+/// (maxima over the ranks) and each rank's peak memory (MiB).
+pub struct Measured<'a> {
+    pub results: &'a Results,
+    pub timings: Timings,
+    pub peaks: &'a [f64],
+}
+
 pub fn summarise(
     settings: &Settings,
     [body1, body2]: [&BodyProblem; 2],
     layout: &Layout,
     sol: &Solution,
-    energy: f64,
-    solvers: &[BodySolver; 2],
-    logged_flops: f64,
-    reference_iterations: Option<usize>,
-    results: &Results,
-    timings: Timings,
-    peaks: &[f64],
+    post: &PostProcessed,
+    measured: Measured,
 ) -> Summary {
+    let PostProcessed {
+        energy,
+        ref solvers,
+        logged_flops,
+        reference_iterations,
+    } = *post;
+    let Measured {
+        results,
+        timings,
+        peaks,
+    } = measured;
     let contact = contact_of(body1, &sol.last);
     let paths = &settings.output.paths;
     let builtin = settings.problem.mesh.is_none();
