@@ -80,11 +80,17 @@ fn a_roller_and_a_load_give_the_exact_patch_solution() {
                 "{what}: energy {en:e} vs {energy:e}"
             );
             let force = f(&j, "contact_force");
-            assert!((force - p).abs() < 1e-10 * p, "{what}: contact force {force:e}");
+            assert!(
+                (force - p).abs() < 1e-10 * p,
+                "{what}: contact force {force:e}"
+            );
             let mut worst = 0.0f64;
             for k in 0..2 {
                 let grid = format!("body{}", k + 1);
-                let (x, u) = (points(&prefix, &grid), field(&prefix, &grid, "displacement"));
+                let (x, u) = (
+                    points(&prefix, &grid),
+                    field(&prefix, &grid, "displacement"),
+                );
                 let per = u.len() / (x.len() / 2);
                 for (i, xy) in x.chunks(2).enumerate() {
                     let ue = exact(k, [xy[0], xy[1]]);
@@ -156,9 +162,15 @@ fn force_controlled_hertz_equals_the_monolithic_solve() {
             j["iterations"]
         );
         assert_eq!(j["status"], "converged");
-        assert!((e - em).abs() < 1e-8 * em.abs(), "{np} ranks: {e:e} vs {em:e}");
+        assert!(
+            (e - em).abs() < 1e-8 * em.abs(),
+            "{np} ranks: {e:e} vs {em:e}"
+        );
         let force = f(&j, "contact_force");
-        assert!((force - 6e8).abs() < 1e-8 * 6e8, "{np} ranks: force {force:e}");
+        assert!(
+            (force - 6e8).abs() < 1e-8 * 6e8,
+            "{np} ranks: force {force:e}"
+        );
     }
     // Level 3: Hertz's half-width and peak pressure for the applied force within 3 %.
     let msh3 = gmsh_level(geo, &dir, "hertz", 3);
@@ -196,7 +208,10 @@ fn what_a_body_held_by_contact_cannot_do_is_refused() {
         a
     };
     let cases: [(Vec<String>, &[&str]); 6] = [
-        (with(&[], &["-nndd_estimate"]), &["-nndd_estimate", "held only by contact"]),
+        (
+            with(&[], &["-nndd_estimate"]),
+            &["-nndd_estimate", "held only by contact"],
+        ),
         (
             with(&[], &["-nndd_dirichlet_body", "1"]),
             &["-nndd_dirichlet_body", "use auto or 2"],
@@ -206,7 +221,10 @@ fn what_a_body_held_by_contact_cannot_do_is_refused() {
             &["-nndd_dirichlet_step condensed", "use auto or system"],
         ),
         // Nothing holds body 2 horizontally, with or without the contact.
-        (with(&["-nndd_bc_left2_ux"], &[]), &["body 2 can move as a rigid body, even pressed"]),
+        (
+            with(&["-nndd_bc_left2_ux"], &[]),
+            &["body 2 can move as a rigid body, even pressed"],
+        ),
         // Both bodies held only by contact: nothing holds the pair.
         (
             with(&["-nndd_bc_base_uy"], &["-nndd_bc_base_traction", "0,1e8"]),
@@ -214,7 +232,15 @@ fn what_a_body_held_by_contact_cannot_do_is_refused() {
         ),
         // A load along the roller's component.
         (
-            with(&[], &["-nndd_bc_lid_ux", "0", "-nndd_bc_lid_traction_end", "1e6,-1e8"]),
+            with(
+                &[],
+                &[
+                    "-nndd_bc_lid_ux",
+                    "0",
+                    "-nndd_bc_lid_traction_end",
+                    "1e6,-1e8",
+                ],
+            ),
             &["-nndd_bc_lid_traction", "nonzero tx"],
         ),
     ];

@@ -23,13 +23,17 @@ fn same(reference: &std::path::Path, other: &std::path::Path, tol: f64) {
     );
 }
 
-const BASE: [&str; 6] = [
+/// Both bodies take the Neumann step (θ auto's default is the Dirichlet body's alone), so
+/// that each body's Neumann path is exercised.
+const BASE: [&str; 8] = [
     "-nndd_problem",
     "paper",
     "-nndd_n",
     "10",
     "-nndd_tol",
     "1e-11",
+    "-nndd_neumann_bodies",
+    "both",
 ];
 
 #[test]

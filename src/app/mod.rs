@@ -203,7 +203,10 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     // the whole geometry, for the interface and the output).
     let problems = build_problems(&settings, agreement, world.rank() == 0)?;
     // A body held only by contact decides the Dirichlet step's body (the same on every rank).
-    agreed(agreement, settings.hold_by_contact(&problems).map_err(AppError::from))?;
+    agreed(
+        agreement,
+        settings.hold_by_contact(&problems).map_err(AppError::from),
+    )?;
     let settings = settings;
     say_warnings(world.rank() == 0, &settings.warnings);
     let mut timings = Timings {

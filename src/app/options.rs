@@ -11,6 +11,7 @@ use std::rc::Rc;
 use crate::dd::body::SchurChoice;
 use crate::dd::contact::ContactSettings;
 use crate::dd::dirichlet::DirichletChoice;
+use crate::dd::neumann::NeumannBodies;
 use crate::dd::nndd::NnddSettings;
 use crate::estimate::EstimateSettings;
 use crate::io::settings::OutputSettings;
@@ -152,7 +153,10 @@ impl Settings {
     /// read) decides: it takes the NNDD's Dirichlet step, which its Dirichlet system solves
     /// (its Neumann system is singular); the estimates, whose admissible tractions are not yet
     /// balanced against its free rigid motion, are refused.
-    pub fn hold_by_contact(&mut self, problems: &[Rc<BodyProblem>; 2]) -> Result<(), SettingsError> {
+    pub fn hold_by_contact(
+        &mut self,
+        problems: &[Rc<BodyProblem>; 2],
+    ) -> Result<(), SettingsError> {
         let Some(held) = problems.iter().find(|p| p.support == Support::Contact) else {
             return Ok(());
         };
@@ -168,7 +172,10 @@ impl Settings {
             return Ok(());
         }
         let named = petsc::option_string("-nndd_dirichlet_body")?;
-        if named.as_deref().is_some_and(|b| b != "auto" && b != alpha.to_string()) {
+        if named
+            .as_deref()
+            .is_some_and(|b| b != "auto" && b != alpha.to_string())
+        {
             return Err(SettingsError::named(
                 "-nndd_dirichlet_body",
                 format!("{why}, so it takes the Dirichlet step (its Neumann problem is singular); use auto or {alpha}"),
@@ -180,6 +187,16 @@ impl Settings {
                 format!("{why}: its Neumann system is singular, so its Dirichlet step has no condensed form; use auto or system"),
             ));
         }
+        // The held body has no Neumann problem: the contact step's body takes the Neumann
+        // step alone, whatever the rule would choose.
+        let named = petsc::option_string("-nndd_neumann_bodies")?;
+        if named.as_deref().is_some_and(|b| b != "auto") {
+            return Err(SettingsError::named(
+                "-nndd_neumann_bodies",
+                format!("{why}: it has no Neumann problem, so the other body takes the Neumann step alone; use auto"),
+            ));
+        }
+        self.nndd.neumann_bodies = NeumannBodies::Contact;
         // The stiffness warning of a forced Dirichlet body does not apply: there is no choice.
         let soft = format!("takes the Dirichlet step (-nndd_dirichlet_body {alpha})");
         self.warnings.retain(|w| !w.contains(&soft));

@@ -456,7 +456,10 @@ pub fn solve_nndd(
 ) -> Result<Solution, AppError> {
     let (dirichlet, contact) = set_up_steps(settings, refs, stages, timings)?;
     let dirichlet_name = dirichlet_step_name(layout, settings, dirichlet.as_ref());
-    let neumann = refs.map(|b| b.map(|b| NeumannStep::new(b, settings.nndd.neumann_step)));
+    let n = &settings.nndd;
+    let neumann = refs.map(|b| {
+        b.map(|b| NeumannStep::new(b, n.neumann_step, n.neumann_bodies, n.dirichlet_body))
+    });
     let steps = Steps {
         dirichlet_body: settings.nndd.dirichlet_body,
         dirichlet: dirichlet.as_ref(),

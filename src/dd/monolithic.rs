@@ -20,8 +20,8 @@
 //! μ = T² = S²v² + c² ≥ 0 and v¹ = −M⁻¹(c¹ + c² + S²(z − g₀)) ([`held_by_contact`]).
 
 use crate::dd::body::{Body, BodyError};
-use crate::problem::Support;
 use crate::parallel::layout::Layout;
+use crate::problem::Support;
 use crate::qp::dense::SymMatrix;
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
 
@@ -228,7 +228,11 @@ fn held_by_contact(
             .collect();
         let sol = solve_nonneg_qp(&h_mat, &q, qp)?;
         let w: Vec<f64> = sol.x.iter().zip(&gap).map(|(z, g)| z - g).collect();
-        let rhs: Vec<f64> = matvec(&s2, &w).iter().zip(&c12).map(|(a, b)| a + b).collect();
+        let rhs: Vec<f64> = matvec(&s2, &w)
+            .iter()
+            .zip(&c12)
+            .map(|(a, b)| a + b)
+            .collect();
         let mut v1 = vec![0.0; m];
         m_inv.matvec(&rhs, &mut v1);
         v1.iter_mut().for_each(|x| *x = -*x);

@@ -3,6 +3,10 @@
 //! Degroote, Bathe & Vierendeels 2009; Walker & Ni 2011), restarted at every change of the
 //! contact set (docs/method.md §2, "Relaxation").
 //!
+//! (The analysis below is of the paper's update, both Neumann steps with ∓½R; θ auto's default
+//! update is the Dirichlet body's Neumann step alone, whose operator I + D^D PŜ^CPᵀ has its
+//! spectrum in [1, 1 + ‖D^D Ŝ^C‖]: [`crate::dd::neumann::NeumannBodies`].)
+//!
 //! Why not one scalar θ. While the contact set stays the same, d is affine in λ,
 //! d(λ) = b − Aλ with A = ½(S¹⁻¹ + S²⁻¹)(S¹ + P Ŝ² Pᵀ) (Ŝ²: body 2's Schur complement on the
 //! contact set; body 2 exerts no force at the free Γc nodes). S²⁻¹P Ŝ² Pᵀ is a projector, so for

@@ -187,7 +187,8 @@ pub struct Summary {
     /// How the Dirichlet step was solved: "condensed" or "system" ("" for monolithic).
     pub dirichlet_step: String,
     /// How each body's Neumann steps were solved: "condensed" (the trace D^α(∓½R)), "solve"
-    /// (a back-solve) or "none" (a body held only by contact takes none); "" for monolithic.
+    /// (a back-solve) or "none" (a body held only by contact, or one -nndd_neumann_bodies leaves
+    /// out); "" for monolithic.
     pub neumann_step: [String; 2],
     /// MUMPS's count of each body's factorisation flops (RINFOG(3); null without MUMPS).
     pub factorisation_flops: [Option<f64>; 2],

@@ -476,7 +476,10 @@ fn check_pieces(
             return Ok(Support::Conditions);
         }
         let (nodes, normals) = contact;
-        let held = nodes.iter().zip(normals).map(|(&a, &n)| (mesh.points[a], n));
+        let held = nodes
+            .iter()
+            .zip(normals)
+            .map(|(&a, &n)| (mesh.points[a], n));
         if rigid_motions_fixed(prescribed.chain(held)) {
             return Ok(Support::Contact);
         }
