@@ -204,38 +204,47 @@ fn theta_auto_with_a_nearly_incompressible_body() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// tests/convergence/roof.geo meshed with its sides at `beta` degrees into `dir`, and the
+/// options that press it onto the block (body 1's ν `nu`, body 2's 0.3).
+fn roof(dir: &Path, beta: &str, nu: &str) -> Vec<String> {
+    let geo = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/convergence/roof.geo");
+    let msh = dir.join(format!("roof-{beta}.msh"));
+    gmsh(geo, &[("beta", beta)], &[], &msh);
+    let m = msh.to_str().unwrap();
+    [
+        "-nndd_mesh",
+        m,
+        "-nndd_contact",
+        "top,roof",
+        "-nndd_bc_base_ux",
+        "0",
+        "-nndd_bc_base_uy",
+        "0",
+        "-nndd_bc_lid_ux",
+        "0",
+        "-nndd_bc_lid_uy",
+        "-2e-2",
+        "-nndd_E",
+        "7e10",
+        "-nndd_body1_nu",
+        nu,
+        "-nndd_body2_nu",
+        "0.3",
+        "-nndd_max_it",
+        "2000",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
 /// A roof pressed onto a block (tests/convergence/roof.geo): the 90° ridge (sides at 45°) and
 /// a flat roof (5°), and the flat one with the block nearly incompressible.
 #[test]
 fn theta_auto_on_a_roof() {
     let dir = scratch("conv-roof");
-    let geo = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/convergence/roof.geo");
     for (beta, nu, most) in [("45", "0.3", 30), ("5", "0.3", 30), ("5", "0.4999", 30)] {
-        let msh = dir.join(format!("roof-{beta}.msh"));
-        gmsh(geo, &[("beta", beta)], &[], &msh);
-        let m = msh.to_str().unwrap().to_string();
-        let args = [
-            "-nndd_mesh",
-            &m,
-            "-nndd_contact",
-            "top,roof",
-            "-nndd_bc_base_ux",
-            "0",
-            "-nndd_bc_base_uy",
-            "0",
-            "-nndd_bc_lid_ux",
-            "0",
-            "-nndd_bc_lid_uy",
-            "-2e-2",
-            "-nndd_E",
-            "7e10",
-            "-nndd_body1_nu",
-            nu,
-            "-nndd_body2_nu",
-            "0.3",
-            "-nndd_max_it",
-            "2000",
-        ];
+        let args = roof(&dir, beta, nu);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
         theta_auto_case(&dir, &format!("roof {beta} deg, nu1 {nu}"), &args, most);
     }
     std::fs::remove_dir_all(&dir).ok();
@@ -309,33 +318,10 @@ fn theta_auto_on_a_pin_with_1_mm_clearance() {
 #[test]
 fn the_dirichlet_bodys_neumann_step_alone_gives_the_same_answer_sooner() {
     let dir = scratch("conv-bodies");
-    let geo = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/convergence/roof.geo");
-    let msh = dir.join("roof-5.msh");
-    gmsh(geo, &[("beta", "5")], &[], &msh);
-    let m = msh.to_str().unwrap().to_string();
+    let base = roof(&dir, "5", "0.4999");
     let run = |bodies: &str| {
-        let args = [
-            "-nndd_mesh",
-            &m,
-            "-nndd_contact",
-            "top,roof",
-            "-nndd_bc_base_ux",
-            "0",
-            "-nndd_bc_base_uy",
-            "0",
-            "-nndd_bc_lid_ux",
-            "0",
-            "-nndd_bc_lid_uy",
-            "-2e-2",
-            "-nndd_E",
-            "7e10",
-            "-nndd_body1_nu",
-            "0.4999",
-            "-nndd_body2_nu",
-            "0.3",
-            "-nndd_neumann_bodies",
-            bodies,
-        ];
+        let mut args: Vec<&str> = base.iter().map(String::as_str).collect();
+        args.extend(["-nndd_neumann_bodies", bodies]);
         solve(2, &dir.join(bodies), &args)
     };
     let (both, auto) = (run("both"), run("auto"));

@@ -107,8 +107,8 @@ fn a_roller_and_a_load_give_the_exact_patch_solution() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// examples/hertz with the cylinder's lid on a roller and loaded on that same curve
-/// (`-nndd_bc_lid_ux 0` with `-nndd_bc_lid_traction 0,-3e8`), the cylinder held vertically by
+/// examples/hertz/hertz-force.opts: the cylinder's lid on a roller and loaded on that same
+/// curve (`-nndd_bc_lid_ux 0` with `-nndd_bc_lid_traction 0,-3e8`), the cylinder held vertically by
 /// the contact alone: the NNDD equals the monolithic solve, on 1 and 3 ranks as on 2, and the
 /// contact force is the load (3e8 Pa on the 2 m lid).
 #[test]
@@ -116,33 +116,13 @@ fn force_controlled_hertz_equals_the_monolithic_solve() {
     let dir = scratch("floating-hertz");
     let geo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hertz/hertz.geo");
     let msh = gmsh_level(geo, &dir, "hertz", 1);
-    let m = msh.to_str().unwrap().to_string();
-    let args = [
-        "-nndd_mesh",
-        &m,
-        "-nndd_contact",
-        "block_top,cylinder_arc",
-        "-nndd_bc_base_ux",
-        "0",
-        "-nndd_bc_base_uy",
-        "0",
-        "-nndd_bc_lid_ux",
-        "0",
-        "-nndd_bc_lid_traction",
-        "0,-3e8",
-        "-nndd_body1_E",
-        "7e10",
-        "-nndd_body1_nu",
-        "0.33",
-        "-nndd_body2_E",
-        "2.1e11",
-        "-nndd_body2_nu",
-        "0.3",
-    ];
+    let opts = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/hertz/hertz-force.opts"
+    );
     let run = |np: usize, solver: &str| {
-        let mut a = args.to_vec();
-        a.extend(["-nndd_solver", solver]);
-        solve(np, &dir.join(format!("h-{np}-{solver}")), &a)
+        let prefix = dir.join(format!("h-{np}-{solver}"));
+        solve_meshed(np, opts, &msh, &prefix, &["-nndd_solver", solver])
     };
     let mono = run(2, "monolithic");
     let fit = hertz_fit_of(&dir.join("h-2-monolithic"));
@@ -174,10 +154,7 @@ fn force_controlled_hertz_equals_the_monolithic_solve() {
     }
     // Level 3: Hertz's half-width and peak pressure for the applied force within 3 %.
     let msh3 = gmsh_level(geo, &dir, "hertz", 3);
-    let mut a = args.to_vec();
-    let m3 = msh3.to_str().unwrap().to_string();
-    a[1] = &m3;
-    let j = solve(2, &dir.join("h3"), &a);
+    let j = solve_meshed(2, opts, &msh3, &dir.join("h3"), &[]);
     assert_eq!(j["status"], "converged");
     let fit = hertz_fit_of(&dir.join("h3"));
     println!(
