@@ -2,8 +2,7 @@
 //! against the true error extrapolated from r = 4, 6, 8 (e_ref(r)² = e∞² − K r^(−q), q fitted),
 //! on the examples: `paper` (n = 16), the punch, Hertz with matched curves and meshed on their
 //! own at size ratios 1.5, 4 and 10, the pin in a groove, the pin in its hole (matched and
-//! meshed 2:3). Level 1 meshes, 2 ranks, tol 1e−8, θ auto; `bound`: what the summary's
-//! `estimate_meaning.bound` says (proved on a straight body-1 side, checked on a curved one).
+//! meshed 2:3). Level 1 meshes, 2 ranks, tol 1e−8, θ auto.
 //!
 //! Run: `jobs/effectivity` → a table on stdout and in `results/effectivity/table.txt`.
 
@@ -100,7 +99,7 @@ fn main() {
     let dir = Path::new("results/effectivity");
     std::fs::create_dir_all(dir).expect("results/effectivity");
     let mut table = String::from(
-        "case              bound    iter  eta_glo      eff(r=2)  eff(4)  eff(6)  eff(8)   e_inf        q     eff(e_inf)  max_residual\n",
+        "case              iter  eta_glo      eff(r=2)  eff(4)  eff(6)  eff(8)   e_inf        q     eff(e_inf)  max_residual\n",
     );
     print!("{table}");
     for case in CASES {
@@ -123,7 +122,7 @@ fn main() {
             args.extend(["-nndd_mesh".into(), msh.display().to_string()]);
         }
         args.push("-nndd_estimate".into());
-        let (mut eta, mut iters, mut bound, mut res) = (0.0, 0.0, String::new(), 0.0_f64);
+        let (mut eta, mut iters, mut res) = (0.0, 0.0, 0.0_f64);
         let mut e_ref = Vec::new();
         for r in FACTORS {
             let mut a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
@@ -140,10 +139,6 @@ fn main() {
                     eta = num(&last, "eta_glo");
                     e_ref.push(num(&last, "e_ref"));
                     iters = num(&j, "iterations");
-                    bound = j["estimate_meaning"]["bound"]
-                        .as_str()
-                        .unwrap_or("?")
-                        .into();
                     let rs = &j["equilibrium_residuals"];
                     for key in ["divergence", "internal_jump", "element_jump", "boundary"] {
                         res = res.max(num(rs, key));
@@ -159,9 +154,8 @@ fn main() {
         let (q, e_inf) = extrapolate([4.0, 6.0, 8.0], [e_ref[1], e_ref[2], e_ref[3]])
             .unwrap_or((f64::NAN, f64::NAN));
         let line = format!(
-            "{:<17} {:<8} {:>4}  {:<12.6e} {:>8}  {:>6}  {:>6}  {:>6}   {:<12.6e} {:<5.2} {:>10.4}  {:.1e}\n",
+            "{:<17} {:>4}  {:<12.6e} {:>8}  {:>6}  {:>6}  {:>6}   {:<12.6e} {:<5.2} {:>10.4}  {:.1e}\n",
             case.name,
-            bound,
             iters,
             eta,
             eff[0],

@@ -10,27 +10,14 @@ use crate::io::fields;
 use crate::io::monitor::{self, sci};
 use crate::io::output::Results;
 use crate::io::summary::{
-    Bound, ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning,
-    MeshProblem, Summary, Timings,
+    ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning, MeshProblem,
+    Summary, Timings,
 };
 use crate::os::memory;
 use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 
 #[allow(clippy::too_many_arguments)]
-/// Whether η^glo is a proved bound: on a straight body-1 side (one contact normal).
-fn bound(body1: &BodyProblem) -> Bound {
-    let n = &body1.contact_normals;
-    let straight = n
-        .iter()
-        .all(|v| (v[0] - n[0][0]).abs() + (v[1] - n[0][1]).abs() <= 1e-12);
-    if straight {
-        Bound::Proved
-    } else {
-        Bound::Checked
-    }
-}
-
 /// What the run measured at its end, for the summary: the result files' content, the timings
 /// (maxima over the ranks) and each rank's peak memory (MiB).
 pub struct Measured<'a> {
@@ -140,7 +127,7 @@ pub fn summarise(
         xdmf_contact: paths.contact_xdmf().display().to_string(),
         xdmf_final: paths.final_xdmf().display().to_string(),
         fields: fields::describe(results),
-        estimate_meaning: (!sol.estimates.is_empty()).then(|| EstimateMeaning::of(bound(body1))),
+        estimate_meaning: (!sol.estimates.is_empty()).then(EstimateMeaning::default),
         warnings: settings
             .warnings
             .iter()
@@ -158,6 +145,7 @@ fn summary_estimate(e: &EstimateRecord) -> EstimateEntry {
         eta_fe: e.eta_fe,
         eta_nndd: e.eta_nndd,
         eta_ratio: e.eta_ratio,
+        eta_glo_correction: e.correction,
         e_ref: e.e_ref,
         effectivity: e.effectivity,
     }

@@ -214,6 +214,16 @@ pub enum System {
     Dirichlet,
 }
 
+/// The Γc nodal loads of a Neumann re-solve ([`Body::neumann_solve_many`]), in pair order.
+#[derive(Clone, Debug)]
+pub enum GcForces {
+    /// Along the pairs' contact directions n_k.
+    Normal(Vec<f64>),
+    /// (x, y) vectors: a traction with a component across n_k (the estimates' on a curved
+    /// side, docs/method.md §5).
+    Vector(Vec<[f64; 2]>),
+}
+
 /// Prescribed (frame dof, value) pairs of a solve.
 type Prescribed = Vec<(usize, f64)>;
 
@@ -760,20 +770,24 @@ impl Body {
         self.solution(&fixed)
     }
 
-    /// [`Body::neumann_solve`] for several Γc force vectors at once, all with the body's data
-    /// (the estimates' re-solves): one multiple-right-hand-side solve, which with a
-    /// factorisation reads the factor once for all of them.
-    pub fn neumann_solve_many(&self, gc_forces: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, BodyError> {
-        if gc_forces.len() < 2 {
-            return gc_forces
+    /// [`Body::neumann_solve`] for several Γc loads at once, all with the body's data (the
+    /// estimates' re-solves): one multiple-right-hand-side solve, which with a factorisation
+    /// reads the factor once for all of them.
+    pub fn neumann_solve_many(&self, gc_forces: &[GcForces]) -> Result<Vec<Vec<f64>>, BodyError> {
+        let loads: Vec<Vec<f64>> = gc_forces.iter().map(|f| self.gc_load(f)).collect();
+        if loads.len() < 2 {
+            return loads
                 .iter()
-                .map(|f| self.neumann_solve(f, true))
+                .map(|load| {
+                    let fixed = self.solve(System::Neumann, load, false, None)?;
+                    self.solution(&fixed)
+                })
                 .collect();
         }
-        let mut columns = Vec::with_capacity(gc_forces.len());
+        let mut columns = Vec::with_capacity(loads.len());
         let mut fixed = Vec::new();
-        for f in gc_forces {
-            let (rhs, fx) = self.right_hand_side(&self.neumann_load(f, true), false, None)?;
+        for load in &loads {
+            let (rhs, fx) = self.right_hand_side(load, false, None)?;
             columns.push(rhs);
             fixed = fx;
         }
@@ -788,6 +802,22 @@ impl Body {
                 self.solution(&fixed)
             })
             .collect()
+    }
+
+    /// The body's data plus the Γc loads `f`, in the nodal frames.
+    fn gc_load(&self, f: &GcForces) -> Vec<f64> {
+        match f {
+            GcForces::Normal(t) => self.neumann_load(t, true),
+            GcForces::Vector(v) => {
+                let mut load = self.load.clone();
+                for ((&d, f), n) in self.gc.iter().zip(v).zip(&self.problem.contact_normals) {
+                    // The node's frame: (τ, n), τ = (n_y, −n_x); d is its normal dof.
+                    load[d - 1] += n[1] * f[0] - n[0] * f[1];
+                    load[d] += n[0] * f[0] + n[1] * f[1];
+                }
+                load
+            }
+        }
     }
 
     /// The normal Γc trace of [`Body::neumann_solve`]'s solution, gathered alone.

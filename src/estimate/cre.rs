@@ -5,15 +5,16 @@
 use std::collections::HashMap;
 
 use super::equilibrate::{
-    element_cre, equilibrate_restricted, Boundary, BoundaryEdge, EdgeComponent, OperatorCache,
-    Recovery, Residuals, SweepValues, NC,
+    element_cre, element_cre_varying, equilibrate_restricted, Boundary, BoundaryEdge,
+    EdgeComponent, OperatorCache, Recovery, Residuals, SweepValues, NC,
 };
 use super::error::EstimateError;
 use super::overlap::{Halo, Overlap};
 use super::parts::{Part, Parts};
+use super::polygon::{self, Bubble, EdgeValues, SegmentGap};
 use super::settings::NnddVariant;
 use super::traction::Interface;
-use crate::dd::body::Body;
+use crate::dd::body::{Body, GcForces};
 use crate::fem::mesh::Mesh;
 use crate::fem::{element_dofs, element_stiffness, element_stress};
 use crate::parallel::layout::Layout;
@@ -25,6 +26,9 @@ pub struct BodyEstimate {
     pub glo: Vec<f64>,
     pub fe: Vec<f64>,
     pub nndd: Vec<f64>,
+    /// ‖δ‖²_E of η^glo's correction of û on each element (zero but along a curved Γc of body
+    /// 2, [`polygon::Bubble`]).
+    pub correction: Vec<f64>,
     /// Equilibrium residuals of the recovered stresses (largest of the two recoveries).
     pub residuals: Residuals,
 }
@@ -44,6 +48,13 @@ impl BodyEstimate {
 pub struct IterationData<'a> {
     pub lambda: &'a [f64],
     pub t_glo: &'a [f64],
+    /// η^glo's traction on body 1, t̂¹ = s(t)m(t) per segment ([`polygon::factors`]): the
+    /// factors s, the edge values and the consistent nodal forces (x, y).
+    pub glo_factors: &'a [[f64; 2]],
+    pub glo_edges: &'a [EdgeValues],
+    pub glo_forces: &'a [[f64; 2]],
+    /// The iterate's gap along each segment ([`polygon::segment_gaps`]; empty with `fe_only`).
+    pub gaps: &'a [SegmentGap],
     pub t_fe: &'a [f64],
     pub reaction1: &'a [f64],
     /// Nodal contact forces μ̂ ≥ 0 on body 2 (for the discrete η^NNDD).
@@ -97,14 +108,14 @@ impl View<'_> {
         }
     }
 
-    /// Recover σ̂ of the data (u, Γc density `gc`) on this view ([`View::prepare`]d) and hand
+    /// Recover σ̂ of the data (u, Γc traction `gc` per segment) on this view ([`View::prepare`]d) and hand
     /// every element's field to `visit` (sub-mesh element index, its JM coefficients; none
     /// is stored); returns the construction's equilibrium check.
     fn equilibrate(
         &self,
         p: &BodyProblem,
         u: &[f64],
-        gc: &[f64],
+        gc: &[EdgeValues],
         choice: Recovery,
         operators: &mut OperatorCache,
         visit: &mut dyn FnMut(usize, &[f64; NC]),
@@ -213,15 +224,21 @@ pub fn body_fields<'a>(
     parts.run(Part::Resolves, || {
         let mut loads = Vec::with_capacity(3);
         if !data.fe_only {
-            let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| sign * t).collect();
-            loads.push(iface.forces(&t_alpha));
+            let f: Vec<[f64; 2]> = data
+                .glo_forces
+                .iter()
+                .map(|v| [sign * v[0], sign * v[1]])
+                .collect();
+            loads.push(GcForces::Vector(f));
             if data.nndd_variant == NnddVariant::Discrete {
-                loads.push(data.mu_hat.iter().map(|m| -sign * m).collect());
+                loads.push(GcForces::Normal(
+                    data.mu_hat.iter().map(|m| -sign * m).collect(),
+                ));
             }
         }
         if alpha == 2 {
             let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
-            loads.push(iface.forces(&t2));
+            loads.push(GcForces::Normal(iface.forces(&t2)));
         }
         let mut solved = body.neumann_solve_many(&loads)?.into_iter();
         if !data.fe_only {
@@ -272,6 +289,7 @@ impl<'a> ElementWork<'a> {
                 glo: vec![0.0; ne],
                 fe: vec![0.0; ne],
                 nndd: vec![0.0; ne],
+                correction: vec![0.0; ne],
                 ..Default::default()
             },
         }
@@ -309,7 +327,12 @@ impl<'a> ElementWork<'a> {
         parts: &Parts,
     ) -> Result<(), EstimateError> {
         let (p, mesh) = (self.p, &self.p.mesh);
-        let t_alpha: Vec<f64> = data.t_glo.iter().map(|t| self.sign() * t).collect();
+        let sign = self.sign();
+        let t_alpha: Vec<EdgeValues> = data
+            .glo_edges
+            .iter()
+            .map(|e| e.map(|v| [sign * v[0], sign * v[1]]))
+            .collect();
         let r = self.recover(Data::Glo, &t_alpha, data, operators, parts)?;
         self.est.residuals = worst(self.est.residuals, r);
         let u_d = match data.nndd_variant {
@@ -344,7 +367,8 @@ impl<'a> ElementWork<'a> {
         } else {
             data.t_fe.iter().map(|t| -t).collect()
         };
-        let r = self.recover(Data::Fe, &t, data, operators, parts)?;
+        let edges = polygon::nodal_edges(&contact_traction(self.p, &t));
+        let r = self.recover(Data::Fe, &edges, data, operators, parts)?;
         self.est.residuals = worst(self.est.residuals, r);
         Ok(())
     }
@@ -353,7 +377,7 @@ impl<'a> ElementWork<'a> {
     fn recover(
         &mut self,
         which: Data,
-        gc: &[f64],
+        gc: &[EdgeValues],
         data: &IterationData,
         operators: &mut OperatorCache,
         parts: &Parts,
@@ -363,6 +387,10 @@ impl<'a> ElementWork<'a> {
             (Data::Glo, _) => &fields.u_tilde,
             (Data::Fe, 1) => &fields.u_p,
             (Data::Fe, _) => &fields.u_fe,
+        };
+        let bubbles = match (which, p.alpha) {
+            (Data::Glo, 2) => bubbles(p, data.gaps),
+            _ => HashMap::new(),
         };
         let out = match which {
             Data::Glo => &mut self.est.glo,
@@ -374,6 +402,7 @@ impl<'a> ElementWork<'a> {
             kept: &self.kept,
             u_p: &fields.u_p,
             material: &p.material,
+            bubbles: &bubbles,
             out,
         };
         let mut visit = |l: usize, c: &[f64; NC]| map.visit(l, c);
@@ -382,8 +411,9 @@ impl<'a> ElementWork<'a> {
         })
     }
 
-    /// The contact terms 2∫ t̂ (λ_p − g₀ − u²_n) ≥ 0 on the body-2 elements along Γc that
-    /// this rank estimates; the element contributions.
+    /// The contact terms on the body-2 elements along Γc that this rank estimates: η^glo's
+    /// 2∫ p̂ G(û) ≥ 0 ([`polygon::contact_term`], û with its bubbles), η^FE's 2∫ t̂ (λ_p − g₀ −
+    /// u²_n) ≥ 0; the element contributions.
     pub fn finish(
         mut self,
         iface: &Interface,
@@ -396,21 +426,37 @@ impl<'a> ElementWork<'a> {
                 let u2n = p.normal_trace(&self.fields.u_p);
                 let obstacle = p.obstacle(data.lambda);
                 let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
-                let c_glo = iface.segment_products(data.t_glo, &gap);
+                let c_glo: Vec<f64> = if data.fe_only {
+                    Vec::new()
+                } else {
+                    (0..data.gaps.len())
+                        .map(|k| {
+                            let len = iface.lengths[k];
+                            polygon::contact_term(len, data.glo_factors[k], &data.gaps[k])
+                        })
+                        .collect()
+                };
                 let c_fe = iface.segment_products(data.t_fe, &gap);
                 let edges = edge_elements(mesh);
                 let m = gap.len();
                 let est = &mut self.est;
-                for k in 0..c_glo.len() {
+                if !data.fe_only {
+                    for (e, b) in bubbles(p, data.gaps) {
+                        if self.view.estimates(e) {
+                            est.correction[e] = b.energy(&p.material);
+                        }
+                    }
+                }
+                for k in 0..c_fe.len() {
                     let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
                     let e = edges[&(a.min(b), a.max(b))];
                     if !self.view.estimates(e) {
                         continue;
                     }
                     if !data.fe_only {
-                        est.glo[e] += 2.0 * c_glo[k];
+                        est.glo[e] += c_glo[k];
                         est.nndd[e] += match data.nndd_variant {
-                            NnddVariant::Density => 2.0 * c_glo[k],
+                            NnddVariant::Density => c_glo[k],
                             // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's
                             // element.
                             NnddVariant::Discrete => [k, k + 1]
@@ -473,6 +519,9 @@ struct CreMap<'a> {
     kept: &'a [u32],
     u_p: &'a [f64],
     material: &'a crate::fem::Material,
+    /// The correction δ of û on body 2's elements along Γc where it is not zero
+    /// ([`polygon::Bubble`]): their CRE is ‖σ̂ − Kε(u_p + δ)‖².
+    bubbles: &'a HashMap<usize, Bubble>,
     out: &'a mut [f64],
 }
 
@@ -482,9 +531,52 @@ impl CreMap<'_> {
         if e != u32::MAX {
             let e = e as usize;
             let sigma_p = element_stress(self.mesh, e, self.material, self.u_p);
-            self.out[e] = element_cre(self.sub, l, coef, sigma_p, self.material);
+            self.out[e] = match self.bubbles.get(&e) {
+                None => element_cre(self.sub, l, coef, sigma_p, self.material),
+                Some(b) => {
+                    let d = self.material.hooke();
+                    let tau = |x: [f64; 2]| {
+                        let eps = b.strain(x);
+                        std::array::from_fn(|r| {
+                            sigma_p[r] + (0..3).map(|k| d[r][k] * eps[k]).sum::<f64>()
+                        })
+                    };
+                    element_cre_varying(self.sub, l, coef, &tau, self.material)
+                }
+            };
         }
     }
+}
+
+/// The bubbles of η^glo's û on body 2 ([`polygon::Bubble`]), by element: on the element of
+/// each Γc segment whose gap needs one.
+fn bubbles(p: &BodyProblem, gaps: &[SegmentGap]) -> HashMap<usize, Bubble> {
+    let mut out = HashMap::new();
+    if gaps.iter().all(|g| g.bubble() == 0.0) {
+        return out;
+    }
+    let edges = edge_elements(&p.mesh);
+    for (k, gap) in gaps.iter().enumerate() {
+        if gap.bubble() == 0.0 {
+            continue;
+        }
+        let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+        let e = edges[&(a.min(b), a.max(b))];
+        let t = p.mesh.triangles[e];
+        let local = |n: usize| t.iter().position(|&v| v == n).expect("the edge's node");
+        let (na, nb) = (p.contact_normals[k], p.contact_normals[k + 1]);
+        out.insert(
+            e,
+            Bubble::new(
+                p.mesh.triangle_points(e),
+                [local(a), local(b)],
+                gap.bubble(),
+                na,
+                nb,
+            ),
+        );
+    }
+    out
 }
 
 pub(super) fn worst(a: Residuals, b: Residuals) -> Residuals {
@@ -542,11 +634,10 @@ fn traction_carrying(n: &[[f64; 2]], lengths: &[f64], gc: &[f64]) -> Vec<[f64; 2
     c
 }
 
-/// The traction data of body α for the equilibration: Γ_N data, on Γc the traction
-/// [`contact_traction`] of the normal density `gc` (g n: frictionless on a straight side),
-/// traction free elsewhere; components under Dirichlet conditions on both ends of an edge are
-/// free.
-pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
+/// The traction data of body α for the equilibration: Γ_N data, on Γc the traction `gc` per
+/// segment (per unit length of body 1's side), traction free elsewhere; components under
+/// Dirichlet conditions on both ends of an edge are free.
+pub fn boundary(p: &BodyProblem, gc: &[EdgeValues]) -> Boundary {
     let mesh = &p.mesh;
     let mut constrained = vec![false; mesh.num_dofs()];
     for &(d, _) in &p.dirichlet {
@@ -567,16 +658,15 @@ pub fn boundary(p: &BodyProblem, gc: &[f64]) -> Boundary {
     // The Γc densities are per unit length of body 1's side (M_Γ integrates along it). On an
     // edge of the other side, of another length |Γ|, the same force is spread over |Γ|, so its
     // density there is c·|Γ¹|/|Γ| (1 on body 1's side and where both sides are parallel).
-    let c = contact_traction(p, gc);
-    for k in 0..p.contact_nodes.len().saturating_sub(1) {
+    for (k, [ca, cb]) in gc.iter().enumerate() {
         let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
         let (pa, pb) = (mesh.points[a], mesh.points[b]);
         let scale = p.contact_lengths[k] / (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
         known.insert(
             (a, b),
             [
-                [c[k][0] * scale, c[k + 1][0] * scale],
-                [c[k][1] * scale, c[k + 1][1] * scale],
+                [ca[0] * scale, cb[0] * scale],
+                [ca[1] * scale, cb[1] * scale],
             ],
         );
     }

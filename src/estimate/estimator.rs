@@ -20,6 +20,7 @@ use crate::qp::QpSettings;
 
 use crate::estimate::error::EstimateError;
 use crate::estimate::parts::{Part, Parts};
+use crate::estimate::polygon;
 use crate::estimate::reference::Reference;
 use crate::estimate::settings::{EstimateSettings, NnddVariant};
 use crate::estimate::traction::Interface;
@@ -35,6 +36,8 @@ pub struct EstimateRecord {
     pub eta_nndd: f64,
     /// (η^FE² + η^NNDD²) / η^glo², the paper's relation (25).
     pub eta_ratio: f64,
+    /// ‖δ‖_E of η^glo's correction of û (docs/method.md §5), included in `eta_glo`.
+    pub correction: f64,
     pub e_ref: Option<f64>,
     pub effectivity: Option<f64>,
     pub residuals: Residuals,
@@ -92,6 +95,24 @@ fn nodal_contact_forces(it: &Iterate) -> Vec<f64> {
             }
         })
         .collect()
+}
+
+/// The jumps û²_k − û¹_k (x, y) of the iterate at the Γc pairs, on every rank (collective over
+/// all ranks: each body's first rank contributes its trace).
+fn contact_jumps(layout: &Layout, bodies: [Option<&Body>; 2], it: &Iterate) -> Vec<[f64; 2]> {
+    let m = it.lambda.len();
+    let mut sum = vec![0.0; 2 * m];
+    for (k, body) in bodies.iter().enumerate() {
+        if let Some(b) = body.filter(|b| b.is_root()) {
+            let sign = if k == 0 { -1.0 } else { 1.0 };
+            for (i, &node) in b.problem.contact_nodes.iter().enumerate() {
+                sum[2 * i] += sign * it.u[k][2 * node];
+                sum[2 * i + 1] += sign * it.u[k][2 * node + 1];
+            }
+        }
+    }
+    layout.world_sum(&mut sum);
+    sum.chunks(2).map(|c| [c[0], c[1]]).collect()
 }
 
 impl<'a> Estimator<'a> {
@@ -279,9 +300,27 @@ impl<'a> Estimator<'a> {
             Ok::<_, EstimateError>((t_glo, t_fe))
         })?;
         let mu_hat = nodal_contact_forces(it);
+        // η^glo's traction parallel to the normal field, and the iterate's gap along it
+        // (docs/method.md §5).
+        let normals = &self.problems[0].contact_normals;
+        let glo_factors = polygon::factors(normals, &t_glo);
+        let glo_edges = polygon::edge_traction(normals, &glo_factors);
+        let glo_forces = polygon::nodal_forces(&self.iface.lengths, &glo_edges);
+        let gaps = if fe_only {
+            Vec::new()
+        } else {
+            let jumps = self
+                .parts
+                .run(Part::Reduction, || contact_jumps(layout, bodies, it));
+            polygon::segment_gaps(normals, &self.problems[0].gap, &jumps)
+        };
         let data = IterationData {
             lambda: &it.lambda,
             t_glo: &t_glo,
+            glo_factors: &glo_factors,
+            glo_edges: &glo_edges,
+            glo_forces: &glo_forces,
+            gaps: &gaps,
             t_fe: &t_fe,
             reaction1: &it.forces[0],
             mu_hat: &mu_hat,
@@ -387,6 +426,28 @@ impl<'a> Estimator<'a> {
         for (k, w) in works {
             done[k] = Some(w.finish(&self.iface, &data, &self.parts));
         }
+        // η^glo bounds the error of û = u_p + δ by the CRE a; the answer's, by a + ‖δ‖_E
+        // (docs/method.md §5): the cross term 2a‖δ‖ + ‖δ‖² goes to the elements of δ.
+        let local = |f: fn(&BodyEstimate) -> &Vec<f64>| -> f64 {
+            done.iter()
+                .flatten()
+                .map(|e| f(e).iter().sum::<f64>())
+                .sum()
+        };
+        let (cre2, delta2) = self.parts.run(Part::Reduction, || {
+            (
+                layout.sum(local(|e| &e.glo)),
+                layout.sum(local(|e| &e.correction)),
+            )
+        });
+        if delta2 > 0.0 {
+            let scale = 1.0 + 2.0 * (cre2.max(0.0) / delta2).sqrt();
+            for est in done.iter_mut().flatten() {
+                for (g, c) in est.glo.iter_mut().zip(&est.correction) {
+                    *g += scale * c;
+                }
+            }
+        }
         for (k, body) in bodies.iter().enumerate() {
             let ne = self.problems[k].mesh.triangles.len();
             let mut map: [Vec<f64>; 3] = Default::default();
@@ -457,6 +518,7 @@ impl<'a> Estimator<'a> {
             eta_glo,
             eta_fe: fe.max(0.0).sqrt(),
             eta_nndd: nndd.max(0.0).sqrt(),
+            correction: delta2.max(0.0).sqrt(),
             eta_ratio: if glo > 0.0 {
                 (fe + nndd) / glo
             } else {

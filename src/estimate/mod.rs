@@ -1,5 +1,6 @@
 //! Layer `estimate`: guaranteed a posteriori error estimates of an NNDD iterate (paper §4,
-//! `docs/method.md` §3). [`traction`]: the admissible contact traction on Γc; [`cre`]: one
+//! `docs/method.md` §3). [`traction`]: the admissible contact traction on Γc; [`polygon`]:
+//! η^glo's traction and displacement correction on a curved Γc (§5); [`cre`]: one
 //! body's constitutive relation error element by element; [`equilibrate`]: strictly
 //! equilibrated stresses (EET + Johnson–Mercier, patch relaxation); [`overlap`]: a rank's
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
@@ -39,6 +40,7 @@ pub mod error;
 pub mod estimator;
 pub mod overlap;
 pub mod parts;
+pub mod polygon;
 pub mod reference;
 pub mod settings;
 pub mod share;

@@ -74,39 +74,21 @@ pub struct EquilibriumResiduals {
     pub point_reaction: f64,
 }
 
-/// Whether η^glo's upper-bound property is proved for the run's contact side
-/// (docs/method.md §5, "Γc traction of the estimates").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Bound {
-    /// A straight body-1 side: the admissible traction is normal, the bound is proved.
-    Proved,
-    /// A curved (polygonal) body-1 side: the admissible traction that carries the FE nodal
-    /// forces has a small tangential part, so the bound is checked against reference
-    /// solutions, not proved.
-    Checked,
-}
-
 /// What η^glo, η^FE and η^NNDD bound (docs/output.md, docs/method.md §3.3), for the reader of
 /// the summary.
 #[derive(Clone, Debug, Serialize)]
 pub struct EstimateMeaning {
-    pub bound: Bound,
     pub eta_glo: &'static str,
     pub eta_fe: &'static str,
     pub eta_nndd: &'static str,
     pub unit: &'static str,
 }
 
-impl EstimateMeaning {
-    /// The meaning of the estimates where the bound is `bound`.
-    pub fn of(bound: Bound) -> EstimateMeaning {
+impl Default for EstimateMeaning {
+    /// The meaning of the estimates.
+    fn default() -> EstimateMeaning {
         EstimateMeaning {
-            bound,
-            eta_glo: match bound {
-                Bound::Proved => "guaranteed upper bound of the energy-norm error of the iterate against the exact solution of the continuous contact problem (paper (22))",
-                Bound::Checked => "estimate of the energy-norm error of the iterate against the exact solution of the continuous contact problem (paper (22)); on this curved contact side its upper-bound property is checked against reference solutions, not proved (docs/method.md section 5)",
-            },
+            eta_glo: "guaranteed upper bound of the energy-norm error of the iterate against the exact solution of the continuous contact problem (paper (22)); on a curved contact side, the problem whose contact direction interpolates the nodal normals along each segment (docs/method.md section 5)",
             eta_fe: "the part of the error due to the mesh: the same bound for the contact problem at the iterate's interface displacement lambda_p (paper (23)); built from other admissible fields, so it may exceed eta_glo near convergence",
             eta_nndd: "the part of the error due to stopping the NNDD: the error of the iterate against the discrete contact problem's solution (paper (24)); tends to 0 as the NNDD converges",
             unit: "(J/m)^(1/2), the energy norm per unit thickness",
@@ -295,6 +277,9 @@ pub struct EstimateEntry {
     pub eta_nndd: f64,
     /// (η^FE² + η^NNDD²)/η^glo², relation (25).
     pub eta_ratio: f64,
+    /// ‖δ‖_E, the part of η^glo due to the correction that keeps û in contact between the
+    /// nodes of a curved Γc (docs/method.md §5; 0 on a straight side).
+    pub eta_glo_correction: f64,
     /// Against the reference solution (`-nndd_reference_factor`), when solved.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub e_ref: Option<f64>,

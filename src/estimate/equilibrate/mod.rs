@@ -135,5 +135,7 @@ pub use recovery::Recovery;
 pub use restricted::{equilibrate, equilibrate_restricted, equilibrate_with, FieldVisitor};
 pub use restriction::Restriction;
 pub(crate) use sizes::{NC, NT};
-pub use stress::{element_cre, EquilibratedStress, EquilibrationStats, Residuals};
+pub use stress::{
+    element_cre, element_cre_varying, EquilibratedStress, EquilibrationStats, Residuals,
+};
 pub use topology::{sweep_key, vertex_colours};

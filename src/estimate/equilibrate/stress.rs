@@ -86,14 +86,26 @@ pub fn element_cre(
     tau: [f64; 3],
     material: &Material,
 ) -> f64 {
+    element_cre_varying(mesh, e, coef, &|_| tau, material)
+}
+
+/// [`element_cre`] with a stress τ(x) linear in the point x (still exact).
+pub fn element_cre_varying(
+    mesh: &Mesh,
+    e: usize,
+    coef: &[f64; NC],
+    tau: &dyn Fn([f64; 2]) -> [f64; 3],
+    material: &Material,
+) -> f64 {
     let p = mesh.triangle_points(e);
-    let (_, _, qv) = local_frame(&p);
+    let (c, h, qv) = local_frame(&p);
     let area = triangle_area(&p);
     let mut sum = 0.0;
     for a in 0..3 {
         for pt in midpoints(&qv, a) {
             let s = eval(coef, a, pt);
-            let dlt = [s[0] - tau[0], s[1] - tau[1], s[2] - tau[2]];
+            let t = tau([c[0] + h * pt[0], c[1] + h * pt[1]]);
+            let dlt = [s[0] - t[0], s[1] - t[1], s[2] - t[2]];
             sum += 2.0 * material.compliance_energy(&dlt);
         }
     }
