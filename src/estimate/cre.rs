@@ -11,7 +11,7 @@ use super::equilibrate::{
 use super::error::EstimateError;
 use super::overlap::{Halo, Overlap};
 use super::parts::{Part, Parts};
-use super::polygon::{self, Bubble, EdgeValues, SegmentGap};
+use super::polygon::{self, Bubble, BubbleTerms, EdgeValues, SegmentGap};
 use super::settings::NnddVariant;
 use super::traction::Interface;
 use crate::dd::body::{Body, GcForces};
@@ -26,9 +26,10 @@ pub struct BodyEstimate {
     pub glo: Vec<f64>,
     pub fe: Vec<f64>,
     pub nndd: Vec<f64>,
-    /// ‖δ‖²_E of η^glo's correction of û on each element (zero but along a curved Γc of body
-    /// 2, [`polygon::Bubble`]).
-    pub correction: Vec<f64>,
+    /// How η^glo's element terms on this rank depend on the amplitudes of the bubbles that
+    /// correct û along a curved Γc of body 2 ([`polygon::BubbleTerms`]; `glo` holds them at
+    /// amplitude 0 until [`polygon::choose_amplitudes`]).
+    pub bubbles: Vec<BubbleTerms>,
     /// Equilibrium residuals of the recovered stresses (largest of the two recoveries).
     pub residuals: Residuals,
 }
@@ -267,6 +268,10 @@ pub struct ElementWork<'a> {
     /// elements (`u32::MAX`: none).
     sub: &'a Mesh,
     kept: Vec<u32>,
+    /// η^glo's bubbles (body 2 along a curved Γc), and per element [a, b] of its
+    /// [`BubbleTerms`] from the η^glo recovery.
+    bubbles: HashMap<usize, ElementBubble>,
+    coupling: HashMap<usize, [f64; 2]>,
     est: BodyEstimate,
 }
 
@@ -285,11 +290,12 @@ impl<'a> ElementWork<'a> {
             view,
             sub,
             kept,
+            bubbles: HashMap::new(),
+            coupling: HashMap::new(),
             est: BodyEstimate {
                 glo: vec![0.0; ne],
                 fe: vec![0.0; ne],
                 nndd: vec![0.0; ne],
-                correction: vec![0.0; ne],
                 ..Default::default()
             },
         }
@@ -388,9 +394,13 @@ impl<'a> ElementWork<'a> {
             (Data::Fe, 1) => &fields.u_p,
             (Data::Fe, _) => &fields.u_fe,
         };
-        let bubbles = match (which, p.alpha) {
-            (Data::Glo, 2) => bubbles(p, data.gaps),
-            _ => HashMap::new(),
+        if let (Data::Glo, 2) = (which, p.alpha) {
+            self.bubbles = bubbles(p, data, &p.contact_lengths);
+        }
+        let none = HashMap::new();
+        let bubbles = match which {
+            Data::Glo => &self.bubbles,
+            Data::Fe => &none,
         };
         let out = match which {
             Data::Glo => &mut self.est.glo,
@@ -402,7 +412,8 @@ impl<'a> ElementWork<'a> {
             kept: &self.kept,
             u_p: &fields.u_p,
             material: &p.material,
-            bubbles: &bubbles,
+            bubbles,
+            coupling: &mut self.coupling,
             out,
         };
         let mut visit = |l: usize, c: &[f64; NC]| map.visit(l, c);
@@ -426,13 +437,14 @@ impl<'a> ElementWork<'a> {
                 let u2n = p.normal_trace(&self.fields.u_p);
                 let obstacle = p.obstacle(data.lambda);
                 let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
+                // (at bubble amplitude 0: the amplitudes are chosen after the recovery)
                 let c_glo: Vec<f64> = if data.fe_only {
                     Vec::new()
                 } else {
                     (0..data.gaps.len())
                         .map(|k| {
                             let len = iface.lengths[k];
-                            polygon::contact_term(len, data.glo_factors[k], &data.gaps[k])
+                            polygon::contact_term(len, data.glo_factors[k], &data.gaps[k], 0.0)
                         })
                         .collect()
                 };
@@ -440,13 +452,18 @@ impl<'a> ElementWork<'a> {
                 let edges = edge_elements(mesh);
                 let m = gap.len();
                 let est = &mut self.est;
-                if !data.fe_only {
-                    for (e, b) in bubbles(p, data.gaps) {
-                        if self.view.estimates(e) {
-                            est.correction[e] = b.energy(&p.material);
-                        }
+                for (&e, b) in &self.bubbles {
+                    if let Some(&[a, bb]) = self.coupling.get(&e) {
+                        est.bubbles.push(BubbleTerms {
+                            element: e,
+                            a,
+                            b: bb,
+                            l: b.slope,
+                            least: b.least,
+                        });
                     }
                 }
+                est.bubbles.sort_by_key(|t| t.element);
                 for k in 0..c_fe.len() {
                     let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
                     let e = edges[&(a.min(b), a.max(b))];
@@ -455,6 +472,7 @@ impl<'a> ElementWork<'a> {
                     }
                     if !data.fe_only {
                         est.glo[e] += c_glo[k];
+
                         est.nndd[e] += match data.nndd_variant {
                             NnddVariant::Density => c_glo[k],
                             // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's
@@ -519,9 +537,11 @@ struct CreMap<'a> {
     kept: &'a [u32],
     u_p: &'a [f64],
     material: &'a crate::fem::Material,
-    /// The correction δ of û on body 2's elements along Γc where it is not zero
-    /// ([`polygon::Bubble`]): their CRE is ‖σ̂ − Kε(u_p + δ)‖².
-    bubbles: &'a HashMap<usize, Bubble>,
+    /// The unit bubbles of û's correction on body 2's elements along a curved Γc
+    /// ([`polygon::Bubble`]): their CRE at amplitude c is C − 2bc + ac², C = ‖σ̂ − Kε(u_p)‖²
+    /// (into `out`), a = ‖Kε(δ₁)‖², b = ∫(σ̂ − Kε(u_p)):ε(δ₁) (into `coupling`).
+    bubbles: &'a HashMap<usize, ElementBubble>,
+    coupling: &'a mut HashMap<usize, [f64; 2]>,
     out: &'a mut [f64],
 }
 
@@ -531,49 +551,94 @@ impl CreMap<'_> {
         if e != u32::MAX {
             let e = e as usize;
             let sigma_p = element_stress(self.mesh, e, self.material, self.u_p);
-            self.out[e] = match self.bubbles.get(&e) {
-                None => element_cre(self.sub, l, coef, sigma_p, self.material),
-                Some(b) => {
-                    let d = self.material.hooke();
+            let cre = element_cre(self.sub, l, coef, sigma_p, self.material);
+            self.out[e] = cre;
+            if let Some(b) = self.bubbles.get(&e) {
+                // C − 2b c + a c² at c = ±1.
+                let d = self.material.hooke();
+                let at = |c: f64| {
                     let tau = |x: [f64; 2]| {
-                        let eps = b.strain(x);
+                        let eps = b.shape.strain(x);
                         std::array::from_fn(|r| {
-                            sigma_p[r] + (0..3).map(|k| d[r][k] * eps[k]).sum::<f64>()
+                            sigma_p[r] + c * (0..3).map(|k| d[r][k] * eps[k]).sum::<f64>()
                         })
                     };
                     element_cre_varying(self.sub, l, coef, &tau, self.material)
-                }
-            };
+                };
+                let (plus, minus) = (at(1.0), at(-1.0));
+                self.coupling
+                    .insert(e, [0.5 * (plus + minus) - cre, 0.25 * (minus - plus)]);
+            }
         }
     }
 }
 
-/// The bubbles of η^glo's û on body 2 ([`polygon::Bubble`]), by element: on the element of
-/// each Γc segment whose gap needs one.
-fn bubbles(p: &BodyProblem, gaps: &[SegmentGap]) -> HashMap<usize, Bubble> {
-    let mut out = HashMap::new();
-    if gaps.iter().all(|g| g.bubble() == 0.0) {
-        return out;
+/// The bubble of û's correction on one body-2 element along a curved Γc: its shape δ₁ (the
+/// amplitude c scales it), the contact terms' slope in c and the least admissible c.
+pub struct ElementBubble {
+    pub shape: Bubble,
+    pub slope: f64,
+    pub least: f64,
+}
+
+/// η^glo's bubbles on body 2 ([`polygon::Bubble`]), by element: on the element of each Γc
+/// segment whose normals turn, the unit bubble (least amplitude the segment's); on an element
+/// with two such segments (a corner), the sum of their bubbles at their least amplitudes
+/// (those ≥ 0) as one shape, c ≥ 1.
+fn bubbles(
+    p: &BodyProblem,
+    data: &IterationData,
+    lengths: &[f64],
+) -> HashMap<usize, ElementBubble> {
+    let mut segments: HashMap<usize, Vec<usize>> = HashMap::new();
+    if data.gaps.iter().all(|g| !g.turns) {
+        return HashMap::new();
     }
     let edges = edge_elements(&p.mesh);
-    for (k, gap) in gaps.iter().enumerate() {
-        if gap.bubble() == 0.0 {
-            continue;
+    for (k, gap) in data.gaps.iter().enumerate() {
+        if gap.turns {
+            let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+            segments
+                .entry(edges[&(a.min(b), a.max(b))])
+                .or_default()
+                .push(k);
         }
-        let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
-        let e = edges[&(a.min(b), a.max(b))];
+    }
+    let mut out = HashMap::new();
+    for (e, ks) in segments {
         let t = p.mesh.triangles[e];
         let local = |n: usize| t.iter().position(|&v| v == n).expect("the edge's node");
-        let (na, nb) = (p.contact_normals[k], p.contact_normals[k + 1]);
+        let points = p.mesh.triangle_points(e);
+        let least = |k: usize| data.gaps[k].least_amplitude();
+        let weight = |k: usize| {
+            if ks.len() == 1 {
+                1.0
+            } else {
+                least(k).max(0.0)
+            }
+        };
+        if ks.iter().all(|&k| weight(k) == 0.0) {
+            continue; // c = 0 keeps both segments in contact
+        }
+        let mut shape = Bubble {
+            points,
+            edges: Vec::new(),
+        };
+        let mut slope = 0.0;
+        for &k in &ks {
+            let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+            let (na, nb) = (p.contact_normals[k], p.contact_normals[k + 1]);
+            shape.add_edge([local(a), local(b)], weight(k), na, nb);
+            slope += weight(k) * polygon::contact_slope(lengths[k], data.glo_factors[k]);
+        }
+        let least = if ks.len() == 1 { least(ks[0]) } else { 1.0 };
         out.insert(
             e,
-            Bubble::new(
-                p.mesh.triangle_points(e),
-                [local(a), local(b)],
-                gap.bubble(),
-                na,
-                nb,
-            ),
+            ElementBubble {
+                shape,
+                slope,
+                least,
+            },
         );
     }
     out

@@ -426,28 +426,40 @@ impl<'a> Estimator<'a> {
         for (k, w) in works {
             done[k] = Some(w.finish(&self.iface, &data, &self.parts));
         }
-        // η^glo bounds the error of û = u_p + δ by the CRE a; the answer's, by a + ‖δ‖_E
-        // (docs/method.md §5): the cross term 2a‖δ‖ + ‖δ‖² goes to the elements of δ.
-        let local = |f: fn(&BodyEstimate) -> &Vec<f64>| -> f64 {
-            done.iter()
+        // The bubble amplitudes of û = u_p + δ and the bound of the answer's error,
+        // (1 + θ)Q + (1 + 1/θ)Δ ≥ (‖u − û‖ + ‖δ‖)² (docs/method.md §5): each element's η^glo
+        // term times (1 + θ), plus (1 + 1/θ) a c² on the elements of δ.
+        let delta2 = self.parts.run(Part::Reduction, || {
+            let q0 = layout.sum(
+                done.iter()
+                    .flatten()
+                    .map(|e| e.glo.iter().sum::<f64>())
+                    .sum(),
+            );
+            let terms: Vec<polygon::BubbleTerms> = done
+                .iter()
                 .flatten()
-                .map(|e| f(e).iter().sum::<f64>())
-                .sum()
-        };
-        let (cre2, delta2) = self.parts.run(Part::Reduction, || {
-            (
-                layout.sum(local(|e| &e.glo)),
-                layout.sum(local(|e| &e.correction)),
-            )
-        });
-        if delta2 > 0.0 {
-            let scale = 1.0 + 2.0 * (cre2.max(0.0) / delta2).sqrt();
-            for est in done.iter_mut().flatten() {
-                for (g, c) in est.glo.iter_mut().zip(&est.correction) {
-                    *g += scale * c;
+                .flat_map(|e| e.bubbles.iter().copied())
+                .collect();
+            let sum = |x: [f64; 2]| [layout.sum(x[0]), layout.sum(x[1])];
+            let (c, [theta, _, delta2]) = polygon::choose_amplitudes(&terms, q0, &sum);
+            if theta > 0.0 {
+                // (`terms` lists the bodies' bubbles in this order)
+                let mut chosen = c.iter();
+                for est in done.iter_mut().flatten() {
+                    for g in est.glo.iter_mut() {
+                        *g *= 1.0 + theta;
+                    }
+                    for t in &est.bubbles {
+                        let c = *chosen.next().expect("an amplitude per bubble");
+                        est.glo[t.element] += (1.0 + theta)
+                            * (t.a * c * c - 2.0 * t.b * c + t.l * c)
+                            + (1.0 + 1.0 / theta) * t.a * c * c;
+                    }
                 }
             }
-        }
+            delta2
+        });
         for (k, body) in bodies.iter().enumerate() {
             let ne = self.problems[k].mesh.triangles.len();
             let mut map: [Vec<f64>; 3] = Default::default();

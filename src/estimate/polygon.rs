@@ -11,8 +11,10 @@
 //! - **The displacement** must satisfy G(û) ≥ 0 between the nodes, not only at them. With d
 //!   and m linear in t, G̃(t) = (1 − t)G_k + tG_{k+1} − t(1 − t)D, D = (d_{k+1} − d_k)·(n_{k+1}
 //!   − n_k), so the FE iterate (G_k ≥ 0 at the nodes) may violate it by t(1 − t)D. Adding
-//!   to body 2 the edge bubble δ = c φ_a φ_b w, c = max(D, 0), with w·n_k = w·n_{k+1} = 1,
-//!   adds c t(1 − t) to G̃: û = u_p + δ satisfies G(û) ≥ 0 everywhere. [`SegmentGap`].
+//!   to body 2 the edge bubble δ = c φ_a φ_b w, with w·n_k = w·n_{k+1} = 1, adds c t(1 − t)
+//!   to G̃: û = u_p + δ satisfies G(û) ≥ 0 everywhere for any c ≥ D − (√G_k + √G_{k+1})²
+//!   ([`SegmentGap::least_amplitude`]); the estimator chooses c in that range
+//!   ([`choose_amplitudes`]).
 //!
 //! The contact term of η^glo is then 2∫ p̂ G(û) ds = −2|e| ∫₀¹ s(t) G̃_c(t) dt per segment
 //! ([`contact_term`]), and ‖Kε(δ)‖ enters the body-2 element of the segment
@@ -74,27 +76,33 @@ pub fn nodal_forces(lengths: &[f64], edges: &[EdgeValues]) -> Vec<[f64; 2]> {
     f
 }
 
-/// G̃ = d·m along one segment, and the bubble that keeps it ≥ 0 between the nodes.
+/// G̃ = d·m along one segment, and the bubbles that keep it ≥ 0 between the nodes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SegmentGap {
     /// G_k, G_{k+1}: the gap along the nodal normal at the two ends (≥ 0 for the iterate).
     pub ends: [f64; 2],
     /// D = (d_{k+1} − d_k)·(n_{k+1} − n_k): G̃(t) = (1 − t)G_k + tG_{k+1} − t(1 − t)D.
     pub curvature_term: f64,
+    /// Whether the segment's normals turn (else D = 0 and it takes no bubble).
+    pub turns: bool,
 }
 
 impl SegmentGap {
-    /// The bubble's amplitude c = max(D, 0).
-    pub fn bubble(&self) -> f64 {
-        self.curvature_term.max(0.0)
+    /// The least bubble amplitude that keeps G̃ ≥ 0 on [0, 1]: (1 − t)A + tB − k t(1 − t) ≥ 0
+    /// for all t iff k ≤ (√A + √B)² (min_t A/t + B/(1 − t)), so c ≥ D − (√G_k + √G_{k+1})²
+    /// (the nodal gaps taken ≥ 0: round-off). 0 on a straight segment.
+    pub fn least_amplitude(&self) -> f64 {
+        if !self.turns {
+            return 0.0;
+        }
+        let r = self.ends[0].max(0.0).sqrt() + self.ends[1].max(0.0).sqrt();
+        self.curvature_term - r * r
     }
 
-    /// G̃ of û = u_p + δ at fraction t: (1 − t)G_k + tG_{k+1} + t(1 − t)(c − D) (≥ 0 when both
-    /// ends are).
-    pub fn corrected(&self, t: f64) -> f64 {
-        (1.0 - t) * self.ends[0]
-            + t * self.ends[1]
-            + t * (1.0 - t) * (self.bubble() - self.curvature_term)
+    /// G̃ of û = u_p + δ at fraction t for the bubble amplitude c: (1 − t)G_k + tG_{k+1} +
+    /// t(1 − t)(c − D).
+    pub fn corrected(&self, t: f64, c: f64) -> f64 {
+        (1.0 - t) * self.ends[0] + t * self.ends[1] + t * (1.0 - t) * (c - self.curvature_term)
     }
 }
 
@@ -112,36 +120,95 @@ pub fn segment_gaps(normals: &[[f64; 2]], g0: &[f64], jumps: &[[f64; 2]]) -> Vec
         .map(|k| {
             let (na, nb) = (normals[k], normals[k + 1]);
             let dd = [d[k + 1][0] - d[k][0], d[k + 1][1] - d[k][1]];
+            let turns = turns(na, nb);
             SegmentGap {
                 ends: [dot(d[k], na), dot(d[k + 1], nb)],
-                curvature_term: if turns(na, nb) {
+                curvature_term: if turns {
                     dot(dd, [nb[0] - na[0], nb[1] - na[1]])
                 } else {
                     0.0
                 },
+                turns,
             }
         })
         .collect()
 }
 
 /// The contact term 2∫ p̂ G(û) ds of one segment of body 1's length `len`, with t̂¹ = s(t)m(t)
-/// (p̂ = −s|m|) and G(û) = G̃_c/|m|: −2 len ∫₀¹ s(t) G̃_c(t) dt, by Simpson's rule (exact: the
-/// integrand is cubic). ≥ 0 when s ≤ 0 and G̃_c ≥ 0.
-pub fn contact_term(len: f64, s: [f64; 2], gap: &SegmentGap) -> f64 {
-    let f = |t: f64| ((1.0 - t) * s[0] + t * s[1]) * gap.corrected(t);
+/// (p̂ = −s|m|) and G(û) = G̃_c/|m| for the bubble amplitude c: −2 len ∫₀¹ s(t) G̃_c(t) dt, by
+/// Simpson's rule (exact: the integrand is cubic). ≥ 0 when s ≤ 0 and G̃_c ≥ 0; linear in c
+/// with the slope [`contact_slope`].
+pub fn contact_term(len: f64, s: [f64; 2], gap: &SegmentGap, c: f64) -> f64 {
+    let f = |t: f64| ((1.0 - t) * s[0] + t * s[1]) * gap.corrected(t, c);
     -2.0 * len * (f(0.0) + 4.0 * f(0.5) + f(1.0)) / 6.0
 }
 
+/// d/dc of [`contact_term`]: −2 len ∫₀¹ s(t) t(1 − t) dt = −len (s_k + s_{k+1})/6 (≥ 0).
+pub fn contact_slope(len: f64, s: [f64; 2]) -> f64 {
+    -len * (s[0] + s[1]) / 6.0
+}
+
+/// What η^glo depends on through the bubble amplitude c of one body-2 element:
+/// its CRE plus contact term is q(c) = q(0) + a c² − 2b c + l c, and ‖δ‖²_E = a c²; c ≥ `least`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BubbleTerms {
+    pub element: usize,
+    /// ‖Kε(δ₁)‖²_{K⁻¹} of the unit bubble δ₁.
+    pub a: f64,
+    /// ∫ (σ̂ − Kε(u_p)):ε(δ₁).
+    pub b: f64,
+    /// The contact term's slope.
+    pub l: f64,
+    pub least: f64,
+}
+
+/// The bubble amplitudes and the bound: the answer's error ‖u − u_p‖ ≤ ‖u − û‖ + ‖δ‖, and
+/// (‖u − û‖ + ‖δ‖)² ≤ (1 + θ)Q + (1 + 1/θ)Δ for every θ > 0 (Young), Q = Σ q_E(c_E) the CRE of
+/// (û, σ̂), Δ = Σ a_E c_E². For a fixed θ the right side is separable in the c_E: each is the
+/// minimiser of (1 + θ)(a c² − 2b c + l c) + (1 + 1/θ)a c² over c ≥ least; for fixed c_E the best
+/// θ is √(Δ/Q). Alternating the two (each step lowers the bound) from θ = 1. `q0` is Q at
+/// c = 0 and `sum` the reduction over the ranks (the terms are this rank's elements'). Returns
+/// the amplitudes and (θ, Q, Δ); θ = 0 when no bubble is needed (Δ = 0, the bound is Q).
+pub fn choose_amplitudes(
+    terms: &[BubbleTerms],
+    q0: f64,
+    sum: &dyn Fn([f64; 2]) -> [f64; 2],
+) -> (Vec<f64>, [f64; 3]) {
+    let mut theta: f64 = 1.0;
+    let mut c = vec![0.0; terms.len()];
+    let mut last = [0.0, q0, 0.0];
+    for _ in 0..12 {
+        let (wq, wd) = (1.0 + theta, 1.0 + 1.0 / theta);
+        let mut local = [0.0; 2];
+        for (ci, t) in c.iter_mut().zip(terms) {
+            *ci = (wq * (2.0 * t.b - t.l) / (2.0 * t.a * (wq + wd))).max(t.least);
+            local[0] += t.a * *ci * *ci - 2.0 * t.b * *ci + t.l * *ci;
+            local[1] += t.a * *ci * *ci;
+        }
+        let [dq, delta] = sum(local);
+        let q = (q0 + dq).max(0.0);
+        if delta <= 0.0 {
+            return (c, [0.0, q, 0.0]);
+        }
+        let next = (delta / q.max(f64::MIN_POSITIVE)).sqrt();
+        last = [next, q, delta];
+        if (next - theta).abs() <= 1e-6 * theta {
+            break;
+        }
+        theta = next;
+    }
+    (c, last)
+}
+
 /// The correction δ = c φ_a φ_b w of body 2 on the element with its Γc edge [a, b] (a, b its
-/// local vertex indices): w·n_k = w·n_{k+1} = 1, so that δ(t)·m(t) = c t(1 − t) on the edge.
-#[derive(Clone, Copy, Debug)]
+/// local vertex indices): w·n_k = w·n_{k+1} = 1, so that δ(t)·m(t) = c t(1 − t) on the edge;
+/// on an element with two Γc edges, the sum of their two.
+#[derive(Clone, Debug)]
 pub struct Bubble {
     /// The element's vertices.
     pub points: [[f64; 2]; 3],
-    /// The local indices of the edge's two vertices.
-    pub edge: [usize; 2],
-    /// c w.
-    pub vector: [f64; 2],
+    /// Per edge: the local indices of its two vertices, and c w.
+    pub edges: Vec<([usize; 2], [f64; 2])>,
 }
 
 impl Bubble {
@@ -154,20 +221,27 @@ impl Bubble {
         na: [f64; 2],
         nb: [f64; 2],
     ) -> Bubble {
-        let s = 1.0 + na[0] * nb[0] + na[1] * nb[1];
-        Bubble {
+        let mut b = Bubble {
             points,
-            edge,
-            vector: [c * (na[0] + nb[0]) / s, c * (na[1] + nb[1]) / s],
-        }
+            edges: Vec::new(),
+        };
+        b.add_edge(edge, c, na, nb);
+        b
     }
 
-    /// The values and gradients of the edge's two hat functions φ_a, φ_b at x.
-    fn hats(&self, x: [f64; 2]) -> [(f64, [f64; 2]); 2] {
+    /// Adds the bubble of amplitude `c` on another edge.
+    pub fn add_edge(&mut self, edge: [usize; 2], c: f64, na: [f64; 2], nb: [f64; 2]) {
+        let s = 1.0 + na[0] * nb[0] + na[1] * nb[1];
+        self.edges
+            .push((edge, [c * (na[0] + nb[0]) / s, c * (na[1] + nb[1]) / s]));
+    }
+
+    /// The values and gradients of the hat functions of an edge's two vertices at x.
+    fn hats(&self, edge: [usize; 2], x: [f64; 2]) -> [(f64, [f64; 2]); 2] {
         let p = self.points;
         let det =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
-        self.edge.map(|i| {
+        edge.map(|i| {
             // φ_i vanishes on the opposite side [q, r]: φ_i(x) = ∇φ_i·(x − q).
             let (q, r) = (p[(i + 1) % 3], p[(i + 2) % 3]);
             let g = [(q[1] - r[1]) / det, (r[0] - q[0]) / det];
@@ -177,42 +251,26 @@ impl Bubble {
 
     /// The strain (xx, yy, γxy) of δ at the point x.
     pub fn strain(&self, x: [f64; 2]) -> [f64; 3] {
-        let [(fa, ga), (fb, gb)] = self.hats(x);
-        let grad = [fb * ga[0] + fa * gb[0], fb * ga[1] + fa * gb[1]];
-        let w = self.vector;
-        [
-            w[0] * grad[0],
-            w[1] * grad[1],
-            w[0] * grad[1] + w[1] * grad[0],
-        ]
-    }
-
-    /// ‖δ‖²_E = ∫ Kε(δ):ε(δ) over the element (exact: the edge-midpoint rule on the quadratic
-    /// integrand).
-    pub fn energy(&self, material: &crate::fem::Material) -> f64 {
-        let p = self.points;
-        let d = material.hooke();
-        let area = 0.5
-            * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
-                - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]))
-                .abs();
-        (0..3)
-            .map(|i| {
-                let (a, b) = (p[i], p[(i + 1) % 3]);
-                let e = self.strain([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]);
-                (0..3)
-                    .map(|r| e[r] * (0..3).map(|k| d[r][k] * e[k]).sum::<f64>())
-                    .sum::<f64>()
-            })
-            .sum::<f64>()
-            * area
-            / 3.0
+        let mut e = [0.0; 3];
+        for &(edge, w) in &self.edges {
+            let [(fa, ga), (fb, gb)] = self.hats(edge, x);
+            let grad = [fb * ga[0] + fa * gb[0], fb * ga[1] + fa * gb[1]];
+            e[0] += w[0] * grad[0];
+            e[1] += w[1] * grad[1];
+            e[2] += w[0] * grad[1] + w[1] * grad[0];
+        }
+        e
     }
 
     /// δ at the point x.
     pub fn value(&self, x: [f64; 2]) -> [f64; 2] {
-        let [(fa, _), (fb, _)] = self.hats(x);
-        [fa * fb * self.vector[0], fa * fb * self.vector[1]]
+        let mut v = [0.0; 2];
+        for &(edge, w) in &self.edges {
+            let [(fa, _), (fb, _)] = self.hats(edge, x);
+            v[0] += fa * fb * w[0];
+            v[1] += fa * fb * w[1];
+        }
+        v
     }
 }
 
@@ -282,18 +340,81 @@ mod tests {
                 );
                 // The bubble of body 2's edge [x2a, x2b] (its element's third vertex inside).
                 let inner = [0.5 * (x2a[0] + x2b[0]) * 1.1, 0.5 * (x2a[1] + x2b[1]) * 1.1];
-                let bubble = Bubble::new([x2a, x2b, inner], [0, 1], gap.bubble(), n[k], n[k + 1]);
+                let c = gap.least_amplitude();
+                let bubble = Bubble::new([x2a, x2b, inner], [0, 1], c, n[k], n[k + 1]);
                 let delta = bubble.value(p2);
                 let corrected = (d[0] + delta[0]) * m[0] + (d[1] + delta[1]) * m[1];
-                assert!((corrected - gap.corrected(t)).abs() < 1e-15);
+                assert!((corrected - gap.corrected(t, c)).abs() < 1e-15);
                 violated += (plain < -1e-15) as usize;
                 worst = worst.min(corrected);
+                // Any larger amplitude keeps it too (max(D, 0), the one that makes G̃ linear).
+                assert!(gap.corrected(t, c.max(gap.curvature_term).max(0.0)) >= -1e-15);
             }
         }
-        // The sliding violates the constraint between nodes; the bubble restores it.
+        // The sliding violates the constraint between nodes; the bubble restores it, and the
+        // least amplitude is sharp: G̃ touches 0 inside every segment that needs a bubble.
         assert!(violated > 10, "{violated}");
+        for gap in &gaps {
+            let c = gap.least_amplitude();
+            let min = (1..1000)
+                .map(|i| gap.corrected(i as f64 / 1000.0, c))
+                .fold(f64::INFINITY, f64::min);
+            let scale = gap.ends[0].max(gap.ends[1]).max(gap.curvature_term.abs());
+            assert!(min >= -1e-15 && min <= 1e-5 * scale, "{gap:?}: min {min:e}");
+        }
         // (round-off of the nodal gaps, which are 0 on the contact set, against g₀ = 1e−3)
         assert!(worst >= -1e-15, "{worst}");
+    }
+
+    /// The amplitudes minimise (1 + θ)Q + (1 + 1/θ)Δ: no other choice (a grid around them, and
+    /// the least amplitudes) gives a smaller (√Q + √Δ)², and the returned θ is √(Δ/Q).
+    #[test]
+    fn the_chosen_amplitudes_minimise_the_bound() {
+        let term = |element, a, b, l, least| BubbleTerms {
+            element,
+            a,
+            b,
+            l,
+            least,
+        };
+        let terms = [
+            term(0, 2.0, 0.3, 0.1, -0.5),
+            term(1, 1.0, -0.2, 0.4, 0.25),
+            term(2, 3.0, 1.0, 0.0, -1.0),
+        ];
+        let q0 = 1.5;
+        let bound = |c: &[f64]| {
+            let q: f64 = q0
+                + terms
+                    .iter()
+                    .zip(c)
+                    .map(|(t, c)| t.a * c * c - 2.0 * t.b * c + t.l * c)
+                    .sum::<f64>();
+            let d: f64 = terms.iter().zip(c).map(|(t, c)| t.a * c * c).sum();
+            (q.sqrt() + d.sqrt()).powi(2)
+        };
+        let (c, [theta, q, delta]) = choose_amplitudes(&terms, q0, &|x| x);
+        for (ci, t) in c.iter().zip(&terms) {
+            assert!(*ci >= t.least);
+        }
+        assert!((theta - (delta / q).sqrt()).abs() < 1e-6 * theta);
+        let best = bound(&c);
+        assert!(((1.0 + theta) * q + (1.0 + 1.0 / theta) * delta - best).abs() < 1e-9 * best);
+        let least: Vec<f64> = terms.iter().map(|t| t.least.max(0.0)).collect();
+        assert!(best <= bound(&least));
+        for i in 0..3 {
+            for h in [-1e-3, 1e-3] {
+                let mut other = c.clone();
+                other[i] = (other[i] + h).max(terms[i].least);
+                assert!(
+                    best <= bound(&other) * (1.0 + 1e-9),
+                    "element {i}, step {h}"
+                );
+            }
+        }
+        // No bubble needed: θ = 0 and the bound is Q.
+        let (c, [theta, q, _]) = choose_amplitudes(&[term(0, 1.0, 0.0, 0.5, 0.0)], q0, &|x| x);
+        assert_eq!((c[0], theta, q), (0.0, 0.0, q0));
     }
 
     #[test]
@@ -315,7 +436,7 @@ mod tests {
             assert!((a - b).abs() < 1e-8, "{e:?}");
         }
         // w·n_a = w·n_b = 1 (times c).
-        let w = b.vector;
+        let w = b.edges[0].1;
         assert!((w[0] * 0.6 + w[1] * 0.8 - 0.7).abs() < 1e-15);
         assert!((w[0] * 0.8 + w[1] * 0.6 - 0.7).abs() < 1e-15);
     }
@@ -368,14 +489,20 @@ mod tests {
         let g0 = [0.1, 0.0, 0.0, 0.0];
         for gap in segment_gaps(&n, &g0, &jumps) {
             assert_eq!(gap.curvature_term, 0.0);
-            assert_eq!(gap.bubble(), 0.0);
+            assert_eq!(gap.least_amplitude(), 0.0);
         }
         // Its contact term is the P1 product −2∫ g G ds.
         let gap = SegmentGap {
             ends: [0.2, 0.4],
             curvature_term: 0.0,
+            turns: false,
         };
         let exact = 2.0 * 0.5 / 6.0 * (2.0 * 0.2 + 0.4 + 2.0 * 0.2 + 2.0 * 2.0 * 0.4);
-        assert!((contact_term(0.5, [-1.0, -2.0], &gap) - exact).abs() < 1e-15);
+        assert!((contact_term(0.5, [-1.0, -2.0], &gap, 0.0) - exact).abs() < 1e-15);
+        // Its slope in the bubble amplitude.
+        let curved = SegmentGap { turns: true, ..gap };
+        let slope = contact_term(0.5, [-1.0, -2.0], &curved, 1.0)
+            - contact_term(0.5, [-1.0, -2.0], &curved, 0.0);
+        assert!((slope - contact_slope(0.5, [-1.0, -2.0])).abs() < 1e-15);
     }
 }
