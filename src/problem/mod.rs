@@ -13,6 +13,8 @@ pub mod benchmarks;
 pub mod conform;
 pub mod matched;
 pub mod meshed;
+pub mod mortar;
+mod polyline;
 pub mod settings;
 
 use std::rc::Rc;
