@@ -91,7 +91,7 @@ impl Settings {
                 ("monolithic", SolverKind::Monolithic),
             ],
         )?;
-        let nndd = NnddSettings::from_options(&mut o, &problem.materials, &mut warnings)?;
+        let nndd = NnddSettings::from_options(&mut o, &problem.materials)?;
         let contact = ContactSettings::from_options(&mut o)?;
         let schur = SchurChoice::from_options(&mut o)?;
         let balanced = matches!(nndd.stop, crate::dd::nndd::StopRule::Balanced { .. });
@@ -152,12 +152,15 @@ impl Settings {
     /// The choices a body held only by contact ([`Support::Contact`], found when the mesh is
     /// read) decides: it takes the NNDD's Dirichlet step, which its Dirichlet system solves
     /// (its Neumann system is singular); the estimates, whose admissible tractions are not yet
-    /// balanced against its free rigid motion, are refused.
+    /// balanced against its free rigid motion, are refused. Without such a body, a Dirichlet step
+    /// the options forced onto a much softer body is warned about.
     pub fn hold_by_contact(
         &mut self,
         problems: &[Rc<BodyProblem>; 2],
     ) -> Result<(), SettingsError> {
         let Some(held) = problems.iter().find(|p| p.support == Support::Contact) else {
+            self.warnings
+                .extend(self.nndd.soft_warning(&self.problem.materials));
             return Ok(());
         };
         let alpha = held.alpha;
@@ -171,10 +174,11 @@ impl Settings {
         if self.solver == SolverKind::Monolithic {
             return Ok(());
         }
-        let named = petsc::option_string("-nndd_dirichlet_body")?;
-        if named
-            .as_deref()
-            .is_some_and(|b| b != "auto" && b != alpha.to_string())
+        if self
+            .nndd
+            .requested
+            .dirichlet_body
+            .is_some_and(|b| b != alpha)
         {
             return Err(SettingsError::named(
                 "-nndd_dirichlet_body",
@@ -189,17 +193,14 @@ impl Settings {
         }
         // The held body has no Neumann problem: the contact step's body takes the Neumann
         // step alone, whatever the rule would choose.
-        let named = petsc::option_string("-nndd_neumann_bodies")?;
-        if named.as_deref().is_some_and(|b| b != "auto") {
+        if self.nndd.requested.neumann_bodies.is_some() {
             return Err(SettingsError::named(
                 "-nndd_neumann_bodies",
                 format!("{why}: it has no Neumann problem, so the other body takes the Neumann step alone; use auto"),
             ));
         }
+        // (and no stiffness warning of a forced Dirichlet body: there is no choice)
         self.nndd.neumann_bodies = NeumannBodies::Contact;
-        // The stiffness warning of a forced Dirichlet body does not apply: there is no choice.
-        let soft = format!("takes the Dirichlet step (-nndd_dirichlet_body {alpha})");
-        self.warnings.retain(|w| !w.contains(&soft));
         self.nndd.dirichlet_body = alpha;
         Ok(())
     }

@@ -119,21 +119,38 @@ pub struct NnddSettings {
     pub neumann_step: NeumannChoice,
     /// Which bodies take the Neumann step.
     pub neumann_bodies: NeumannBodies,
+    /// What the options named (`None`: auto), before a body held only by contact decides.
+    pub requested: Requested,
+}
+
+/// The NNDD's body choices as the options named them (`None`: auto).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Requested {
+    /// `-nndd_dirichlet_body`.
+    pub dirichlet_body: Option<usize>,
+    /// `-nndd_neumann_bodies`.
+    pub neumann_bodies: Option<NeumannBodies>,
 }
 
 impl NnddSettings {
+    /// The warning of a Dirichlet step forced onto a much softer body, if it is.
+    pub fn soft_warning(&self, materials: &[Material; 2]) -> Option<String> {
+        self.requested
+            .dirichlet_body
+            .and_then(|b| soft_dirichlet_body(materials, b))
+    }
+
     /// The body of the contact step.
     pub fn contact_body(&self) -> usize {
         3 - self.dirichlet_body
     }
 
     /// Read, register (for `-help`) and validate the NNDD's options. `materials` decide the
-    /// Dirichlet step's body of `-nndd_dirichlet_body auto`; a body forced onto a much softer
-    /// body is warned about in `warnings`.
+    /// Dirichlet step's body of `-nndd_dirichlet_body auto` (a Dirichlet step forced onto a
+    /// much softer body: [`NnddSettings::soft_warning`]).
     pub fn from_options(
         o: &mut OptionsBlock,
         materials: &[Material; 2],
-        warnings: &mut Vec<String>,
     ) -> Result<NnddSettings, SettingsError> {
         let (theta, _) = o.string(
             "-nndd_theta",
@@ -201,17 +218,17 @@ impl NnddSettings {
                 ("condensed", DirichletChoice::Condensed),
             ],
         )?;
-        let dirichlet_body = match o.choice(
-            "-nndd_dirichlet_body",
-            "The body of the Dirichlet step (the other takes the contact step): auto (the stiffer body, by E/(1-nu^2), or the body held only by contact), 1, 2",
-            &[("auto", None), ("1", Some(1)), ("2", Some(2))],
-        )? {
-            Some(b) => {
-                warnings.extend(soft_dirichlet_body(materials, b));
-                b
-            }
-            None => stiffer_body(materials),
+        let requested = Requested {
+            dirichlet_body: o.choice(
+                "-nndd_dirichlet_body",
+                "The body of the Dirichlet step (the other takes the contact step): auto (the stiffer body, by E/(1-nu^2), or the body held only by contact), 1, 2",
+                &[("auto", None), ("1", Some(1)), ("2", Some(2))],
+            )?,
+            neumann_bodies: bodies,
         };
+        let dirichlet_body = requested
+            .dirichlet_body
+            .unwrap_or_else(|| stiffer_body(materials));
         let neumann_bodies =
             bodies.unwrap_or_else(|| auto_neumann_bodies(relaxation, materials, dirichlet_body));
         // A second SuperLU_DIST factorisation on the Dirichlet body's communicator: see
@@ -232,6 +249,7 @@ impl NnddSettings {
             dirichlet_step,
             neumann_step,
             neumann_bodies,
+            requested,
         })
     }
 
@@ -258,6 +276,7 @@ impl NnddSettings {
                 NeumannBodies::Contact => NeumannBodies::Contact,
                 _ => NeumannBodies::Dirichlet,
             },
+            requested: Requested::default(),
         }
     }
 }
@@ -275,6 +294,7 @@ impl Default for NnddSettings {
             dirichlet_step: DirichletChoice::Auto,
             neumann_step: NeumannChoice::Auto,
             neumann_bodies: NeumannBodies::Both,
+            requested: Requested::default(),
         }
     }
 }
