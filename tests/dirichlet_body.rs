@@ -129,8 +129,8 @@ fn the_estimates_do_not_depend_on_the_dirichlet_body() {
 }
 
 /// A restart point remembers the body of the Dirichlet step (λ is that body's Γc
-/// displacement): a run that would put it on the other body is refused, and one with the same
-/// body repeats the uninterrupted iterates.
+/// displacement) and the bodies of the Neumann step: a run that would put either elsewhere is
+/// refused, and one with the same choices repeats the uninterrupted iterates.
 #[test]
 fn a_restart_keeps_the_dirichlet_body() {
     let dir = scratch("dirichlet-body-restart");
@@ -161,6 +161,20 @@ fn a_restart_keeps_the_dirichlet_body() {
         ],
     );
     assert!(line.starts_with("nndd: error: "), "{line}");
+    // θ auto with the stiffer body's Neumann step alone (auto): another update is refused too.
+    fails_with(
+        2,
+        &[
+            &base[..],
+            &["-nndd_restart", cp, "-nndd_neumann_bodies", "both"],
+        ]
+        .concat(),
+        Some(1),
+        &[
+            "-nndd_restart",
+            "its Neumann step is taken by 'dirichlet', this run's by 'both'",
+        ],
+    );
     let again = dir.join("again");
     let b = solve(2, &again, &[&base[..], &["-nndd_restart", cp]].concat());
     assert_eq!(a["history"], b["history"]);

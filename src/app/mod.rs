@@ -341,6 +341,7 @@ fn restart_point<'a>(
         problems,
         settings.nndd.relaxation.text(),
         settings.nndd.dirichlet_body,
+        settings.nndd.neumann_bodies.name(),
     );
     let from = match &settings.restart {
         None => None,

@@ -69,6 +69,10 @@ pub struct Identity {
     /// (`-nndd_dirichlet_body`; body 1 in checkpoints that do not say).
     #[serde(default = "body_one")]
     pub dirichlet_body: usize,
+    /// The bodies of the Neumann step (`-nndd_neumann_bodies` resolved: `both`, `dirichlet`,
+    /// `contact`; absent in checkpoints that do not say, and then not compared).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub neumann_bodies: Option<String>,
     /// The number m of Γc pairs, the length of λ (not stored: a checkpoint's is that of its λ,
     /// and its contact fingerprints cover it).
     #[serde(skip)]
@@ -130,12 +134,14 @@ impl Identity {
         bodies: &[Rc<BodyProblem>; 2],
         theta: String,
         dirichlet_body: usize,
+        neumann_bodies: &str,
     ) -> Identity {
         Identity {
             problem: problem.to_string(),
             bodies: [BodyIdentity::of(&bodies[0]), BodyIdentity::of(&bodies[1])],
             theta,
             dirichlet_body,
+            neumann_bodies: Some(neumann_bodies.to_string()),
             pairs: bodies[0].contact_nodes.len(),
         }
     }
@@ -189,6 +195,13 @@ impl Identity {
                 "-nndd_theta {}, this run {}",
                 self.theta, run.theta
             ));
+        }
+        if let (Some(c), Some(r)) = (&self.neumann_bodies, &run.neumann_bodies) {
+            if c != r {
+                return Some(format!(
+                    "its Neumann step is taken by '{c}', this run's by '{r}' (-nndd_neumann_bodies)"
+                ));
+            }
         }
         None
     }
