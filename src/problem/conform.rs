@@ -29,8 +29,7 @@ pub use super::matched::{point_key, Matched};
 use super::meshed::{chain, node_normals, BODY_NAMES};
 use super::polyline::{cross, lerp, project, ray, unit, Foot};
 
-/// Relative distance (to the segment's length) under which a partner is the node itself.
-pub const COINCIDENT: f64 = 1e-8;
+pub use super::polyline::COINCIDENT;
 /// Relative distance (to the shorter segment at either node) under which a node on a straight
 /// part of its curve is moved onto its partner's projection instead of a new node next to it,
 /// which would cut a sliver, of relative area below about [`SNAP`], off the body's triangle.

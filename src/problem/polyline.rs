@@ -2,7 +2,9 @@
 //! interpolated normal field and the crossing of a line, shared by the matching of curves meshed
 //! on their own ([`super::conform`]) and the mortar operators ([`super::mortar`]).
 
-use super::conform::COINCIDENT;
+/// Relative distance (to the segment's length) under which a point on a curve is its node: a
+/// partner of the matching is the node itself, a projection's parameter t is taken in [0, 1].
+pub const COINCIDENT: f64 = 1e-8;
 
 pub(super) fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
     a[0] * b[1] - a[1] * b[0]
