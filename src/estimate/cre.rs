@@ -395,7 +395,7 @@ impl<'a> ElementWork<'a> {
             (Data::Fe, _) => &fields.u_fe,
         };
         if let (Data::Glo, 2) = (which, p.alpha) {
-            self.bubbles = bubbles(p, data, &p.contact_lengths);
+            self.bubbles = bubbles(p, data);
         }
         let none = HashMap::new();
         let bubbles = match which {
@@ -472,7 +472,6 @@ impl<'a> ElementWork<'a> {
                     }
                     if !data.fe_only {
                         est.glo[e] += c_glo[k];
-
                         est.nndd[e] += match data.nndd_variant {
                             NnddVariant::Density => c_glo[k],
                             // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's
@@ -585,11 +584,7 @@ pub struct ElementBubble {
 /// segment whose normals turn, the unit bubble (least amplitude the segment's); on an element
 /// with two such segments (a corner), the sum of their bubbles at their least amplitudes
 /// (those ≥ 0) as one shape, c ≥ 1.
-fn bubbles(
-    p: &BodyProblem,
-    data: &IterationData,
-    lengths: &[f64],
-) -> HashMap<usize, ElementBubble> {
+fn bubbles(p: &BodyProblem, data: &IterationData) -> HashMap<usize, ElementBubble> {
     let mut segments: HashMap<usize, Vec<usize>> = HashMap::new();
     if data.gaps.iter().all(|g| !g.turns) {
         return HashMap::new();
@@ -629,7 +624,7 @@ fn bubbles(
             let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
             let (na, nb) = (p.contact_normals[k], p.contact_normals[k + 1]);
             shape.add_edge([local(a), local(b)], weight(k), na, nb);
-            slope += weight(k) * polygon::contact_slope(lengths[k], data.glo_factors[k]);
+            slope += weight(k) * polygon::contact_slope(p.contact_lengths[k], data.glo_factors[k]);
         }
         let least = if ks.len() == 1 { least(ks[0]) } else { 1.0 };
         out.insert(

@@ -441,7 +441,10 @@ impl<'a> Estimator<'a> {
                 .flatten()
                 .flat_map(|e| e.bubbles.iter().copied())
                 .collect();
-            let sum = |x: [f64; 2]| [layout.sum(x[0]), layout.sum(x[1])];
+            let sum = |mut x: [f64; 2]| {
+                layout.world_sum(&mut x);
+                x
+            };
             let (c, [theta, _, delta2]) = polygon::choose_amplitudes(&terms, q0, &sum);
             if theta > 0.0 {
                 // (`terms` lists the bodies' bubbles in this order)

@@ -1,5 +1,5 @@
 //! The contact half of η^glo's admissible pair on a polygonal Γc (docs/method.md §5, "The
-//! bound on a curved side"). The continuous problem pairs the point at fraction t of body 1's
+//! admissible pair" and "The bound"). The continuous problem pairs the point at fraction t of body 1's
 //! segment [k, k+1] with the point at fraction t of body 2's, and constrains their distance
 //! along ν(t) = m(t)/|m(t)|, m(t) = (1 − t) n_k + t n_{k+1} (the nodal normals interpolated):
 //! G(v)(t) = d(t)·ν(t) ≥ 0 with d = (x² + v²) − (x¹ + v¹). With G̃ = d·m = |m| G:
