@@ -19,8 +19,11 @@
 //! the consistent dual functions of Cichosz and Bischoff, 2011), so that D stays diagonal and
 //! the patch test holds there too. The discrete
 //! constraint at node j reads g̃_j + n_j·(Σ_k M_jk u²_k − D_jj u¹_j) ≥ 0. On matching curves
-//! M = D and g̃_j = D_jj g₀_j: the node-to-node constraint. Not yet used by the NNDD (its
-//! interface algebra pairs nodes); the operators and their tests come first.
+//! M = D and g̃_j = D_jj g₀_j: the node-to-node constraint. A closed curve (a pin's whole
+//! circle, a bore) is a polyline whose last point repeats its first, folded onto it
+//! ([`Ends::Closed`]). [`Coupling`] puts the operators in the form of the node-to-node algebra
+//! (body 1's node against a point of body 2's curve). Not yet used by the NNDD, whose
+//! interface algebra pairs nodes.
 
 use super::polyline::{lerp, project, ray, sub, unit};
 
@@ -35,6 +38,127 @@ pub struct Operators {
     pub gap: Vec<f64>,
 }
 
+/// One contact curve as [`Coupling::new`] takes it: its nodes' mesh numbers and points in
+/// order (a closed curve's first node repeated at the end), and for the non-mortar side its
+/// nodal normals, towards the other body.
+pub struct CurveNodes<'a> {
+    pub ids: &'a [usize],
+    pub points: &'a [[f64; 2]],
+    pub normals: &'a [[f64; 2]],
+    pub ends: Ends,
+}
+
+/// The mortar coupling of body 1's contact curve (the non-mortar side) with body 2's, in the
+/// form of the node-to-node algebra: one constraint per node j of body 1 that body 2's curve
+/// covers (D_jj > 0),
+///   g_j + n_j·(Σ_k P_jk u²_k − u¹_j) ≥ 0,  P = D⁻¹M,  g = D⁻¹g̃,
+/// i.e. body 1's node against the point Σ_k P_jk x²_k of body 2 (P's rows sum to one: body 2's
+/// hat functions sum to one where its curve covers body 1's). Its multiplier T_j, the nodal
+/// force along n_j on body 1 (−T_j n_j) and on body 2 (+P_jk T_j n_j at node k), keeps the
+/// virtual work: Σ_j T_j (trace²_j − n_j·u¹_j) = forces on body 2 · u² − on body 1 · u¹.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Coupling {
+    /// Body 1's constrained nodes (mesh numbers), in the curve's order.
+    pub nodes: Vec<usize>,
+    /// n_j.
+    pub normals: Vec<[f64; 2]>,
+    /// D_jj, the node's share of the covered length.
+    pub weights: Vec<f64>,
+    /// g_j = g̃_j / D_jj, the weighted initial gap.
+    pub gap: Vec<f64>,
+    /// Row j of P: (body 2's mesh node, P_jk).
+    pub rows: Vec<Vec<(usize, f64)>>,
+}
+
+impl Coupling {
+    /// The coupling of the non-mortar curve `side` with the mortar curve `mortar`; a node of
+    /// `side` that `mortar` does not reach (D_jj below 1e−12 of its segments' length) has no
+    /// constraint.
+    pub fn new(side: &CurveNodes, mortar: &CurveNodes) -> Coupling {
+        let op = operators(
+            side.points,
+            side.normals,
+            mortar.points,
+            [side.ends, mortar.ends],
+        );
+        let distinct = |c: &CurveNodes| match c.ends {
+            Ends::Open => c.ids.len(),
+            Ends::Closed => c.ids.len() - 1,
+        };
+        let near = |j: usize| {
+            let n = side.points.len();
+            let len = |a: usize, b: usize| {
+                let e = sub(side.points[b], side.points[a]);
+                e[0].hypot(e[1])
+            };
+            let before = if j > 0 { len(j - 1, j) } else { 0.0 };
+            let after = if j + 1 < n { len(j, j + 1) } else { 0.0 };
+            let wrap = match side.ends {
+                Ends::Closed if j == 0 => len(n - 2, n - 1),
+                _ => 0.0,
+            };
+            before + after + wrap
+        };
+        let mut c = Coupling::default();
+        for j in 0..distinct(side) {
+            let d = op.d[j];
+            if d <= 1e-12 * near(j) {
+                continue;
+            }
+            c.nodes.push(side.ids[j]);
+            c.normals.push(side.normals[j]);
+            c.weights.push(d);
+            c.gap.push(op.gap[j] / d);
+            c.rows.push(
+                op.m[j]
+                    .iter()
+                    .map(|&(k, v)| (mortar.ids[k], v / d))
+                    .collect(),
+            );
+        }
+        c
+    }
+
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Body 2's normal trace n_j·Σ_k P_jk u²_k at each constraint (u² in global components).
+    pub fn mortar_trace(&self, u2: &[f64]) -> Vec<f64> {
+        self.rows
+            .iter()
+            .zip(&self.normals)
+            .map(|(row, n)| {
+                row.iter()
+                    .map(|&(k, p)| p * (n[0] * u2[2 * k] + n[1] * u2[2 * k + 1]))
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// Body 2's nodal forces Σ_j P_jk T_j n_j of the constraint forces T (by node, in the
+    /// order of first appearance).
+    pub fn mortar_forces(&self, forces: &[f64]) -> Vec<(usize, [f64; 2])> {
+        let mut at: std::collections::BTreeMap<usize, [f64; 2]> = Default::default();
+        let mut order = Vec::new();
+        for ((row, n), t) in self.rows.iter().zip(&self.normals).zip(forces) {
+            for &(k, p) in row {
+                let f = at.entry(k).or_insert_with(|| {
+                    order.push(k);
+                    [0.0; 2]
+                });
+                f[0] += p * t * n[0];
+                f[1] += p * t * n[1];
+            }
+        }
+        order.into_iter().map(|k| (k, at[&k])).collect()
+    }
+}
+
 /// Gauss–Legendre points and weights on [0, 1], 5 points (exact to degree 9).
 const GAUSS: [(f64, f64); 5] = [
     (0.046_910_077_030_668, 0.118_463_442_528_094_5),
@@ -44,9 +168,54 @@ const GAUSS: [(f64, f64); 5] = [
     (0.953_089_922_969_332, 0.118_463_442_528_094_5),
 ];
 
+/// Whether a contact curve ends or closes on itself (a pin's whole circle, a bore).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ends {
+    Open,
+    /// Given as a polyline whose last point repeats its first (with the same normal).
+    Closed,
+}
+
 /// The mortar operators of the non-mortar polyline `side` (nodal normals `normals`, pointing
-/// towards the other body) against the mortar polyline `mortar`.
-pub fn operators(side: &[[f64; 2]], normals: &[[f64; 2]], mortar: &[[f64; 2]]) -> Operators {
+/// towards the other body) against the mortar polyline `mortar`. A closed curve's repeated
+/// last point is folded onto its first ([`Ends::Closed`]): D, g̃ and M's rows are then those
+/// of its distinct nodes, its last entry (row or column) empty.
+pub fn operators(
+    side: &[[f64; 2]],
+    normals: &[[f64; 2]],
+    mortar: &[[f64; 2]],
+    ends: [Ends; 2],
+) -> Operators {
+    let mut op = polyline_operators(side, normals, mortar);
+    if ends[1] == Ends::Closed {
+        let last = mortar.len() - 1;
+        for row in &mut op.m {
+            if let Some(pos) = row.iter().position(|&(k, _)| k == last) {
+                let (_, v) = row.remove(pos);
+                match row.iter_mut().find(|(k, _)| *k == 0) {
+                    Some(first) => first.1 += v,
+                    None => row.insert(0, (0, v)),
+                }
+            }
+        }
+    }
+    if ends[0] == Ends::Closed {
+        let last = side.len() - 1;
+        op.d[0] += std::mem::take(&mut op.d[last]);
+        op.gap[0] += std::mem::take(&mut op.gap[last]);
+        for (k, v) in std::mem::take(&mut op.m[last]) {
+            match op.m[0].iter_mut().find(|(c, _)| *c == k) {
+                Some(e) => e.1 += v,
+                None => op.m[0].push((k, v)),
+            }
+        }
+        op.m[0].sort_by_key(|&(k, _)| k);
+    }
+    op
+}
+
+/// [`operators`] of two polylines, each point a node.
+fn polyline_operators(side: &[[f64; 2]], normals: &[[f64; 2]], mortar: &[[f64; 2]]) -> Operators {
     let n = side.len();
     let mut d = vec![0.0; n];
     let mut rows: Vec<std::collections::BTreeMap<usize, f64>> = vec![Default::default(); n];
@@ -169,7 +338,7 @@ mod tests {
                 })
                 .collect()
         };
-        let op = operators(&side, &normals, &side);
+        let op = operators(&side, &normals, &side, [Ends::Open; 2]);
         for j in 0..side.len() {
             for &(k, v) in &op.m[j] {
                 let expected = if k == j { op.d[j] } else { 0.0 };
@@ -210,7 +379,7 @@ mod tests {
                 .collect();
             let (side, mortar) = (line(&xs1, 0.0), line(&xs2, g));
             let normals = vec![[0.0, 1.0]; side.len()];
-            let op = operators(&side, &normals, &mortar);
+            let op = operators(&side, &normals, &mortar, [Ends::Open; 2]);
             for (j, x) in side.iter().enumerate() {
                 let s = row_sum(&op.m[j]);
                 let first: f64 = op.m[j].iter().map(|&(k, v)| v * mortar[k][0]).sum();
@@ -239,7 +408,12 @@ mod tests {
         let xs1: Vec<f64> = (0..=10).map(|i| i as f64 / 10.0).collect();
         let xs2: Vec<f64> = (0..=7).map(|i| 0.33 + 0.38 * i as f64 / 7.0).collect();
         let (side, mortar) = (line(&xs1, 0.0), line(&xs2, g));
-        let op = operators(&side, &vec![[0.0, 1.0]; side.len()], &mortar);
+        let op = operators(
+            &side,
+            &vec![[0.0, 1.0]; side.len()],
+            &mortar,
+            [Ends::Open; 2],
+        );
         assert!(
             (op.d.iter().sum::<f64>() - 0.38).abs() < 1e-14,
             "{:?}",
@@ -281,7 +455,7 @@ mod tests {
             let mortar = arc(1.0 + c, 3 * n, 0.6);
             // The pin's outward normals (radial), towards the hole.
             let normals: Vec<[f64; 2]> = side.iter().map(|p| unit(*p)).collect();
-            let op = operators(&side, &normals, &mortar);
+            let op = operators(&side, &normals, &mortar, [Ends::Open; 2]);
             let mut worst: f64 = 0.0;
             for j in 0..side.len() {
                 assert!((row_sum(&op.m[j]) - op.d[j]).abs() < 1e-13 * op.d[j].abs().max(1e-3));
@@ -294,5 +468,127 @@ mod tests {
                 "n {n}: relative gap error {worst:e}"
             );
         }
+    }
+
+    /// A pin's whole circle (radius 1, 2n segments, the non-mortar side) in a bore (radius
+    /// 1 + c, 3n segments), both closed: the repeated node folds onto the first, D sums to
+    /// the pin polygon's perimeter, M's rows sum to D across the seam, the weighted gap is the
+    /// clearance to O(h²), and every node of the pin is constrained once.
+    #[test]
+    fn a_pin_in_a_bore_all_round() {
+        let c = 0.02;
+        let n = 16;
+        let circle = |r: f64, m: usize| -> Vec<[f64; 2]> {
+            (0..=m)
+                .map(|i| {
+                    let t = std::f64::consts::TAU * (i % m) as f64 / m as f64;
+                    [r * t.sin(), -r * t.cos()]
+                })
+                .collect()
+        };
+        let side = circle(1.0, 2 * n);
+        let mortar = circle(1.0 + c, 3 * n);
+        let normals: Vec<[f64; 2]> = side.iter().map(|p| unit(*p)).collect();
+        let op = operators(&side, &normals, &mortar, [Ends::Closed; 2]);
+        let perimeter: f64 = side
+            .windows(2)
+            .map(|w| {
+                let e = sub(w[1], w[0]);
+                e[0].hypot(e[1])
+            })
+            .sum();
+        assert!((op.d.iter().sum::<f64>() - perimeter).abs() < 1e-13);
+        assert_eq!(op.d[2 * n], 0.0);
+        assert!(op.m[2 * n].is_empty());
+        let h = std::f64::consts::TAU / (2 * n) as f64;
+        for j in 0..2 * n {
+            assert!(op.m[j].iter().all(|&(k, _)| k < 3 * n), "row {j}");
+            assert!((row_sum(&op.m[j]) - op.d[j]).abs() < 1e-13, "row {j}");
+            let err = (op.gap[j] / op.d[j] - c).abs() / c;
+            assert!(err < 0.5 * h * h / c, "row {j}: relative gap error {err:e}");
+        }
+        let ids1: Vec<usize> = (0..=2 * n).map(|i| 100 + i % (2 * n)).collect();
+        let ids2: Vec<usize> = (0..=3 * n).map(|i| i % (3 * n)).collect();
+        let coupling = Coupling::new(
+            &CurveNodes {
+                ids: &ids1,
+                points: &side,
+                normals: &normals,
+                ends: Ends::Closed,
+            },
+            &CurveNodes {
+                ids: &ids2,
+                points: &mortar,
+                normals: &[],
+                ends: Ends::Closed,
+            },
+        );
+        assert_eq!(coupling.nodes, ids1[..2 * n].to_vec());
+        for row in &coupling.rows {
+            assert!((row_sum(row) - 1.0).abs() < 1e-13);
+        }
+    }
+
+    /// The coupling of flat sides meshed 10:17 with body 2 a gap g above: body 2's trace of an
+    /// affine displacement is that field at (x_j, g) along n, and the constraint forces do the
+    /// same work on body 2's nodes as on the traces.
+    #[test]
+    fn the_coupling_traces_affine_fields_and_keeps_the_work() {
+        let g = 0.01;
+        let xs1: Vec<f64> = (0..=10).map(|i| i as f64 / 10.0).collect();
+        let xs2: Vec<f64> = (0..=17).map(|i| -0.05 + 1.1 * i as f64 / 17.0).collect();
+        let (side, mortar) = (line(&xs1, 0.0), line(&xs2, g));
+        let normals = vec![[0.0, 1.0]; side.len()];
+        let ids1: Vec<usize> = (0..side.len()).collect();
+        // Body 2's curve nodes are mesh nodes 3, 5, 7, … of a larger mesh.
+        let ids2: Vec<usize> = (0..mortar.len()).map(|k| 3 + 2 * k).collect();
+        let c = Coupling::new(
+            &CurveNodes {
+                ids: &ids1,
+                points: &side,
+                normals: &normals,
+                ends: Ends::Open,
+            },
+            &CurveNodes {
+                ids: &ids2,
+                points: &mortar,
+                normals: &[],
+                ends: Ends::Open,
+            },
+        );
+        assert_eq!(c.len(), side.len());
+        let nodes2 = 3 + 2 * mortar.len();
+        let field = |x: [f64; 2]| {
+            [
+                0.3 + 2.0 * x[0] - 0.7 * x[1],
+                -0.1 + 0.4 * x[0] + 1.5 * x[1],
+            ]
+        };
+        let mut u2 = vec![0.0; 2 * nodes2];
+        for (k, &id) in ids2.iter().enumerate() {
+            let u = field(mortar[k]);
+            u2[2 * id] = u[0];
+            u2[2 * id + 1] = u[1];
+        }
+        let trace = c.mortar_trace(&u2);
+        for (j, x) in side.iter().enumerate() {
+            assert!((c.gap[j] - g).abs() < 1e-14, "gap {j}");
+            let want = field([x[0], g])[1];
+            assert!(
+                (trace[j] - want).abs() < 1e-13,
+                "trace {j}: {} vs {want}",
+                trace[j]
+            );
+        }
+        // Virtual work: Σ_j T_j trace_j(u²) = Σ_k f_k · u²_k for any u².
+        let t: Vec<f64> = (0..c.len()).map(|j| (j as f64 * 1.3).sin()).collect();
+        let u: Vec<f64> = (0..2 * nodes2).map(|i| (i as f64 * 0.7).cos()).collect();
+        let lhs: f64 = c.mortar_trace(&u).iter().zip(&t).map(|(a, b)| a * b).sum();
+        let rhs: f64 = c
+            .mortar_forces(&t)
+            .iter()
+            .map(|&(k, f)| f[0] * u[2 * k] + f[1] * u[2 * k + 1])
+            .sum();
+        assert!((lhs - rhs).abs() < 1e-13, "{lhs} vs {rhs}");
     }
 }
