@@ -10,8 +10,8 @@ exist). Writes into OUTDIR:
                                 when the run estimated, -nndd_estimate)
   results-contact-pressure.png  the contact zone (x in [-W, W], by default all of Γc): the
                                 bodies warped (grey, mesh edges) and over them Γc
-                                (PREFIX-contact.xdmf) warped by its own `displacement` (body
-                                1's at Γc), a thick line coloured by `pressure`
+                                (PREFIX-contact.xdmf) warped by its own `displacement` (its
+                                pairs' side's), a thick line coloured by `pressure`
 All at true scale (warp scale 1), at the last time step (the reported iterate). Nothing special
 is needed: ParaView's default reader (OpenDataFile, in 5.11 Xdmf3ReaderS), WarpByVector,
 ColorBy. The paths are made absolute: given a bare "hertz.xdmf" (no directory part), ParaView
@@ -279,7 +279,8 @@ def main():
 
 def check_on_interface(warped, gamma):
     """Print how far the warped Γc lies from the warped bodies' nearest points (should be 0:
-    Γc's points are body 1's interface points, its displacement body 1's there)."""
+    Γc's points are the nodes of its pairs' side, body 1's or under mortar the non-mortar
+    body's, its displacement that body's there)."""
     bodies = servermanager.Fetch(warped)
     line = servermanager.Fetch(gamma)
     worst = 0.0

@@ -11,11 +11,11 @@
 //!   error; curves that cannot face each other are refused with one line naming them.
 
 mod common;
+use common::patch::*;
 use common::*;
 
 use std::path::{Path, PathBuf};
 
-const PATCH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/nonmatching/patch.geo");
 const HERTZ_GEO: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/examples/hertz-nonmatching/hertz-nonmatching.geo"
@@ -33,63 +33,10 @@ const PUNCH_OPTS: &str = concat!(
     "/examples/punch-nonmatching/punch-nonmatching.opts"
 );
 
-/// The patch test's materials and the lid's displacement.
-const PATCH_E: [f64; 2] = [1e9, 3e9];
-const PATCH_NU: [f64; 2] = [0.3, 0.25];
-const PATCH_PRESS: f64 = -1e-3;
-
-fn patch_args(msh: &Path) -> Vec<String> {
-    let mut a: Vec<String> = [
-        "-nndd_mesh",
-        msh.to_str().unwrap(),
-        "-nndd_contact",
-        "top1,bottom2",
-        "-nndd_bc_base_uy",
-        "0",
-        "-nndd_bc_left1_ux",
-        "0",
-        "-nndd_bc_left2_ux",
-        "0",
-        "-nndd_tol",
-        "1e-12",
-        "-nndd_bc_lid_uy",
-    ]
-    .map(String::from)
-    .to_vec();
-    a.push(PATCH_PRESS.to_string());
-    for k in 0..2 {
-        a.extend([
-            format!("-nndd_body{}_E", k + 1),
-            PATCH_E[k].to_string(),
-            format!("-nndd_body{}_nu", k + 1),
-            PATCH_NU[k].to_string(),
-        ]);
-    }
-    a
-}
-
-fn strs(v: &[String]) -> Vec<&str> {
-    v.iter().map(String::as_str).collect()
-}
-
-/// A uniform pressure p between the flat sides, plane strain: σ_yy = −p, σ_xx = 0 in both
-/// bodies, so ε_xx = ν(1 + ν)p/E and ε_yy = −(1 − ν²)p/E; the foundation's base is at y = −1
-/// (u_y = 0), both bodies' left sides at x = 0 (u_x = 0), the lid at y = 0.5.
-fn exact(alpha: usize, p: f64, x: [f64; 2]) -> [f64; 2] {
-    let exx = |k: usize| PATCH_NU[k] * (1.0 + PATCH_NU[k]) * p / PATCH_E[k];
-    let eyy = |k: usize| -(1.0 - PATCH_NU[k] * PATCH_NU[k]) * p / PATCH_E[k];
-    match alpha {
-        1 => [exx(0) * x[0], eyy(0) * (x[1] + 1.0)],
-        _ => [exx(1) * x[0], eyy(0) + eyy(1) * x[1]],
-    }
-}
-
 #[test]
 fn the_contact_patch_test_is_passed_on_non_matching_meshes() {
     let dir = scratch("nm-patch");
-    // The lid's displacement δ = (1 − ν₁²)p/E₁ · 1 + (1 − ν₂²)p/E₂ · 0.5 gives p.
-    let flex = |k: usize, h: f64| (1.0 - PATCH_NU[k] * PATCH_NU[k]) / PATCH_E[k] * h;
-    let p_exact = -PATCH_PRESS / (flex(0, 1.0) + flex(1, 0.5));
+    let p_exact = patch_pressure();
     for (n1, n2) in [(10u64, 17u64), (17, 10), (30, 10), (10, 30)] {
         let msh = dir.join(format!("patch-{n1}-{n2}.msh"));
         gmsh(
@@ -114,29 +61,7 @@ fn the_contact_patch_test_is_passed_on_non_matching_meshes() {
             assert!(pairs > n1.max(n2), "{what}: {curves}");
             assert!(pairs <= n1 + n2, "{what}: {curves}");
             assert_eq!(curves["nodes"], serde_json::json!([pairs, pairs]), "{what}");
-            let pressure = field(&prefix, "contact", "pressure");
-            let (lo, hi) = pressure
-                .iter()
-                .fold((f64::INFINITY, 0.0_f64), |(a, b), &x| (a.min(x), b.max(x)));
-            assert!((hi - lo) / hi < limit, "{what}: pressure {lo} .. {hi}");
-            assert!(
-                (hi - p_exact).abs() < limit * p_exact,
-                "{what}: {hi} vs {p_exact}"
-            );
-            for alpha in [1, 2] {
-                let body = format!("body{alpha}");
-                let pts = points(&prefix, &body);
-                let u = field(&prefix, &body, "displacement");
-                let mut worst = 0.0_f64;
-                for (x, u) in pts.chunks(2).zip(u.chunks(3)) {
-                    let e = exact(alpha, p_exact, [x[0], x[1]]);
-                    worst = worst.max((u[0] - e[0]).abs()).max((u[1] - e[1]).abs());
-                }
-                assert!(
-                    worst < limit * PATCH_PRESS.abs(),
-                    "{what}: body {alpha}'s displacement off the exact field by {worst:e}"
-                );
-            }
+            let (lo, hi) = assert_patch(&prefix, limit, &what);
             println!(
                 "patch {n1}:{n2} {solver}: {} iterations, {} pairs (inserted {}, moved {}), pressure {:.12e} .. {:.12e} (exact {p_exact:.12e})",
                 j["iterations"], pairs, curves["inserted"], curves["moved"], lo, hi

@@ -202,10 +202,14 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
     // the whole geometry, for the interface and the output).
     let problems = build_problems(&settings, agreement, world.rank() == 0)?;
-    // A body held only by contact decides the Dirichlet step's body (the same on every rank).
+    // The mortar discretisation, or a body held only by contact, decides the Dirichlet step's
+    // body (the same on every rank).
     agreed(
         agreement,
-        settings.hold_by_contact(&problems).map_err(AppError::from),
+        settings
+            .mortar_rules(&problems)
+            .and_then(|()| settings.hold_by_contact(&problems))
+            .map_err(AppError::from),
     )?;
     let settings = settings;
     say_warnings(world.rank() == 0, &settings.warnings);
@@ -297,7 +301,17 @@ fn build_problems(
     let problems = agreed(agreement, built)?;
     if let (Some(spec), true) = (&settings.problem.mesh, root) {
         let m = &spec.matched;
-        if m.inserted != [0; 2] || m.moved != [0; 2] {
+        let side = problem::pair_side([&problems[0], &problems[1]]);
+        if problems[0].trace != problems[1].trace {
+            let [c1, c2] = &spec.contact;
+            println!(
+                "nndd: contact curves '{c1}' and '{c2}' coupled by mortar as meshed: Γc's {} pairs at body {}'s nodes (the coarser curve), which body {} meets at points of its curve ({} of its nodes)",
+                problems[side].pairs(),
+                side + 1,
+                2 - side,
+                problems[1 - side].contact_nodes.len()
+            );
+        } else if m.inserted != [0; 2] || m.moved != [0; 2] {
             let [c1, c2] = &spec.contact;
             println!(
                 "nndd: contact curves '{c1}' and '{c2}' meshed independently, made to match: {} and {} node(s) inserted, {} and {} moved onto a partner; Γc: {} pairs where they overlap ({} and {} nodes on the curves)",
@@ -305,7 +319,7 @@ fn build_problems(
                 m.inserted[1],
                 m.moved[0],
                 m.moved[1],
-                problems[0].contact_nodes.len(),
+                problems[0].pairs(),
                 problems[0].contact_candidates.len(),
                 problems[1].contact_candidates.len()
             );

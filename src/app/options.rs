@@ -20,7 +20,7 @@ use crate::petsc::readers::Bounds;
 pub use crate::petsc::readers::SettingsError;
 use crate::petsc::{self, Comm, OptionsBlock};
 use crate::problem::settings::option_applies;
-use crate::problem::{BodyProblem, ProblemKind, ProblemSettings, Support};
+use crate::problem::{BodyProblem, GcTrace, ProblemKind, ProblemSettings, Support};
 use crate::qp::QpSettings;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -147,6 +147,32 @@ impl Settings {
         s.checkpoint_every = 0;
         s.restart = None;
         s
+    }
+
+    /// The choices the mortar discretisation decides (a body's trace [`GcTrace::Mortar`]): the
+    /// Dirichlet step on the other, non-mortar body ([`NnddSettings::on_mortar`]); the error
+    /// estimates and a body held only by contact are not available with it yet, and refused.
+    pub fn mortar_rules(&mut self, problems: &[Rc<BodyProblem>; 2]) -> Result<(), SettingsError> {
+        if problems.iter().all(|p| p.trace == GcTrace::Nodes) {
+            return Ok(());
+        }
+        const OPT: &str = "-nndd_contact_discretisation mortar";
+        if self.estimate.enabled {
+            return Err(SettingsError::named(
+                OPT,
+                "the error estimates are not available with the mortar discretisation yet (their admissible tractions are built on matched curves); solve without -nndd_estimate, -nndd_estimate_every, -nndd_reference_factor and -nndd_stop balanced, or use node_to_node",
+            ));
+        }
+        if let Some(held) = problems.iter().find(|p| p.support == Support::Contact) {
+            return Err(SettingsError::named(
+                OPT,
+                format!("body {} is held only by contact, which the mortar discretisation does not support yet; prescribe displacements that hold it, or use node_to_node", held.alpha),
+            ));
+        }
+        let side = crate::problem::pair_side([&problems[0], &problems[1]]) + 1;
+        let warning = self.nndd.on_mortar(&self.problem.materials, side)?;
+        self.warnings.extend(warning);
+        Ok(())
     }
 
     /// The choices a body held only by contact ([`Support::Contact`], found when the mesh is

@@ -15,7 +15,7 @@ use crate::io::summary::{
 };
 use crate::os::memory;
 use crate::parallel::layout::Layout;
-use crate::problem::BodyProblem;
+use crate::problem::{BodyProblem, ContactDiscretisation};
 
 #[allow(clippy::too_many_arguments)]
 /// What the run measured at its end, for the summary: the result files' content, the timings
@@ -45,7 +45,10 @@ pub fn summarise(
         timings,
         peaks,
     } = measured;
-    let contact = contact_of(body1, &sol.last);
+    // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
+    let side = [body1, body2][crate::problem::pair_side([body1, body2])];
+    let mortar = body1.trace != body2.trace;
+    let contact = contact_of(side, &sol.last);
     let paths = &settings.output.paths;
     let builtin = settings.problem.mesh.is_none();
     let matched = settings.problem.mesh.as_ref().map(|m| &*m.matched);
@@ -101,7 +104,14 @@ pub fn summarise(
         contact_curves: ContactCurves {
             names: super::contact_curves(settings),
             nodes: [body1, body2].map(|b| b.contact_candidates.len()),
-            pairs: body1.contact_nodes.len(),
+            pairs: side.pairs(),
+            discretisation: if mortar {
+                ContactDiscretisation::Mortar
+            } else {
+                ContactDiscretisation::NodeToNode
+            }
+            .name(),
+            non_mortar: mortar.then_some(side.alpha),
             inserted: matched.map_or([0; 2], |m| m.inserted),
             moved: matched.map_or([0; 2], |m| m.moved),
             max_penetration: sol.penetration.clone().unwrap_or_default(),

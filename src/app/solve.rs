@@ -155,7 +155,7 @@ fn announce_setup(alpha: usize, problem: &BodyProblem, layout: &Layout) -> Resul
         ),
         Some(other) => format!(
             "setting up -body{alpha}_pc_type {other}, the interface operators from {} solves",
-            problem.contact_nodes.len()
+            problem.interface_dofs().len()
         ),
     };
     println!(
@@ -469,7 +469,7 @@ pub fn solve_nndd(
     let ctx = nndd::Context {
         settings: &settings.nndd,
         // The number of Γc pairs (every rank holds at least one body).
-        m: refs.iter().flatten().next().map_or(0, |b| b.gc.len()),
+        m: refs.iter().flatten().next().map_or(0, |b| b.pairs()),
         layout,
         bodies: refs,
         steps: &steps,

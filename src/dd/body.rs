@@ -29,7 +29,7 @@ use crate::petsc::readers::SettingsError;
 use crate::petsc::{self, Comm, Gather, Ksp, Matrix, OptionsBlock, Vector};
 use std::rc::Rc;
 
-use crate::problem::{BodyProblem, Frames, Support};
+use crate::problem::{BodyProblem, Frames, GcTrace, Support};
 use crate::qp::dense::{DenseError, SymMatrix};
 
 #[derive(Debug, thiserror::Error)]
@@ -56,6 +56,10 @@ pub enum BodyError {
     Echo { alpha: usize },
     #[error("body {alpha}: interface Schur complement: {source}")]
     Schur { alpha: usize, source: DenseError },
+    /// Under the mortar discretisation, the mortar body's trace on Γc's pairs is
+    /// rank-deficient: more pairs than its curve's nodes can follow independently.
+    #[error("-nndd_contact_discretisation mortar: body {alpha}'s contact curve cannot follow the other curve's nodes one by one (its trace on Γc's pairs is rank-deficient: {source}); the curve whose nodes carry the constraints (the coarser by its mean segment) is finer than body {alpha}'s where they touch: mesh them alike there, or use node_to_node")]
+    MortarRank { alpha: usize, source: DenseError },
     #[error("-nndd_schur {choice}: body {alpha} {why}")]
     SchurChoice {
         alpha: usize,
@@ -245,8 +249,12 @@ pub struct Body {
     /// ([`Support::Contact`]), where it is singular.
     neumann: Option<Ksp>,
     dirichlet: Option<Ksp>,
-    /// Γc normal dofs in pair order.
+    /// The dofs the Γc trace reads ([`BodyProblem::interface_dofs`]): the normal dofs in pair
+    /// order, or under the mortar discretisation both dofs of body 2's Γc nodes.
     pub gc: Vec<usize>,
+    /// The trace's rows over `gc` ([`BodyProblem::trace_rows`]): pair k's normal displacement
+    /// is Σ c·u[gc[i]] over row k's (i, c), and a force T_k on pair k loads gc[i] with c·T_k.
+    gc_rows: Vec<Vec<(usize, f64)>>,
     /// How the interface operators were formed, on every rank of the group (`None`: the body
     /// has none).
     pub schur_source: Option<SchurSource>,
@@ -302,7 +310,8 @@ impl Body {
             };
             (k, diag, k_neu)
         };
-        let gc = problem.contact_normal_dofs();
+        let gc = problem.interface_dofs();
+        let pair_rows = problem.trace_rows();
         let gc_rows: Vec<petsc::Int> = gc.iter().map(|&d| partition.row(d)).collect();
         let t_assembly = t0.elapsed().as_secs_f64();
         let t1 = std::time::Instant::now();
@@ -338,6 +347,7 @@ impl Body {
             neumann,
             dirichlet: None,
             gc,
+            gc_rows: pair_rows,
             schur_source: None,
             condensed: None,
             factorisation_flops,
@@ -501,17 +511,29 @@ impl Body {
         let inverse = a
             .inverse_spd()
             .map_err(|source| BodyError::Schur { alpha, source })?;
-        Ok(Some(if is_schur {
-            Condensed {
-                schur: a,
-                delassus: inverse,
-            }
-        } else {
-            Condensed {
-                schur: inverse,
-                delassus: a,
-            }
-        }))
+        let (schur, delassus) = if is_schur { (a, inverse) } else { (inverse, a) };
+        if self.problem.trace == GcTrace::Nodes {
+            return Ok(Some(Condensed { schur, delassus }));
+        }
+        // Mortar: D = R C Rᵀ on the pairs from the compliance C on body 2's Γc dofs, S = D⁻¹.
+        let delassus = delassus.congruence(&self.gc_rows);
+        let schur = delassus
+            .inverse_spd()
+            .map_err(|source| BodyError::MortarRank { alpha, source })?;
+        Ok(Some(Condensed { schur, delassus }))
+    }
+
+    /// The pairs' traces Σ c·x[i] of values `x` on `gc`.
+    fn apply_rows(&self, x: &[f64]) -> Vec<f64> {
+        self.gc_rows
+            .iter()
+            .map(|row| row.iter().map(|&(i, c)| c * x[i]).sum())
+            .collect()
+    }
+
+    /// The number of Γc pairs.
+    pub fn pairs(&self) -> usize {
+        self.gc_rows.len()
     }
 
     /// The interface operators, on the group's first rank (`None` on the others, and on a
@@ -714,8 +736,10 @@ impl Body {
         for (ri, fi) in r.iter_mut().zip(&self.load) {
             *ri -= fi;
         }
-        for (&d, &t) in self.gc.iter().zip(gc_forces) {
-            r[d] -= t;
+        for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
+            for &(i, c) in row {
+                r[self.gc[i]] -= c * t;
+            }
         }
         for &(dof, _) in &self.problem.dirichlet {
             r[dof] = 0.0;
@@ -733,7 +757,8 @@ impl Body {
     }
 
     /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs: the force the other
-    /// body exerts on this one (docs/method.md §1).
+    /// body exerts on this one (docs/method.md §1). Node to node: the Dirichlet step's body,
+    /// which under the mortar discretisation is body 1.
     pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         let ku = self.apply_k_local(&self.local(u))?;
         Ok(self.gc.iter().map(|&d| ku[d] - self.load[d]).collect())
@@ -756,8 +781,10 @@ impl Body {
         } else {
             vec![0.0; self.load.len()]
         };
-        for (&d, &f) in self.gc.iter().zip(gc_forces) {
-            load[d] += f;
+        for (row, &f) in self.gc_rows.iter().zip(gc_forces) {
+            for &(i, c) in row {
+                load[self.gc[i]] += c * f;
+            }
         }
         load
     }
@@ -810,6 +837,16 @@ impl Body {
             GcForces::Normal(t) => self.neumann_load(t, true),
             GcForces::Vector(v) => {
                 let mut load = self.load.clone();
+                if let GcTrace::Mortar(c) = &self.problem.trace {
+                    // Pair k's force reaches body 2's node j as P_kj f_k (no rotated frames).
+                    for (row, f) in c.rows.iter().zip(v) {
+                        for &(node, p) in row {
+                            load[2 * node] += p * f[0];
+                            load[2 * node + 1] += p * f[1];
+                        }
+                    }
+                    return load;
+                }
                 for ((&d, f), n) in self.gc.iter().zip(v).zip(&self.problem.contact_normals) {
                     // The node's frame: (τ, n), τ = (n_y, −n_x); d is its normal dof.
                     load[d - 1] += n[1] * f[0] - n[0] * f[1];
@@ -824,7 +861,8 @@ impl Body {
     pub fn neumann_trace(&self, gc_forces: &[f64], with_data: bool) -> Result<Vec<f64>, BodyError> {
         let load = self.neumann_load(gc_forces, with_data);
         self.solve(System::Neumann, &load, !with_data, None)?;
-        Ok(self.trace.borrow_mut().gather(&self.x.borrow())?)
+        let values = self.trace.borrow_mut().gather(&self.x.borrow())?;
+        Ok(self.apply_rows(&values))
     }
 
     /// Normal Γc displacements B u.

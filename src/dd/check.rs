@@ -143,12 +143,16 @@ pub fn check_solution(
 pub const SIDE_BY_SIDE_DEGREES: f64 = 30.0;
 
 /// The unit direction in which body `p`'s boundary leaves Γc at the end pair `end` (0 or
-/// m − 1): along its boundary edge at that node that is not a Γc edge (`None` without one).
+/// m − 1): along its boundary edge at its Γc node there that is not a Γc edge (`None` without
+/// one).
 fn continuation(p: &BodyProblem, end: usize) -> Option<[f64; 2]> {
+    // (its first or last Γc node: the pair's own node to node, under mortar body 2's extreme
+    // node there)
     let nodes = &p.contact_nodes;
+    let last = nodes.len().checked_sub(1)?;
     let (node, inner) = match end {
         0 => (nodes[0], nodes.get(1)),
-        _ => (nodes[end], nodes.get(end - 1)),
+        _ => (nodes[last], last.checked_sub(1).map(|i| &nodes[i])),
     };
     let mut count: HashMap<[usize; 2], u32> = HashMap::new();
     for t in &p.mesh.triangles {
@@ -181,7 +185,8 @@ pub fn zone_reaches_open_end(problems: [&BodyProblem; 2], it: &Iterate) -> Optio
         let (d1, d2) = (continuation(problems[0], end)?, continuation(problems[1], end)?);
         let open = d1[0] * d2[0] + d1[1] * d2[1] > side_by_side;
         (it.active[end] && open).then(|| {
-            let p = problems[0].mesh.points[problems[0].contact_nodes[end]];
+            let ps = problems[crate::problem::pair_side(problems)];
+            let p = ps.mesh.points[ps.contact_nodes[end]];
             format!(
                 "the contact zone reaches the end of the contact curves at ({:.6e}, {:.6e}), where the bodies go on side by side: contact may extend beyond it, where nothing keeps them apart (extend the contact curves, -nndd_contact)",
                 p[0], p[1]

@@ -157,7 +157,7 @@ impl ContactStep {
         if !body.has_condensed() {
             return Err(ContactError::NoSchur(body.alpha()));
         }
-        let u0 = body.neumann_solve(&vec![0.0; body.gc.len()], true)?;
+        let u0 = body.neumann_solve(&vec![0.0; body.pairs()], true)?;
         let v_star = body.normal_trace(&u0);
         Ok(ContactStep {
             u0,

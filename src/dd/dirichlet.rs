@@ -34,7 +34,7 @@ impl DirichletStep {
     /// the Dirichlet system (which must exist). Collective over the body's group.
     pub fn new(body: &Body, choice: DirichletChoice) -> Result<DirichletStep, BodyError> {
         if body.has_condensed() && choice != DirichletChoice::System {
-            let u0 = body.neumann_solve(&vec![0.0; body.gc.len()], true)?;
+            let u0 = body.neumann_solve(&vec![0.0; body.pairs()], true)?;
             let v_star = body.normal_trace(&u0);
             Ok(DirichletStep::Condensed { u0, v_star })
         } else {

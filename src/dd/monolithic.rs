@@ -72,7 +72,7 @@ pub fn solve(
     let mut delassus = [Vec::new(), Vec::new()];
     for (k, body) in bodies.iter().enumerate() {
         if let Some(b) = body {
-            let u0 = b.neumann_solve(&vec![0.0; b.gc.len()], true)?;
+            let u0 = b.neumann_solve(&vec![0.0; b.pairs()], true)?;
             v_star[k] = b.normal_trace(&u0);
             free[k] = u0;
             // D^α is on the body's first rank, which shares it below.

@@ -140,6 +140,33 @@ impl NnddSettings {
             .and_then(|b| soft_dirichlet_body(materials, b))
     }
 
+    /// The choices the mortar discretisation decides (`-nndd_contact_discretisation mortar`):
+    /// the Dirichlet step on the non-mortar body `side` (1 or 2), whose nodes carry Γc's
+    /// constraints (the other meets them at points of its curve, which a Dirichlet step cannot
+    /// prescribe), the Neumann step's bodies chosen for it as `auto` would. Returns the advice
+    /// of a much softer non-mortar body.
+    pub fn on_mortar(
+        &mut self,
+        materials: &[Material; 2],
+        side: usize,
+    ) -> Result<Option<String>, SettingsError> {
+        if self.requested.dirichlet_body.is_some_and(|b| b != side) {
+            return Err(SettingsError::named(
+                "-nndd_dirichlet_body",
+                format!("{} cannot be used with -nndd_contact_discretisation mortar here: body {side}'s contact curve, the coarser, carries the contact constraints at its nodes and the other body meets them at points of its curve, which a Dirichlet step cannot prescribe; use auto or {side}", 3 - side),
+            ));
+        }
+        self.dirichlet_body = side;
+        if self.requested.neumann_bodies.is_none() {
+            self.neumann_bodies = auto_neumann_bodies(self.relaxation, materials, side);
+        }
+        Ok(soft_dirichlet_body(materials, side).map(|_| {
+            let (d, c) = (&materials[side - 1], &materials[2 - side]);
+            let ratio = c.plane_strain_modulus() / d.plane_strain_modulus();
+            format!("-nndd_contact_discretisation mortar puts the Dirichlet step on body {side}, whose contact curve is the coarser, {ratio:.0} times softer than the other (E/(1 - nu^2)): the NNDD may need many iterations; mesh the stiffer body's contact curve coarser, or use node_to_node")
+        }))
+    }
+
     /// The body of the contact step.
     pub fn contact_body(&self) -> usize {
         3 - self.dirichlet_body

@@ -221,11 +221,12 @@ pub fn penetration(layout: &Layout, problems: [&BodyProblem; 2], it: &Iterate) -
             };
         }
     };
-    // Γc: the pairs.
-    let p1 = problems[0];
+    // Γc: the pairs (at the nodes of its pair side; under mortar, the weighted gaps).
+    let side = crate::problem::pair_side(problems);
+    let ps = problems[side];
     for k in 0..it.lambda.len() {
-        let gap = it.trace2[k] - (it.lambda[k] - p1.gap[k]);
-        consider(-gap, 1, p1.contact_nodes[k], Site::GcPair);
+        let gap = it.trace2[k] - (it.lambda[k] - ps.gap[k]);
+        consider(-gap, side + 1, ps.contact_nodes[k], Site::GcPair);
     }
     // Every other boundary node against the other body's boundary.
     let reach = 2.0 * scale * (1.0 + 1e-6);

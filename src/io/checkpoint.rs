@@ -18,7 +18,8 @@ use std::rc::Rc;
 use crate::dd::nndd::LoopState;
 use crate::fem::mesh::mix;
 use crate::io::output::{write_atomic, OutputError};
-use crate::problem::BodyProblem;
+use crate::problem::mortar::Coupling;
+use crate::problem::{BodyProblem, GcTrace};
 
 /// The format tag of the files this version writes and reads.
 pub const FORMAT: &str = "nndd-checkpoint-2";
@@ -97,6 +98,18 @@ pub struct BodyIdentity {
     pub contact: u64,
 }
 
+/// The fingerprint `h` mixed with a mortar coupling's pairs (gap, normal) and rows.
+fn mortar_identity(mut h: u64, c: &Coupling) -> u64 {
+    for ((g, n), row) in c.gap.iter().zip(&c.normals).zip(&c.rows) {
+        h = mix(mix(mix(h, g.to_bits()), n[0].to_bits()), n[1].to_bits());
+        h = mix(h, row.len() as u64);
+        for &(node, p) in row {
+            h = mix(mix(h, node as u64), p.to_bits());
+        }
+    }
+    h
+}
+
 impl BodyIdentity {
     fn of(b: &BodyProblem) -> BodyIdentity {
         let mut loads = mix(b.dirichlet.len() as u64, b.neumann.len() as u64);
@@ -110,12 +123,19 @@ impl BodyIdentity {
             }
         }
         let mut contact = mix(b.contact_nodes.len() as u64, 0);
-        for (k, &node) in b.contact_nodes.iter().enumerate() {
-            contact = mix(mix(contact, node as u64), b.gap[k].to_bits());
-            for c in b.contact_normals[k] {
-                contact = mix(contact, c.to_bits());
+        match &b.trace {
+            GcTrace::Nodes => {
+                for (k, &node) in b.contact_nodes.iter().enumerate() {
+                    contact = mix(mix(contact, node as u64), b.gap[k].to_bits());
+                    for c in b.contact_normals[k] {
+                        contact = mix(contact, c.to_bits());
+                    }
+                }
             }
+            // Body 2 under the mortar discretisation: where it meets each pair.
+            GcTrace::Mortar(c) => contact = mortar_identity(contact, c),
         }
+
         BodyIdentity {
             nodes: b.mesh.points.len(),
             elements: b.mesh.triangles.len(),
@@ -142,7 +162,7 @@ impl Identity {
             theta,
             dirichlet_body,
             neumann_bodies: Some(neumann_bodies.to_string()),
-            pairs: bodies[0].contact_nodes.len(),
+            pairs: bodies[0].pairs(),
         }
     }
 

@@ -25,7 +25,9 @@ pub fn results(
     attributes: Vec<(String, f64)>,
     text: Vec<(String, String)>,
 ) -> Results {
-    let iface = Interface::new(problems[0].contact_lengths.clone());
+    // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
+    let side = crate::problem::pair_side(problems);
+    let iface = Interface::new(problems[side].contact_lengths.clone());
     let m = iface.len();
     let [r1, r2] = body_rows(problems);
     let mut points = problems[0].mesh.points.clone();
@@ -59,10 +61,10 @@ pub fn results(
         Grid {
             name: "contact".into(),
             // Γc at body 1's side (its nodes, in pair order).
-            points: problems[0]
+            points: problems[side]
                 .contact_nodes
                 .iter()
-                .map(|&n| problems[0].mesh.points[n])
+                .map(|&n| problems[side].mesh.points[n])
                 .collect(),
             topology: Topology::Segment(
                 (0..m.saturating_sub(1) as u32)
@@ -137,10 +139,11 @@ pub fn results(
             kind: Kind::Scalar,
             values,
         };
-        // Body 1's displacement at its Γc nodes (known on body 1's ranks, rank 0 among them).
-        let u1 = &it.u[0];
-        let displacement = if have[0] && !u1.is_empty() {
-            let nodes = &problems[0].contact_nodes;
+        // The pair side's displacement at its Γc nodes (known on its body's ranks, the one
+        // writing Γc among them: [`shares`]).
+        let u1 = &it.u[side];
+        let displacement = if have[side] && !u1.is_empty() {
+            let nodes = &problems[side].contact_nodes;
             nodes
                 .iter()
                 .flat_map(|&n| [u1[2 * n], u1[2 * n + 1]])
@@ -155,7 +158,7 @@ pub fn results(
             scalar(
                 "gap",
                 (0..m)
-                    .map(|i| problems[0].gap[i] + u2n[i] - it.lambda[i])
+                    .map(|i| problems[side].gap[i] + u2n[i] - it.lambda[i])
                     .collect(),
             ),
             scalar(
@@ -167,7 +170,7 @@ pub fn results(
                 name: "normal".into(),
                 center: Center::Node,
                 kind: Kind::Vector,
-                values: problems[0].contact_normals.concat(),
+                values: problems[side].contact_normals.concat(),
             },
             Field {
                 name: "displacement".into(),
@@ -280,10 +283,13 @@ pub fn shares(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<Share> {
     } else {
         Share::default()
     };
-    let contact = match layout.is_root() {
+    // Γc by the first rank of its pair side's body (which has that body's displacement).
+    let side = crate::problem::pair_side(problems);
+    let writes = layout.group_ranks(side + 1).start == layout.rank as usize;
+    let contact = match writes {
         true => Share {
-            points: 0..problems[0].contact_nodes.len(),
-            cells: 0..problems[0].contact_nodes.len().saturating_sub(1),
+            points: 0..problems[side].contact_nodes.len(),
+            cells: 0..problems[side].contact_nodes.len().saturating_sub(1),
         },
         false => Share::default(),
     };

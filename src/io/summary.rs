@@ -226,8 +226,13 @@ pub struct ContactCurves {
     pub names: [String; 2],
     /// The nodes of each whole curve (the candidates), after matching.
     pub nodes: [usize; 2],
-    /// Γc's node pairs: where the curves overlap.
+    /// Γc's node pairs: where the curves overlap (under mortar, the non-mortar curve's nodes
+    /// the other covers).
     pub pairs: usize,
+    /// `-nndd_contact_discretisation`: node_to_node or mortar.
+    pub discretisation: &'static str,
+    /// Under mortar, the body whose nodes carry the pairs (the coarser curve); null otherwise.
+    pub non_mortar: Option<usize>,
     /// Nodes inserted into each curve, and nodes moved onto a partner's projection, to make
     /// curves meshed independently match (0 on matching meshes).
     pub inserted: [usize; 2],

@@ -93,11 +93,12 @@ impl Layout {
         } else {
             ([0, n1 as i32], [n1, size as usize - n1])
         };
-        // At least MIN_NODES nodes per rank, so that METIS gives every rank a part.
+        // At least MIN_NODES nodes per rank, so that METIS gives every rank a part (a body
+        // on one rank is not partitioned).
         const MIN_NODES: usize = 16;
         for alpha in [1, 2] {
             let (nodes, ranks) = (dofs[alpha - 1] / 2, group_sizes[alpha - 1]);
-            if nodes < MIN_NODES * ranks {
+            if ranks > 1 && nodes < MIN_NODES * ranks {
                 return Err(LayoutError::TooManyRanks {
                     alpha,
                     nodes,

@@ -73,6 +73,7 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
         contact_candidates: contact_nodes.clone(),
         candidate_normals: vec![if alpha == 1 { UP } else { [0.0, -1.0] }; contact_nodes.len()],
         contact_nodes,
+        trace: super::GcTrace::Nodes,
         gap,
         contact_normals,
         contact_lengths,

@@ -25,8 +25,9 @@ use std::collections::HashMap;
 
 use crate::fem::gmsh::GmshMesh;
 
+use super::curves::{chain, node_normals};
 pub use super::matched::{point_key, Matched};
-use super::meshed::{chain, node_normals, BODY_NAMES};
+use super::meshed::BODY_NAMES;
 use super::polyline::{cross, lerp, project, ray, unit, Foot};
 
 pub use super::polyline::COINCIDENT;

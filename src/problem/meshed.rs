@@ -14,7 +14,9 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::rc::Rc;
 
-use super::{BodyProblem, NeumannEdge, Support};
+pub use super::curves::{chain, MeshedError};
+use super::curves::{facing, node_normals, opt_err, oriented_side, unit_or_up, Pairing};
+use super::{BodyProblem, ContactDiscretisation, GcTrace, NeumannEdge, Support};
 use crate::fem::checks::{self, Overlap};
 use crate::fem::gmsh::{GmshBody, GmshError, GmshMesh};
 use crate::fem::Material;
@@ -40,6 +42,8 @@ pub struct MeshSpec {
     pub conditions: Vec<CurveCondition>,
     /// Γc: body 1's curve and body 2's curve.
     pub contact: [String; 2],
+    /// How they meet (`-nndd_contact_discretisation`).
+    pub discretisation: ContactDiscretisation,
     /// `Some(r)`: the mesh is the user's refined r times (the reference solution): its Γc
     /// keeps the user's pairing, each coarse pair's children paired in order, and the contact
     /// direction at a new node is the user's mesh's normal field there (docs/method.md §5).
@@ -47,62 +51,6 @@ pub struct MeshSpec {
     /// What [`super::conform`] did to make the contact curves match (nothing on matching
     /// meshes).
     pub matched: Rc<super::matched::Matched>,
-}
-
-/// What is wrong with a meshed problem: one line, naming the option.
-#[derive(Debug, thiserror::Error)]
-pub enum MeshedError {
-    #[error("-nndd_mesh: {0}")]
-    Mesh(#[from] GmshError),
-    #[error("{option}: {message}")]
-    Option { option: String, message: String },
-}
-
-fn opt_err(option: &str, message: String) -> MeshedError {
-    MeshedError::Option {
-        option: option.to_string(),
-        message,
-    }
-}
-
-/// The nodes of a curve as one chain from its first point to its last (the orientation of
-/// its Gmsh line elements).
-pub fn chain(edges: &[[usize; 2]], curve: &str, option: &str) -> Result<Vec<usize>, MeshedError> {
-    let mut next: BTreeMap<usize, usize> = BTreeMap::new();
-    let mut has_prev: BTreeSet<usize> = BTreeSet::new();
-    for &[a, b] in edges {
-        if next.insert(a, b).is_some() || !has_prev.insert(b) {
-            return Err(opt_err(
-                option,
-                format!("the curve '{curve}' branches or is traversed twice (use one open curve)"),
-            ));
-        }
-    }
-    let starts: Vec<usize> = next
-        .keys()
-        .copied()
-        .filter(|a| !has_prev.contains(a))
-        .collect();
-    if starts.len() != 1 {
-        return Err(opt_err(
-            option,
-            format!(
-                "the curve '{curve}' is closed or in several pieces ({} starts); use one open curve",
-                starts.len()
-            ),
-        ));
-    }
-    let mut nodes = vec![starts[0]];
-    while let Some(&b) = next.get(nodes.last().expect("non-empty")) {
-        nodes.push(b);
-    }
-    if nodes.len() != edges.len() + 1 {
-        return Err(opt_err(
-            option,
-            format!("the curve '{curve}' is not one chain"),
-        ));
-    }
-    Ok(nodes)
 }
 
 /// A degenerate triangle at a node that the matching of the contact curves inserted or moved
@@ -157,14 +105,31 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
             ));
         }
     }
-    let pairing = pair_interface(spec, &bodies)?;
+    // (under mortar, the body whose trace is the coupling's: the mortar side)
+    let (pairing, coupling) = match spec.discretisation {
+        ContactDiscretisation::NodeToNode => (pair_interface(spec, &bodies)?, None),
+        ContactDiscretisation::Mortar => {
+            let (p, c, side) = super::coupled::mortar_interface(&spec.contact, &bodies)?;
+            (p, Some((Rc::new(c), 1 - side)))
+        }
+    };
     let body = |k: usize| -> Result<BodyProblem, MeshedError> {
         let alpha = k + 1;
         let (dirichlet, neumann) = conditions(spec, &bodies[k], alpha)?;
-        let contact = (&pairing.sides[k][..], &pairing.normals[..]);
+        // (under mortar, body 2 meets each pair mostly at its row's heaviest node)
+        let contact = (&pairing.nearest[k][..], &pairing.normals[..]);
         let support = check_pieces(&spec.gmsh, &bodies[k], &dirichlet, contact, alpha)?;
+        let trace = match &coupling {
+            Some((c, mortar)) if *mortar == k => GcTrace::Mortar(c.clone()),
+            _ => GcTrace::Nodes,
+        };
         // A rotated frame's dofs are not x and y: no prescribed component there.
-        for (&node, n) in pairing.sides[k].iter().zip(&pairing.normals) {
+        let framed = if trace == GcTrace::Nodes {
+            &pairing.sides[k][..]
+        } else {
+            &[]
+        };
+        for (&node, n) in framed.iter().zip(&pairing.normals) {
             if *n != super::UP && dirichlet.iter().any(|&(d, _)| d / 2 == node) {
                 let p = bodies[k].mesh.points[node];
                 // The option that prescribes it.
@@ -194,6 +159,7 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
             dirichlet,
             neumann,
             contact_nodes: pairing.sides[k].clone(),
+            trace,
             contact_candidates: pairing.candidates[k].clone(),
             candidate_normals: pairing.candidate_normals[k].clone(),
             gap: pairing.gap.clone(),
@@ -588,110 +554,6 @@ fn rigid_motions_fixed(rows: impl Iterator<Item = ([f64; 2], [f64; 2])> + Clone)
     !(det.is_nan() || det <= 1e-10 * trace.powi(3))
 }
 
-/// Γc as paired by [`pair_interface`]: both sides' nodes in pair order, and per pair g₀, the
-/// contact direction n (body 1's normal) and body 1's segment lengths.
-struct Pairing {
-    sides: [Vec<usize>; 2],
-    /// The whole contact curves (body 1's oriented as its side), with each body's outward
-    /// normal at their nodes.
-    candidates: [Vec<usize>; 2],
-    candidate_normals: [Vec<[f64; 2]>; 2],
-    gap: Vec<f64>,
-    normals: Vec<[f64; 2]>,
-    lengths: Vec<f64>,
-}
-
-/// Body 1's contact side in the orientation with body 1 on its right (so by increasing x on
-/// a horizontal side with body 1 below), with the outward unit normal of each of its
-/// segments.
-fn oriented_side(
-    body: &GmshBody,
-    mut nodes: Vec<usize>,
-    curve: &str,
-) -> Result<(Vec<usize>, Vec<[f64; 2]>), MeshedError> {
-    const OPT: &str = "-nndd_contact";
-    let pts = &body.mesh.points;
-    // The third vertex of the triangles on each segment.
-    let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = nodes
-        .windows(2)
-        .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
-        .collect();
-    for t in &body.mesh.triangles {
-        for i in 0..3 {
-            let (a, b, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
-            if let Some(list) = opposite.get_mut(&(a.min(b), a.max(b))) {
-                list.push(c);
-            }
-        }
-    }
-    // Left normal of a→b; body 1 must be on the other side of every segment.
-    let left = |a: usize, b: usize| {
-        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
-        let h = t0.hypot(t1);
-        [-t1 / h, t0 / h]
-    };
-    let inside = |a: usize, b: usize| -> Result<f64, MeshedError> {
-        match opposite[&(a.min(b), a.max(b))][..] {
-            [c] => {
-                let n = left(a, b);
-                Ok(n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]))
-            }
-            _ => Err(opt_err(
-                OPT,
-                format!(
-                    "body 1's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
-                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
-                ),
-            )),
-        }
-    };
-    if inside(nodes[0], nodes[1])? > 0.0 {
-        nodes.reverse();
-    }
-    let mut normals = Vec::with_capacity(nodes.len() - 1);
-    for w in nodes.windows(2) {
-        if inside(w[0], w[1])? > 0.0 {
-            return Err(opt_err(
-                OPT,
-                format!("body 1 lies on both sides of its contact curve '{curve}'"),
-            ));
-        }
-        normals.push(left(w[0], w[1]));
-    }
-    Ok((nodes, normals))
-}
-
-/// The contact direction at each node of body 1's side: the mean of its segments' outward
-/// normals, normalised; (0, 1) exactly where that is (0, 1) to 1e−12 (no rotated frame).
-pub(super) fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
-    let m = segments.len() + 1;
-    (0..m)
-        .map(|k| {
-            let mut n = [0.0; 2];
-            for s in [k.checked_sub(1), (k < m - 1).then_some(k)]
-                .into_iter()
-                .flatten()
-            {
-                n[0] += segments[s][0];
-                n[1] += segments[s][1];
-            }
-            unit_or_up(n)
-        })
-        .collect()
-}
-
-/// The unit vector of n, exactly (0, 1) where it is that to 1e−12 (so that a straight
-/// horizontal side keeps unrotated frames).
-fn unit_or_up(n: [f64; 2]) -> [f64; 2] {
-    let h = n[0].hypot(n[1]);
-    let n = [n[0] / h, n[1] / h];
-    if n[0].abs() <= 1e-12 && n[1] > 0.0 {
-        super::UP
-    } else {
-        n
-    }
-}
-
 /// The contact directions along body 1's curve `chain` of a mesh refined r times
 /// (`spec.nested`): at the user's nodes (every r-th, from the first) the user's mesh's, i.e.
 /// `fine`'s there (the mean of the two coarse segments' normals, or an inserted node's own);
@@ -883,7 +745,15 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
     let side1 = curve1[first..=last].to_vec();
     let lengths = super::segment_lengths(&side1);
     // (facing first: curves whose normals point the same way are named as such)
-    let normals2 = facing(spec, &bodies[1], &sides[1], &side1, &s2, &normals, p2)?;
+    let normals2 = facing(
+        &spec.contact,
+        &bodies[1],
+        &sides[1],
+        &side1,
+        &s2,
+        &normals,
+        p2,
+    )?;
     let mut gap = Vec::with_capacity(s1.len());
     for (i, &b) in s2.iter().enumerate() {
         let g = offset(first + i, b).1;
@@ -902,6 +772,7 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
         gap.push(g.max(0.0));
     }
     Ok(Pairing {
+        nearest: [s1.clone(), s2.clone()],
         sides: [s1, s2],
         candidates: [chain1, sides[1].clone()],
         candidate_normals: [all_normals.clone(), normals2],
@@ -909,76 +780,6 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
         normals,
         lengths,
     })
-}
-
-/// The contact curves must face each other (returns body 2's outward normals at its curve's
-/// nodes): at every pair, body 2's outward normal at its
-/// node (the mean of its curve's segments' normals there) must not point the way body 1's
-/// does (n¹ · n² ≤ 0); else body 2 is reached from its inside and the contact condition holds
-/// nothing back (a curve on the far side of body 2, for instance).
-fn facing(
-    spec: &MeshSpec,
-    body2: &GmshBody,
-    chain2: &[usize],
-    side1: &[[f64; 2]],
-    s2: &[usize],
-    normals: &[[f64; 2]],
-    p2: &[[f64; 2]],
-) -> Result<Vec<[f64; 2]>, MeshedError> {
-    const OPT: &str = "-nndd_contact";
-    let curve = &spec.contact[1];
-    let pts = &body2.mesh.points;
-    let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = chain2
-        .windows(2)
-        .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
-        .collect();
-    for t in &body2.mesh.triangles {
-        for i in 0..3 {
-            let (a, b, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
-            if let Some(list) = opposite.get_mut(&(a.min(b), a.max(b))) {
-                list.push(c);
-            }
-        }
-    }
-    // The outward unit normal of each segment of body 2's curve.
-    let mut segments = Vec::with_capacity(chain2.len() - 1);
-    for w in chain2.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let [c] = opposite[&(a.min(b), a.max(b))][..] else {
-            return Err(opt_err(
-                OPT,
-                format!(
-                    "body 2's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
-                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
-                ),
-            ));
-        };
-        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
-        let h = t0.hypot(t1);
-        let n = [-t1 / h, t0 / h];
-        let inward = n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]) > 0.0;
-        segments.push(if inward { [-n[0], -n[1]] } else { n });
-    }
-    let node_normal: BTreeMap<usize, [f64; 2]> = chain2
-        .iter()
-        .copied()
-        .zip(node_normals(&segments))
-        .collect();
-    for (k, &b) in s2.iter().enumerate() {
-        let (n1, n2) = (normals[k], node_normal[&b]);
-        let dot = n1[0] * n2[0] + n1[1] * n2[1];
-        if dot > 0.0 {
-            return Err(opt_err(
-                OPT,
-                format!(
-                    "the curves '{}' and '{curve}' do not face each other: at body 1's node ({:.6e}, {:.6e}) and its partner ({:.6e}, {:.6e}) the outward normals ({:.4}, {:.4}) and ({:.4}, {:.4}) point the same way (n1·n2 = {dot:.3}); name the curve of body 2 that faces body 1's",
-                    spec.contact[0],
-                    side1[k][0], side1[k][1], p2[b][0], p2[b][1], n1[0], n1[1], n2[0], n2[1]
-                ),
-            ));
-        }
-    }
-    Ok(chain2.iter().map(|b| node_normal[b]).collect())
 }
 
 #[cfg(test)]
@@ -998,6 +799,7 @@ mod tests {
             gmsh: Rc::new(GmshMesh::default()),
             conditions: Vec::new(),
             contact: ["top1".into(), "bottom2".into()],
+            discretisation: ContactDiscretisation::NodeToNode,
             nested: None,
             matched: Rc::new(matched),
         };

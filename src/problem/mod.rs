@@ -3,7 +3,8 @@
 //! [`build`] from the plain-data [`ProblemSettings`]. [`benchmarks`]: the built-in problems
 //! `paper` and `uniform` (`docs/benchmarks.md`); [`meshed`]: a problem the user meshed in
 //! Gmsh, with named boundary conditions and an initial gap; [`conform`]: its contact curves,
-//! meshed on their own, made to match ([`matched`]: what it did); [`settings`]: the problem's
+//! meshed on their own, made to match ([`matched`]: what it did), or coupled as meshed by the
+//! [`mortar`] operators; [`settings`]: the problem's
 //! options, read into
 //! [`ProblemSettings`].
 //!
@@ -11,6 +12,8 @@
 
 pub mod benchmarks;
 pub mod conform;
+mod coupled;
+mod curves;
 pub mod matched;
 pub mod meshed;
 pub mod mortar;
@@ -158,8 +161,12 @@ pub struct BodyProblem {
     pub neumann: Vec<NeumannEdge>,
     /// Γc nodes of this body in pair order: along body 1's side with body 1 on the right
     /// (by increasing x on a horizontal side with body 1 below); pair k of Γc is
-    /// `contact_nodes[k]` of both bodies.
+    /// `contact_nodes[k]` of both bodies. The mortar body under the mortar discretisation
+    /// ([`GcTrace::Mortar`]): the nodes of its curve the pairs' rows use, along its curve in
+    /// the pairs' direction (not one per pair).
     pub contact_nodes: Vec<usize>,
+    /// How the body meets the pairs: at its own nodes, or at points of its curve.
+    pub trace: GcTrace,
     /// Initial gap g₀ ≥ 0 of each Γc pair (the same on both bodies): non-penetration reads
     /// u²_n − u¹_n ≥ −g₀.
     pub gap: Vec<f64>,
@@ -176,6 +183,46 @@ pub struct BodyProblem {
     pub candidate_normals: Vec<[f64; 2]>,
     /// What holds the body against rigid motion.
     pub support: Support,
+}
+
+/// How a body meets Γc's pairs (`-nndd_contact_discretisation`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum GcTrace {
+    /// Pair k is its node `contact_nodes[k]`: u_n = n_k · u there (node to node).
+    Nodes,
+    /// The mortar body under the mortar discretisation: pair k (the other body's node) meets
+    /// the point Σ_j P_kj x_j of this body's curve, u_n = n_k · Σ_j P_kj u_j
+    /// ([`mortar::Coupling`]).
+    Mortar(Rc<mortar::Coupling>),
+}
+
+/// The body whose nodes are Γc's pairs (0: body 1, 1: body 2): body 1 node to node, under the
+/// mortar discretisation the non-mortar body (the other meets the pairs at points of its
+/// curve). Its `contact_nodes`, `contact_lengths` place the pairs.
+pub fn pair_side(problems: [&BodyProblem; 2]) -> usize {
+    match problems[0].trace {
+        GcTrace::Mortar(_) => 1,
+        GcTrace::Nodes => 0,
+    }
+}
+
+/// The contact discretisation of two curves (`-nndd_contact_discretisation`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ContactDiscretisation {
+    /// Node to node: curves meshed on their own are first made to match ([`conform`]).
+    NodeToNode,
+    /// Segment to segment with dual multipliers on the coarser curve ([`mortar`]), the
+    /// curves as meshed.
+    Mortar,
+}
+
+impl ContactDiscretisation {
+    pub fn name(self) -> &'static str {
+        match self {
+            ContactDiscretisation::NodeToNode => "node_to_node",
+            ContactDiscretisation::Mortar => "mortar",
+        }
+    }
 }
 
 /// What holds a body against rigid motion (translations and rotation).
@@ -219,14 +266,61 @@ impl BodyProblem {
         lambda.iter().zip(&self.gap).map(|(l, g)| l - g).collect()
     }
 
-    /// The Γc normal dofs in pair order: the second dof of each contact node, in its nodal
-    /// frame ([`Frames`]: u_y where n = (0, 1), else u · n).
-    pub fn contact_normal_dofs(&self) -> Vec<usize> {
-        self.contact_nodes.iter().map(|&n| 2 * n + 1).collect()
+    /// The number of Γc pairs.
+    pub fn pairs(&self) -> usize {
+        self.gap.len()
     }
 
-    /// The rotated nodal frames of the Γc nodes whose normal is not (0, 1).
+    /// The dofs the body's Γc trace reads: the normal dof of each pair's node in its nodal
+    /// frame ([`Frames`]: u_y where n = (0, 1), else u · n); under the mortar discretisation
+    /// both dofs (x, y) of each of the mortar body's `contact_nodes`.
+    pub fn interface_dofs(&self) -> Vec<usize> {
+        match self.trace {
+            GcTrace::Nodes => self.contact_nodes.iter().map(|&n| 2 * n + 1).collect(),
+            GcTrace::Mortar(_) => self
+                .contact_nodes
+                .iter()
+                .flat_map(|&n| [2 * n, 2 * n + 1])
+                .collect(),
+        }
+    }
+
+    /// The trace as rows over [`Self::interface_dofs`]: u_n of pair k = Σ c·x[i] over row k's
+    /// (i, c) (one (k, 1) per pair node to node).
+    pub fn trace_rows(&self) -> Vec<Vec<(usize, f64)>> {
+        match &self.trace {
+            GcTrace::Nodes => (0..self.contact_nodes.len())
+                .map(|k| vec![(k, 1.0)])
+                .collect(),
+            GcTrace::Mortar(c) => {
+                let at: std::collections::HashMap<usize, usize> = self
+                    .contact_nodes
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &n)| (n, i))
+                    .collect();
+                c.rows
+                    .iter()
+                    .zip(&c.normals)
+                    .map(|(row, n)| {
+                        row.iter()
+                            .flat_map(|&(node, p)| {
+                                let i = at[&node];
+                                [(2 * i, p * n[0]), (2 * i + 1, p * n[1])]
+                            })
+                            .collect()
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// The rotated nodal frames of the Γc nodes whose normal is not (0, 1) (none under the
+    /// mortar discretisation: its trace reads both components).
     pub fn frames(&self) -> Frames {
+        if let GcTrace::Mortar(_) = self.trace {
+            return Frames::default();
+        }
         Frames {
             normal: self
                 .contact_nodes
@@ -240,6 +334,9 @@ impl BodyProblem {
 
     /// Normal Γc displacements u_n = n_k · u (global components) in pair order.
     pub fn normal_trace(&self, u: &[f64]) -> Vec<f64> {
+        if let GcTrace::Mortar(c) = &self.trace {
+            return c.mortar_trace(u);
+        }
         self.contact_nodes
             .iter()
             .zip(&self.contact_normals)
@@ -253,8 +350,12 @@ impl BodyProblem {
             .collect()
     }
 
-    /// Set the normal component of pair k's node to `value`, keeping its tangential one.
+    /// Set the normal component of pair k's node to `value`, keeping its tangential one
+    /// (node to node; a mortar trace is a mean over nodes, left as solved).
     pub fn set_normal_trace(&self, u: &mut [f64], k: usize, value: f64) {
+        if let GcTrace::Mortar(_) = self.trace {
+            return;
+        }
         let (node, n) = (self.contact_nodes[k], self.contact_normals[k]);
         if n == UP {
             u[2 * node + 1] = value;

@@ -5,7 +5,7 @@ use std::collections::BTreeSet;
 use std::rc::Rc;
 
 use super::meshed::{CurveCondition, MeshSpec, BODY_NAMES};
-use super::{ProblemKind, ProblemSettings};
+use super::{ContactDiscretisation, ProblemKind, ProblemSettings};
 use crate::fem::gmsh;
 use crate::fem::Material;
 use crate::petsc::readers::{Bounds, SettingsError};
@@ -43,8 +43,16 @@ impl ProblemSettings {
         )?;
         let grids = read_grids(o, n)?;
         let materials = read_materials(o, warnings)?;
+        let discretisation = o.choice(
+            "-nndd_contact_discretisation",
+            "With -nndd_mesh: how the contact curves meet: node_to_node (curves meshed on their own are first made to match, nodes inserted into each), mortar (segment to segment with dual multipliers, the curves as meshed: the coarser curve's nodes carry the constraints and its body takes the Dirichlet step; no estimates yet)",
+            &[
+                ("node_to_node", ContactDiscretisation::NodeToNode),
+                ("mortar", ContactDiscretisation::Mortar),
+            ],
+        )?;
         let mesh = match kind {
-            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact)?),
+            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact, discretisation)?),
             _ => None,
         };
         if let Some(w) = mesh.as_ref().and_then(|m| units_warning(m, &materials)) {
@@ -174,7 +182,12 @@ fn read_materials(
 
 /// The meshed problem of `-nndd_mesh`: the file, the contact curves, and for every physical
 /// curve of the mesh its `-nndd_bc_NAME_{ux,uy,traction,traction_end}` options.
-fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec, SettingsError> {
+fn mesh_spec(
+    o: &mut OptionsBlock,
+    file: &str,
+    contact: &str,
+    discretisation: ContactDiscretisation,
+) -> Result<MeshSpec, SettingsError> {
     let named = SettingsError::named;
     let gmsh = read_shared(file).map_err(|e| named("-nndd_mesh", e))?;
     // The bodies first: without them nothing else the options name can be found.
@@ -301,11 +314,15 @@ fn mesh_spec(o: &mut OptionsBlock, file: &str, contact: &str) -> Result<MeshSpec
         }
     }
     let contact = [pair[0].to_string(), pair[1].to_string()];
-    let (gmsh, matched) = super::conform::conform(&gmsh, &contact);
+    let (gmsh, matched) = match discretisation {
+        ContactDiscretisation::NodeToNode => super::conform::conform(&gmsh, &contact),
+        ContactDiscretisation::Mortar => (gmsh, Default::default()),
+    };
     Ok(MeshSpec {
         gmsh: Rc::new(gmsh),
         conditions,
         contact,
+        discretisation,
         nested: None,
         matched: Rc::new(matched),
     })
@@ -337,6 +354,12 @@ pub fn option_applies(kind: ProblemKind, name: &str) -> Result<(), SettingsError
         return Err(SettingsError::named(
             name,
             "sets the built-in problems' mesh or load and does not apply to a Gmsh problem (-nndd_mesh): its mesh sizes are the .geo file's, its conditions -nndd_bc_NAME_ux, _uy, _traction",
+        ));
+    }
+    if !mesh && name == "-nndd_contact_discretisation" {
+        return Err(SettingsError::named(
+            name,
+            "sets how the contact curves of a Gmsh problem (-nndd_mesh) meet; the built-in problems' meshes match node to node",
         ));
     }
     if !mesh && name == "-nndd_contact" {

@@ -39,6 +39,29 @@ pub struct SymMatrix {
 }
 
 impl SymMatrix {
+    /// R A Rᵀ for the sparse rows R (row k: its (column, value) entries), A this matrix: the
+    /// operator A seen through the linear map R (a mortar trace's Delassus operator).
+    pub fn congruence(&self, rows: &[Vec<(usize, f64)>]) -> SymMatrix {
+        // A Rᵀ, column k: Σ_i r_ki A e_i.
+        let art: Vec<Vec<f64>> = rows
+            .iter()
+            .map(|row| {
+                (0..self.n)
+                    .map(|r| row.iter().map(|&(i, w)| w * self.get(r, i)).sum())
+                    .collect()
+            })
+            .collect();
+        let mut d = SymMatrix::new(rows.len());
+        for (k, row) in rows.iter().enumerate() {
+            for (l, col) in art.iter().enumerate().take(k + 1) {
+                let v: f64 = row.iter().map(|&(i, w)| w * col[i]).sum();
+                d.set(k, l, v);
+                d.set(l, k, v);
+            }
+        }
+        d
+    }
+
     /// The `n × n` zero matrix.
     pub fn new(n: usize) -> Self {
         SymMatrix {
@@ -367,5 +390,28 @@ mod tests {
         let mut y = [0.0; 2];
         a.matvec(&[1.0, -1.0], &mut y);
         assert_eq!(y, [-2.0, 0.0]);
+    }
+
+    #[test]
+    fn the_congruence_is_r_a_r_transposed() {
+        let a = SymMatrix::from_rows(3, vec![4.0, 1.0, 0.5, 1.0, 3.0, -0.2, 0.5, -0.2, 2.0]);
+        let rows = vec![
+            vec![(0, 1.0), (2, -2.0)],
+            vec![(1, 0.5)],
+            vec![(0, 0.3), (1, 0.7)],
+        ];
+        let r = |k: usize, i: usize| rows[k].iter().find(|e| e.0 == i).map_or(0.0, |e| e.1);
+        let d = a.congruence(&rows);
+        for k in 0..3 {
+            for l in 0..3 {
+                let mut want = 0.0;
+                for i in 0..3 {
+                    for j in 0..3 {
+                        want += r(k, i) * a.get(i, j) * r(l, j);
+                    }
+                }
+                assert!((d.get(k, l) - want).abs() < 1e-14, "({k}, {l})");
+            }
+        }
     }
 }

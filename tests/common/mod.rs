@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};
 use std::time::{Duration, Instant};
 
+pub mod patch;
+
 #[path = "../../jobs/hertz_fit.rs"]
 pub mod hertz_fit;
 

@@ -1,0 +1,150 @@
+//! Γc of a Gmsh problem under the mortar discretisation (`-nndd_contact_discretisation
+//! mortar`, docs/method.md §6): the two contact curves as meshed, no node inserted into
+//! either. The coarser curve is the non-mortar side: its nodes that the other curve covers are
+//! Γc's pairs, with their contact directions (the nodal normals of §5) and weighted gaps; the
+//! other body meets each at a point of its curve ([`Coupling`]).
+
+use std::collections::BTreeSet;
+
+use super::curves::{chain, facing, node_normals, opt_err, oriented_side, MeshedError, Pairing};
+use super::mortar::{Coupling, CurveNodes, Ends};
+use crate::fem::gmsh::GmshBody;
+
+const OPT: &str = "-nndd_contact";
+
+/// The non-mortar body (0 or 1), Γc's pairs at its covered nodes (the other's side: the nodes
+/// the pairs' rows use, along its curve in the pairs' direction) and the coupling, with the
+/// pairs' contact directions n pointing from body 1 to body 2 (u²_n − u¹_n ≥ −g).
+///
+/// The non-mortar side is the coarser curve (the larger mean segment): the other body's trace
+/// on its nodes must follow them one by one (a row of full rank, so that the contact step on
+/// that body has one multiplier per pair), which a curve with fewer nodes cannot.
+pub(super) fn mortar_interface(
+    contact: &[String; 2],
+    bodies: &[GmshBody],
+) -> Result<(Pairing, Coupling, usize), MeshedError> {
+    let curve = |k: usize| -> Result<Vec<usize>, MeshedError> {
+        let name = &contact[k];
+        let edges = bodies[k].curves.get(name).ok_or_else(|| {
+            let known: Vec<String> = bodies[k].curves.keys().cloned().collect();
+            opt_err(
+                OPT,
+                format!(
+                    "no physical curve '{name}' on body{} (its curves: {})",
+                    k + 1,
+                    known.join(", ")
+                ),
+            )
+        })?;
+        chain(edges, name, OPT)
+    };
+    let chains = [curve(0)?, curve(1)?];
+    let mean = |k: usize| {
+        let pts: Vec<[f64; 2]> = chains[k]
+            .iter()
+            .map(|&n| bodies[k].mesh.points[n])
+            .collect();
+        super::segment_lengths(&pts).iter().sum::<f64>() / (pts.len() - 1) as f64
+    };
+    let side = usize::from(mean(1) > mean(0));
+    let other = 1 - side;
+    // The non-mortar curve with the side body on its right, and its outward nodal normals.
+    let (chain_s, segments) = oriented_side(&bodies[side], chains[side].clone(), &contact[side])?;
+    let outward = node_normals(&segments);
+    let (ps, po) = (&bodies[side].mesh.points, &bodies[other].mesh.points);
+    let points_s: Vec<[f64; 2]> = chain_s.iter().map(|&n| ps[n]).collect();
+    let points_o: Vec<[f64; 2]> = chains[other].iter().map(|&n| po[n]).collect();
+    let mut coupling = Coupling::new(
+        &CurveNodes {
+            ids: &chain_s,
+            points: &points_s,
+            normals: &outward,
+            ends: Ends::Open,
+        },
+        &CurveNodes {
+            ids: &chains[other],
+            points: &points_o,
+            normals: &[],
+            ends: Ends::Open,
+        },
+    );
+    let [c1, c2] = contact;
+    let Some(first) = coupling
+        .nodes
+        .first()
+        .and_then(|n| chain_s.iter().position(|x| x == n))
+    else {
+        return Err(opt_err(
+            OPT,
+            format!("the curves '{c1}' and '{c2}' cannot face each other: no normal line of either meets the other"),
+        ));
+    };
+    let m = coupling.len();
+    if chain_s.get(first..first + m) != Some(&coupling.nodes[..]) {
+        return Err(opt_err(
+            OPT,
+            format!("the curves '{c1}' and '{c2}' cover each other in several pieces along their normal lines; name curves that face each other along one stretch"),
+        ));
+    }
+    // Each pair's heaviest node of the other body, and the nodes the rows use along its curve
+    // in the pairs' direction (so that the first and last are at Γc's ends).
+    let nearest: Vec<usize> = coupling
+        .rows
+        .iter()
+        .map(|row| {
+            row.iter()
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                .map_or(chains[other][0], |&(k, _)| k)
+        })
+        .collect();
+    let at = |n: usize| {
+        chains[other]
+            .iter()
+            .position(|&x| x == n)
+            .expect("on the curve")
+    };
+    let used: BTreeSet<usize> = coupling
+        .rows
+        .iter()
+        .flat_map(|row| row.iter().map(|&(k, _)| at(k)))
+        .collect();
+    let mut side_o: Vec<usize> = used.into_iter().map(|i| chains[other][i]).collect();
+    if at(nearest[0]) > at(nearest[m - 1]) {
+        side_o.reverse();
+    }
+    let side_points = points_s[first..first + m].to_vec();
+    // (the other body's outward normals must oppose the side's)
+    let outward_o = facing(
+        contact,
+        &bodies[other],
+        &chains[other],
+        &side_points,
+        &nearest,
+        &coupling.normals,
+        po,
+    )?;
+    if side == 1 {
+        // The pairs' direction is body 1's outward one.
+        for n in &mut coupling.normals {
+            *n = [-n[0], -n[1]];
+        }
+    }
+    let mut sides = [Vec::new(), Vec::new()];
+    let mut near = [Vec::new(), Vec::new()];
+    let mut candidates = [Vec::new(), Vec::new()];
+    let mut candidate_normals = [Vec::new(), Vec::new()];
+    (sides[side], sides[other]) = (coupling.nodes.clone(), side_o);
+    (near[side], near[other]) = (coupling.nodes.clone(), nearest);
+    (candidates[side], candidates[other]) = (chain_s, chains[other].clone());
+    (candidate_normals[side], candidate_normals[other]) = (outward, outward_o);
+    let pairing = Pairing {
+        sides,
+        nearest: near,
+        candidates,
+        candidate_normals,
+        gap: coupling.gap.clone(),
+        normals: coupling.normals.clone(),
+        lengths: super::segment_lengths(&side_points),
+    };
+    Ok((pairing, coupling, side))
+}

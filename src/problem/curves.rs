@@ -1,0 +1,244 @@
+//! The contact curves of a Gmsh problem's bodies: a named curve as one chain of nodes, body 1's
+//! side oriented with its outward normals and nodal contact directions (docs/method.md §5),
+//! the check that two curves face each other, and Γc's pairs as [`super::meshed`] (node to
+//! node) and [`super::coupled`] (mortar) find them; the errors of a meshed problem.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use crate::fem::gmsh::{GmshBody, GmshError};
+
+/// What is wrong with a meshed problem: one line, naming the option.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshedError {
+    #[error("-nndd_mesh: {0}")]
+    Mesh(#[from] GmshError),
+    #[error("{option}: {message}")]
+    Option { option: String, message: String },
+}
+
+pub(super) fn opt_err(option: &str, message: String) -> MeshedError {
+    MeshedError::Option {
+        option: option.to_string(),
+        message,
+    }
+}
+
+/// The nodes of a curve as one chain from its first point to its last (the orientation of
+/// its Gmsh line elements).
+pub fn chain(edges: &[[usize; 2]], curve: &str, option: &str) -> Result<Vec<usize>, MeshedError> {
+    let mut next: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut has_prev: BTreeSet<usize> = BTreeSet::new();
+    for &[a, b] in edges {
+        if next.insert(a, b).is_some() || !has_prev.insert(b) {
+            return Err(opt_err(
+                option,
+                format!("the curve '{curve}' branches or is traversed twice (use one open curve)"),
+            ));
+        }
+    }
+    let starts: Vec<usize> = next
+        .keys()
+        .copied()
+        .filter(|a| !has_prev.contains(a))
+        .collect();
+    if starts.len() != 1 {
+        return Err(opt_err(
+            option,
+            format!(
+                "the curve '{curve}' is closed or in several pieces ({} starts); use one open curve",
+                starts.len()
+            ),
+        ));
+    }
+    let mut nodes = vec![starts[0]];
+    while let Some(&b) = next.get(nodes.last().expect("non-empty")) {
+        nodes.push(b);
+    }
+    if nodes.len() != edges.len() + 1 {
+        return Err(opt_err(
+            option,
+            format!("the curve '{curve}' is not one chain"),
+        ));
+    }
+    Ok(nodes)
+}
+
+/// Γc's pairs: both sides' nodes in pair order, and per pair g₀, the contact direction n
+/// (body 1's outward normal) and the segment lengths of the pairs' side (node to node, as
+/// [`super::meshed`] pairs them: body 1's). Under the mortar discretisation
+/// ([`super::coupled`]) the pairs are the non-mortar body's nodes and the mortar body's side is
+/// the nodes its rows use.
+pub(super) struct Pairing {
+    pub sides: [Vec<usize>; 2],
+    /// Each body's node nearest each pair: the pair's own nodes node to node; under mortar
+    /// the mortar body's heaviest in the pair's row.
+    pub nearest: [Vec<usize>; 2],
+    /// The whole contact curves (body 1's oriented as its side), with each body's outward
+    /// normal at their nodes.
+    pub candidates: [Vec<usize>; 2],
+    pub candidate_normals: [Vec<[f64; 2]>; 2],
+    pub gap: Vec<f64>,
+    pub normals: Vec<[f64; 2]>,
+    pub lengths: Vec<f64>,
+}
+
+/// A body's contact side in the orientation with the body on its right (for body 1 below a
+/// horizontal side: by increasing x), with the outward unit normal of each of its segments
+/// (its messages speak of body 1, whose side it orients node to node).
+pub(super) fn oriented_side(
+    body: &GmshBody,
+    mut nodes: Vec<usize>,
+    curve: &str,
+) -> Result<(Vec<usize>, Vec<[f64; 2]>), MeshedError> {
+    const OPT: &str = "-nndd_contact";
+    let pts = &body.mesh.points;
+    // The third vertex of the triangles on each segment.
+    let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = nodes
+        .windows(2)
+        .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
+        .collect();
+    for t in &body.mesh.triangles {
+        for i in 0..3 {
+            let (a, b, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
+            if let Some(list) = opposite.get_mut(&(a.min(b), a.max(b))) {
+                list.push(c);
+            }
+        }
+    }
+    // Left normal of a→b; body 1 must be on the other side of every segment.
+    let left = |a: usize, b: usize| {
+        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
+        let h = t0.hypot(t1);
+        [-t1 / h, t0 / h]
+    };
+    let inside = |a: usize, b: usize| -> Result<f64, MeshedError> {
+        match opposite[&(a.min(b), a.max(b))][..] {
+            [c] => {
+                let n = left(a, b);
+                Ok(n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]))
+            }
+            _ => Err(opt_err(
+                OPT,
+                format!(
+                    "body 1's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
+                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
+                ),
+            )),
+        }
+    };
+    if inside(nodes[0], nodes[1])? > 0.0 {
+        nodes.reverse();
+    }
+    let mut normals = Vec::with_capacity(nodes.len() - 1);
+    for w in nodes.windows(2) {
+        if inside(w[0], w[1])? > 0.0 {
+            return Err(opt_err(
+                OPT,
+                format!("body 1 lies on both sides of its contact curve '{curve}'"),
+            ));
+        }
+        normals.push(left(w[0], w[1]));
+    }
+    Ok((nodes, normals))
+}
+
+/// The contact direction at each node of a side (body 1's node to node, the non-mortar
+/// body's under mortar): the mean of its segments' outward normals, normalised; (0, 1) exactly where that is (0, 1) to 1e−12 (no rotated frame).
+pub(super) fn node_normals(segments: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let m = segments.len() + 1;
+    (0..m)
+        .map(|k| {
+            let mut n = [0.0; 2];
+            for s in [k.checked_sub(1), (k < m - 1).then_some(k)]
+                .into_iter()
+                .flatten()
+            {
+                n[0] += segments[s][0];
+                n[1] += segments[s][1];
+            }
+            unit_or_up(n)
+        })
+        .collect()
+}
+
+/// The unit vector of n, exactly (0, 1) where it is that to 1e−12 (so that a straight
+/// horizontal side keeps unrotated frames).
+pub(super) fn unit_or_up(n: [f64; 2]) -> [f64; 2] {
+    let h = n[0].hypot(n[1]);
+    let n = [n[0] / h, n[1] / h];
+    if n[0].abs() <= 1e-12 && n[1] > 0.0 {
+        super::UP
+    } else {
+        n
+    }
+}
+
+/// The contact curves must face each other (returns body 2's outward normals at its curve's
+/// nodes): at every pair, body 2's outward normal at its
+/// node (the mean of its curve's segments' normals there) must not point the way body 1's
+/// does (n¹ · n² ≤ 0); else body 2 is reached from its inside and the contact condition holds
+/// nothing back (a curve on the far side of body 2, for instance).
+pub(super) fn facing(
+    contact: &[String; 2],
+    body2: &GmshBody,
+    chain2: &[usize],
+    side1: &[[f64; 2]],
+    s2: &[usize],
+    normals: &[[f64; 2]],
+    p2: &[[f64; 2]],
+) -> Result<Vec<[f64; 2]>, MeshedError> {
+    const OPT: &str = "-nndd_contact";
+    let curve = &contact[1];
+    let pts = &body2.mesh.points;
+    let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = chain2
+        .windows(2)
+        .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
+        .collect();
+    for t in &body2.mesh.triangles {
+        for i in 0..3 {
+            let (a, b, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
+            if let Some(list) = opposite.get_mut(&(a.min(b), a.max(b))) {
+                list.push(c);
+            }
+        }
+    }
+    // The outward unit normal of each segment of body 2's curve.
+    let mut segments = Vec::with_capacity(chain2.len() - 1);
+    for w in chain2.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let [c] = opposite[&(a.min(b), a.max(b))][..] else {
+            return Err(opt_err(
+                OPT,
+                format!(
+                    "body 2's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
+                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
+                ),
+            ));
+        };
+        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
+        let h = t0.hypot(t1);
+        let n = [-t1 / h, t0 / h];
+        let inward = n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]) > 0.0;
+        segments.push(if inward { [-n[0], -n[1]] } else { n });
+    }
+    let node_normal: BTreeMap<usize, [f64; 2]> = chain2
+        .iter()
+        .copied()
+        .zip(node_normals(&segments))
+        .collect();
+    for (k, &b) in s2.iter().enumerate() {
+        let (n1, n2) = (normals[k], node_normal[&b]);
+        let dot = n1[0] * n2[0] + n1[1] * n2[1];
+        if dot > 0.0 {
+            return Err(opt_err(
+                OPT,
+                format!(
+                    "the curves '{}' and '{curve}' do not face each other: at body 1's node ({:.6e}, {:.6e}) and its partner ({:.6e}, {:.6e}) the outward normals ({:.4}, {:.4}) and ({:.4}, {:.4}) point the same way (n1·n2 = {dot:.3}); name the curve of body 2 that faces body 1's",
+                    contact[0],
+                    side1[k][0], side1[k][1], p2[b][0], p2[b][1], n1[0], n1[1], n2[0], n2[1]
+                ),
+            ));
+        }
+    }
+    Ok(chain2.iter().map(|b| node_normal[b]).collect())
+}

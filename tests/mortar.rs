@@ -1,0 +1,292 @@
+//! Capability: the mortar discretisation of contact curves meshed on their own
+//! (`-nndd_contact_discretisation mortar`, src/problem/mortar.rs, src/problem/coupled.rs): the
+//! curves as meshed, no node inserted, the coarser curve's nodes carrying the constraints and
+//! the other body meeting them at points of its curve.
+//! - The contact patch test at size ratios 1:1.7, 3:1, 1:10 and 10:1, either curve the coarser:
+//!   the pressure uniform and the displacements the exact linear fields, monolithic solve and
+//!   NNDD.
+//! - On matching curves mortar is node to node: the same energy and pressures.
+//! - Hertz with the cylinder 10 times coarser than the block and the block 10 times coarser:
+//!   the peak pressure within 3 % of Hertz's, θ auto in ≤ 20 iterations, NNDD = monolithic, on
+//!   1, 2 and 3 ranks alike.
+//! - The pin in its hole meshed 2:3: no open pair inside the contact arc, NNDD = monolithic.
+//! - What mortar does not do yet is refused with one line: the estimates, a Dirichlet step on
+//!   the mortar body, a built-in problem.
+
+mod common;
+use common::patch::*;
+use common::*;
+
+use std::path::{Path, PathBuf};
+
+const HERTZ_GEO: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/hertz-nonmatching/hertz-nonmatching.geo"
+);
+const HERTZ_OPTS: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/hertz-nonmatching/hertz-nonmatching.opts"
+);
+const PIN_GEO: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/pin-hole/pin-hole.geo"
+);
+const PIN_OPTS: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/pin-hole/pin-hole.opts"
+);
+
+const MORTAR: [&str; 2] = ["-nndd_contact_discretisation", "mortar"];
+
+fn patch_mesh(dir: &Path, n1: u64, n2: u64) -> PathBuf {
+    let msh = dir.join(format!("patch-{n1}-{n2}.msh"));
+    gmsh(
+        PATCH,
+        &[("n1", &n1.to_string()), ("n2", &n2.to_string())],
+        &[],
+        &msh,
+    );
+    msh
+}
+
+#[test]
+fn the_contact_patch_test_with_mortar_at_four_size_ratios() {
+    let dir = scratch("mortar-patch");
+    let p_exact = patch_pressure();
+    for (n1, n2) in [(10u64, 17u64), (30, 10), (10, 100), (100, 10)] {
+        let msh = patch_mesh(&dir, n1, n2);
+        for (solver, limit) in [("monolithic", 1e-10), ("nndd", 1e-9)] {
+            let prefix = dir.join(format!("{solver}-{n1}-{n2}"));
+            let mut args = patch_args(&msh);
+            args.extend(MORTAR.map(String::from));
+            args.extend(["-nndd_solver".into(), solver.into()]);
+            let j = solve(2, &prefix, &strs(&args));
+            let what = format!("{n1} and {n2} segments, mortar, {solver}");
+            assert_eq!(j["converged"], true, "{what}");
+            assert!(f(&j, "iterations") <= 5.0, "{what}: {}", j["iterations"]);
+            // Nothing inserted; the coarser curve's nodes carry the pairs.
+            let curves = &j["contact_curves"];
+            assert_eq!(curves["discretisation"], "mortar", "{what}");
+            assert_eq!(curves["inserted"], serde_json::json!([0, 0]), "{what}");
+            let coarser = if n1 <= n2 { 1 } else { 2 };
+            assert_eq!(curves["non_mortar"], coarser, "{what}: {curves}");
+            assert_eq!(curves["pairs"], n1.min(n2) + 1, "{what}");
+            assert_eq!(
+                curves["nodes"],
+                serde_json::json!([n1 + 1, n2 + 1]),
+                "{what}"
+            );
+            let (lo, hi) = assert_patch(&prefix, limit, &what);
+            println!(
+                "patch {n1}:{n2} mortar {solver}: {} iterations, {} pairs on body {coarser}, pressure {lo:.12e} .. {hi:.12e} (exact {p_exact:.12e})",
+                j["iterations"], curves["pairs"]
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn on_matching_curves_mortar_is_node_to_node() {
+    let dir = scratch("mortar-matching");
+    // Matching flat sides with an uneven pressure: the lid sheared sideways tilts the block.
+    let msh = patch_mesh(&dir, 20, 20);
+    let mut runs = Vec::new();
+    for disc in ["node_to_node", "mortar"] {
+        let prefix = dir.join(disc);
+        let mut args = patch_args(&msh);
+        args.extend(
+            [
+                "-nndd_bc_lid_traction",
+                "2e5,0",
+                "-nndd_contact_discretisation",
+                disc,
+            ]
+            .map(String::from),
+        );
+        let j = solve(2, &prefix, &strs(&args));
+        assert_eq!(j["converged"], true, "{disc}");
+        runs.push((
+            f(&j, "potential_energy"),
+            field(&prefix, "contact", "pressure"),
+        ));
+    }
+    let (e, p) = (&runs[0], &runs[1]);
+    let de = (e.0 - p.0).abs() / e.0.abs();
+    let dp = rel_max_diff(&e.1, &p.1);
+    println!("matching 20:20: energy {:.12e} and {:.12e} (rel. diff {de:.1e}), pressures differ by {dp:.1e}", e.0, p.0);
+    assert!(de < 1e-12, "energy {} vs {}", e.0, p.0);
+    assert!(dp < 1e-9, "pressures differ by {dp:e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn hertz_mesh(dir: &Path, ratio: &str, level: &str) -> PathBuf {
+    let msh = dir.join(format!("hertz-{ratio}-{level}.msh"));
+    gmsh(HERTZ_GEO, &[("level", level), ("ratio", ratio)], &[], &msh);
+    msh
+}
+
+fn hertz_run(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = MORTAR.to_vec();
+    args.extend_from_slice(extra);
+    solve_meshed(np, HERTZ_OPTS, msh, prefix, &args)
+}
+
+#[test]
+fn hertz_with_mortar_on_curves_meshed_1_to_10_either_way() {
+    let dir = scratch("mortar-hertz");
+    for ratio in ["10", "0.1"] {
+        let msh = hertz_mesh(&dir, ratio, "2");
+        let mono = hertz_run(
+            2,
+            &msh,
+            &dir.join(format!("mono-{ratio}")),
+            &["-nndd_solver", "monolithic"],
+        );
+        let mut energies = Vec::new();
+        for np in [1, 2, 3] {
+            let prefix = dir.join(format!("nndd-{ratio}-{np}"));
+            let j = hertz_run(np, &msh, &prefix, &[]);
+            let what = format!("hertz ratio {ratio} on {np} rank(s)");
+            assert_eq!(j["converged"], true, "{what}");
+            assert!(
+                f(&j, "iterations") <= 20.0,
+                "{what}: {} iterations",
+                j["iterations"]
+            );
+            let h = hertz_fit_of(&prefix);
+            println!(
+                "{what}: {} iterations, {} pairs, p0 {:.4e} vs Hertz {:.4e} ({:.2} %), energy {:.10e} (monolithic {:.10e})",
+                j["iterations"],
+                j["contact_curves"]["pairs"],
+                h.p0_h,
+                h.p0,
+                100.0 * h.p0_err(),
+                f(&j, "potential_energy"),
+                f(&mono, "potential_energy")
+            );
+            assert!(h.p0_err() < 0.03, "{what}: p0 {} vs {}", h.p0_h, h.p0);
+            let e = f(&j, "potential_energy");
+            let em = f(&mono, "potential_energy");
+            assert!((e - em).abs() < 1e-8 * em.abs(), "{what}: {e} vs {em}");
+            energies.push(e);
+        }
+        for e in &energies {
+            assert!(
+                (e - energies[0]).abs() < 1e-10 * energies[0].abs(),
+                "{energies:?}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_pin_in_its_hole_meshed_2_to_3_has_no_open_pair_inside_the_arc() {
+    let dir = scratch("mortar-pin");
+    let msh = dir.join("pin.msh");
+    gmsh(PIN_GEO, &[("level", "2"), ("ratio", "1.5")], &[], &msh);
+    let mut energies = Vec::new();
+    for solver in ["nndd", "monolithic"] {
+        let prefix = dir.join(solver);
+        let mut args = vec!["-nndd_solver", solver];
+        args.extend(MORTAR);
+        let j = solve_meshed(2, PIN_OPTS, &msh, &prefix, &args);
+        assert_eq!(j["converged"], true, "{solver}");
+        let active: Vec<bool> = field(&prefix, "contact", "active")
+            .iter()
+            .map(|&a| a > 0.5)
+            .collect();
+        let first = active.iter().position(|&a| a).expect("contact");
+        let last = active.iter().rposition(|&a| a).expect("contact");
+        let open = active[first..=last].iter().filter(|&&a| !a).count();
+        println!(
+            "pin 2:3 mortar {solver}: {} pairs, {} in contact, {open} open inside the arc, energy {:.10e}",
+            active.len(),
+            last + 1 - first - open,
+            f(&j, "potential_energy")
+        );
+        assert_eq!(open, 0, "{solver}: open pairs inside the arc");
+        energies.push(f(&j, "potential_energy"));
+    }
+    assert!(
+        (energies[0] - energies[1]).abs() < 1e-8 * energies[1].abs(),
+        "{energies:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn what_mortar_does_not_do_yet_is_refused() {
+    let dir = scratch("mortar-refused");
+    let msh = patch_mesh(&dir, 10, 17);
+    let args = patch_args(&msh);
+    let mut base = strs(&args);
+    base.extend(MORTAR);
+    // The estimates.
+    let mut a = base.clone();
+    a.push("-nndd_estimate");
+    fails_with(
+        1,
+        &a,
+        Some(1),
+        &["-nndd_contact_discretisation mortar", "estimates"],
+    );
+    // The Dirichlet step on the mortar body (body 2's curve is the finer here).
+    let mut a = base.clone();
+    a.extend(["-nndd_dirichlet_body", "2"]);
+    fails_with(1, &a, Some(1), &["-nndd_dirichlet_body", "use auto or 1"]);
+    // A built-in problem, and an unknown value.
+    refused(
+        1,
+        &["-nndd_contact_discretisation", "mortar"],
+        "-nndd_contact_discretisation",
+    );
+    let mut a = strs(&args);
+    a.extend(["-nndd_contact_discretisation", "segments"]);
+    fails_with(
+        1,
+        &a,
+        Some(1),
+        &["-nndd_contact_discretisation", "node_to_node, mortar"],
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_mortar_run_restarts_on_another_rank_count() {
+    let dir = scratch("mortar-restart");
+    let msh = hertz_mesh(&dir, "4", "1");
+    let straight = hertz_run(2, &msh, &dir.join("straight"), &[]);
+    let first = dir.join("first");
+    let mut args = MORTAR.to_vec();
+    args.extend(["-nndd_max_it", "4", "-nndd_checkpoint_every", "2"]);
+    let out = mpirun(
+        2,
+        &[
+            &[
+                "-options_file",
+                HERTZ_OPTS,
+                "-nndd_mesh",
+                msh.to_str().unwrap(),
+            ][..],
+            &args,
+            &["-nndd_output", first.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert_eq!(out.status.code(), Some(3), "stopped at max_it");
+    let point = format!("{}.checkpoint.json", first.display());
+    let resumed = hertz_run(3, &msh, &dir.join("resumed"), &["-nndd_restart", &point]);
+    assert_eq!(resumed["converged"], true);
+    let (e, e0) = (
+        f(&resumed, "potential_energy"),
+        f(&straight, "potential_energy"),
+    );
+    println!(
+        "mortar restart: 4 iterations on 2 ranks, then {} on 3: energy {e:.10e} (straight {e0:.10e})",
+        resumed["iterations"]
+    );
+    assert!((e - e0).abs() < 1e-8 * e0.abs(), "{e} vs {e0}");
+    std::fs::remove_dir_all(&dir).ok();
+}
