@@ -187,7 +187,7 @@ fn main() {
     let dir = Path::new("results/mortar");
     std::fs::create_dir_all(dir).expect("results/mortar");
     let mut table = String::from(
-        "case          level  discretisation   dofs  pairs  iter   p0_h        p0_err   oscill   open  L2_err   mono_dE   input_s  solve_s\n",
+        "case          level  discretisation   dofs  pairs  iter   p0_h        p0_err   oscill   open  L2_err   mono_dE   input_s  couple_s  solve_s\n",
     );
     print!("{table}");
     let mut plots: Vec<(&str, Vec<plot::Series>)> = Vec::new();
@@ -248,7 +248,7 @@ fn main() {
                 let em = runner::num(&mono, "potential_energy");
                 let p0_h = p.pressure.iter().fold(0.0_f64, |m, &v| m.max(v));
                 let row = format!(
-                    "{:<13} {level:>5}  {disc:<14} {:>6} {:>6} {:>5}   {p0_h:.4e}  {p0_err}  {:6.2} %  {:>4}  {l2}   {:.1e}   {:7.3}  {:7.3}\n",
+                    "{:<13} {level:>5}  {disc:<14} {:>6} {:>6} {:>5}   {p0_h:.4e}  {p0_err}  {:6.2} %  {:>4}  {l2}   {:.1e}   {:7.3}  {:>8}  {:7.3}\n",
                     case.name,
                     j["dofs"].as_u64().unwrap_or(0),
                     j["contact_curves"]["pairs"].as_u64().unwrap_or(0),
@@ -257,6 +257,9 @@ fn main() {
                     open_inside(&p),
                     (e - em).abs() / em.abs(),
                     runner::num(&j["timings"], "input"),
+                    j["contact_curves"]["coupling_seconds"]
+                        .as_f64()
+                        .map_or("–".to_string(), |s| format!("{s:.3}")),
                     runner::solve_seconds(&j),
                 );
                 print!("{row}");
@@ -277,7 +280,7 @@ fn main() {
             }
         }
     }
-    table.push_str("(2 ranks, theta auto, tol 1e-8; hertz R: the cylinder's contact curve R times coarser than the block's, 1/R the block's; pin 2:3: the pin's curve 1.5 times finer than the hole's; pairs: Γc's pairs (node to node: every node of either curve, nodes inserted; mortar: the coarser curve's nodes); p0_h: the largest nodal pressure (force / its share of Γc); p0_err: against Hertz's p0 for the computed force; oscill: the largest |e_k - (e_k-1 + e_k+1)/2| between the first and last pair in contact over p0_h, e the pressure's error against Hertz's profile (hertz) or the pressure itself (pin: the profile's own curvature included); open: open pairs between the first and last pair in contact; L2_err: ||p_h - p|| / ||p|| on the pairs; mono_dE: relative energy difference NNDD - monolithic solve of the same discretisation; input_s: options, mesh, matching or mortar operators; solve_s: assembly, factorisation, NNDD)\n");
+    table.push_str("(2 ranks, theta auto, tol 1e-8; hertz R: the cylinder's contact curve R times coarser than the block's, 1/R the block's; pin 2:3: the pin's curve 1.5 times finer than the hole's; pairs: Γc's pairs (node to node: every node of either curve, nodes inserted; mortar: the coarser curve's nodes); p0_h: the largest nodal pressure (force / its share of Γc); p0_err: against Hertz's p0 for the computed force; oscill: the largest |e_k - (e_k-1 + e_k+1)/2| between the first and last pair in contact over p0_h, e the pressure's error against Hertz's profile (hertz) or the pressure itself (pin: the profile's own curvature included); open: open pairs between the first and last pair in contact; L2_err: ||p_h - p|| / ||p|| on the pairs; mono_dE: relative energy difference NNDD - monolithic solve of the same discretisation; input_s: options, mesh, matching or mortar operators; couple_s: the mortar operators and coupling alone (contact_curves.coupling_seconds); solve_s: assembly, factorisation, NNDD)\n");
     std::fs::write(dir.join("table.txt"), &table).expect("table");
     println!("{}", table.lines().last().unwrap_or(""));
     for (png, series) in plots {

@@ -68,6 +68,7 @@ fn the_contact_patch_test_with_mortar_at_four_size_ratios() {
             let curves = &j["contact_curves"];
             assert_eq!(curves["discretisation"], "mortar", "{what}");
             assert_eq!(curves["inserted"], serde_json::json!([0, 0]), "{what}");
+            assert!(curves["coupling_seconds"].as_f64().is_some(), "{what}");
             let coarser = if n1 <= n2 { 1 } else { 2 };
             assert_eq!(curves["non_mortar"], coarser, "{what}: {curves}");
             assert_eq!(curves["pairs"], n1.min(n2) + 1, "{what}");
@@ -288,5 +289,42 @@ fn a_mortar_run_restarts_on_another_rank_count() {
         resumed["iterations"]
     );
     assert!((e - e0).abs() < 1e-8 * e0.abs(), "{e} vs {e0}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A fixed θ too large for the mortar interface operator diverges: the run says so (exit 3,
+/// "try a smaller -nndd_theta"), and the overlap of its last iterate is a warning, not an
+/// error blamed on the contact curves.
+#[test]
+fn a_diverging_theta_is_said_as_such_not_blamed_on_the_curves() {
+    let dir = scratch("mortar-diverged");
+    let msh = hertz_mesh(&dir, "4", "2");
+    let prefix = dir.join("run");
+    let out = mpirun(
+        2,
+        &[
+            "-options_file",
+            HERTZ_OPTS,
+            "-nndd_mesh",
+            msh.to_str().unwrap(),
+            "-nndd_contact_discretisation",
+            "mortar",
+            "-nndd_theta",
+            "0.25",
+            "-nndd_output",
+            prefix.to_str().unwrap(),
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("diverged") && stderr.contains("try a smaller -nndd_theta"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("which did not converge, overlaps the other body"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("nndd: error"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -515,7 +515,16 @@ impl<'a> Run<'a> {
         }
         let penetration = dd::penetration::penetration(self.layout, problems, &sol.last);
         if let Some(what) = penetration.failure(&contact_curves(self.settings)) {
-            return Err(AppError::Penetration(what));
+            if sol.converged {
+                return Err(AppError::Penetration(what));
+            }
+            // An iterate that is no answer (diverged, stagnated, at -nndd_max_it): its own exit
+            // says why; the overlap is said with it, not blamed on the contact curves.
+            let w = format!(
+                "the reported iterate, which did not converge, overlaps the other body: {what}"
+            );
+            say_warnings(self.layout.is_root(), std::slice::from_ref(&w));
+            sol.warnings.push(w);
         }
         sol.penetration = Some(penetration);
         Ok(())

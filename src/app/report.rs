@@ -15,7 +15,7 @@ use crate::io::summary::{
 };
 use crate::os::memory;
 use crate::parallel::layout::Layout;
-use crate::problem::{BodyProblem, ContactDiscretisation};
+use crate::problem::{BodyProblem, ContactDiscretisation, GcTrace};
 
 #[allow(clippy::too_many_arguments)]
 /// What the run measured at its end, for the summary: the result files' content, the timings
@@ -112,6 +112,10 @@ pub fn summarise(
             }
             .name(),
             non_mortar: mortar.then_some(side.alpha),
+            coupling_seconds: [body1, body2].iter().find_map(|b| match &b.trace {
+                GcTrace::Mortar(c) => Some(c.seconds),
+                GcTrace::Nodes => None,
+            }),
             inserted: matched.map_or([0; 2], |m| m.inserted),
             moved: matched.map_or([0; 2], |m| m.moved),
             max_penetration: sol.penetration.clone().unwrap_or_default(),

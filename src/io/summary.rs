@@ -233,6 +233,8 @@ pub struct ContactCurves {
     pub discretisation: &'static str,
     /// Under mortar, the body whose nodes carry the pairs (the coarser curve); null otherwise.
     pub non_mortar: Option<usize>,
+    /// Under mortar, the wall time of the mortar operators and the coupling's rows (s).
+    pub coupling_seconds: Option<f64>,
     /// Nodes inserted into each curve, and nodes moved onto a partner's projection, to make
     /// curves meshed independently match (0 on matching meshes).
     pub inserted: [usize; 2],

@@ -69,6 +69,8 @@ pub struct Coupling {
     pub gap: Vec<f64>,
     /// Row j of P: (M's mesh node, P_jk).
     pub rows: Vec<Vec<(usize, f64)>>,
+    /// The wall time of building it (s; for the summary).
+    pub seconds: f64,
 }
 
 impl Coupling {
@@ -76,6 +78,7 @@ impl Coupling {
     /// `side` that `mortar` does not reach (D_jj below 1e−12 of its segments' length) has no
     /// constraint.
     pub fn new(side: &CurveNodes, mortar: &CurveNodes) -> Coupling {
+        let started = std::time::Instant::now();
         let op = operators(
             side.points,
             side.normals,
@@ -117,6 +120,7 @@ impl Coupling {
                     .collect(),
             );
         }
+        c.seconds = started.elapsed().as_secs_f64();
         c
     }
 
