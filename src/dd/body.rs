@@ -58,7 +58,7 @@ pub enum BodyError {
     Schur { alpha: usize, source: DenseError },
     /// Under the mortar discretisation, the mortar body's trace on Γc's pairs is
     /// rank-deficient: more pairs than its curve's nodes can follow independently.
-    #[error("-nndd_contact_discretisation mortar: body {alpha}'s contact curve cannot follow the other curve's nodes one by one (its trace on Γc's pairs is rank-deficient: {source}); the curve whose nodes carry the constraints (the coarser by its mean segment) is finer than body {alpha}'s where they touch: mesh them alike there, or use node_to_node")]
+    #[error("-nndd_contact_discretisation mortar: body {alpha}'s contact curve cannot follow the other curve's nodes one by one (its trace on Γc's pairs is rank-deficient: {source}); the curve whose nodes carry the constraints (the one with fewer nodes where the curves overlap) is finer than body {alpha}'s where they touch: mesh them alike there, or use node_to_node")]
     MortarRank { alpha: usize, source: DenseError },
     #[error("-nndd_schur {choice}: body {alpha} {why}")]
     SchurChoice {

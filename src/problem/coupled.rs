@@ -12,13 +12,23 @@ use crate::fem::gmsh::GmshBody;
 
 const OPT: &str = "-nndd_contact";
 
+/// One curve as the non-mortar side: its oriented chain, outward nodal normals, points and its
+/// coupling with the other curve.
+struct Side {
+    chain: Vec<usize>,
+    outward: Vec<[f64; 2]>,
+    points: Vec<[f64; 2]>,
+    coupling: Coupling,
+}
+
 /// The non-mortar body (0 or 1), Γc's pairs at its covered nodes (the other's side: the nodes
 /// the pairs' rows use, along its curve in the pairs' direction) and the coupling, with the
 /// pairs' contact directions n pointing from body 1 to body 2 (u²_n − u¹_n ≥ −g).
 ///
-/// The non-mortar side is the coarser curve (the larger mean segment): the other body's trace
-/// on its nodes must follow them one by one (a row of full rank, so that the contact step on
-/// that body has one multiplier per pair), which a curve with fewer nodes cannot.
+/// The non-mortar side is the coarser curve where they overlap: of the two couplings, the one
+/// with fewer pairs (body 1's on a tie). The other body's trace on its nodes must follow them
+/// one by one (a row of full rank, so that the contact step on that body has one multiplier
+/// per pair), which a curve with fewer nodes there cannot.
 pub(super) fn mortar_interface(
     contact: &[String; 2],
     bodies: &[GmshBody],
@@ -39,35 +49,55 @@ pub(super) fn mortar_interface(
         chain(edges, name, OPT)
     };
     let chains = [curve(0)?, curve(1)?];
-    let mean = |k: usize| {
-        let pts: Vec<[f64; 2]> = chains[k]
-            .iter()
-            .map(|&n| bodies[k].mesh.points[n])
-            .collect();
-        super::segment_lengths(&pts).iter().sum::<f64>() / (pts.len() - 1) as f64
+    // The coupling with body k's curve as the non-mortar side: that curve with body k on its
+    // right, its outward nodal normals and points.
+    let couple = |k: usize| -> Result<Side, MeshedError> {
+        let (chain_s, segments) = oriented_side(&bodies[k], chains[k].clone(), &contact[k])?;
+        let outward = node_normals(&segments);
+        let ps = &bodies[k].mesh.points;
+        let points: Vec<[f64; 2]> = chain_s.iter().map(|&n| ps[n]).collect();
+        let po = &bodies[1 - k].mesh.points;
+        let points_o: Vec<[f64; 2]> = chains[1 - k].iter().map(|&n| po[n]).collect();
+        let coupling = Coupling::new(
+            &CurveNodes {
+                ids: &chain_s,
+                points: &points,
+                normals: &outward,
+                ends: Ends::Open,
+            },
+            &CurveNodes {
+                ids: &chains[1 - k],
+                points: &points_o,
+                normals: &[],
+                ends: Ends::Open,
+            },
+        );
+        Ok(Side {
+            chain: chain_s,
+            outward,
+            points,
+            coupling,
+        })
     };
-    let side = usize::from(mean(1) > mean(0));
+    // The side with fewer pairs where the curves overlap (body 1's on a tie).
+    let both = [couple(0)?, couple(1)?];
+    let pairs = both.each_ref().map(|s| s.coupling.len());
+    let side = usize::from(pairs[1] > 0 && (pairs[0] == 0 || pairs[1] < pairs[0]));
     let other = 1 - side;
-    // The non-mortar curve with the side body on its right, and its outward nodal normals.
-    let (chain_s, segments) = oriented_side(&bodies[side], chains[side].clone(), &contact[side])?;
-    let outward = node_normals(&segments);
-    let (ps, po) = (&bodies[side].mesh.points, &bodies[other].mesh.points);
-    let points_s: Vec<[f64; 2]> = chain_s.iter().map(|&n| ps[n]).collect();
-    let points_o: Vec<[f64; 2]> = chains[other].iter().map(|&n| po[n]).collect();
-    let mut coupling = Coupling::new(
-        &CurveNodes {
-            ids: &chain_s,
-            points: &points_s,
-            normals: &outward,
-            ends: Ends::Open,
-        },
-        &CurveNodes {
-            ids: &chains[other],
-            points: &points_o,
-            normals: &[],
-            ends: Ends::Open,
-        },
-    );
+    let [first_try, second_try] = both;
+    let (chosen, unused) = if side == 0 {
+        (first_try, second_try)
+    } else {
+        (second_try, first_try)
+    };
+    let Side {
+        chain: chain_s,
+        outward,
+        points: points_s,
+        mut coupling,
+    } = chosen;
+    coupling.seconds += unused.coupling.seconds;
+    let po = &bodies[other].mesh.points;
     let [c1, c2] = contact;
     let Some(first) = coupling
         .nodes
