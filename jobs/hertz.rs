@@ -22,26 +22,6 @@ use std::path::Path;
 
 const MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
-/// The dataset of the reported iterate's field `name` of grid `grid`, as the summary lists it.
-fn last(j: &serde_json::Value, grid: &str, name: &str) -> String {
-    let fields = j["fields"]
-        .as_array()
-        .expect("the summary lists the fields");
-    let fd = fields
-        .iter()
-        .find(|f| f["grid"] == grid && f["name"] == name);
-    let fd = fd.unwrap_or_else(|| panic!("no field {grid}/{name} in the summary"));
-    fd["dataset"].as_str().expect("a dataset path").to_string()
-}
-
-fn read(prefix: &Path, dataset: &str) -> Vec<f64> {
-    let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
-    f.dataset(dataset)
-        .expect(dataset)
-        .read_raw::<f64>()
-        .expect(dataset)
-}
-
 fn main() {
     let runner::LevelArgs {
         levels,
@@ -83,18 +63,18 @@ fn main() {
             &["-nndd_mesh", m, "-nndd_solver", "monolithic"],
         )
         .unwrap_or_else(|e| panic!("level {level} monolithic: {e}"));
-        let x: Vec<f64> = read(&prefix, "/Mesh/contact/geometry")
+        let x: Vec<f64> = runner::read_h5(&prefix, "/Mesh/contact/geometry")
             .chunks(2)
             .map(|p| p[0])
             .collect();
-        let active: Vec<bool> = read(&prefix, &last(&j, "contact", "active"))
+        let active: Vec<bool> = runner::read_field(&j, &prefix, "contact", "active")
             .iter()
             .map(|&a| a > 0.5)
             .collect();
-        let pressure = read(&prefix, &last(&j, "contact", "pressure"));
+        let pressure = runner::read_field(&j, &prefix, "contact", "pressure");
         let h = hertz_fit::fit(
             &x,
-            &read(&prefix, &last(&j, "contact", "normal_force")),
+            &runner::read_field(&j, &prefix, "contact", "normal_force"),
             &pressure,
             &active,
             1.0,

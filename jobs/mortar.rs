@@ -66,25 +66,6 @@ const CASES: &[Case] = &[
     },
 ];
 
-fn read(prefix: &Path, dataset: &str) -> Vec<f64> {
-    let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
-    f.dataset(dataset)
-        .expect(dataset)
-        .read_raw::<f64>()
-        .expect(dataset)
-}
-
-/// The reported iterate's dataset of the contact grid's field `name`.
-fn contact_field(j: &serde_json::Value, prefix: &Path, name: &str) -> Vec<f64> {
-    let fd = j["fields"]
-        .as_array()
-        .expect("the summary lists the fields")
-        .iter()
-        .rfind(|f| f["grid"] == "contact" && f["name"] == name)
-        .unwrap_or_else(|| panic!("no contact field {name}"));
-    read(prefix, fd["dataset"].as_str().expect("a dataset path"))
-}
-
 /// Γc's pairs ordered by arc length from one end: (s, x, pressure, force, active).
 struct Profile {
     s: Vec<f64>,
@@ -95,7 +76,7 @@ struct Profile {
 }
 
 fn profile(j: &serde_json::Value, prefix: &Path) -> Profile {
-    let pts: Vec<[f64; 2]> = read(prefix, "/Mesh/contact/geometry")
+    let pts: Vec<[f64; 2]> = runner::read_h5(prefix, "/Mesh/contact/geometry")
         .chunks(2)
         .map(|p| [p[0], p[1]])
         .collect();
@@ -106,9 +87,9 @@ fn profile(j: &serde_json::Value, prefix: &Path) -> Profile {
     let mut p = Profile {
         s,
         x: pts.iter().map(|p| p[0]).collect(),
-        pressure: contact_field(j, prefix, "pressure"),
-        force: contact_field(j, prefix, "normal_force"),
-        active: contact_field(j, prefix, "active")
+        pressure: runner::read_field(j, prefix, "contact", "pressure"),
+        force: runner::read_field(j, prefix, "contact", "normal_force"),
+        active: runner::read_field(j, prefix, "contact", "active")
             .iter()
             .map(|&a| a > 0.5)
             .collect(),

@@ -4,6 +4,26 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// A dataset of the run's `PREFIX.h5`, as f64.
+pub fn read_h5(prefix: &Path, dataset: &str) -> Vec<f64> {
+    let f = hdf5::File::open(format!("{}.h5", prefix.display())).expect("h5 opens");
+    f.dataset(dataset)
+        .expect(dataset)
+        .read_raw::<f64>()
+        .expect(dataset)
+}
+
+/// The reported iterate's field `name` of grid `grid`, from the dataset the summary `j` lists.
+pub fn read_field(j: &serde_json::Value, prefix: &Path, grid: &str, name: &str) -> Vec<f64> {
+    let fd = j["fields"]
+        .as_array()
+        .expect("the summary lists the fields")
+        .iter()
+        .find(|f| f["grid"] == grid && f["name"] == name)
+        .unwrap_or_else(|| panic!("no field {grid}/{name} in the summary"));
+    read_h5(prefix, fd["dataset"].as_str().expect("a dataset path"))
+}
+
 /// A scratch directory for the runs of one job.
 pub fn scratch(job: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("nndd-{job}-{}", std::process::id()));

@@ -290,15 +290,6 @@ fn no_displacement_at_a_rotated_contact_node() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-const HOLE_GEO: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/pin-hole/pin-hole.geo"
-);
-const HOLE_OPTS: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/pin-hole/pin-hole.opts"
-);
-
 /// The estimates of the pin in its hole at reference factors 4, 6, 8: (η^glo, [e_ref]),
 /// after the per-run checks (converged, equilibrium to round-off, the bound `checked`).
 fn hole_estimates(dir: &Path, msh: &Path, name: &str) -> (f64, [f64; 3], serde_json::Value) {
@@ -309,7 +300,7 @@ fn hole_estimates(dir: &Path, msh: &Path, name: &str) -> (f64, [f64; 3], serde_j
         let prefix = dir.join(format!("{name}-r{r}"));
         let j = solve_meshed(
             2,
-            HOLE_OPTS,
+            PIN_HOLE_OPTS,
             msh,
             &prefix,
             &["-nndd_estimate", "-nndd_reference_factor", r],
@@ -352,7 +343,7 @@ fn hole_estimates(dir: &Path, msh: &Path, name: &str) -> (f64, [f64; 3], serde_j
 #[test]
 fn pin_in_its_hole() {
     let dir = scratch("curved-hole");
-    let msh = gmsh_level(HOLE_GEO, &dir, "pin-hole", 1);
+    let msh = gmsh_level(PIN_HOLE_GEO, &dir, "pin-hole", 1);
     let (eta, e_ref, j) = hole_estimates(&dir, &msh, "matched");
     // The curves' end nodes were moved onto their partners, nothing inserted.
     let warnings = j["warnings"].to_string();
@@ -379,7 +370,7 @@ fn pin_in_its_hole() {
 fn pin_in_its_hole_meshed_on_its_own() {
     let dir = scratch("curved-hole-own");
     let msh = dir.join("pin-hole-1.5.msh");
-    gmsh(HOLE_GEO, &[("level", "1"), ("ratio", "1.5")], &[], &msh);
+    gmsh(PIN_HOLE_GEO, &[("level", "1"), ("ratio", "1.5")], &[], &msh);
     let (eta, e_ref, _) = hole_estimates(&dir, &msh, "independent");
     for e in e_ref {
         assert!(eta >= e, "eta_glo {eta:e} < e_ref {e:e}");
@@ -411,11 +402,11 @@ fn pin_in_its_hole_meshed_on_its_own() {
 fn contact_curves_beyond_a_half_circle() {
     let dir = scratch("curved-arc");
     let msh = dir.join("pin-hole-arc.msh");
-    gmsh(HOLE_GEO, &[("level", "1"), ("arc", "150")], &[], &msh);
-    let a = solve_meshed(2, HOLE_OPTS, &msh, &dir.join("nndd"), &[]);
+    gmsh(PIN_HOLE_GEO, &[("level", "1"), ("arc", "150")], &[], &msh);
+    let a = solve_meshed(2, PIN_HOLE_OPTS, &msh, &dir.join("nndd"), &[]);
     let m = solve_meshed(
         2,
-        HOLE_OPTS,
+        PIN_HOLE_OPTS,
         &msh,
         &dir.join("mono"),
         &["-nndd_solver", "monolithic"],

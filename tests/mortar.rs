@@ -19,23 +19,6 @@ use common::*;
 
 use std::path::{Path, PathBuf};
 
-const HERTZ_GEO: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/hertz-nonmatching/hertz-nonmatching.geo"
-);
-const HERTZ_OPTS: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/hertz-nonmatching/hertz-nonmatching.opts"
-);
-const PIN_GEO: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/pin-hole/pin-hole.geo"
-);
-const PIN_OPTS: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/pin-hole/pin-hole.opts"
-);
-
 const MORTAR: [&str; 2] = ["-nndd_contact_discretisation", "mortar"];
 
 fn patch_mesh(dir: &Path, n1: u64, n2: u64) -> PathBuf {
@@ -123,14 +106,19 @@ fn on_matching_curves_mortar_is_node_to_node() {
 
 fn hertz_mesh(dir: &Path, ratio: &str, level: &str) -> PathBuf {
     let msh = dir.join(format!("hertz-{ratio}-{level}.msh"));
-    gmsh(HERTZ_GEO, &[("level", level), ("ratio", ratio)], &[], &msh);
+    gmsh(
+        HERTZ_NM_GEO,
+        &[("level", level), ("ratio", ratio)],
+        &[],
+        &msh,
+    );
     msh
 }
 
 fn hertz_run(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Value {
     let mut args = MORTAR.to_vec();
     args.extend_from_slice(extra);
-    solve_meshed(np, HERTZ_OPTS, msh, prefix, &args)
+    solve_meshed(np, HERTZ_NM_OPTS, msh, prefix, &args)
 }
 
 #[test]
@@ -186,13 +174,13 @@ fn hertz_with_mortar_on_curves_meshed_1_to_10_either_way() {
 fn the_pin_in_its_hole_meshed_2_to_3_has_no_open_pair_inside_the_arc() {
     let dir = scratch("mortar-pin");
     let msh = dir.join("pin.msh");
-    gmsh(PIN_GEO, &[("level", "2"), ("ratio", "1.5")], &[], &msh);
+    gmsh(PIN_HOLE_GEO, &[("level", "2"), ("ratio", "1.5")], &[], &msh);
     let mut energies = Vec::new();
     for solver in ["nndd", "monolithic"] {
         let prefix = dir.join(solver);
         let mut args = vec!["-nndd_solver", solver];
         args.extend(MORTAR);
-        let j = solve_meshed(2, PIN_OPTS, &msh, &prefix, &args);
+        let j = solve_meshed(2, PIN_HOLE_OPTS, &msh, &prefix, &args);
         assert_eq!(j["converged"], true, "{solver}");
         let active: Vec<bool> = field(&prefix, "contact", "active")
             .iter()
@@ -267,7 +255,7 @@ fn a_mortar_run_restarts_on_another_rank_count() {
         &[
             &[
                 "-options_file",
-                HERTZ_OPTS,
+                HERTZ_NM_OPTS,
                 "-nndd_mesh",
                 msh.to_str().unwrap(),
             ][..],
@@ -304,7 +292,7 @@ fn a_diverging_theta_is_said_as_such_not_blamed_on_the_curves() {
         2,
         &[
             "-options_file",
-            HERTZ_OPTS,
+            HERTZ_NM_OPTS,
             "-nndd_mesh",
             msh.to_str().unwrap(),
             "-nndd_contact_discretisation",

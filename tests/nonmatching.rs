@@ -16,14 +16,6 @@ use common::*;
 
 use std::path::{Path, PathBuf};
 
-const HERTZ_GEO: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/hertz-nonmatching/hertz-nonmatching.geo"
-);
-const HERTZ_OPTS: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/hertz-nonmatching/hertz-nonmatching.opts"
-);
 const PUNCH_GEO: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/examples/punch-nonmatching/punch-nonmatching.geo"
@@ -72,11 +64,11 @@ fn the_contact_patch_test_is_passed_on_non_matching_meshes() {
 }
 
 fn hertz_mesh(dir: &Path, level: u32) -> PathBuf {
-    gmsh_level(HERTZ_GEO, dir, "hertz-nm", level)
+    gmsh_level(HERTZ_NM_GEO, dir, "hertz-nm", level)
 }
 
 fn hertz(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Value {
-    solve_meshed(np, HERTZ_OPTS, msh, prefix, extra)
+    solve_meshed(np, HERTZ_NM_OPTS, msh, prefix, extra)
 }
 
 /// The estimate of the final iterate bounds the error against the reference solution on the
@@ -214,14 +206,14 @@ fn the_rounded_punch_on_non_matching_meshes_is_bounded_and_equals_the_monolithic
 fn a_penetration_beyond_the_contact_curves_is_an_error() {
     let dir = scratch("nm-penetration");
     let msh = dir.join("short-arc.msh");
-    gmsh(HERTZ_GEO, &[("level", "1"), ("ca", "0.05")], &[], &msh);
+    gmsh(HERTZ_NM_GEO, &[("level", "1"), ("ca", "0.05")], &[], &msh);
     for np in [1, 3] {
         // (fails_with checks that nothing was written.)
         fails_with(
             np,
             &[
                 "-options_file",
-                HERTZ_OPTS,
+                HERTZ_NM_OPTS,
                 "-nndd_mesh",
                 msh.to_str().unwrap(),
             ],

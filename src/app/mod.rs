@@ -36,7 +36,7 @@ use crate::parallel::partition::PartitionError;
 use crate::petsc::log::Stages;
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::meshed::MeshedError;
-use crate::problem::{self, BodyProblem};
+use crate::problem::{self, BodyProblem, ContactDiscretisation};
 use options::{Settings, SettingsError, SolverKind};
 use solve::{Restart, Solution};
 
@@ -302,7 +302,7 @@ fn build_problems(
     if let (Some(spec), true) = (&settings.problem.mesh, root) {
         let m = &spec.matched;
         let side = problem::pair_side([&problems[0], &problems[1]]);
-        if problems[0].trace != problems[1].trace {
+        if problem::discretisation([&problems[0], &problems[1]]) == ContactDiscretisation::Mortar {
             let [c1, c2] = &spec.contact;
             println!(
                 "nndd: contact curves '{c1}' and '{c2}' coupled by mortar as meshed: Γc's {} pairs at body {}'s nodes (the coarser curve), which body {} meets at points of its curve ({} of its nodes)",

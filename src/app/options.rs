@@ -20,7 +20,7 @@ use crate::petsc::readers::Bounds;
 pub use crate::petsc::readers::SettingsError;
 use crate::petsc::{self, Comm, OptionsBlock};
 use crate::problem::settings::option_applies;
-use crate::problem::{BodyProblem, GcTrace, ProblemKind, ProblemSettings, Support};
+use crate::problem::{BodyProblem, ContactDiscretisation, ProblemKind, ProblemSettings, Support};
 use crate::qp::QpSettings;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -149,11 +149,13 @@ impl Settings {
         s
     }
 
-    /// The choices the mortar discretisation decides (a body's trace [`GcTrace::Mortar`]): the
-    /// Dirichlet step on the other, non-mortar body ([`NnddSettings::on_mortar`]); the error
-    /// estimates and a body held only by contact are not available with it yet, and refused.
+    /// The choices the mortar discretisation decides (a body's trace
+    /// [`crate::problem::GcTrace::Mortar`]): the Dirichlet step on the other, non-mortar body
+    /// ([`NnddSettings::on_mortar`]); the error estimates and a body held only by contact are
+    /// not available with it yet, and refused.
     pub fn mortar_rules(&mut self, problems: &[Rc<BodyProblem>; 2]) -> Result<(), SettingsError> {
-        if problems.iter().all(|p| p.trace == GcTrace::Nodes) {
+        let pair = [&*problems[0], &*problems[1]];
+        if crate::problem::discretisation(pair) == ContactDiscretisation::NodeToNode {
             return Ok(());
         }
         const OPT: &str = "-nndd_contact_discretisation mortar";
@@ -169,7 +171,7 @@ impl Settings {
                 format!("body {} is held only by contact, which the mortar discretisation does not support yet; prescribe displacements that hold it, or use node_to_node", held.alpha),
             ));
         }
-        let side = crate::problem::pair_side([&problems[0], &problems[1]]) + 1;
+        let side = crate::problem::pair_side(pair) + 1;
         let warning = self.nndd.on_mortar(&self.problem.materials, side)?;
         self.warnings.extend(warning);
         Ok(())

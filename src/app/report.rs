@@ -47,7 +47,8 @@ pub fn summarise(
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
-    let mortar = body1.trace != body2.trace;
+    let discretisation = crate::problem::discretisation([body1, body2]);
+    let mortar = discretisation == ContactDiscretisation::Mortar;
     let contact = contact_of(side, &sol.last);
     let paths = &settings.output.paths;
     let builtin = settings.problem.mesh.is_none();
@@ -105,12 +106,7 @@ pub fn summarise(
             names: super::contact_curves(settings),
             nodes: [body1, body2].map(|b| b.contact_candidates.len()),
             pairs: side.pairs(),
-            discretisation: if mortar {
-                ContactDiscretisation::Mortar
-            } else {
-                ContactDiscretisation::NodeToNode
-            }
-            .name(),
+            discretisation: discretisation.name(),
             non_mortar: mortar.then_some(side.alpha),
             coupling_seconds: [body1, body2].iter().find_map(|b| match &b.trace {
                 GcTrace::Mortar(c) => Some(c.seconds),

@@ -250,7 +250,7 @@ pub struct Body {
     neumann: Option<Ksp>,
     dirichlet: Option<Ksp>,
     /// The dofs the Γc trace reads ([`BodyProblem::interface_dofs`]): the normal dofs in pair
-    /// order, or under the mortar discretisation both dofs of body 2's Γc nodes.
+    /// order, or on the mortar body both dofs of its Γc nodes.
     pub gc: Vec<usize>,
     /// The trace's rows over `gc` ([`BodyProblem::trace_rows`]): pair k's normal displacement
     /// is Σ c·u[gc[i]] over row k's (i, c), and a force T_k on pair k loads gc[i] with c·T_k.
@@ -515,12 +515,22 @@ impl Body {
         if self.problem.trace == GcTrace::Nodes {
             return Ok(Some(Condensed { schur, delassus }));
         }
-        // Mortar: D = R C Rᵀ on the pairs from the compliance C on body 2's Γc dofs, S = D⁻¹.
+        // The mortar body: D = R C Rᵀ on the pairs from the compliance C on its Γc dofs, S = D⁻¹.
         let delassus = delassus.congruence(&self.gc_rows);
         let schur = delassus
             .inverse_spd()
             .map_err(|source| BodyError::MortarRank { alpha, source })?;
         Ok(Some(Condensed { schur, delassus }))
+    }
+
+    /// Add `scale` times the nodal loads Rᵀ T of the pairs' forces `forces` to `v` (in the
+    /// nodal frames): a force T_k on pair k loads gc[i] with c·T_k for row k's (i, c).
+    fn add_gc_forces(&self, v: &mut [f64], forces: &[f64], scale: f64) {
+        for (row, &t) in self.gc_rows.iter().zip(forces) {
+            for &(i, c) in row {
+                v[self.gc[i]] += scale * c * t;
+            }
+        }
     }
 
     /// The pairs' traces Σ c·x[i] of values `x` on `gc`.
@@ -736,11 +746,7 @@ impl Body {
         for (ri, fi) in r.iter_mut().zip(&self.load) {
             *ri -= fi;
         }
-        for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
-            for &(i, c) in row {
-                r[self.gc[i]] -= c * t;
-            }
-        }
+        self.add_gc_forces(&mut r, gc_forces, -1.0);
         for &(dof, _) in &self.problem.dirichlet {
             r[dof] = 0.0;
         }
@@ -758,7 +764,7 @@ impl Body {
 
     /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs: the force the other
     /// body exerts on this one (docs/method.md §1). Node to node: the Dirichlet step's body,
-    /// which under the mortar discretisation is body 1.
+    /// which under the mortar discretisation is the non-mortar one.
     pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         let ku = self.apply_k_local(&self.local(u))?;
         Ok(self.gc.iter().map(|&d| ku[d] - self.load[d]).collect())
@@ -781,11 +787,7 @@ impl Body {
         } else {
             vec![0.0; self.load.len()]
         };
-        for (row, &f) in self.gc_rows.iter().zip(gc_forces) {
-            for &(i, c) in row {
-                load[self.gc[i]] += c * f;
-            }
-        }
+        self.add_gc_forces(&mut load, gc_forces, 1.0);
         load
     }
 
@@ -838,7 +840,8 @@ impl Body {
             GcForces::Vector(v) => {
                 let mut load = self.load.clone();
                 if let GcTrace::Mortar(c) = &self.problem.trace {
-                    // Pair k's force reaches body 2's node j as P_kj f_k (no rotated frames).
+                    // Pair k's force reaches the mortar body's node j as P_kj f_k (no rotated
+                    // frames there).
                     for (row, f) in c.rows.iter().zip(v) {
                         for &(node, p) in row {
                             load[2 * node] += p * f[0];

@@ -82,17 +82,9 @@ pub(super) struct Pairing {
     pub lengths: Vec<f64>,
 }
 
-/// A body's contact side in the orientation with the body on its right (for body 1 below a
-/// horizontal side: by increasing x), with the outward unit normal of each of its segments
-/// (its messages speak of body 1, whose side it orients node to node).
-pub(super) fn oriented_side(
-    body: &GmshBody,
-    mut nodes: Vec<usize>,
-    curve: &str,
-) -> Result<(Vec<usize>, Vec<[f64; 2]>), MeshedError> {
-    const OPT: &str = "-nndd_contact";
-    let pts = &body.mesh.points;
-    // The third vertex of the triangles on each segment.
+/// The third vertex of the body's triangles on each segment of the chain `nodes` (by the
+/// segment's (smaller, larger) node): one on a boundary segment.
+fn third_vertices(body: &GmshBody, nodes: &[usize]) -> BTreeMap<(usize, usize), Vec<usize>> {
     let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = nodes
         .windows(2)
         .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
@@ -105,6 +97,20 @@ pub(super) fn oriented_side(
             }
         }
     }
+    opposite
+}
+
+/// A body's contact side in the orientation with the body on its right (for body 1 below a
+/// horizontal side: by increasing x), with the outward unit normal of each of its segments
+/// (its messages speak of body 1, whose side it orients node to node).
+pub(super) fn oriented_side(
+    body: &GmshBody,
+    mut nodes: Vec<usize>,
+    curve: &str,
+) -> Result<(Vec<usize>, Vec<[f64; 2]>), MeshedError> {
+    const OPT: &str = "-nndd_contact";
+    let pts = &body.mesh.points;
+    let opposite = third_vertices(body, &nodes);
     // Left normal of a→b; body 1 must be on the other side of every segment.
     let left = |a: usize, b: usize| {
         let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
@@ -190,18 +196,7 @@ pub(super) fn facing(
     const OPT: &str = "-nndd_contact";
     let curve = &contact[1];
     let pts = &body2.mesh.points;
-    let mut opposite: BTreeMap<(usize, usize), Vec<usize>> = chain2
-        .windows(2)
-        .map(|w| ((w[0].min(w[1]), w[0].max(w[1])), Vec::new()))
-        .collect();
-    for t in &body2.mesh.triangles {
-        for i in 0..3 {
-            let (a, b, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
-            if let Some(list) = opposite.get_mut(&(a.min(b), a.max(b))) {
-                list.push(c);
-            }
-        }
-    }
+    let opposite = third_vertices(body2, chain2);
     // The outward unit normal of each segment of body 2's curve.
     let mut segments = Vec::with_capacity(chain2.len() - 1);
     for w in chain2.windows(2) {

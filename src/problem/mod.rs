@@ -206,6 +206,18 @@ pub fn pair_side(problems: [&BodyProblem; 2]) -> usize {
     }
 }
 
+/// How the two bodies of a problem meet: mortar where one's trace is the coupling's.
+pub fn discretisation(problems: [&BodyProblem; 2]) -> ContactDiscretisation {
+    if problems
+        .iter()
+        .any(|p| matches!(p.trace, GcTrace::Mortar(_)))
+    {
+        ContactDiscretisation::Mortar
+    } else {
+        ContactDiscretisation::NodeToNode
+    }
+}
+
 /// The contact discretisation of two curves (`-nndd_contact_discretisation`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ContactDiscretisation {

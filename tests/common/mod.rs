@@ -14,6 +14,25 @@ pub mod hertz_fit;
 #[path = "../../jobs/extrapolate.rs"]
 pub mod extrapolate;
 
+/// Hertz with the bodies meshed on their own (its .geo takes `level` and `ratio`) and its options.
+pub const HERTZ_NM_GEO: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/hertz-nonmatching/hertz-nonmatching.geo"
+);
+pub const HERTZ_NM_OPTS: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/hertz-nonmatching/hertz-nonmatching.opts"
+);
+/// The pin in its hole (its .geo takes `level`, `ratio`, `arc`, `clearance`) and its options.
+pub const PIN_HOLE_GEO: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/pin-hole/pin-hole.geo"
+);
+pub const PIN_HOLE_OPTS: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/pin-hole/pin-hole.opts"
+);
+
 /// The materials of the Hertz examples (block, cylinder): (E, ν).
 pub const HERTZ_MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
