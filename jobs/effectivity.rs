@@ -2,7 +2,8 @@
 //! against the true error extrapolated from r = 4, 6, 8 (e_ref(r)² = e∞² − K r^(−q), q fitted),
 //! on the examples: `paper` (n = 16), the punch, Hertz with matched curves and meshed on their
 //! own at size ratios 1.5, 4 and 10, the pin in a groove, the pin in its hole (matched and
-//! meshed 2:3). Level 1 meshes, 2 ranks, tol 1e−8, θ auto.
+//! meshed 2:3), and the curves meshed on their own again under the mortar discretisation
+//! (Hertz at 1.5, 4, 10 and 1/10, the pin 2:3). Level 1 meshes, 2 ranks, tol 1e−8, θ auto.
 //!
 //! Run: `jobs/effectivity` → a table on stdout and in `results/effectivity/table.txt`.
 
@@ -23,6 +24,9 @@ struct Case {
     geo: Option<(&'static str, &'static [(&'static str, &'static str)])>,
     extra: &'static [&'static str],
 }
+
+/// The mortar discretisation's options.
+const MORTAR: [&str; 2] = ["-nndd_contact_discretisation", "mortar"];
 
 const CASES: &[Case] = &[
     Case {
@@ -90,6 +94,51 @@ const CASES: &[Case] = &[
             &[("level", "1"), ("ratio", "1.5")],
         )),
         extra: &[],
+    },
+    Case {
+        name: "hertz 1:1.5 mortar",
+        opts: "examples/hertz-nonmatching/hertz-nonmatching.opts",
+        geo: Some((
+            "examples/hertz-nonmatching/hertz-nonmatching.geo",
+            &[("level", "1"), ("ratio", "1.5")],
+        )),
+        extra: &MORTAR,
+    },
+    Case {
+        name: "hertz 1:4 mortar",
+        opts: "examples/hertz-nonmatching/hertz-nonmatching.opts",
+        geo: Some((
+            "examples/hertz-nonmatching/hertz-nonmatching.geo",
+            &[("level", "1"), ("ratio", "4")],
+        )),
+        extra: &MORTAR,
+    },
+    Case {
+        name: "hertz 1:10 mortar",
+        opts: "examples/hertz-nonmatching/hertz-nonmatching.opts",
+        geo: Some((
+            "examples/hertz-nonmatching/hertz-nonmatching.geo",
+            &[("level", "1"), ("ratio", "10")],
+        )),
+        extra: &MORTAR,
+    },
+    Case {
+        name: "hertz 10:1 mortar",
+        opts: "examples/hertz-nonmatching/hertz-nonmatching.opts",
+        geo: Some((
+            "examples/hertz-nonmatching/hertz-nonmatching.geo",
+            &[("level", "1"), ("ratio", "0.1")],
+        )),
+        extra: &MORTAR,
+    },
+    Case {
+        name: "pin in hole 2:3 mortar",
+        opts: "examples/pin-hole/pin-hole.opts",
+        geo: Some((
+            "examples/pin-hole/pin-hole.geo",
+            &[("level", "1"), ("ratio", "1.5")],
+        )),
+        extra: &MORTAR,
     },
 ];
 

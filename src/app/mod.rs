@@ -24,6 +24,7 @@ use crate::dd::body::{Body, BodyError};
 use crate::dd::contact::ContactError;
 use crate::dd::monolithic::MonolithicError;
 use crate::dd::nndd::NnddError;
+use crate::estimate::mortar::MortarEstimates;
 use crate::estimate::{EstimateError, Estimator};
 use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
@@ -36,6 +37,7 @@ use crate::parallel::partition::PartitionError;
 use crate::petsc::log::Stages;
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::meshed::MeshedError;
+use crate::problem::transfer::GapField;
 use crate::problem::{self, BodyProblem, ContactDiscretisation};
 use options::{Settings, SettingsError, SolverKind};
 use solve::{Restart, Solution};
@@ -452,36 +454,64 @@ impl<'a> Run<'a> {
     }
 
     /// The estimator when the run estimates, with the reference solution of (26) when asked
-    /// (one that does not converge is a warning, added to `warnings`: no e_ref then).
+    /// (one that does not converge is a warning, added to `warnings`: no e_ref then). A mortar
+    /// run's estimates and reference work on the matched meshes of
+    /// [`crate::problem::ProblemSettings::for_estimates`], their bodies set up here.
     fn estimator(
         &self,
         timings: &mut Timings,
         warnings: &mut Vec<String>,
     ) -> Result<Option<Estimator<'a>>, AppError> {
         let (settings, layout) = (self.settings, self.layout);
+        let matched = settings
+            .problem
+            .for_estimates()
+            .filter(|_| settings.estimate.enabled)
+            .map(|problem| Settings {
+                problem,
+                ..settings.clone()
+            });
+        let on = matched.as_ref().unwrap_or(settings);
+        let problems = [&*self.problems[0], &*self.problems[1]];
+        let gaps = matched.as_ref().map(|_| GapField::new(problems));
         let reference = match settings.estimate.reference_factor {
             0 => None,
-            r => match solve::solve_reference(settings, layout, self.stages, r, timings)? {
-                Ok(reference) => Some(reference),
-                Err(w) => {
-                    say_warnings(layout.is_root(), std::slice::from_ref(&w));
-                    warnings.push(w);
-                    None
+            r => {
+                match solve::solve_reference(on, layout, self.stages, r, timings, gaps.as_ref())? {
+                    Ok(reference) => Some(reference),
+                    Err(w) => {
+                        say_warnings(layout.is_root(), std::slice::from_ref(&w));
+                        warnings.push(w);
+                        None
+                    }
                 }
-            },
+            }
         };
+        if !settings.estimate.enabled {
+            return Ok(None);
+        }
         let stages = Some(self.stages.estimation_parts);
-        Ok(settings.estimate.enabled.then(|| {
-            let qp = &settings.qp;
-            Estimator::new(
+        let qp = &settings.qp;
+        let (Some(matched), Some(gaps)) = (matched, gaps) else {
+            let e = Estimator::new(
                 &settings.estimate,
                 qp,
                 layout,
                 self.problems,
                 reference,
                 stages,
-            )
-        }))
+            );
+            return Ok(Some(e));
+        };
+        let problems = gaps.apply(crate::problem::build(&matched.problem)?);
+        let bodies = solve::setup_matched_bodies(&matched, &problems, layout, self.stages, timings);
+        let bodies = agreed(self.agreement, bodies)?;
+        let mortar = agreed(
+            self.agreement,
+            MortarEstimates::new(self.problems.clone(), &problems, bodies).map_err(AppError::from),
+        )?;
+        let e = Estimator::new(&settings.estimate, qp, layout, &problems, reference, stages);
+        Ok(Some(e.with_mortar(mortar)))
     }
 
     /// The NNDD (paper §3) with its restart points, or the monolithic check; a failure of one

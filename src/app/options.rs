@@ -151,20 +151,14 @@ impl Settings {
 
     /// The choices the mortar discretisation decides (a body's trace
     /// [`crate::problem::GcTrace::Mortar`]): the Dirichlet step on the other, non-mortar body
-    /// ([`NnddSettings::on_mortar`]); the error estimates and a body held only by contact are
-    /// not available with it yet, and refused.
+    /// ([`NnddSettings::on_mortar`]); a body held only by contact is not available with it yet,
+    /// and refused.
     pub fn mortar_rules(&mut self, problems: &[Rc<BodyProblem>; 2]) -> Result<(), SettingsError> {
         let pair = [&*problems[0], &*problems[1]];
         if crate::problem::discretisation(pair) == ContactDiscretisation::NodeToNode {
             return Ok(());
         }
         const OPT: &str = "-nndd_contact_discretisation mortar";
-        if self.estimate.enabled {
-            return Err(SettingsError::named(
-                OPT,
-                "the error estimates are not available with the mortar discretisation yet (their admissible tractions are built on matched curves); solve without -nndd_estimate, -nndd_estimate_every, -nndd_reference_factor and -nndd_stop balanced, or use node_to_node",
-            ));
-        }
         if let Some(held) = problems.iter().find(|p| p.support == Support::Contact) {
             return Err(SettingsError::named(
                 OPT,

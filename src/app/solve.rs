@@ -116,6 +116,39 @@ pub fn setup_bodies(
     Ok(bodies)
 }
 
+/// The bodies of a mortar run's matched problems (its estimates' re-solves,
+/// [`crate::estimate::mortar::MortarEstimates`]): factored on the run's groups, without
+/// interface operators.
+pub fn setup_matched_bodies(
+    settings: &Settings,
+    problems: &[Rc<BodyProblem>; 2],
+    layout: &Layout,
+    stages: &Stages,
+    timings: &mut Timings,
+) -> Result<[Option<Body>; 2], AppError> {
+    let mut bodies: [Option<Body>; 2] = [None, None];
+    for alpha in [1, 2] {
+        if !layout.owns(alpha) {
+            continue;
+        }
+        let problem = Rc::clone(&problems[alpha - 1]);
+        let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
+        let body = Body::setup(
+            problem,
+            layout.own_body_comm(),
+            partition,
+            SchurMode::None,
+            settings.schur,
+            stages,
+        )
+        .map_err(|e| unknown_type(e, alpha))?;
+        timings.assembly += body.setup_seconds.0;
+        timings.factorisation += body.setup_seconds.1;
+        bodies[alpha - 1] = Some(body);
+    }
+    Ok(bodies)
+}
+
 /// A solver option of body α naming a type PETSc does not know (`-body1_ksp_type foo`) is bad
 /// input (exit 1, one line naming the option), not a failure of the solve; every rank of the
 /// body's group meets it in the same call.
@@ -165,13 +198,15 @@ fn announce_setup(alpha: usize, problem: &BodyProblem, layout: &Layout) -> Resul
     Ok(())
 }
 
-/// The reference solution of (26): the nested mesh r·n, NNDD to tol 1e−8.
+/// The reference solution of (26): the nested mesh r·n, NNDD to tol 1e−8 (a mortar run's: on
+/// its estimates' matched meshes refined, with the initial gaps `gaps`).
 pub fn solve_reference(
     settings: &Settings,
     layout: &Layout,
     stages: &Stages,
     r: usize,
     timings: &mut Timings,
+    gaps: Option<&crate::problem::transfer::GapField>,
 ) -> Result<Result<Reference, String>, AppError> {
     let t = Instant::now();
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
@@ -189,13 +224,11 @@ pub fn solve_reference(
     // All of it in the reference stage of -log_view.
     let stages = &stages.all_in_reference();
     let _s = stages.reference.enter();
-    let bodies = setup_bodies(
-        &fine,
-        &problem::build(&fine.problem)?,
-        layout,
-        stages,
-        &mut scratch,
-    )?;
+    let mut problems = problem::build(&fine.problem)?;
+    if let Some(g) = gaps {
+        problems = g.apply(problems);
+    }
+    let bodies = setup_bodies(&fine, &problems, layout, stages, &mut scratch)?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mesh = reference_mesh(&fine, r);
     // θ auto first; where it does not converge, the run's own fixed θ, then a small fixed θ

@@ -57,7 +57,7 @@ pub struct IterationData<'a> {
     /// The iterate's gap along each segment ([`polygon::segment_gaps`]; empty with `fe_only`).
     pub gaps: &'a [SegmentGap],
     pub t_fe: &'a [f64],
-    pub reaction1: &'a [f64],
+    pub reaction1: Reaction<'a>,
     /// Nodal contact forces μ̂ ≥ 0 on body 2 (for the discrete η^NNDD).
     pub mu_hat: &'a [f64],
     pub nndd_variant: NnddVariant,
@@ -65,6 +65,20 @@ pub struct IterationData<'a> {
     /// η^FE alone (the balanced rule's first check): no η^glo re-solve and recovery, no
     /// η^NNDD; `glo` and `nndd` stay zero.
     pub fe_only: bool,
+}
+
+/// Body 1's Γc forces T¹_p and what its η^FE recovery does with them.
+#[derive(Clone, Copy)]
+pub enum Reaction<'a> {
+    /// The NNDD's own iterate: T¹_p is u¹_p's reaction, and σ(u¹_p) is equilibrated with its
+    /// density M_Γ⁻¹T¹_p.
+    Own(&'a [f64]),
+    /// A mortar iterate carried to the matched meshes of its estimates: its reaction there is
+    /// the FE traction of each element at the inserted nodes plus the mortar forces at the
+    /// non-mortar nodes (a density that spikes at those), so body 1 is re-solved with the
+    /// forces T¹_p of its smooth density, as body 2 is with −t̂^c_p, and the re-solve is
+    /// equilibrated.
+    Resolved(&'a [f64]),
 }
 
 /// Where a rank's recovery runs: the whole body mesh (the body on one rank), or the rank's
@@ -237,9 +251,15 @@ pub fn body_fields<'a>(
                 ));
             }
         }
+        let resolve1 = match data.reaction1 {
+            Reaction::Resolved(t1) if alpha == 1 => Some(t1),
+            _ => None,
+        };
         if alpha == 2 {
             let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
             loads.push(GcForces::Normal(iface.forces(&t2)));
+        } else if let Some(t1) = resolve1 {
+            loads.push(GcForces::Normal(t1.to_vec()));
         }
         let mut solved = body.neumann_solve_many(&loads)?.into_iter();
         if !data.fe_only {
@@ -248,7 +268,7 @@ pub fn body_fields<'a>(
                 f.u_d = solved.next().expect("ũ_d");
             }
         }
-        if alpha == 2 {
+        if alpha == 2 || resolve1.is_some() {
             f.u_fe = solved.next().expect("ũ_FE");
         }
         Ok::<_, EstimateError>(())
@@ -317,7 +337,7 @@ impl<'a> ElementWork<'a> {
 
     /// The displacement the η^FE recovery starts from (u¹_p, or body 2's re-solve).
     pub fn fe_data(&self) -> &[f64] {
-        if self.p.alpha == 1 {
+        if self.p.alpha == 1 && self.fields.u_fe.is_empty() {
             &self.fields.u_p
         } else {
             &self.fields.u_fe
@@ -368,12 +388,16 @@ impl<'a> ElementWork<'a> {
         operators: &mut OperatorCache,
         parts: &Parts,
     ) -> Result<(), EstimateError> {
-        let t = if self.p.alpha == 1 {
-            iface.density(data.reaction1)
-        } else {
-            data.t_fe.iter().map(|t| -t).collect()
+        let traction = match (self.p.alpha, data.reaction1) {
+            (1, Reaction::Own(t) | Reaction::Resolved(t)) => {
+                contact_traction(self.p, &iface.density(t))
+            }
+            _ => {
+                let t: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
+                contact_traction(self.p, &t)
+            }
         };
-        let edges = polygon::nodal_edges(&contact_traction(self.p, &t));
+        let edges = polygon::nodal_edges(&traction);
         let r = self.recover(Data::Fe, &edges, data, operators, parts)?;
         self.est.residuals = worst(self.est.residuals, r);
         Ok(())
@@ -391,7 +415,7 @@ impl<'a> ElementWork<'a> {
         let (p, view, fields) = (self.p, self.view, self.fields);
         let u: &[f64] = match (which, p.alpha) {
             (Data::Glo, _) => &fields.u_tilde,
-            (Data::Fe, 1) => &fields.u_p,
+            (Data::Fe, 1) if fields.u_fe.is_empty() => &fields.u_p,
             (Data::Fe, _) => &fields.u_fe,
         };
         if let (Data::Glo, 2) = (which, p.alpha) {

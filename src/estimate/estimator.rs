@@ -8,9 +8,10 @@ use std::rc::Rc;
 use crate::dd::body::Body;
 use crate::dd::nndd::Iterate;
 use crate::estimate::cre::{
-    body_fields, worst, BodyEstimate, BodyFields, ElementWork, IterationData,
+    body_fields, worst, BodyEstimate, BodyFields, ElementWork, IterationData, Reaction,
 };
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
+use crate::estimate::mortar::MortarEstimates;
 use crate::estimate::reference::interpolate_nested;
 use crate::estimate::share::{estimate_owners, Share};
 use crate::parallel::layout::Layout;
@@ -76,6 +77,9 @@ pub struct Estimator<'a> {
     cheap_nndd: OnceCell<bool>,
     /// The estimate in progress recovers η^glo cold ([`Estimator::estimate_cold`]).
     cold: Cell<bool>,
+    /// A mortar run's: its iterates carried to the matched meshes `problems` are
+    /// ([`MortarEstimates`]).
+    mortar: Option<MortarEstimates>,
 }
 
 /// The free heap (bytes) from which an estimate gives the memory back between its two
@@ -143,7 +147,15 @@ impl<'a> Estimator<'a> {
             operators: Default::default(),
             cheap_nndd: Default::default(),
             cold: Default::default(),
+            mortar: None,
         }
+    }
+
+    /// The estimator of a mortar run: `problems` (given to [`Estimator::new`], and the
+    /// reference's) are the matched ones of `mortar`, the iterates the run's.
+    pub fn with_mortar(mut self, mortar: MortarEstimates) -> Estimator<'a> {
+        self.mortar = Some(mortar);
+        self
     }
 
     /// The iterations of the reference solution's NNDD (none without one).
@@ -173,9 +185,10 @@ impl<'a> Estimator<'a> {
     /// (ũ − u_p)ᵀK(ũ − u_p) = Δᵀ D^α Δ, Δ = ∓μ̂ − T^α_p, with the body's Delassus operator
     /// D^α = (S^α)⁻¹ (m × m, on its first rank): no back-solve. A body without its interface
     /// operators makes the Neumann re-solve and (ũ − u_p)ᵀK(ũ − u_p) instead.
-    /// Plus the nodal contact pairing of body 2, 2 μ̂ᵀ(u²_n − λ + g₀), when body 2's field is
-    /// formed; it is zero anyway (μ̂ vanishes off the contact set, and on it the contact step
-    /// puts u²_n = λ − g₀ exactly), so the check needs the Γc forces only when every body
+    /// Plus the nodal contact pairing of body 2, 2 Σ μ̂_i |u²_n − λ + g₀|_i, when body 2's field
+    /// is formed; it is zero anyway node to node (μ̂ vanishes off the contact set, and on it the
+    /// contact step puts u²_n = λ − g₀ exactly; under the mortar operators to the contact
+    /// step's tolerance, [`MortarEstimates::nndd_maps`]), so the check needs the Γc forces only when every body
     /// has its S^α ([`Estimator::eta_nndd_without_fields`]).
     pub fn eta_nndd(&self, bodies: [Option<&Body>; 2], it: &Iterate) -> Result<f64, EstimateError> {
         let mu_hat = nodal_contact_forces(it);
@@ -210,7 +223,7 @@ impl<'a> Estimator<'a> {
                     let u2n = b.normal_trace(&it.u[1]);
                     let obstacle = b.problem.obstacle(&it.lambda);
                     sum += (0..mu_hat.len())
-                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]))
+                        .map(|i| 2.0 * mu_hat[i] * (u2n[i] - obstacle[i]).abs())
                         .sum::<f64>();
                 }
             }
@@ -280,6 +293,98 @@ impl<'a> Estimator<'a> {
         it: &Iterate,
         fe_only: bool,
     ) -> Result<EstimateRecord, EstimateError> {
+        match &self.mortar {
+            None => self.run_on(bodies, it, fe_only, Reaction::Own(&it.forces[0]), &it.u),
+            Some(m) => self.run_mortar(m, bodies, it, fe_only),
+        }
+    }
+
+    /// [`Estimator::run`] of a mortar run (docs/method.md §7, "The estimates"): η^glo and η^FE
+    /// of the iterate carried to the matched meshes, plus ‖δ_n‖ (combined as §5 combines the
+    /// bubbles: (1 + θ)Q + (1 + 1/θ)‖δ_n‖² with θ = ‖δ_n‖/√Q, i.e. (√Q + ‖δ_n‖)²), their maps
+    /// summed onto the run's elements; η^NNDD the mortar-discrete one.
+    fn run_mortar(
+        &self,
+        m: &MortarEstimates,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+        fe_only: bool,
+    ) -> Result<EstimateRecord, EstimateError> {
+        let carried = self.parts.run(Part::Reduction, || {
+            m.carry(self.layout, &self.problems, &self.iface, it)
+        })?;
+        let mut rec = self.run_on(
+            m.bodies(),
+            &carried.iterate,
+            fe_only,
+            Reaction::Resolved(&carried.iterate.forces[0]),
+            &carried.u_plain,
+        )?;
+        let q = rec.eta_glo * rec.eta_glo;
+        let lift2 = carried.lift_elements.iter().flatten().sum::<f64>();
+        let theta = if lift2 > 0.0 && q > 0.0 {
+            (lift2 / q).sqrt()
+        } else {
+            0.0
+        };
+        for (k, maps) in rec.maps.iter_mut().enumerate() {
+            if bodies[k].is_none() {
+                continue;
+            }
+            // η^glo's and η^FE's maps (η^NNDD's is the run's own, below)
+            for (j, map) in maps.iter_mut().take(2).enumerate() {
+                let mut sq: Vec<f64> = map.iter().map(|v| v * v).collect();
+                if sq.is_empty() {
+                    continue;
+                }
+                if j == 0 && theta > 0.0 {
+                    for v in sq.iter_mut() {
+                        *v *= 1.0 + theta;
+                    }
+                    for (v, l) in sq.iter_mut().zip(&carried.lift_elements[k]) {
+                        *v += (1.0 + 1.0 / theta) * l;
+                    }
+                }
+                *map = m.to_parents(k, &sq).iter().map(|v| v.sqrt()).collect();
+            }
+        }
+        if !fe_only {
+            rec.eta_glo += lift2.sqrt();
+            rec.correction += lift2.sqrt();
+            let mu_hat = nodal_contact_forces(it);
+            let (maps, total) = self.parts.run(Part::Resolves, || {
+                m.nndd_maps(self.layout, bodies, it, &mu_hat)
+            })?;
+            for (k, map) in maps.into_iter().enumerate() {
+                if bodies[k].is_some() {
+                    rec.maps[k][2] = map.iter().map(|v| v.max(0.0).sqrt()).collect();
+                }
+            }
+            rec.eta_nndd = total.max(0.0).sqrt();
+        }
+        let glo2 = rec.eta_glo * rec.eta_glo;
+        rec.eta_ratio = if glo2 > 0.0 {
+            (rec.eta_fe * rec.eta_fe + rec.eta_nndd * rec.eta_nndd) / glo2
+        } else {
+            f64::NAN
+        };
+        rec.effectivity = rec.e_ref.map(|e| rec.eta_glo / e);
+        rec.iterate = it.clone();
+        rec.t_hat = m.at_pairs(&rec.t_hat);
+        Ok(rec)
+    }
+
+    /// The estimates of `it` on `bodies` (this estimator's problems), body 1's η^FE data
+    /// `reaction1`; e_ref of the fields `plain` (u^α_p, where `it` has a mortar iterate's
+    /// û^α).
+    fn run_on(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+        fe_only: bool,
+        reaction1: Reaction,
+        plain: &[Vec<f64>; 2],
+    ) -> Result<EstimateRecord, EstimateError> {
         crate::parallel::fault::check(crate::parallel::fault::Phase::Estimate)?;
         self.stop_point()?;
         let layout = self.layout;
@@ -322,7 +427,7 @@ impl<'a> Estimator<'a> {
             glo_forces: &glo_forces,
             gaps: &gaps,
             t_fe: &t_fe,
-            reaction1: &it.forces[0],
+            reaction1,
             mu_hat: &mu_hat,
             nndd_variant: self.nndd_variant,
             recovery: self.recovery,
@@ -498,7 +603,7 @@ impl<'a> Estimator<'a> {
                     let fine = r.bodies[k]
                         .as_ref()
                         .expect("reference body on the same ranks");
-                    let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &it.u[k])?;
+                    let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &plain[k])?;
                     let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
                     let kd = fine.apply_k(&d)?;
                     // Every rank of the group has it: count it once.

@@ -38,6 +38,7 @@ pub mod cre;
 pub mod equilibrate;
 pub mod error;
 pub mod estimator;
+pub mod mortar;
 pub mod overlap;
 pub mod parts;
 pub mod polygon;

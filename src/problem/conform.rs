@@ -147,10 +147,26 @@ fn local_length(p: &[[f64; 2]], i: usize) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// Whether making the curves match may move a node onto a partner's projection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Snap {
+    /// Move a node next to a partner onto it (no sliver; the node-to-node discretisation).
+    Move,
+    /// Only insert: every node of the user's mesh stays where it is, so that a P1 field of the
+    /// user's mesh is one of the matched mesh too (the mortar run's estimates,
+    /// [`super::settings::ProblemSettings::for_estimates`]).
+    InsertOnly,
+}
+
 /// Make the contact curves `contact` (body 1's, body 2's) of `gmsh` match (module doc). Where
 /// a curve is missing or not a simple boundary chain, the mesh is returned as it is: the
 /// pairing says what is wrong.
 pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
+    conform_with(gmsh, contact, Snap::Move)
+}
+
+/// [`conform`], moving nodes or not as `snap` says.
+pub fn conform_with(gmsh: &GmshMesh, contact: &[String; 2], snap: Snap) -> (GmshMesh, Matched) {
     let mut out = Matched::default();
     let mut conformed = gmsh.clone();
     let (Some(c1), Some(c2)) = (curve(gmsh, 1, &contact[0]), curve(gmsh, 2, &contact[1])) else {
@@ -166,7 +182,12 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
     // SNAP times the segments on either side) is moved onto it.
     let mut moved = [vec![false; c1.nodes.len()], vec![false; c2.nodes.len()]];
     let mut source2 = vec![false; c2.nodes.len()];
-    for (j, &b) in c2.nodes.iter().enumerate() {
+    let movable = if snap == Snap::Move {
+        c2.nodes.len()
+    } else {
+        0
+    };
+    for (j, &b) in c2.nodes.iter().enumerate().take(movable) {
         let (p1, p2) = (points(g, &c1), points(g, &c2));
         let Some(f) = project(g.points[b], &p1, &n1) else {
             continue;
@@ -195,7 +216,12 @@ pub fn conform(gmsh: &GmshMesh, contact: &[String; 2]) -> (GmshMesh, Matched) {
             source2[j] = true;
         }
     }
-    for i in 0..c1.nodes.len() {
+    let movable = if snap == Snap::Move {
+        c1.nodes.len()
+    } else {
+        0
+    };
+    for i in 0..movable {
         let (p1, p2) = (points(g, &c1), points(g, &c2));
         let Some(f) = ray(p1[i], n1[i], &p2) else {
             continue;
@@ -477,6 +503,18 @@ mod tests {
         let (c, m) = conform(&g, &contact());
         assert_eq!((m.inserted, m.moved), ([0, 0], [1, 0]));
         assert_eq!(curve_x(&c, 3), vec![0.0, 0.52, 1.0]);
+        assert!(areas(&c, 1).iter().all(|&a| a > 0.0));
+    }
+
+    #[test]
+    fn insert_only_keeps_every_node_where_it_is() {
+        // The same meshes: the partners are inserted next to the nodes instead.
+        let g = two_squares(&[0.0, 0.5, 1.0], &[0.0, 0.52, 1.0]);
+        let (c, m) = conform_with(&g, &contact(), Snap::InsertOnly);
+        assert_eq!((m.inserted, m.moved), ([1, 1], [0, 0]));
+        assert_eq!(curve_x(&c, 3), vec![0.0, 0.5, 0.52, 1.0]);
+        assert_eq!(curve_x(&c, 4), vec![0.0, 0.5, 0.52, 1.0]);
+        assert_eq!(&c.points[..g.points.len()], &g.points[..]);
         assert!(areas(&c, 1).iter().all(|&a| a > 0.0));
     }
 

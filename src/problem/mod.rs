@@ -19,6 +19,7 @@ pub mod meshed;
 pub mod mortar;
 mod polyline;
 pub mod settings;
+pub mod transfer;
 
 use std::rc::Rc;
 
@@ -81,6 +82,29 @@ impl ProblemSettings {
             spec.nested = Some(r);
         }
         s
+    }
+
+    /// The problem the estimates of a mortar run work on (`None` for any other run): the
+    /// user's meshes with each contact curve's nodes inserted into the other, nothing moved
+    /// ([`conform::Snap::InsertOnly`]), coupled node to node (docs/method.md §7, "The
+    /// estimates"). Every P1 field of the user's meshes is one of these meshes', so the mortar
+    /// iterate carries over exactly ([`transfer::Transfer`]); its continuous problem is that of
+    /// §6 on the user's polygons, and its nested refinements give the reference solution.
+    pub fn for_estimates(&self) -> Option<ProblemSettings> {
+        let spec = self.mesh.as_ref()?;
+        if spec.discretisation != ContactDiscretisation::Mortar {
+            return None;
+        }
+        let (gmsh, matched) =
+            conform::conform_with(&spec.gmsh, &spec.contact, conform::Snap::InsertOnly);
+        let mut s = self.clone();
+        s.mesh = Some(meshed::MeshSpec {
+            gmsh: Rc::new(gmsh),
+            discretisation: ContactDiscretisation::NodeToNode,
+            matched: Rc::new(matched),
+            ..spec.clone()
+        });
+        Some(s)
     }
 
     /// Total number of dofs of both bodies.

@@ -45,7 +45,7 @@ impl ProblemSettings {
         let materials = read_materials(o, warnings)?;
         let discretisation = o.choice(
             "-nndd_contact_discretisation",
-            "With -nndd_mesh: how the contact curves meet: node_to_node (curves meshed on their own are first made to match, nodes inserted into each), mortar (segment to segment with dual multipliers, the curves as meshed: the coarser curve's nodes carry the constraints and its body takes the Dirichlet step; no estimates yet)",
+            "With -nndd_mesh: how the contact curves meet: node_to_node (curves meshed on their own are first made to match, nodes inserted into each), mortar (segment to segment with dual multipliers, the curves as meshed: the coarser curve's nodes carry the constraints and its body takes the Dirichlet step)",
             &[
                 ("node_to_node", ContactDiscretisation::NodeToNode),
                 ("mortar", ContactDiscretisation::Mortar),

@@ -1,0 +1,349 @@
+//! The estimates of a mortar run (docs/method.md §7, "The estimates"). Its iterate lives on the
+//! user's meshes, coupled by the mortar operators; the admissible pair of η^glo lives on the
+//! matched meshes of [`crate::problem::ProblemSettings::for_estimates`] (each curve's nodes
+//! inserted into the other, nothing moved), whose continuous problem is §6's on the user's
+//! polygons. [`MortarEstimates::carry`] takes the iterate there:
+//! - u^α_p exactly (P1 on the user's mesh is P1 on the matched one), then û² = u²_p + δ_n: the
+//!   mortar constraint holds in the mean over each non-mortar segment, not at every pair, so
+//!   the nodes of a pair with a negative gap G_k = d_k·n_k are moved apart by −G_k along n_k,
+//!   shared by the bodies in inverse proportion to their nodal stiffness there
+//!   ([`lift_shares`]; δ_n, a P1 field on the Γc nodes); η^glo then bounds ‖u − û‖ and
+//!   ‖u − u_p‖ ≤ ‖u − û‖ + ‖δ_n‖_E, so ‖δ_n‖_E is added to it;
+//! - the Γc forces T^α of each body as the target of the admissible traction: the consistent
+//!   P1 density of the mortar forces along the non-mortar chain, at the matched pairs (body
+//!   1's η^FE re-solves with its own, [`crate::estimate::cre::Reaction::Resolved`]).
+//!
+//! η^NNDD is the mortar-discrete one ([`MortarEstimates::nndd_maps`]): with the mortar
+//! operators, so that it vanishes at the mortar problem's solution.
+
+use std::collections::HashMap;
+use std::rc::Rc;
+
+use super::error::EstimateError;
+use super::traction::Interface;
+use crate::dd::body::Body;
+use crate::dd::nndd::Iterate;
+use crate::fem::{element_dofs, element_stiffness};
+use crate::parallel::layout::Layout;
+use crate::problem::transfer::{place, Transfer};
+use crate::problem::{pair_side, BodyProblem};
+
+/// What a mortar run's estimates keep: the matched problems' bodies and the maps onto them.
+pub struct MortarEstimates {
+    /// The run's own problems (mortar).
+    pub problems: [Rc<BodyProblem>; 2],
+    /// The matched problems' bodies (factored, on the same groups as the run's).
+    pub bodies: [Option<Body>; 2],
+    transfers: [Transfer; 2],
+    /// The non-mortar (pair) side: 0 or 1.
+    side: usize,
+    /// The mortar problem's Γc (the non-mortar chain's pairs).
+    chain: Interface,
+    /// Each matched pair's place on the non-mortar chain: (segment k, fraction t).
+    places: Vec<(usize, f64)>,
+    /// The matched pair of each non-mortar pair (its node is one of the matched side's).
+    matched_pair: Vec<Option<usize>>,
+}
+
+/// A mortar iterate on the matched meshes.
+pub struct Carried {
+    /// The iterate with û² = u²_p + δ_n (its trace and gaps with it).
+    pub iterate: Iterate,
+    /// u^α_p on the matched meshes, without δ_n (for e_ref).
+    pub u_plain: [Vec<f64>; 2],
+    /// ‖δ_n‖²_E per element of each body's matched mesh.
+    pub lift_elements: [Vec<f64>; 2],
+}
+
+impl MortarEstimates {
+    /// The estimates' maps between the run's `problems` and the `matched` ones, whose bodies
+    /// `bodies` this rank owns.
+    pub fn new(
+        problems: [Rc<BodyProblem>; 2],
+        matched: &[Rc<BodyProblem>; 2],
+        bodies: [Option<Body>; 2],
+    ) -> Result<MortarEstimates, crate::problem::meshed::MeshedError> {
+        let side = pair_side([&problems[0], &problems[1]]);
+        let transfers = [
+            Transfer::new(&problems[0], &matched[0])?,
+            Transfer::new(&problems[1], &matched[1])?,
+        ];
+        let nm = &problems[side];
+        let pts: Vec<[f64; 2]> = nm
+            .contact_nodes
+            .iter()
+            .map(|&n| nm.mesh.points[n])
+            .collect();
+        let ms = &matched[side];
+        let places = ms
+            .contact_nodes
+            .iter()
+            .map(|&n| place(&pts, ms.mesh.points[n]))
+            .collect();
+        let fine_of = transfers[side].fine_node_of();
+        let index: HashMap<usize, usize> = ms
+            .contact_nodes
+            .iter()
+            .enumerate()
+            .map(|(i, &n)| (n, i))
+            .collect();
+        let matched_pair = nm
+            .contact_nodes
+            .iter()
+            .map(|n| fine_of.get(n).and_then(|f| index.get(f).copied()))
+            .collect();
+        Ok(MortarEstimates {
+            chain: Interface::new(nm.contact_lengths.clone()),
+            problems,
+            bodies,
+            transfers,
+            side,
+            places,
+            matched_pair,
+        })
+    }
+
+    /// The matched bodies, as the estimator takes them.
+    pub fn bodies(&self) -> [Option<&Body>; 2] {
+        [self.bodies[0].as_ref(), self.bodies[1].as_ref()]
+    }
+
+    /// Element values of the matched mesh of body `k` (squares of element contributions) summed
+    /// onto the run's mesh.
+    pub fn to_parents(&self, k: usize, squares: &[f64]) -> Vec<f64> {
+        self.transfers[k].to_parents(squares)
+    }
+
+    /// A P1 density of the matched Γc at the run's pairs (0 where a pair has no matched one).
+    pub fn at_pairs(&self, density: &[f64]) -> Vec<f64> {
+        self.matched_pair
+            .iter()
+            .map(|i| i.map_or(0.0, |i| density[i]))
+            .collect()
+    }
+
+    /// The mortar iterate `it` on the `matched` problems (module docs); collective over all
+    /// ranks.
+    pub fn carry(
+        &self,
+        layout: &Layout,
+        matched: &[Rc<BodyProblem>; 2],
+        iface: &Interface,
+        it: &Iterate,
+    ) -> Result<Carried, EstimateError> {
+        let u_plain: [Vec<f64>; 2] = [0, 1].map(|k| {
+            if it.u[k].is_empty() {
+                Vec::new()
+            } else {
+                self.transfers[k].interpolate(&it.u[k])
+            }
+        });
+        let m = matched[0].pairs();
+        // Each body's displacement at the pairs, from its first rank.
+        let mut at = vec![0.0; 4 * m];
+        for (k, body) in self.bodies.iter().enumerate() {
+            if body.as_ref().is_some_and(|b| b.is_root()) {
+                for (i, &n) in matched[k].contact_nodes.iter().enumerate() {
+                    at[4 * i + 2 * k] = u_plain[k][2 * n];
+                    at[4 * i + 2 * k + 1] = u_plain[k][2 * n + 1];
+                }
+            }
+        }
+        layout.world_sum(&mut at);
+        let normals = &matched[0].contact_normals;
+        let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+        let u1 = |i: usize| [at[4 * i], at[4 * i + 1]];
+        let u2 = |i: usize| [at[4 * i + 2], at[4 * i + 3]];
+        let lambda: Vec<f64> = (0..m).map(|i| dot(normals[i], u1(i))).collect();
+        let gap = |i: usize| matched[0].gap[i] + dot(normals[i], u2(i)) - lambda[i];
+        let lift: Vec<f64> = (0..m).map(|i| (-gap(i)).max(0.0)).collect();
+        let shares = lift_shares(matched, &lift);
+        let lambda: Vec<f64> = (0..m).map(|i| lambda[i] - shares[0][i]).collect();
+        let trace2: Vec<f64> = (0..m)
+            .map(|i| dot(normals[i], u2(i)) + shares[1][i])
+            .collect();
+        let mut u = u_plain.clone();
+        for (k, uk) in u.iter_mut().enumerate().filter(|(_, uk)| !uk.is_empty()) {
+            let sign = if k == 0 { -1.0 } else { 1.0 };
+            for (i, &n) in matched[k].contact_nodes.iter().enumerate() {
+                uk[2 * n] += sign * shares[k][i] * normals[i][0];
+                uk[2 * n + 1] += sign * shares[k][i] * normals[i][1];
+            }
+        }
+        let forces = [0, 1].map(|a| {
+            let s = self.chain.density(&it.forces[a]);
+            let v: Vec<f64> = self
+                .places
+                .iter()
+                .map(|&(k, t)| match s.get(k + 1) {
+                    Some(next) => (1.0 - t) * s[k] + t * next,
+                    None => s.get(k).copied().unwrap_or(0.0),
+                })
+                .collect();
+            iface.forces(&v)
+        });
+        let active = forces[1].iter().map(|&f| f > 0.0).collect();
+        let iterate = Iterate {
+            interface: lambda.clone(),
+            lambda,
+            u,
+            forces,
+            contact_body: it.contact_body,
+            trace2,
+            active,
+            qp_kkt: it.qp_kkt,
+            iteration: it.iteration,
+        };
+        Ok(Carried {
+            iterate,
+            u_plain,
+            lift_elements: [0, 1].map(|k| lift_energy(&matched[k], &shares[k])),
+        })
+    }
+
+    /// The mortar-discrete η^NNDD, element by element (squares) on each body's ranks, and its
+    /// total (on every rank): with μ̂ the iterate's nodal contact forces `mu_hat`, the Neumann
+    /// re-solves ũ^α_d with Γc forces ∓μ̂ on the run's bodies (the mortar operators), the
+    /// element energies of ũ^α_d − u^α_p, plus 2 μ̂_j |u²_n − λ + g₀|_j on the non-mortar side's
+    /// Γc elements (half to each segment at a pair): node to node the contact step makes that
+    /// gap exactly zero where μ̂ > 0, under the mortar operators only to the contact step's
+    /// tolerance, of either sign (the absolute value keeps η^NNDD ≥ 0; it still vanishes at
+    /// the solution). Collective over all ranks.
+    pub fn nndd_maps(
+        &self,
+        layout: &Layout,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+        mu_hat: &[f64],
+    ) -> Result<([Vec<f64>; 2], f64), EstimateError> {
+        let mut maps: [Vec<f64>; 2] = Default::default();
+        let mut total = 0.0;
+        for (k, body) in bodies.iter().enumerate() {
+            let Some(b) = body else { continue };
+            let p = &self.problems[k];
+            let sign = if k == 0 { 1.0 } else { -1.0 };
+            let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
+            let u_d = b.neumann_solve(&f, true)?;
+            let mut map: Vec<f64> = (0..p.mesh.triangles.len())
+                .map(|e| {
+                    let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
+                    let dofs = element_dofs(&p.mesh.triangles[e]);
+                    let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - it.u[k][dofs[r]]);
+                    (0..6)
+                        .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+                        .sum::<f64>()
+                })
+                .collect();
+            if k == self.side {
+                let obstacle = p.obstacle(&it.lambda);
+                let nodes = &p.contact_nodes;
+                let edges = edge_elements(&p.mesh);
+                let m = nodes.len();
+                for i in 0..m {
+                    let term = 2.0 * mu_hat[i] * (it.trace2[i] - obstacle[i]).abs();
+                    let segs: Vec<usize> = [i.checked_sub(1), (i + 1 < m).then_some(i)]
+                        .into_iter()
+                        .flatten()
+                        .collect();
+                    for &s in &segs {
+                        let (a, c) = (nodes[s], nodes[s + 1]);
+                        if let Some(&e) = edges.get(&(a.min(c), a.max(c))) {
+                            map[e] += term / segs.len() as f64;
+                        }
+                    }
+                }
+            }
+            if b.is_root() {
+                total += map.iter().sum::<f64>();
+            }
+            maps[k] = map;
+        }
+        Ok((maps, layout.sum(total)))
+    }
+}
+
+/// The element of each edge (a < b) of a mesh (the last one found).
+fn edge_elements(mesh: &crate::fem::mesh::Mesh) -> HashMap<(usize, usize), usize> {
+    let mut map = HashMap::new();
+    for (e, t) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            map.insert((a.min(b), a.max(b)), e);
+        }
+    }
+    map
+}
+
+/// The lift −G_k > 0 of each pair shared by the bodies: body α's part ∝ 1/a^α_k, a^α_k =
+/// nᵀK^α_kk n its nodal stiffness along the normal (the split that minimises Σ_α a^α x_α²
+/// with x₁ + x₂ = −G_k: the least energy, up to the nodes' coupling).
+fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
+    let m = lift.len();
+    let stiffness = [0, 1].map(|k| {
+        let p = &matched[k];
+        let at: HashMap<usize, usize> = p
+            .contact_nodes
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| lift[*i] > 0.0)
+            .map(|(i, &n)| (n, i))
+            .collect();
+        let mut a = vec![0.0; m];
+        for e in 0..p.mesh.triangles.len() {
+            let t = p.mesh.triangles[e];
+            if !t.iter().any(|n| at.contains_key(n)) {
+                continue;
+            }
+            let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
+            for (j, n) in t.iter().enumerate() {
+                if let Some(&i) = at.get(n) {
+                    let v = p.contact_normals[i];
+                    a[i] += (0..2)
+                        .map(|r| {
+                            v[r] * (0..2).map(|c| ke[2 * j + r][2 * j + c] * v[c]).sum::<f64>()
+                        })
+                        .sum::<f64>();
+                }
+            }
+        }
+        a
+    });
+    let part = |k: usize| -> Vec<f64> {
+        (0..m)
+            .map(|i| {
+                if lift[i] == 0.0 {
+                    return 0.0;
+                }
+                let (a, b) = (stiffness[k][i], stiffness[1 - k][i]);
+                lift[i] * b / (a + b)
+            })
+            .collect()
+    };
+    [part(0), part(1)]
+}
+
+/// ‖δ_n‖²_E per element of the lift `lift` (along the pairs' normals) at a body's matched Γc
+/// nodes.
+fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<f64> {
+    let mut delta = vec![0.0; p.mesh.num_dofs()];
+    for (i, &n) in p.contact_nodes.iter().enumerate() {
+        delta[2 * n] = lift[i] * p.contact_normals[i][0];
+        delta[2 * n + 1] = lift[i] * p.contact_normals[i][1];
+    }
+    (0..p.mesh.triangles.len())
+        .map(|e| {
+            if p.mesh.triangles[e]
+                .iter()
+                .all(|&a| delta[2 * a] == 0.0 && delta[2 * a + 1] == 0.0)
+            {
+                return 0.0;
+            }
+            let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
+            let dofs = element_dofs(&p.mesh.triangles[e]);
+            let d: [f64; 6] = std::array::from_fn(|r| delta[dofs[r]]);
+            (0..6)
+                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+                .sum::<f64>()
+        })
+        .collect()
+}

@@ -1,0 +1,315 @@
+//! A body's mesh and its matched refinement for a mortar run's estimates
+//! ([`super::ProblemSettings::for_estimates`]): the user's mesh with nodes inserted on its
+//! contact curve and nothing moved. Every node of the matched mesh is a node of the user's, or a
+//! point of one of its boundary segments; every triangle lies in one of the user's. So a P1
+//! field of the user's mesh is exactly the P1 field of the matched mesh with the interpolated
+//! values at the inserted nodes ([`Transfer::interpolate`]), and an element sum over the
+//! matched mesh is one over the user's ([`Transfer::to_parents`]).
+
+use std::collections::HashMap;
+use std::rc::Rc;
+
+use super::curves::MeshedError;
+use super::matched::point_key;
+use super::BodyProblem;
+use crate::fem::mesh::Mesh;
+
+/// Where a node of the matched mesh comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Source {
+    /// The user's node.
+    Node(usize),
+    /// The point (1 − t) x_a + t x_b of the user's boundary segment [a, b].
+    Segment { a: usize, b: usize, t: f64 },
+}
+
+/// The map from one body's mesh (the user's) to its matched refinement.
+#[derive(Clone, Debug)]
+pub struct Transfer {
+    sources: Vec<Source>,
+    /// The user's triangle each matched triangle lies in.
+    pub parents: Vec<usize>,
+    /// The number of the user's triangles.
+    coarse_elements: usize,
+}
+
+/// Relative distance (to the segment's length) within which an inserted node lies on a
+/// segment: round-off of the insertion's interpolation.
+const ON_SEGMENT: f64 = 1e-9;
+
+impl Transfer {
+    /// The transfer from body `from`'s mesh to `to`'s, its matched refinement (the same body).
+    pub fn new(from: &BodyProblem, to: &BodyProblem) -> Result<Transfer, MeshedError> {
+        let (coarse, fine) = (&from.mesh, &to.mesh);
+        let invalid = |what: String| {
+            MeshedError::Option {
+            option: "-nndd_contact_discretisation mortar".into(),
+            message: format!(
+                "the estimates' matched mesh of body {} is not a refinement of the body's mesh: {what}",
+                from.alpha
+            ),
+        }
+        };
+        let at: HashMap<[u64; 2], usize> = coarse
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (point_key(*p), i))
+            .collect();
+        let boundary = coarse.boundary_edges();
+        let mut sources = Vec::with_capacity(fine.points.len());
+        for p in &fine.points {
+            if let Some(&i) = at.get(&point_key(*p)) {
+                sources.push(Source::Node(i));
+                continue;
+            }
+            let (best, d, t) = boundary
+                .iter()
+                .map(|&[a, b]| {
+                    let (t, d) = foot(coarse.points[a], coarse.points[b], *p);
+                    ([a, b], d, t)
+                })
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .ok_or_else(|| invalid("no boundary".into()))?;
+            let [a, b] = best;
+            let len = dist(coarse.points[a], coarse.points[b]);
+            if d > ON_SEGMENT * len {
+                return Err(invalid(format!(
+                    "its node ({:.6e}, {:.6e}) is on no boundary segment",
+                    p[0], p[1]
+                )));
+            }
+            sources.push(Source::Segment { a, b, t });
+        }
+        let parents = parents(coarse, fine, &sources).map_err(invalid)?;
+        Ok(Transfer {
+            sources,
+            parents,
+            coarse_elements: coarse.triangles.len(),
+        })
+    }
+
+    /// The P1 field `u` (x, y per node) of the user's mesh on the matched mesh.
+    pub fn interpolate(&self, u: &[f64]) -> Vec<f64> {
+        let mut out = Vec::with_capacity(2 * self.sources.len());
+        for s in &self.sources {
+            for c in 0..2 {
+                out.push(match *s {
+                    Source::Node(i) => u[2 * i + c],
+                    Source::Segment { a, b, t } => (1.0 - t) * u[2 * a + c] + t * u[2 * b + c],
+                });
+            }
+        }
+        out
+    }
+
+    /// The matched node of each of the user's nodes that is one (`None` for the others).
+    pub fn fine_node_of(&self) -> HashMap<usize, usize> {
+        self.sources
+            .iter()
+            .enumerate()
+            .filter_map(|(f, s)| match s {
+                Source::Node(c) => Some((*c, f)),
+                Source::Segment { .. } => None,
+            })
+            .collect()
+    }
+
+    /// Per user's element, the sum of `values` over the matched elements in it.
+    pub fn to_parents(&self, values: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.coarse_elements];
+        for (v, &p) in values.iter().zip(&self.parents) {
+            out[p] += v;
+        }
+        out
+    }
+}
+
+/// The initial gap of a mortar run's estimates' continuous problem (docs/method.md §7, "The
+/// estimates"): the mortar problem's nodal gaps g_j = D_jj⁻¹ g̃_j along its non-mortar chain,
+/// linear on each of its segments, instead of the distance between the two polygons. The two
+/// differ by the polygons' sagittas (h²/8R on a circle), which the weighted constraint averages
+/// out and a pointwise one does not: against the polygons' distance the mortar solution
+/// penetrates by that much at the matched pairs (the pin in its hole 2:3, level 1: a
+/// correction ‖δ_n‖ as large as η^glo itself), against g₀* only by the displacement's own
+/// O(h²u'').
+#[derive(Clone, Debug)]
+pub struct GapField {
+    side: usize,
+    points: Vec<[f64; 2]>,
+    values: Vec<f64>,
+}
+
+impl GapField {
+    /// The gap field of the mortar problem `mortar` (both bodies).
+    pub fn new(mortar: [&BodyProblem; 2]) -> GapField {
+        let side = super::pair_side(mortar);
+        let nm = mortar[side];
+        GapField {
+            side,
+            points: nm
+                .contact_nodes
+                .iter()
+                .map(|&n| nm.mesh.points[n])
+                .collect(),
+            values: nm.gap.clone(),
+        }
+    }
+
+    /// g₀* at the point `x` of the non-mortar polygon (its nearest point there).
+    pub fn at(&self, x: [f64; 2]) -> f64 {
+        let (k, t) = place(&self.points, x);
+        match self.values.get(k + 1) {
+            Some(next) => (1.0 - t) * self.values[k] + t * next,
+            None => self.values.get(k).copied().unwrap_or(0.0),
+        }
+    }
+
+    /// Node-to-node `problems` on meshes matched to the mortar problem's (or refinements of
+    /// them) with g₀* as the initial gap of each pair (at its non-mortar side's node).
+    pub fn apply(&self, problems: [Rc<BodyProblem>; 2]) -> [Rc<BodyProblem>; 2] {
+        let p = &problems[self.side];
+        let gap: Vec<f64> = p
+            .contact_nodes
+            .iter()
+            .map(|&n| self.at(p.mesh.points[n]))
+            .collect();
+        problems.map(|b| {
+            Rc::new(BodyProblem {
+                gap: gap.clone(),
+                ..(*b).clone()
+            })
+        })
+    }
+}
+
+/// The place of `x` on the polyline `pts`: its nearest segment k and the fraction t on it.
+pub fn place(pts: &[[f64; 2]], x: [f64; 2]) -> (usize, f64) {
+    let mut best = (0, 0.0, f64::INFINITY);
+    for k in 0..pts.len().saturating_sub(1) {
+        let (t, d) = foot(pts[k], pts[k + 1], x);
+        if d < best.2 {
+            best = (k, t, d);
+        }
+    }
+    (best.0, best.1)
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (b[0] - a[0]).hypot(b[1] - a[1])
+}
+
+/// The foot of `p` on the segment [a, b]: its fraction t ∈ [0, 1] and distance.
+fn foot(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> (f64, f64) {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (t, dist([a[0] + t * dx, a[1] + t * dy], p))
+}
+
+/// The user's triangle each matched triangle lies in: the one around its centroid among the
+/// triangles at its vertices' sources (a matched triangle has a vertex of the user's, the one
+/// opposite the split boundary segment).
+fn parents(coarse: &Mesh, fine: &Mesh, sources: &[Source]) -> Result<Vec<usize>, String> {
+    let mut around: Vec<Vec<usize>> = vec![Vec::new(); coarse.points.len()];
+    for (e, t) in coarse.triangles.iter().enumerate() {
+        for &a in t {
+            around[a].push(e);
+        }
+    }
+    let mut out = Vec::with_capacity(fine.triangles.len());
+    for (f, t) in fine.triangles.iter().enumerate() {
+        let p = fine.triangle_points(f);
+        let c = [
+            (p[0][0] + p[1][0] + p[2][0]) / 3.0,
+            (p[0][1] + p[1][1] + p[2][1]) / 3.0,
+        ];
+        let mut best: Option<(usize, f64)> = None;
+        for &v in t {
+            let near: &[usize] = match sources[v] {
+                Source::Node(i) => &around[i],
+                Source::Segment { a, .. } => &around[a],
+            };
+            for &e in near {
+                let inside = least_barycentric(coarse.triangle_points(e), c);
+                if best.is_none_or(|(_, b)| inside > b) {
+                    best = Some((e, inside));
+                }
+            }
+        }
+        match best {
+            Some((e, inside)) if inside > -1e-9 => out.push(e),
+            _ => {
+                return Err(format!(
+                    "its triangle at ({:.6e}, {:.6e}) lies in none of the body's",
+                    c[0], c[1]
+                ))
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The least barycentric coordinate of `x` in the triangle `p` (≥ 0 inside).
+fn least_barycentric(p: [[f64; 2]; 3], x: [f64; 2]) -> f64 {
+    let area = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    let total = area(p[0], p[1], p[2]);
+    [
+        area(x, p[1], p[2]),
+        area(p[0], x, p[2]),
+        area(p[0], p[1], x),
+    ]
+    .iter()
+    .map(|a| a / total)
+    .fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_split_triangle_carries_p1_fields_and_sums_exactly() {
+        // One triangle, its bottom edge split at x = 0.3.
+        let coarse = Mesh::unstructured(vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], vec![[0, 1, 2]]);
+        let fine = Mesh::unstructured(
+            vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.3, 0.0]],
+            vec![[0, 3, 2], [3, 1, 2]],
+        );
+        let body = |mesh: Mesh| BodyProblem {
+            alpha: 1,
+            mesh,
+            material: crate::fem::Material {
+                young: 1.0,
+                poisson: 0.3,
+            },
+            dirichlet: vec![],
+            neumann: vec![],
+            contact_nodes: vec![],
+            trace: super::super::GcTrace::Nodes,
+            gap: vec![],
+            contact_normals: vec![],
+            contact_lengths: vec![],
+            contact_candidates: vec![],
+            candidate_normals: vec![],
+            support: super::super::Support::Conditions,
+        };
+        let t = Transfer::new(&body(coarse), &body(fine)).unwrap();
+        assert_eq!(t.parents, vec![0, 0]);
+        // u = (x + 2y, 3x − y) is P1: exact at the new node.
+        let u = [0.0, 0.0, 1.0, 3.0, 2.0, -1.0];
+        let v = t.interpolate(&u);
+        assert!(
+            (v[6] - 0.3).abs() < 1e-15 && (v[7] - 0.9).abs() < 1e-15,
+            "{v:?}"
+        );
+        assert_eq!(t.to_parents(&[1.5, 2.0]), vec![3.5]);
+        assert_eq!(t.fine_node_of().len(), 3);
+    }
+}
