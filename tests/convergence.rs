@@ -269,7 +269,14 @@ fn theta_auto_on_curves_meshed_1_to_10() {
         let msh = dir.join(format!("hertz-{ratio}.msh"));
         gmsh(geo, &[("level", "1"), ("ratio", ratio)], &[], &msh);
         let m = msh.to_str().unwrap().to_string();
-        let args = ["-options_file", opts, "-nndd_mesh", &m];
+        let args = [
+            "-options_file",
+            opts,
+            "-nndd_mesh",
+            &m,
+            common::NODE_TO_NODE[0],
+            common::NODE_TO_NODE[1],
+        ];
         theta_auto_case(&dir, &format!("hertz ratio {ratio}"), &args, 30);
     }
     std::fs::remove_dir_all(&dir).ok();
@@ -301,6 +308,8 @@ fn theta_auto_on_a_pin_with_1_mm_clearance() {
             &m,
             "-nndd_bc_bore_uy",
             "-1.05e-3",
+            common::NODE_TO_NODE[0],
+            common::NODE_TO_NODE[1],
         ];
         theta_auto_case(
             &dir,

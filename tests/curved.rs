@@ -303,7 +303,13 @@ fn hole_estimates(dir: &Path, msh: &Path, name: &str) -> (f64, [f64; 3], serde_j
             PIN_HOLE_OPTS,
             msh,
             &prefix,
-            &["-nndd_estimate", "-nndd_reference_factor", r],
+            &[
+                "-nndd_estimate",
+                "-nndd_reference_factor",
+                r,
+                NODE_TO_NODE[0],
+                NODE_TO_NODE[1],
+            ],
         );
         assert_eq!(j["status"], "converged");
         assert!(meaning_says_guaranteed(&j));

@@ -13,6 +13,9 @@
 //! - The estimates (src/estimate/mortar.rs): on the patch test η^glo, η^FE, η^NNDD and e_ref
 //!   vanish to 1e−6 of ‖u‖_E (the answer is exact); on Hertz 1:1.5 and the pin in its hole 2:3 η^glo bounds e_ref at
 //!   two reference factors, η^NNDD vanishes at convergence, and 1, 2 and 3 ranks agree.
+//! - `-nndd_contact_discretisation auto` (the default) couples curves that do not match by
+//!   mortar and matching ones node to node (tests/floating.rs: node to node where a body is
+//!   held only by contact).
 //! - What mortar does not do yet is refused with one line: a Dirichlet step on the mortar
 //!   body, a built-in problem.
 
@@ -205,6 +208,29 @@ fn the_pin_in_its_hole_meshed_2_to_3_has_no_open_pair_inside_the_arc() {
         (energies[0] - energies[1]).abs() < 1e-8 * energies[1].abs(),
         "{energies:?}"
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn auto_couples_curves_that_do_not_match_by_mortar() {
+    let dir = scratch("mortar-auto");
+    for (n1, n2, want) in [(10u64, 17u64, "mortar"), (20, 20, "node_to_node")] {
+        let msh = patch_mesh(&dir, n1, n2);
+        let prefix = dir.join(format!("auto-{n1}-{n2}"));
+        let args = patch_args(&msh);
+        let j = solve(2, &prefix, &strs(&args));
+        let curves = &j["contact_curves"];
+        println!("patch {n1}:{n2}, -nndd_contact_discretisation auto: {curves}");
+        assert_eq!(curves["discretisation"], want, "{n1}:{n2}: {curves}");
+        assert_eq!(curves["inserted"], serde_json::json!([0, 0]), "{curves}");
+        assert_patch(&prefix, 1e-9, &format!("auto {n1}:{n2}"));
+    }
+    // The pin in its hole meshed alike: only the arcs' end nodes are moved onto their
+    // partners, nothing inserted: node to node.
+    let msh = dir.join("pin.msh");
+    gmsh(PIN_HOLE_GEO, &[("level", "1")], &[], &msh);
+    let j = solve_meshed(1, PIN_HOLE_OPTS, &msh, &dir.join("pin"), &[]);
+    assert_eq!(j["contact_curves"]["discretisation"], "node_to_node");
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -1,5 +1,7 @@
-//! Capability: bodies meshed on their own. The contact curves need not match: nndd inserts
-//! each curve's nodes into the other (src/problem/conform.rs) and takes Γc where they overlap.
+//! Capability: bodies meshed on their own, node to node (`-nndd_contact_discretisation
+//! node_to_node`; the default couples such curves by mortar, tests/mortar.rs). The contact
+//! curves need not match: nndd inserts each curve's nodes into the other
+//! (src/problem/conform.rs) and takes Γc where they overlap.
 //! - The contact patch test: a block pressed flat on a foundation, the two sides meshed with
 //!   ratios 1.7 and 3 in both orders, gives a uniform contact pressure and the exact linear
 //!   displacements.
@@ -42,6 +44,7 @@ fn the_contact_patch_test_is_passed_on_non_matching_meshes() {
             let prefix = dir.join(format!("{solver}-{n1}-{n2}"));
             let mut args = patch_args(&msh);
             args.extend(["-nndd_solver".into(), solver.into()]);
+            args.extend(NODE_TO_NODE.map(String::from));
             let j = solve(2, &prefix, &strs(&args));
             let what = format!("{n1} and {n2} segments, {solver}");
             assert_eq!(j["converged"], true, "{what}");
@@ -68,7 +71,9 @@ fn hertz_mesh(dir: &Path, level: u32) -> PathBuf {
 }
 
 fn hertz(np: usize, msh: &Path, prefix: &Path, extra: &[&str]) -> serde_json::Value {
-    solve_meshed(np, HERTZ_NM_OPTS, msh, prefix, extra)
+    let mut args = NODE_TO_NODE.to_vec();
+    args.extend_from_slice(extra);
+    solve_meshed(np, HERTZ_NM_OPTS, msh, prefix, &args)
 }
 
 /// The estimate of the final iterate bounds the error against the reference solution on the
@@ -177,7 +182,13 @@ fn the_rounded_punch_on_non_matching_meshes_is_bounded_and_equals_the_monolithic
         PUNCH_OPTS,
         &msh,
         &dir.join("nndd"),
-        &["-nndd_estimate", "-nndd_reference_factor", "4"],
+        &[
+            "-nndd_estimate",
+            "-nndd_reference_factor",
+            "4",
+            NODE_TO_NODE[0],
+            NODE_TO_NODE[1],
+        ],
     );
     bounded(&j, "punch");
     let curves = &j["contact_curves"];
@@ -190,7 +201,12 @@ fn the_rounded_punch_on_non_matching_meshes_is_bounded_and_equals_the_monolithic
         PUNCH_OPTS,
         &msh,
         &dir.join("mono"),
-        &["-nndd_solver", "monolithic"],
+        &[
+            "-nndd_solver",
+            "monolithic",
+            NODE_TO_NODE[0],
+            NODE_TO_NODE[1],
+        ],
     );
     let (e, em) = (f(&j, "potential_energy"), f(&mono, "potential_energy"));
     assert!((e - em).abs() < 1e-8 * em.abs(), "{e} vs monolithic {em}");
@@ -216,6 +232,8 @@ fn a_penetration_beyond_the_contact_curves_is_an_error() {
                 HERTZ_NM_OPTS,
                 "-nndd_mesh",
                 msh.to_str().unwrap(),
+                NODE_TO_NODE[0],
+                NODE_TO_NODE[1],
             ],
             Some(2),
             &[

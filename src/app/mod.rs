@@ -203,7 +203,12 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     )?;
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
     // the whole geometry, for the interface and the output).
-    let problems = build_problems(&settings, agreement, world.rank() == 0)?;
+    let mut problems = build_problems(&settings, agreement, world.rank() == 0)?;
+    if let Some(why) = settings.problem.node_to_node_instead(&problems) {
+        // (`-nndd_contact_discretisation auto` where mortar is not available)
+        settings.warnings.push(why);
+        problems = build_problems(&settings, agreement, world.rank() == 0)?;
+    }
     // The mortar discretisation, or a body held only by contact, decides the Dirichlet step's
     // body (the same on every rank).
     agreed(

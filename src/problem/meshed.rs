@@ -42,8 +42,10 @@ pub struct MeshSpec {
     pub conditions: Vec<CurveCondition>,
     /// Γc: body 1's curve and body 2's curve.
     pub contact: [String; 2],
-    /// How they meet (`-nndd_contact_discretisation`).
+    /// How they meet (`-nndd_contact_discretisation`, resolved).
     pub discretisation: ContactDiscretisation,
+    /// What the user asked for.
+    pub choice: super::DiscretisationChoice,
     /// `Some(r)`: the mesh is the user's refined r times (the reference solution): its Γc
     /// keeps the user's pairing, each coarse pair's children paired in order, and the contact
     /// direction at a new node is the user's mesh's normal field there (docs/method.md §5).
@@ -51,6 +53,23 @@ pub struct MeshSpec {
     /// What [`super::conform`] did to make the contact curves match (nothing on matching
     /// meshes).
     pub matched: Rc<super::matched::Matched>,
+}
+
+impl MeshSpec {
+    /// The same problem node to node (`auto`'s choice where mortar is not available): the
+    /// user's curves made to match ([`super::conform`]).
+    pub fn node_to_node(&self) -> MeshSpec {
+        if self.discretisation == ContactDiscretisation::NodeToNode {
+            return self.clone();
+        }
+        let (gmsh, matched) = super::conform::conform(&self.gmsh, &self.contact);
+        MeshSpec {
+            gmsh: Rc::new(gmsh),
+            discretisation: ContactDiscretisation::NodeToNode,
+            matched: Rc::new(matched),
+            ..self.clone()
+        }
+    }
 }
 
 /// A degenerate triangle at a node that the matching of the contact curves inserted or moved
@@ -800,6 +819,7 @@ mod tests {
             conditions: Vec::new(),
             contact: ["top1".into(), "bottom2".into()],
             discretisation: ContactDiscretisation::NodeToNode,
+            choice: super::super::DiscretisationChoice::Auto,
             nested: None,
             matched: Rc::new(matched),
         };

@@ -107,6 +107,24 @@ impl ProblemSettings {
         Some(s)
     }
 
+    /// Under `-nndd_contact_discretisation auto`, where it chose mortar for `problems` but a
+    /// body is held only by contact (which mortar does not support yet): the problem switched to
+    /// node to node, and why, in a line.
+    pub fn node_to_node_instead(&mut self, problems: &[Rc<BodyProblem>; 2]) -> Option<String> {
+        let spec = self.mesh.as_mut()?;
+        let held = problems.iter().find(|p| p.support == Support::Contact)?;
+        if spec.choice != DiscretisationChoice::Auto
+            || spec.discretisation != ContactDiscretisation::Mortar
+        {
+            return None;
+        }
+        *spec = spec.node_to_node();
+        Some(format!(
+            "the contact curves do not match, but body {} is held only by contact, which the mortar discretisation does not support yet: they are made to match and coupled node to node (-nndd_contact_discretisation auto)",
+            held.alpha
+        ))
+    }
+
     /// Total number of dofs of both bodies.
     pub fn dofs(&self) -> usize {
         self.body_dofs().iter().sum()
@@ -259,6 +277,16 @@ impl ContactDiscretisation {
             ContactDiscretisation::Mortar => "mortar",
         }
     }
+}
+
+/// What the user asked for (`-nndd_contact_discretisation`): a discretisation, or `auto`, the
+/// default: mortar where the curves do not match (making them match would insert a node) and
+/// node to node where they do, the two being the same there; node to node also
+/// where mortar is not available (a body held only by contact, [`meshed::MeshSpec::node_to_node`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DiscretisationChoice {
+    Auto,
+    Given(ContactDiscretisation),
 }
 
 /// What holds a body against rigid motion (translations and rotation).

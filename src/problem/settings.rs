@@ -5,7 +5,7 @@ use std::collections::BTreeSet;
 use std::rc::Rc;
 
 use super::meshed::{CurveCondition, MeshSpec, BODY_NAMES};
-use super::{ContactDiscretisation, ProblemKind, ProblemSettings};
+use super::{ContactDiscretisation, DiscretisationChoice, ProblemKind, ProblemSettings};
 use crate::fem::gmsh;
 use crate::fem::Material;
 use crate::petsc::readers::{Bounds, SettingsError};
@@ -43,16 +43,23 @@ impl ProblemSettings {
         )?;
         let grids = read_grids(o, n)?;
         let materials = read_materials(o, warnings)?;
-        let discretisation = o.choice(
+        let choice = o.choice(
             "-nndd_contact_discretisation",
-            "With -nndd_mesh: how the contact curves meet: node_to_node (curves meshed on their own are first made to match, nodes inserted into each), mortar (segment to segment with dual multipliers, the curves as meshed: the coarser curve's nodes carry the constraints and its body takes the Dirichlet step)",
+            "With -nndd_mesh: how the contact curves meet: auto (mortar where the curves do not match, node_to_node where they do or a body is held only by contact), node_to_node (curves meshed on their own are first made to match, nodes inserted into each), mortar (segment to segment with dual multipliers, the curves as meshed: the coarser curve's nodes carry the constraints and its body takes the Dirichlet step)",
             &[
-                ("node_to_node", ContactDiscretisation::NodeToNode),
-                ("mortar", ContactDiscretisation::Mortar),
+                ("auto", DiscretisationChoice::Auto),
+                (
+                    "node_to_node",
+                    DiscretisationChoice::Given(ContactDiscretisation::NodeToNode),
+                ),
+                (
+                    "mortar",
+                    DiscretisationChoice::Given(ContactDiscretisation::Mortar),
+                ),
             ],
         )?;
         let mesh = match kind {
-            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact, discretisation)?),
+            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact, choice)?),
             _ => None,
         };
         if let Some(w) = mesh.as_ref().and_then(|m| units_warning(m, &materials)) {
@@ -186,7 +193,7 @@ fn mesh_spec(
     o: &mut OptionsBlock,
     file: &str,
     contact: &str,
-    discretisation: ContactDiscretisation,
+    choice: DiscretisationChoice,
 ) -> Result<MeshSpec, SettingsError> {
     let named = SettingsError::named;
     let gmsh = read_shared(file).map_err(|e| named("-nndd_mesh", e))?;
@@ -314,8 +321,22 @@ fn mesh_spec(
         }
     }
     let contact = [pair[0].to_string(), pair[1].to_string()];
+    let (conformed, matched) = match choice {
+        DiscretisationChoice::Given(ContactDiscretisation::Mortar) => {
+            (gmsh.clone(), Default::default())
+        }
+        _ => super::conform::conform(&gmsh, &contact),
+    };
+    // (auto: the curves match where making them match inserted no node; a node within SNAP
+    // of its partner on a straight part is moved onto it, as node to node always did)
+    let matching = matched.inserted == [0, 0];
+    let discretisation = match choice {
+        DiscretisationChoice::Given(d) => d,
+        DiscretisationChoice::Auto if matching => ContactDiscretisation::NodeToNode,
+        DiscretisationChoice::Auto => ContactDiscretisation::Mortar,
+    };
     let (gmsh, matched) = match discretisation {
-        ContactDiscretisation::NodeToNode => super::conform::conform(&gmsh, &contact),
+        ContactDiscretisation::NodeToNode => (conformed, matched),
         ContactDiscretisation::Mortar => (gmsh, Default::default()),
     };
     Ok(MeshSpec {
@@ -323,6 +344,7 @@ fn mesh_spec(
         conditions,
         contact,
         discretisation,
+        choice,
         nested: None,
         matched: Rc::new(matched),
     })

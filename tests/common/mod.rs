@@ -33,6 +33,10 @@ pub const PIN_HOLE_OPTS: &str = concat!(
     "/examples/pin-hole/pin-hole.opts"
 );
 
+/// Node to node on curves meshed on their own (the default `auto` couples them by mortar):
+/// the tests of the curves made to match.
+pub const NODE_TO_NODE: [&str; 2] = ["-nndd_contact_discretisation", "node_to_node"];
+
 /// The materials of the Hertz examples (block, cylinder): (E, ν).
 pub const HERTZ_MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
