@@ -290,6 +290,8 @@ fn mortar_estimates_bound_the_error_on_hertz_and_the_pin() {
             let e = estimate_of(&j);
             let what = format!("{name} on {np} rank(s), r = {r}");
             assert_eq!(j["converged"], true, "{what}");
+            let meaning = j["estimate_meaning"]["eta_glo"].to_string();
+            assert!(meaning.contains("mortar nodal gaps"), "{what}: {meaning}");
             let (g, e_ref) = (f(e, "eta_glo"), f(e, "e_ref"));
             println!(
                 "{what}: eta_glo {g:.6e} (correction {:.3e}), eta_FE {:.6e}, eta_NNDD {:.3e}, e_ref {e_ref:.6e}, effectivity {:.4}",

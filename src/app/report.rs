@@ -137,7 +137,13 @@ pub fn summarise(
         xdmf_contact: paths.contact_xdmf().display().to_string(),
         xdmf_final: paths.final_xdmf().display().to_string(),
         fields: fields::describe(results),
-        estimate_meaning: (!sol.estimates.is_empty()).then(EstimateMeaning::default),
+        estimate_meaning: (!sol.estimates.is_empty()).then(|| {
+            if mortar {
+                EstimateMeaning::mortar()
+            } else {
+                EstimateMeaning::default()
+            }
+        }),
         warnings: settings
             .warnings
             .iter()
