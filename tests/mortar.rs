@@ -13,6 +13,9 @@
 //! - The estimates (src/estimate/mortar.rs): on the patch test η^glo, η^FE, η^NNDD and e_ref
 //!   vanish to 1e−6 of ‖u‖_E (the answer is exact); on Hertz 1:1.5 and the pin in its hole 2:3 η^glo bounds e_ref at
 //!   two reference factors, η^NNDD vanishes at convergence, and 1, 2 and 3 ranks agree.
+//! - Closed contact curves (tests/mortar/bore.geo, a pin in its bore, whole circles meshed 2:3):
+//!   the same answer as on the circles' lower arcs, NNDD = monolithic, 1, 2 and 3 ranks alike;
+//!   node to node and the estimates on them refused in a line.
 //! - `-nndd_contact_discretisation auto` (the default) couples curves that do not match by
 //!   mortar and matching ones node to node (tests/floating.rs: node to node where a body is
 //!   held only by contact).
@@ -231,6 +234,152 @@ fn auto_couples_curves_that_do_not_match_by_mortar() {
     gmsh(PIN_HOLE_GEO, &[("level", "1")], &[], &msh);
     let j = solve_meshed(1, PIN_HOLE_OPTS, &msh, &dir.join("pin"), &[]);
     assert_eq!(j["contact_curves"]["discretisation"], "node_to_node");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// |a − b| / |b|.
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+const BORE_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/mortar/bore.geo");
+
+/// The options of tests/mortar/bore.geo (the pin pushed 50 µm down in its bore).
+const BORE: [&str; 18] = [
+    "-nndd_bc_outer_ux",
+    "0",
+    "-nndd_bc_outer_uy",
+    "0",
+    "-nndd_bc_bore_ux",
+    "0",
+    "-nndd_bc_bore_uy",
+    "-5e-5",
+    "-nndd_body1_E",
+    "7e10",
+    "-nndd_body1_nu",
+    "0.33",
+    "-nndd_body2_E",
+    "2.1e11",
+    "-nndd_body2_nu",
+    "0.3",
+    "-nndd_tol",
+    "1e-9",
+];
+
+#[test]
+fn a_pin_in_its_bore_with_whole_circles_for_contact_curves() {
+    let dir = scratch("mortar-bore");
+    let msh = dir.join("bore.msh");
+    gmsh(BORE_GEO, &[("level", "1"), ("ratio", "1.5")], &[], &msh);
+    let m = msh.to_str().unwrap();
+    let run = |np: usize, name: &str, extra: &[&str]| {
+        let mut args = BORE.to_vec();
+        args.extend(["-nndd_mesh", m]);
+        args.extend_from_slice(extra);
+        let j = solve(np, &dir.join(name), &args);
+        assert_eq!(j["converged"], true, "{name}: {}", j["status"]);
+        assert_eq!(j["contact_curves"]["discretisation"], "mortar", "{name}");
+        j
+    };
+    // The whole circles (auto couples closed curves by mortar), on 1, 2 and 3 ranks and by
+    // the monolithic solve; the lower arcs of ±120° of the same mesh.
+    let mut whole = Vec::new();
+    for np in [1, 2, 3] {
+        whole.push(run(
+            np,
+            &format!("whole-{np}"),
+            &["-nndd_contact", "hole,pin"],
+        ));
+    }
+    let mono = run(
+        2,
+        "mono",
+        &["-nndd_contact", "hole,pin", "-nndd_solver", "monolithic"],
+    );
+    let arcs = run(
+        2,
+        "arcs",
+        &[
+            "-nndd_contact",
+            "hole_low,pin_low",
+            "-nndd_contact_discretisation",
+            "mortar",
+        ],
+    );
+    let e = |j: &serde_json::Value| f(j, "potential_energy");
+    let force = |j: &serde_json::Value| f(j, "contact_force");
+    println!(
+        "pin in its bore, whole circles: {} pairs, energy {:.12e}, force {:.9e}, {} iterations; lower arcs: {} pairs, energy {:.12e}, force {:.9e}; monolithic {:.12e}",
+        whole[1]["contact_curves"]["pairs"],
+        e(&whole[1]),
+        force(&whole[1]),
+        whole[1]["iterations"],
+        arcs["contact_curves"]["pairs"],
+        e(&arcs),
+        force(&arcs),
+        e(&mono)
+    );
+    // Every node of the hole's circle (64 segments, the coarser) is a pair.
+    assert_eq!(whole[1]["contact_curves"]["pairs"], 64);
+    for j in &whole {
+        assert!(
+            rel(e(j), e(&whole[0])) < 1e-10,
+            "{} vs {}",
+            e(j),
+            e(&whole[0])
+        );
+    }
+    assert!(
+        rel(e(&whole[1]), e(&mono)) < 1e-8,
+        "{} vs {}",
+        e(&whole[1]),
+        e(&mono)
+    );
+    // The contact arc (about ±55°) lies inside the lower arcs: the same answer.
+    assert!(
+        rel(e(&whole[1]), e(&arcs)) < 1e-9,
+        "{} vs {}",
+        e(&whole[1]),
+        e(&arcs)
+    );
+    assert!(rel(force(&whole[1]), force(&arcs)) < 1e-8);
+    // Γc's pairs run from a cut (the constraints span it): the pressure at each of the hole's
+    // nodes is the arcs' run's, and the pairs in contact are one stretch of the circle.
+    let at = |name: &str| -> Vec<([f64; 2], f64, bool)> {
+        let pts = points(&dir.join(name), "contact");
+        let p = field(&dir.join(name), "contact", "pressure");
+        let a = field(&dir.join(name), "contact", "active");
+        (0..p.len())
+            .map(|k| ([pts[2 * k], pts[2 * k + 1]], p[k], a[k] > 0.5))
+            .collect()
+    };
+    let (round, low) = (at("whole-2"), at("arcs"));
+    let peak = low.iter().map(|x| x.1).fold(0.0, f64::max);
+    for (x, p, _) in &low {
+        let (_, q, _) = round
+            .iter()
+            .find(|(y, _, _)| (y[0] - x[0]).hypot(y[1] - x[1]) < 1e-12)
+            .expect("the arc's pair on the circle");
+        assert!((p - q).abs() < 1e-7 * peak, "at {x:?}: {p} vs {q}");
+    }
+    let changes = (0..round.len())
+        .filter(|&k| round[k].2 != round[(k + 1) % round.len()].2)
+        .count();
+    assert_eq!(changes, 2, "one stretch in contact");
+    // What closed curves do not have yet: node to node and the estimates, refused in a line.
+    let mut args = BORE.to_vec();
+    args.extend(["-nndd_mesh", m, "-nndd_contact", "hole,pin"]);
+    let mut a = args.clone();
+    a.extend(["-nndd_contact_discretisation", "node_to_node"]);
+    fails_with(1, &a, Some(1), &["'hole' is closed", "mortar"]);
+    let mut a = args.clone();
+    a.push("-nndd_estimate");
+    fails_with(
+        1,
+        &a,
+        Some(1),
+        &["-nndd_contact", "'hole' is closed", "estimates"],
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -159,6 +159,13 @@ impl Settings {
             return Ok(());
         }
         const OPT: &str = "-nndd_contact_discretisation mortar";
+        let closed = self.problem.mesh.as_ref().and_then(|m| m.closed_contact());
+        if let (Some(curve), true) = (closed, self.estimate.enabled) {
+            return Err(SettingsError::named(
+                "-nndd_contact",
+                format!("the contact curve '{curve}' is closed: the error estimates are not available on closed contact curves yet (their matched meshes need open ones); solve without -nndd_estimate, -nndd_estimate_every, -nndd_reference_factor and -nndd_stop balanced, or name open arcs"),
+            ));
+        }
         if let Some(held) = problems.iter().find(|p| p.support == Support::Contact) {
             return Err(SettingsError::named(
                 OPT,

@@ -49,7 +49,7 @@ pub fn summarise(
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
     let discretisation = crate::problem::discretisation([body1, body2]);
     let mortar = discretisation == ContactDiscretisation::Mortar;
-    let contact = contact_of(side, &sol.last);
+    let contact = contact_of([body1, body2], &sol.last);
     let paths = &settings.output.paths;
     let builtin = settings.problem.mesh.is_none();
     let matched = settings.problem.mesh.as_ref().map(|m| &*m.matched);
@@ -274,7 +274,8 @@ struct Contact {
     detail: ContactZone,
 }
 
-fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
+fn contact_of(problems: [&BodyProblem; 2], last: &Iterate) -> Contact {
+    let p1 = problems[crate::problem::pair_side(problems)];
     let m = last.active.len();
     let x = p1.contact_x();
     let on: Vec<usize> = (0..m).filter(|&k| last.active[k]).collect();
@@ -291,7 +292,7 @@ fn contact_of(p1: &BodyProblem, last: &Iterate) -> Contact {
     }
     let point = |k: usize| p1.mesh.points[p1.contact_nodes[k]];
     // The lumped nodal pressure, as the output's `pressure`.
-    let share = crate::estimate::traction::Interface::new(p1.contact_lengths.clone()).lumped();
+    let share = crate::problem::pair_shares(problems);
     let force = last.contact_forces();
     let ends = on.first().zip(on.last()).map(|(&a, &b)| (a, b));
     let peak = (0..m)

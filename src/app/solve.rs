@@ -88,18 +88,7 @@ pub fn setup_bodies(
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
         };
-        let problem = Rc::clone(&problems[alpha - 1]);
-        announce_setup(alpha, &problem, layout)?;
-        let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
-        let mut body = Body::setup(
-            problem,
-            layout.own_body_comm(),
-            partition,
-            schur,
-            settings.schur,
-            stages,
-        )
-        .map_err(|e| unknown_type(e, alpha))?;
+        let mut body = set_up_body(settings, &problems[alpha - 1], layout, schur, stages)?;
         let system =
             settings.nndd.dirichlet_step == DirichletChoice::System || !body.has_condensed();
         // A body held only by contact takes the Dirichlet step, and the monolithic solve
@@ -128,25 +117,38 @@ pub fn setup_matched_bodies(
 ) -> Result<[Option<Body>; 2], AppError> {
     let mut bodies: [Option<Body>; 2] = [None, None];
     for alpha in [1, 2] {
-        if !layout.owns(alpha) {
-            continue;
+        if layout.owns(alpha) {
+            let problem = &problems[alpha - 1];
+            let body = set_up_body(settings, problem, layout, SchurMode::None, stages)?;
+            timings.assembly += body.setup_seconds.0;
+            timings.factorisation += body.setup_seconds.1;
+            bodies[alpha - 1] = Some(body);
         }
-        let problem = Rc::clone(&problems[alpha - 1]);
-        let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
-        let body = Body::setup(
-            problem,
-            layout.own_body_comm(),
-            partition,
-            SchurMode::None,
-            settings.schur,
-            stages,
-        )
-        .map_err(|e| unknown_type(e, alpha))?;
-        timings.assembly += body.setup_seconds.0;
-        timings.factorisation += body.setup_seconds.1;
-        bodies[alpha - 1] = Some(body);
     }
     Ok(bodies)
+}
+
+/// One body's partition, assembly and factorisation (with its interface operators as `schur`
+/// says), on its group.
+fn set_up_body(
+    settings: &Settings,
+    problem: &Rc<BodyProblem>,
+    layout: &Layout,
+    schur: SchurMode,
+    stages: &Stages,
+) -> Result<Body, AppError> {
+    let alpha = problem.alpha;
+    announce_setup(alpha, problem, layout)?;
+    let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
+    Body::setup(
+        Rc::clone(problem),
+        layout.own_body_comm(),
+        partition,
+        schur,
+        settings.schur,
+        stages,
+    )
+    .map_err(|e| unknown_type(e, alpha))
 }
 
 /// A solver option of body α naming a type PETSc does not know (`-body1_ksp_type foo`) is bad

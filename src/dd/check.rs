@@ -178,6 +178,14 @@ fn continuation(p: &BodyProblem, end: usize) -> Option<[f64; 2]> {
 /// (so that the contact may extend beyond the named contact curves, unconstrained there), with
 /// where; `None` otherwise. Every rank finds the same (Γc data and the meshes are everywhere).
 pub fn zone_reaches_open_end(problems: [&BodyProblem; 2], it: &Iterate) -> Option<String> {
+    // (a closed Γc has no end: its pairs run from a cut that the constraints span)
+    let closed = problems.iter().any(|p| match &p.trace {
+        crate::problem::GcTrace::Mortar(c) => c.closing.is_some(),
+        crate::problem::GcTrace::Nodes => false,
+    });
+    if closed {
+        return None;
+    }
     let m = it.active.len();
     let side_by_side = SIDE_BY_SIDE_DEGREES.to_radians().cos();
     let ends = if m > 1 { vec![0, m - 1] } else { vec![0] };

@@ -527,6 +527,18 @@ fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
 
 impl GmshMesh {
     /// The physical tag of the group named `name` of dimension `dim`, if any.
+    /// The line elements of the physical curve `name` (its nodes' pairs), if it exists.
+    pub fn curve_edges(&self, name: &str) -> Option<Vec<[usize; 2]>> {
+        let tag = self.tag(1, name)?;
+        Some(
+            self.lines
+                .iter()
+                .filter(|(_, phys)| phys.contains(&tag))
+                .map(|(l, _)| *l)
+                .collect(),
+        )
+    }
+
     pub fn tag(&self, dim: i32, name: &str) -> Option<i32> {
         self.names
             .iter()

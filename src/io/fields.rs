@@ -132,7 +132,7 @@ pub fn results(
         // the contact forces are the contact step's multipliers.
         let u2n = &it.trace2;
         let force = it.contact_forces();
-        let lumped = iface.lumped();
+        let lumped = crate::problem::pair_shares(problems);
         let scalar = |name: &str, values: Vec<f64>| Field {
             name: name.into(),
             center: Center::Node,

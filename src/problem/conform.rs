@@ -47,14 +47,8 @@ struct Curve {
 /// the body on the right; `None` where the curve is not a simple chain on the body's boundary
 /// (the pairing names what is wrong).
 fn curve(gmsh: &GmshMesh, alpha: usize, name: &str) -> Option<Curve> {
-    let tag = gmsh.tag(1, name)?;
+    let edges = gmsh.curve_edges(name)?;
     let body = gmsh.tag(2, BODY_NAMES[alpha - 1])?;
-    let edges: Vec<[usize; 2]> = gmsh
-        .lines
-        .iter()
-        .filter(|(_, phys)| phys.contains(&tag))
-        .map(|(l, _)| *l)
-        .collect();
     let mut nodes = chain(&edges, name, "").ok()?;
     if nodes.len() < 2 {
         return None;

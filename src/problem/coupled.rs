@@ -6,7 +6,9 @@
 
 use std::collections::BTreeSet;
 
-use super::curves::{chain, facing, node_normals, opt_err, oriented_side, MeshedError, Pairing};
+use super::curves::{
+    chain_normals, contact_chain, facing, opt_err, oriented_side, MeshedError, Pairing,
+};
 use super::mortar::{Coupling, CurveNodes, Ends};
 use crate::fem::gmsh::GmshBody;
 
@@ -33,7 +35,7 @@ pub(super) fn mortar_interface(
     contact: &[String; 2],
     bodies: &[GmshBody],
 ) -> Result<(Pairing, Coupling, usize), MeshedError> {
-    let curve = |k: usize| -> Result<Vec<usize>, MeshedError> {
+    let curve = |k: usize| -> Result<(Vec<usize>, Ends), MeshedError> {
         let name = &contact[k];
         let edges = bodies[k].curves.get(name).ok_or_else(|| {
             let known: Vec<String> = bodies[k].curves.keys().cloned().collect();
@@ -46,14 +48,16 @@ pub(super) fn mortar_interface(
                 ),
             )
         })?;
-        chain(edges, name, OPT)
+        contact_chain(edges, name, OPT)
     };
-    let chains = [curve(0)?, curve(1)?];
+    let (c0, c1) = (curve(0)?, curve(1)?);
+    let ends = [c0.1, c1.1];
+    let chains = [c0.0, c1.0];
     // The coupling with body k's curve as the non-mortar side: that curve with body k on its
     // right, its outward nodal normals and points.
-    let couple = |k: usize| -> Result<Side, MeshedError> {
-        let (chain_s, segments) = oriented_side(&bodies[k], chains[k].clone(), &contact[k])?;
-        let outward = node_normals(&segments);
+    let couple_from = |k: usize, nodes: Vec<usize>| -> Result<Side, MeshedError> {
+        let (chain_s, segments) = oriented_side(&bodies[k], nodes, &contact[k])?;
+        let outward = chain_normals(&segments, ends[k]);
         let ps = &bodies[k].mesh.points;
         let points: Vec<[f64; 2]> = chain_s.iter().map(|&n| ps[n]).collect();
         let po = &bodies[1 - k].mesh.points;
@@ -63,13 +67,13 @@ pub(super) fn mortar_interface(
                 ids: &chain_s,
                 points: &points,
                 normals: &outward,
-                ends: Ends::Open,
+                ends: ends[k],
             },
             &CurveNodes {
                 ids: &chains[1 - k],
                 points: &points_o,
                 normals: &[],
-                ends: Ends::Open,
+                ends: ends[1 - k],
             },
         );
         Ok(Side {
@@ -78,6 +82,37 @@ pub(super) fn mortar_interface(
             points,
             coupling,
         })
+    };
+    // A closed non-mortar curve is cut where Γc's pairs begin: after the stretch the other
+    // curve does not cover, or, covered all round, after its node of the largest gap.
+    let couple = |k: usize| -> Result<Side, MeshedError> {
+        let side = couple_from(k, chains[k].clone())?;
+        if ends[k] == Ends::Open || side.coupling.is_empty() {
+            return Ok(side);
+        }
+        let loop_nodes = &side.chain[..side.chain.len() - 1];
+        let covered: BTreeSet<usize> = side.coupling.nodes.iter().copied().collect();
+        let n = loop_nodes.len();
+        let start = (0..n)
+            .find(|&p| {
+                covered.contains(&loop_nodes[p]) && !covered.contains(&loop_nodes[(p + n - 1) % n])
+            })
+            .unwrap_or_else(|| {
+                let widest = (0..side.coupling.len())
+                    .max_by(|&a, &b| side.coupling.gap[a].total_cmp(&side.coupling.gap[b]))
+                    .unwrap_or(0);
+                let at = loop_nodes
+                    .iter()
+                    .position(|&x| x == side.coupling.nodes[widest])
+                    .unwrap_or(0);
+                (at + 1) % n
+            });
+        if start == 0 {
+            return Ok(side);
+        }
+        let mut cut: Vec<usize> = loop_nodes[start..].to_vec();
+        cut.extend_from_slice(&loop_nodes[..=start]);
+        couple_from(k, cut)
     };
     // The side with fewer pairs where the curves overlap (body 1's on a tie).
     let both = [couple(0)?, couple(1)?];
@@ -143,6 +178,11 @@ pub(super) fn mortar_interface(
         side_o.reverse();
     }
     let side_points = points_s[first..first + m].to_vec();
+    // (a closed side covered all round: Γc closes from its last pair to its first)
+    if ends[side] == Ends::Closed && m + 1 == points_s.len() {
+        let (a, b) = (points_s[m - 1], points_s[m]);
+        coupling.closing = Some((b[0] - a[0]).hypot(b[1] - a[1]));
+    }
     // (the other body's outward normals must oppose the side's)
     let outward_o = facing(
         contact,

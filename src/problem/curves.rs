@@ -3,6 +3,7 @@
 //! the check that two curves face each other, and Γc's pairs as [`super::meshed`] (node to
 //! node) and [`super::coupled`] (mortar) find them; the errors of a meshed problem.
 
+use super::mortar::Ends;
 use std::collections::{BTreeMap, BTreeSet};
 
 use crate::fem::gmsh::{GmshBody, GmshError};
@@ -45,7 +46,7 @@ pub fn chain(edges: &[[usize; 2]], curve: &str, option: &str) -> Result<Vec<usiz
         return Err(opt_err(
             option,
             format!(
-                "the curve '{curve}' is closed or in several pieces ({} starts); use one open curve",
+                "the curve '{curve}' is closed or in several pieces ({} starts); use one open curve (closed contact curves are coupled by -nndd_contact_discretisation mortar)",
                 starts.len()
             ),
         ));
@@ -61,6 +62,63 @@ pub fn chain(edges: &[[usize; 2]], curve: &str, option: &str) -> Result<Vec<usiz
         ));
     }
     Ok(nodes)
+}
+
+/// A closed curve's nodes from its lowest node around and back to it; `None` unless the edges
+/// form one loop (every node with one successor and one predecessor, all connected).
+pub fn closed_loop(edges: &[[usize; 2]]) -> Option<Vec<usize>> {
+    let mut next: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut prev: BTreeSet<usize> = BTreeSet::new();
+    for &[a, b] in edges {
+        if next.insert(a, b).is_some() || !prev.insert(b) {
+            return None;
+        }
+    }
+    if edges.len() < 3 || next.keys().any(|a| !prev.contains(a)) {
+        return None;
+    }
+    let start = *next.keys().next()?;
+    let mut nodes = vec![start];
+    while let Some(&b) = next.get(nodes.last()?) {
+        nodes.push(b);
+        if b == start || nodes.len() > edges.len() + 1 {
+            break;
+        }
+    }
+    (nodes.len() == edges.len() + 1 && nodes.last() == Some(&start)).then_some(nodes)
+}
+
+/// Whether the physical curve `name` of `gmsh` closes on itself (one loop).
+pub fn is_closed(gmsh: &crate::fem::gmsh::GmshMesh, name: &str) -> bool {
+    gmsh.curve_edges(name)
+        .is_some_and(|edges| closed_loop(&edges).is_some())
+}
+
+/// A contact curve as a chain: an open one from its first point to its last, a closed one
+/// (a whole circle, a bore) from its lowest node around and back to it (that node repeated at
+/// the end), with which it is.
+pub fn contact_chain(
+    edges: &[[usize; 2]],
+    curve: &str,
+    option: &str,
+) -> Result<(Vec<usize>, Ends), MeshedError> {
+    match closed_loop(edges) {
+        Some(nodes) => Ok((nodes, Ends::Closed)),
+        None => Ok((chain(edges, curve, option)?, Ends::Open)),
+    }
+}
+
+/// [`node_normals`] of a chain that closes on itself where `ends` says so: its first node (the
+/// same as its last) takes the mean of its two segments' normals, the last and the first.
+pub(super) fn chain_normals(segments: &[[f64; 2]], ends: Ends) -> Vec<[f64; 2]> {
+    let mut n = node_normals(segments);
+    if ends == Ends::Closed && segments.len() > 1 {
+        let (a, b) = (segments[0], segments[segments.len() - 1]);
+        let mean = unit_or_up([a[0] + b[0], a[1] + b[1]]);
+        let last = n.len() - 1;
+        (n[0], n[last]) = (mean, mean);
+    }
+    n
 }
 
 /// Γc's pairs: both sides' nodes in pair order, and per pair g₀, the contact direction n

@@ -15,7 +15,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::rc::Rc;
 
 pub use super::curves::{chain, MeshedError};
-use super::curves::{facing, node_normals, opt_err, oriented_side, unit_or_up, Pairing};
+use super::curves::{
+    closed_loop, facing, node_normals, opt_err, oriented_side, unit_or_up, Pairing,
+};
 use super::{BodyProblem, ContactDiscretisation, GcTrace, NeumannEdge, Support};
 use crate::fem::checks::{self, Overlap};
 use crate::fem::gmsh::{GmshBody, GmshError, GmshMesh};
@@ -56,19 +58,12 @@ pub struct MeshSpec {
 }
 
 impl MeshSpec {
-    /// The same problem node to node (`auto`'s choice where mortar is not available): the
-    /// user's curves made to match ([`super::conform`]).
-    pub fn node_to_node(&self) -> MeshSpec {
-        if self.discretisation == ContactDiscretisation::NodeToNode {
-            return self.clone();
-        }
-        let (gmsh, matched) = super::conform::conform(&self.gmsh, &self.contact);
-        MeshSpec {
-            gmsh: Rc::new(gmsh),
-            discretisation: ContactDiscretisation::NodeToNode,
-            matched: Rc::new(matched),
-            ..self.clone()
-        }
+    /// The first of the contact curves that closes on itself (a whole circle), if any.
+    pub fn closed_contact(&self) -> Option<&str> {
+        self.contact
+            .iter()
+            .find(|name| super::curves::is_closed(&self.gmsh, name))
+            .map(String::as_str)
     }
 }
 
@@ -319,30 +314,6 @@ fn condition_chain(
         }
     }
     Ok(nodes)
-}
-
-/// A closed curve's nodes from its lowest node around and back to it; `None` unless the edges
-/// form one loop (every node with one successor and one predecessor, all connected).
-fn closed_loop(edges: &[[usize; 2]]) -> Option<Vec<usize>> {
-    let mut next: BTreeMap<usize, usize> = BTreeMap::new();
-    let mut prev: BTreeSet<usize> = BTreeSet::new();
-    for &[a, b] in edges {
-        if next.insert(a, b).is_some() || !prev.insert(b) {
-            return None;
-        }
-    }
-    if edges.len() < 3 || next.keys().any(|a| !prev.contains(a)) {
-        return None;
-    }
-    let start = *next.keys().next()?;
-    let mut nodes = vec![start];
-    while let Some(&b) = next.get(nodes.last()?) {
-        nodes.push(b);
-        if b == start || nodes.len() > edges.len() + 1 {
-            break;
-        }
-    }
-    (nodes.len() == edges.len() + 1 && nodes.last() == Some(&start)).then_some(nodes)
 }
 
 fn invalid(gmsh: &GmshMesh, reason: String) -> MeshedError {

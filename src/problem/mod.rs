@@ -248,6 +248,27 @@ pub fn pair_side(problems: [&BodyProblem; 2]) -> usize {
     }
 }
 
+/// Each pair's share of Γc (half its segments' lengths along the pair side): what a nodal
+/// force is divided by to give the pair's pressure. On a closed curve coupled all round
+/// ([`mortar::Coupling::closing`]) the segment that closes Γc counts for its two pairs.
+pub fn pair_shares(problems: [&BodyProblem; 2]) -> Vec<f64> {
+    let lengths = &problems[pair_side(problems)].contact_lengths;
+    let mut share = vec![0.0; lengths.len() + 1];
+    for (k, l) in lengths.iter().enumerate() {
+        share[k] += 0.5 * l;
+        share[k + 1] += 0.5 * l;
+    }
+    let closing = problems.iter().find_map(|p| match &p.trace {
+        GcTrace::Mortar(c) => c.closing,
+        GcTrace::Nodes => None,
+    });
+    if let (Some(l), Some(last)) = (closing, share.len().checked_sub(1)) {
+        share[0] += 0.5 * l;
+        share[last] += 0.5 * l;
+    }
+    share
+}
+
 /// How the two bodies of a problem meet: mortar where one's trace is the coupling's.
 pub fn discretisation(problems: [&BodyProblem; 2]) -> ContactDiscretisation {
     if problems

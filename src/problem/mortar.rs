@@ -69,6 +69,9 @@ pub struct Coupling {
     pub rows: Vec<Vec<(usize, f64)>>,
     /// The wall time of building it (s; for the summary).
     pub seconds: f64,
+    /// Where S is closed and Γc goes all round it: the length of S's segment from the last
+    /// pair back to the first, which closes Γc (its pairs run along S from a cut).
+    pub closing: Option<f64>,
 }
 
 impl Coupling {

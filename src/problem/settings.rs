@@ -332,7 +332,11 @@ fn mesh_spec(
     let matching = matched.inserted == [0, 0];
     let discretisation = match choice {
         DiscretisationChoice::Given(d) => d,
-        DiscretisationChoice::Auto if matching => ContactDiscretisation::NodeToNode,
+        DiscretisationChoice::Auto
+            if matching && !contact.iter().any(|c| super::curves::is_closed(&gmsh, c)) =>
+        {
+            ContactDiscretisation::NodeToNode
+        }
         DiscretisationChoice::Auto => ContactDiscretisation::Mortar,
     };
     let (gmsh, matched) = match discretisation {
@@ -348,6 +352,23 @@ fn mesh_spec(
         nested: None,
         matched: Rc::new(matched),
     })
+}
+
+impl MeshSpec {
+    /// The same problem node to node (`auto`'s choice where mortar is not available): the
+    /// user's curves made to match ([`super::conform`]).
+    pub fn node_to_node(&self) -> MeshSpec {
+        if self.discretisation == ContactDiscretisation::NodeToNode {
+            return self.clone();
+        }
+        let (gmsh, matched) = super::conform::conform(&self.gmsh, &self.contact);
+        MeshSpec {
+            gmsh: Rc::new(gmsh),
+            discretisation: ContactDiscretisation::NodeToNode,
+            matched: Rc::new(matched),
+            ..self.clone()
+        }
+    }
 }
 
 /// The options that define the built-in problems' meshes and loads (not a Gmsh problem's).
