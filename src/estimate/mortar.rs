@@ -16,7 +16,7 @@
 //! η^NNDD is the mortar-discrete one ([`MortarEstimates::nndd_maps`]): with the mortar
 //! operators, so that it vanishes at the mortar problem's solution.
 
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;
 
 use super::error::EstimateError;
@@ -276,7 +276,9 @@ fn edge_elements(mesh: &crate::fem::mesh::Mesh) -> HashMap<(usize, usize), usize
 
 /// The lift −G_k > 0 of each pair shared by the bodies: body α's part ∝ 1/a^α_k, a^α_k =
 /// nᵀK^α_kk n its nodal stiffness along the normal (the split that minimises Σ_α a^α x_α²
-/// with x₁ + x₂ = −G_k: the least energy, up to the nodes' coupling).
+/// with x₁ + x₂ = −G_k: the least energy, up to the nodes' coupling); all of it on the other
+/// body where one's node has a displacement component along n prescribed (û keeps Γ_D's
+/// values; where both have, the data fix the pair and nothing is moved).
 fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
     let m = lift.len();
     let stiffness = [0, 1].map(|k| {
@@ -308,11 +310,23 @@ fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
         }
         a
     });
+    let held = [0, 1].map(|k| {
+        let p = &matched[k];
+        let fixed: BTreeSet<usize> = p.dirichlet.iter().map(|&(dof, _)| dof).collect();
+        p.contact_nodes
+            .iter()
+            .zip(&p.contact_normals)
+            .map(|(&n, normal)| (0..2).any(|c| normal[c] != 0.0 && fixed.contains(&(2 * n + c))))
+            .collect::<Vec<bool>>()
+    });
     let part = |k: usize| -> Vec<f64> {
         (0..m)
             .map(|i| {
-                if lift[i] == 0.0 {
+                if lift[i] == 0.0 || held[k][i] {
                     return 0.0;
+                }
+                if held[1 - k][i] {
+                    return lift[i];
                 }
                 let (a, b) = (stiffness[k][i], stiffness[1 - k][i]);
                 lift[i] * b / (a + b)
