@@ -525,7 +525,7 @@ enum Data {
 }
 
 /// dᵀ K_E d of an element stiffness K_E and element dofs d.
-fn energy(ke: &[[f64; 6]; 6], d: &[f64; 6]) -> f64 {
+pub(super) fn energy(ke: &[[f64; 6]; 6], d: &[f64; 6]) -> f64 {
     (0..6)
         .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
         .sum()
@@ -674,7 +674,7 @@ pub(super) fn worst(a: Residuals, b: Residuals) -> Residuals {
 }
 
 /// The element of each boundary edge (sorted node pair).
-fn edge_elements(mesh: &Mesh) -> HashMap<(usize, usize), usize> {
+pub(super) fn edge_elements(mesh: &Mesh) -> HashMap<(usize, usize), usize> {
     let mut map = HashMap::new();
     for (e, t) in mesh.triangles.iter().enumerate() {
         for k in 0..3 {

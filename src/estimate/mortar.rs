@@ -19,6 +19,7 @@
 use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;
 
+use super::cre::{edge_elements, energy};
 use super::error::EstimateError;
 use super::traction::Interface;
 use crate::dd::body::Body;
@@ -229,9 +230,7 @@ impl MortarEstimates {
                     let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
                     let dofs = element_dofs(&p.mesh.triangles[e]);
                     let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - it.u[k][dofs[r]]);
-                    (0..6)
-                        .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
-                        .sum::<f64>()
+                    energy(&ke, &d)
                 })
                 .collect();
             if k == self.side {
@@ -260,18 +259,6 @@ impl MortarEstimates {
         }
         Ok((maps, layout.sum(total)))
     }
-}
-
-/// The element of each edge (a < b) of a mesh (the last one found).
-fn edge_elements(mesh: &crate::fem::mesh::Mesh) -> HashMap<(usize, usize), usize> {
-    let mut map = HashMap::new();
-    for (e, t) in mesh.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            map.insert((a.min(b), a.max(b)), e);
-        }
-    }
-    map
 }
 
 /// The lift −G_k > 0 of each pair shared by the bodies: body α's part ∝ 1/a^α_k, a^α_k =
@@ -355,9 +342,7 @@ fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<f64> {
             let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
             let dofs = element_dofs(&p.mesh.triangles[e]);
             let d: [f64; 6] = std::array::from_fn(|r| delta[dofs[r]]);
-            (0..6)
-                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
-                .sum::<f64>()
+            energy(&ke, &d)
         })
         .collect()
 }
