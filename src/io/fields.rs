@@ -66,11 +66,7 @@ pub fn results(
                 .iter()
                 .map(|&n| problems[side].mesh.points[n])
                 .collect(),
-            topology: Topology::Segment(
-                (0..m.saturating_sub(1) as u32)
-                    .map(|i| [i, i + 1])
-                    .collect(),
-            ),
+            topology: Topology::Segment(contact_segments(problems)),
             fields: Vec::new(),
         },
     ];
@@ -260,6 +256,19 @@ fn body_fields(mesh: &Mesh, mat: &Material, u: &[f64], have: bool) -> Vec<Field>
     ]
 }
 
+/// The segments of the Γc grid: between consecutive pairs, and from the last back to the first
+/// where Γc closes on itself (a closed curve coupled all round).
+fn contact_segments(problems: [&BodyProblem; 2]) -> Vec<[u32; 2]> {
+    let m = problems[crate::problem::pair_side(problems)]
+        .contact_nodes
+        .len() as u32;
+    let closes = m > 2 && crate::problem::contact_closes(problems);
+    (0..m.saturating_sub(1))
+        .map(|i| [i, i + 1])
+        .chain(closes.then(|| [m - 1, 0]))
+        .collect()
+}
+
 /// The rows of each grid this rank writes: a body's points and cells of the `bodies` grid
 /// split evenly over its group's ranks (which all hold its fields; one rank holding both
 /// bodies writes both); the Γc grid by rank 0.
@@ -289,7 +298,7 @@ pub fn shares(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<Share> {
     let contact = match writes {
         true => Share {
             points: 0..problems[side].contact_nodes.len(),
-            cells: 0..problems[side].contact_nodes.len().saturating_sub(1),
+            cells: 0..contact_segments(problems).len(),
         },
         false => Share::default(),
     };

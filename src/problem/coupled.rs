@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use super::curves::{
     chain_normals, contact_chain, facing, opt_err, oriented_side, MeshedError, Pairing,
 };
-use super::mortar::{Coupling, CurveNodes, Ends};
+use super::mortar::{Coupling, CurveNodes, Ends, GapGeometry};
 use crate::fem::gmsh::GmshBody;
 
 const OPT: &str = "-nndd_contact";
@@ -34,6 +34,7 @@ struct Side {
 pub(super) fn mortar_interface(
     contact: &[String; 2],
     bodies: &[GmshBody],
+    geometry: GapGeometry,
 ) -> Result<(Pairing, Coupling, usize), MeshedError> {
     let curve = |k: usize| -> Result<(Vec<usize>, Ends), MeshedError> {
         let name = &contact[k];
@@ -75,6 +76,7 @@ pub(super) fn mortar_interface(
                 normals: &[],
                 ends: ends[1 - k],
             },
+            geometry,
         );
         Ok(Side {
             chain: chain_s,

@@ -48,6 +48,8 @@ pub struct MeshSpec {
     pub discretisation: ContactDiscretisation,
     /// What the user asked for.
     pub choice: super::DiscretisationChoice,
+    /// What mortar's initial gap is measured to (`-nndd_mortar_gap`).
+    pub gap: super::mortar::GapGeometry,
     /// `Some(r)`: the mesh is the user's refined r times (the reference solution): its Γc
     /// keeps the user's pairing, each coarse pair's children paired in order, and the contact
     /// direction at a new node is the user's mesh's normal field there (docs/method.md §5).
@@ -123,7 +125,7 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
     let (pairing, coupling) = match spec.discretisation {
         ContactDiscretisation::NodeToNode => (pair_interface(spec, &bodies)?, None),
         ContactDiscretisation::Mortar => {
-            let (p, c, side) = super::coupled::mortar_interface(&spec.contact, &bodies)?;
+            let (p, c, side) = super::coupled::mortar_interface(&spec.contact, &bodies, spec.gap)?;
             (p, Some((Rc::new(c), 1 - side)))
         }
     };
@@ -791,6 +793,7 @@ mod tests {
             contact: ["top1".into(), "bottom2".into()],
             discretisation: ContactDiscretisation::NodeToNode,
             choice: super::super::DiscretisationChoice::Auto,
+            gap: Default::default(),
             nested: None,
             matched: Rc::new(matched),
         };

@@ -258,15 +258,25 @@ pub fn pair_shares(problems: [&BodyProblem; 2]) -> Vec<f64> {
         share[k] += 0.5 * l;
         share[k + 1] += 0.5 * l;
     }
-    let closing = problems.iter().find_map(|p| match &p.trace {
-        GcTrace::Mortar(c) => c.closing,
-        GcTrace::Nodes => None,
-    });
-    if let (Some(l), Some(last)) = (closing, share.len().checked_sub(1)) {
+    if let (Some(l), Some(last)) = (closing(problems), share.len().checked_sub(1)) {
         share[0] += 0.5 * l;
         share[last] += 0.5 * l;
     }
     share
+}
+
+/// The length of the segment that closes Γc where it goes all round a closed curve
+/// ([`mortar::Coupling::closing`]).
+fn closing(problems: [&BodyProblem; 2]) -> Option<f64> {
+    problems.iter().find_map(|p| match &p.trace {
+        GcTrace::Mortar(c) => c.closing,
+        GcTrace::Nodes => None,
+    })
+}
+
+/// Whether Γc closes on itself (its last pair followed by its first).
+pub fn contact_closes(problems: [&BodyProblem; 2]) -> bool {
+    closing(problems).is_some()
 }
 
 /// How the two bodies of a problem meet: mortar where one's trace is the coupling's.

@@ -26,7 +26,8 @@
 //! (S's node against a point of M's curve), which the NNDD, the monolithic solve and the
 //! checks then use unchanged ([`super::GcTrace::Mortar`]).
 
-use super::polyline::{lerp, project, ray, sub, unit, Foot};
+pub use super::polyline::Ends;
+use super::polyline::{lerp, project, ray, sub, unit, Arcs, Foot};
 
 /// The mortar operators of one pair of curves ([`operators`]).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -37,6 +38,19 @@ pub struct Operators {
     pub m: Vec<Vec<(usize, f64)>>,
     /// g̃_j per non-mortar node.
     pub gap: Vec<f64>,
+}
+
+/// What the mortar constraint's initial gap g_j is measured to (`-nndd_mortar_gap`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GapGeometry {
+    /// The distance from S's node j along n_j to the smooth curve through M's nodes
+    /// ([`Arcs`]): the curves the meshes sample, exact on circles. Two polygons of one curved
+    /// surface meshed on their own differ between their nodes by the chords' heights, which
+    /// the pressure would feel as a ripple; the nodes themselves lie on the surfaces.
+    #[default]
+    Curves,
+    /// g̃_j / D_jj: the ψ_j-weighted distance between the polygons as meshed.
+    Polygons,
 }
 
 /// One contact curve as [`Coupling::new`] takes it: its nodes' mesh numbers and points in
@@ -77,8 +91,9 @@ pub struct Coupling {
 impl Coupling {
     /// The coupling of the non-mortar curve `side` with the mortar curve `mortar`; a node of
     /// `side` that `mortar` does not reach (D_jj below 1e−12 of its segments' length) has no
-    /// constraint.
-    pub fn new(side: &CurveNodes, mortar: &CurveNodes) -> Coupling {
+    /// constraint. The gap g_j is measured as `geometry` says (the weighted one where the
+    /// node's normal line misses `mortar`'s curve).
+    pub fn new(side: &CurveNodes, mortar: &CurveNodes, geometry: GapGeometry) -> Coupling {
         let started = std::time::Instant::now();
         let op = operators(
             side.points,
@@ -104,6 +119,7 @@ impl Coupling {
             };
             before + after + wrap
         };
+        let arcs = Arcs::new(mortar.points, mortar.ends);
         let mut c = Coupling::default();
         for j in 0..distinct(side) {
             let d = op.d[j];
@@ -112,7 +128,18 @@ impl Coupling {
             }
             c.nodes.push(side.ids[j]);
             c.normals.push(side.normals[j]);
-            c.gap.push(op.gap[j] / d);
+            c.gap.push(
+                match geometry {
+                    GapGeometry::Curves => {
+                        // (the crossing lies by the mortar nodes of j's row)
+                        let hint = op.m[j].first().map_or(0, |e| e.0)
+                            ..op.m[j].last().map_or(0, |e| e.0 + 1);
+                        arcs.ray(side.points[j], side.normals[j], hint)
+                    }
+                    GapGeometry::Polygons => None,
+                }
+                .unwrap_or(op.gap[j] / d),
+            );
             c.rows.push(
                 op.m[j]
                     .iter()
@@ -154,14 +181,6 @@ const GAUSS: [(f64, f64); 5] = [
     (0.769_234_655_052_841_5, 0.239_314_335_249_683_2),
     (0.953_089_922_969_332, 0.118_463_442_528_094_5),
 ];
-
-/// Whether a contact curve ends or closes on itself (a pin's whole circle, a bore).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Ends {
-    Open,
-    /// Given as a polyline whose last point repeats its first (with the same normal).
-    Closed,
-}
 
 /// The mortar operators of the non-mortar polyline `side` (nodal normals `normals`, pointing
 /// towards the other body) against the mortar polyline `mortar`. A closed curve's repeated
@@ -546,10 +565,18 @@ mod tests {
                 normals: &[],
                 ends: Ends::Closed,
             },
+            GapGeometry::Curves,
         );
         assert_eq!(coupling.nodes, ids1[..2 * n].to_vec());
         for row in &coupling.rows {
             assert!((row_sum(row) - 1.0).abs() < 1e-13);
+        }
+        // Measured to the circle through the mortar nodes, the gap is the clearance itself.
+        for (j, g) in coupling.gap.iter().enumerate() {
+            assert!(
+                (g - c).abs() < 1e-12 * c,
+                "node {j}: gap {g:e} against {c:e}"
+            );
         }
     }
 
@@ -578,6 +605,7 @@ mod tests {
                 normals: &[],
                 ends: Ends::Open,
             },
+            GapGeometry::Curves,
         );
         assert_eq!(c.len(), side.len());
         let nodes2 = 3 + 2 * mortar.len();
@@ -648,6 +676,73 @@ mod tests {
                 worst < 1e-10,
                 "{n1}:{n2}: weighted gap off by {worst:e} of c"
             );
+        }
+    }
+
+    /// A hole's arc (radius 1 + c, the non-mortar side, evenly meshed) over a pin's (radius 1)
+    /// meshed 1:10 at uneven spacing: measured to the curves, every node's gap is the clearance
+    /// to 1e−12 of it; measured between the polygons it is off by the chords' heights.
+    #[test]
+    fn the_gap_to_the_curves_is_exact_on_circles() {
+        let c = 2e-3;
+        let side = arc(1.0 + c, 8, 0.5);
+        let mortar: Vec<[f64; 2]> = (0..=80)
+            .map(|i| {
+                let u = i as f64 / 80.0;
+                let t = -0.6 + 1.2 * (u + 0.03 * (7.0 * u).sin());
+                [t.sin(), -t.cos()]
+            })
+            .collect();
+        let normals: Vec<[f64; 2]> = side.iter().map(|p| unit([-p[0], -p[1]])).collect();
+        let ids1: Vec<usize> = (0..side.len()).collect();
+        let ids2: Vec<usize> = (0..mortar.len()).collect();
+        let couple = |geometry| {
+            Coupling::new(
+                &CurveNodes {
+                    ids: &ids1,
+                    points: &side,
+                    normals: &normals,
+                    ends: Ends::Open,
+                },
+                &CurveNodes {
+                    ids: &ids2,
+                    points: &mortar,
+                    normals: &[],
+                    ends: Ends::Open,
+                },
+                geometry,
+            )
+        };
+        let worst = |cp: &Coupling| cp.gap.iter().fold(0.0_f64, |m, g| m.max((g - c).abs() / c));
+        let (curves, polygons) = (couple(GapGeometry::Curves), couple(GapGeometry::Polygons));
+        assert_eq!(curves.len(), side.len());
+        assert!(worst(&curves) < 1e-12, "curves: {:e}", worst(&curves));
+        assert!(worst(&polygons) > 1e-4, "polygons: {:e}", worst(&polygons));
+    }
+
+    /// A corner of the mortar polyline is not rounded: the gap to a right-angled corner's legs is
+    /// the distance to the polygon.
+    #[test]
+    fn a_corner_is_not_rounded() {
+        // The mortar side: a corner at (0, 1), legs down to (−1, 0) and (1, 0) in three segments
+        // each; the non-mortar side straight at y = −0.1 below it.
+        let mut mortar: Vec<[f64; 2]> = (0..=3)
+            .map(|i| {
+                let t = i as f64 / 3.0;
+                [-1.0 + t, t]
+            })
+            .collect();
+        mortar.extend((1..=3).map(|i| {
+            let t = i as f64 / 3.0;
+            [t, 1.0 - t]
+        }));
+        let arcs = Arcs::new(&mortar, Ends::Open);
+        for x in [-0.9, -0.5, -0.01, 0.2, 0.7] {
+            let s = arcs
+                .ray([x, -0.1], [0.0, 1.0], 0..0)
+                .expect("the ray meets the legs");
+            let want = 1.0 - x.abs() + 0.1;
+            assert!((s - want).abs() < 1e-14, "at x = {x}: {s} vs {want}");
         }
     }
 }

@@ -109,3 +109,131 @@ pub(super) fn ray(x: [f64; 2], n: [f64; 2], p: &[[f64; 2]]) -> Option<Foot> {
     }
     best
 }
+
+/// Whether a contact curve ends or closes on itself (a pin's whole circle, a bore).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ends {
+    Open,
+    /// Given as a polyline whose last point repeats its first (with the same normal).
+    Closed,
+}
+
+/// A node where the polyline turns by more than this (rad, 20°) is a corner of the curve, not a
+/// sample of a smooth arc: [`Arcs`] takes no curvature from it.
+pub const CORNER: f64 = 0.35;
+
+/// The smooth curve through a polyline's nodes, which the mortar gap is measured to
+/// (`-nndd_mortar_gap curves`): on each segment the circular arc through its two nodes whose
+/// curvature is the mean of those of the circles through each end node and its two neighbours.
+/// On the polygon of a circle (at any spacing) that is the circle itself, to round-off; on a
+/// smooth curve it is O(h³) from it where the chord is O(h²). A corner ([`CORNER`]) or an open
+/// curve's end node gives no curvature; a segment with none from either end is its chord.
+pub(super) struct Arcs<'a> {
+    points: &'a [[f64; 2]],
+    /// Signed curvature per segment (> 0: the curve turns left, its centre on the left).
+    kappa: Vec<f64>,
+}
+
+impl<'a> Arcs<'a> {
+    pub fn new(points: &'a [[f64; 2]], ends: Ends) -> Arcs<'a> {
+        let n = points.len();
+        // The curvature of the circle through each node and its neighbours, where it has two
+        // and does not turn a corner.
+        let node: Vec<Option<f64>> = (0..n)
+            .map(|i| {
+                let (a, c) = match ends {
+                    _ if n < 3 => return None,
+                    _ if i > 0 && i < n - 1 => (points[i - 1], points[i + 1]),
+                    // The first node is the last: its neighbours are the last but one and the
+                    // second.
+                    Ends::Closed => (points[n - 2], points[1]),
+                    Ends::Open => return None,
+                };
+                let b = points[i];
+                let (u, v, w) = (sub(b, a), sub(c, b), sub(c, a));
+                let turn = cross(u, v).atan2(u[0] * v[0] + u[1] * v[1]);
+                let lengths = u[0].hypot(u[1]) * v[0].hypot(v[1]) * w[0].hypot(w[1]);
+                (turn.abs() <= CORNER && lengths > 0.0).then(|| 2.0 * cross(u, v) / lengths)
+            })
+            .collect();
+        let kappa = (0..n.saturating_sub(1))
+            .map(|k| match (node[k], node[k + 1]) {
+                (Some(a), Some(b)) => 0.5 * (a + b),
+                (Some(a), None) | (None, Some(a)) => a,
+                (None, None) => 0.0,
+            })
+            .collect();
+        Arcs { points, kappa }
+    }
+
+    /// The distance s along the unit direction `n` from `x` to the curve (x + s·n on it), the
+    /// crossing nearest `x`, looked for first near the nodes `hint` (then everywhere); `None`
+    /// where the line misses it.
+    pub fn ray(&self, x: [f64; 2], n: [f64; 2], hint: std::ops::Range<usize>) -> Option<f64> {
+        // The chords' crossing says where to look: the arcs of that segment and its neighbours.
+        let (lo, hi) = (
+            hint.start.saturating_sub(2),
+            (hint.end + 2).min(self.points.len()),
+        );
+        let near = match (lo + 1 < hi)
+            .then(|| ray(x, n, &self.points[lo..hi]))
+            .flatten()
+        {
+            Some(f) => f.k + lo,
+            None => ray(x, n, self.points)?.k,
+        };
+        (near.saturating_sub(1)..(near + 2).min(self.kappa.len()))
+            .filter_map(|k| self.ray_on(k, x, n))
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+    }
+
+    /// Where the line x + s·n meets segment k's arc (between its nodes).
+    fn ray_on(&self, k: usize, x: [f64; 2], n: [f64; 2]) -> Option<f64> {
+        let (a, b) = (self.points[k], self.points[k + 1]);
+        let d = sub(b, a);
+        let len = d[0].hypot(d[1]);
+        let kappa = self.kappa[k];
+        let half = 0.5 * len * kappa.abs();
+        if !(1e-12..1.0).contains(&half) {
+            let f = ray(x, n, &self.points[k..k + 2])?;
+            return Some(f.s);
+        }
+        // The centre: on the side the curve turns to, R cos(half-angle) from the chord's middle.
+        let r = 1.0 / kappa.abs();
+        let side = kappa.signum();
+        let left = [-d[1] / len, d[0] / len];
+        let depth = r * (1.0 - half * half).sqrt();
+        let mid = lerp(a, b, 0.5);
+        let centre = [
+            mid[0] + side * depth * left[0],
+            mid[1] + side * depth * left[1],
+        ];
+        // |x + s n − c|² = r²: s² + 2 s (x − c)·n + |x − c|² − r² = 0.
+        let e = sub(x, centre);
+        let bq = e[0] * n[0] + e[1] * n[1];
+        let dist = e[0].hypot(e[1]);
+        let cq = (dist - r) * (dist + r);
+        let disc = bq * bq - cq;
+        if disc < 0.0 {
+            return None;
+        }
+        let root = disc.sqrt();
+        let q = -(bq + bq.signum() * root);
+        let mut roots = vec![q];
+        if q != 0.0 {
+            roots.push(cq / q);
+        }
+        // The arc: the circle's points over the chord, on the side away from the centre.
+        roots
+            .into_iter()
+            .filter(|&s| {
+                let p = [x[0] + s * n[0], x[1] + s * n[1]];
+                let rel = sub(p, a);
+                let t = (rel[0] * d[0] + rel[1] * d[1]) / (len * len);
+                let off = sub(p, mid);
+                (-COINCIDENT..=1.0 + COINCIDENT).contains(&t)
+                    && side * (off[0] * left[0] + off[1] * left[1]) <= COINCIDENT * len
+            })
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+    }
+}

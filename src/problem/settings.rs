@@ -5,6 +5,7 @@ use std::collections::BTreeSet;
 use std::rc::Rc;
 
 use super::meshed::{CurveCondition, MeshSpec, BODY_NAMES};
+use super::mortar::GapGeometry;
 use super::{ContactDiscretisation, DiscretisationChoice, ProblemKind, ProblemSettings};
 use crate::fem::gmsh;
 use crate::fem::Material;
@@ -58,8 +59,13 @@ impl ProblemSettings {
                 ),
             ],
         )?;
+        let gap = o.choice(
+            "-nndd_mortar_gap",
+            "With the mortar discretisation: what its constraint's initial gap is measured to: curves (from each non-mortar node along its normal to the smooth curve through the mortar side's nodes: circular arcs, exact on circles; corners turning more than 20 deg kept), polygons (the dual-weighted distance between the two polygons as meshed, which differ between their nodes by the chords' heights)",
+            &[("curves", GapGeometry::Curves), ("polygons", GapGeometry::Polygons)],
+        )?;
         let mesh = match kind {
-            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact, choice)?),
+            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact, choice, gap)?),
             _ => None,
         };
         if let Some(w) = mesh.as_ref().and_then(|m| units_warning(m, &materials)) {
@@ -194,6 +200,7 @@ fn mesh_spec(
     file: &str,
     contact: &str,
     choice: DiscretisationChoice,
+    gap: GapGeometry,
 ) -> Result<MeshSpec, SettingsError> {
     let named = SettingsError::named;
     let gmsh = read_shared(file).map_err(|e| named("-nndd_mesh", e))?;
@@ -349,6 +356,7 @@ fn mesh_spec(
         contact,
         discretisation,
         choice,
+        gap,
         nested: None,
         matched: Rc::new(matched),
     })
@@ -399,7 +407,7 @@ pub fn option_applies(kind: ProblemKind, name: &str) -> Result<(), SettingsError
             "sets the built-in problems' mesh or load and does not apply to a Gmsh problem (-nndd_mesh): its mesh sizes are the .geo file's, its conditions -nndd_bc_NAME_ux, _uy, _traction",
         ));
     }
-    if !mesh && name == "-nndd_contact_discretisation" {
+    if !mesh && ["-nndd_contact_discretisation", "-nndd_mortar_gap"].contains(&name) {
         return Err(SettingsError::named(
             name,
             "sets how the contact curves of a Gmsh problem (-nndd_mesh) meet; the built-in problems' meshes match node to node",
