@@ -1,7 +1,8 @@
 //! Capability: a problem the user meshed in Gmsh (`-nndd_mesh`): physical surfaces name the
 //! bodies, physical curves carry the boundary conditions (`-nndd_bc_NAME_…`) and the contact
 //! interface (`-nndd_contact`), the initial gap comes from the geometry. The meshes are made
-//! here by Gmsh from `examples/paper/paper.geo` (the `paper` benchmark drawn in Gmsh).
+//! here by Gmsh from `examples/paper/paper.geo` (the `paper` benchmark drawn in Gmsh), or by
+//! nndd itself from the `.geo` given as `-nndd_mesh` (`-nndd_geo_set` its parameters).
 
 mod common;
 use common::*;
@@ -355,5 +356,73 @@ fn a_mesh_in_millimetres_is_warned_and_bodies_apart_converge() {
         "{}",
         j["warnings"]
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `-nndd_mesh paper.geo -nndd_geo_set n=8`: meshed by gmsh when the run starts (on rank 0),
+/// the same answer as the `.msh` Gmsh makes of it with `-setnumber n 8`, on 1 and 2 ranks; the
+/// temporary mesh removed. Bad parameters, parameters for a `.msh` and a geometry gmsh cannot
+/// mesh are refused in one line, on every rank.
+#[test]
+fn a_geo_file_is_meshed_when_the_run_starts() {
+    let dir = scratch("gmsh-geo");
+    let msh = mesh(&dir, "paper-8", &[("n", "8")], &[]);
+    let given = solve(1, &dir.join("msh"), &strs(&paper_args(&msh, "-1e-3")));
+    for np in [1, 2] {
+        let mut args = paper_args(Path::new(GEO), "-1e-3");
+        args.extend(["-nndd_geo_set".into(), "n=8".into()]);
+        let j = solve(np, &dir.join(format!("geo-{np}")), &strs(&args));
+        println!(
+            "paper.geo with n=8 on {np} rank(s): {} dofs, energy {:.12e} (the .msh: {:.12e})",
+            j["dofs"],
+            f(&j, "potential_energy"),
+            f(&given, "potential_energy")
+        );
+        assert_eq!(j["dofs"], given["dofs"]);
+        assert!(rel(f(&j, "potential_energy"), f(&given, "potential_energy")) < 1e-12);
+    }
+    let left: Vec<_> = std::fs::read_dir(std::env::temp_dir())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("nndd-") && n.ends_with("-paper.msh"))
+        .collect();
+    assert!(left.is_empty(), "temporary meshes left: {left:?}");
+    // Refusals.
+    let m = msh.to_str().unwrap();
+    refused(
+        1,
+        &[
+            "-nndd_mesh",
+            m,
+            "-nndd_contact",
+            "contact1,contact2",
+            "-nndd_geo_set",
+            "n=8",
+        ],
+        "-nndd_geo_set",
+    );
+    refused(
+        2,
+        &[
+            "-nndd_mesh",
+            GEO,
+            "-nndd_contact",
+            "contact1,contact2",
+            "-nndd_geo_set",
+            "n",
+        ],
+        "-nndd_geo_set",
+    );
+    let broken = dir.join("broken.geo");
+    std::fs::write(&broken, "Point(1) = {0, 0, 0};\nLine(1) = {1, 2};\n").unwrap();
+    let b = broken.to_str().unwrap();
+    let line = fails_with(
+        2,
+        &["-nndd_mesh", b, "-nndd_contact", "a,b"],
+        None,
+        &["-nndd_mesh", "cannot mesh", "gmsh says"],
+    );
+    println!("{line}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -6,7 +6,8 @@
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
 //! elements; [`reference`]: the reference solution of (26); [`settings`]: the estimates'
 //! options; [`balanced`]: the balanced stopping rule, η^NNDD ≤ κ η^FE; [`estimator`]: the
-//! estimator itself, [`error`] its errors and [`parts`] where its time goes.
+//! estimator itself, [`error`] its errors and [`parts`] where its time goes; [`size_field`]:
+//! the mesh sizes the element estimates ask for.
 //!
 //! May use: `dd`, `problem`, `parallel`, `qp`, `fem`, `petsc`, `os`.
 //!
@@ -45,6 +46,7 @@ pub mod polygon;
 pub mod reference;
 pub mod settings;
 pub mod share;
+pub mod size_field;
 pub mod traction;
 
 pub use balanced::BalancedRule;

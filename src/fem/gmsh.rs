@@ -23,6 +23,8 @@ use crate::fem::mesh::Mesh;
 pub enum GmshError {
     #[error("cannot read {path}: {reason}")]
     Io { path: String, reason: String },
+    #[error("cannot mesh {path}: {reason}")]
+    Meshing { path: String, reason: String },
     #[error("{path} is not a Gmsh MSH 4.1 file ({reason}); write it with `gmsh -2 -format msh41`")]
     NotMsh { path: String, reason: String },
     #[error("{path}: {reason}")]

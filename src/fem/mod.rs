@@ -1,5 +1,6 @@
 //! Layer `fem`: the finite-element basics every other layer builds on: triangle meshes
-//! ([`mesh`]; [`gmsh`] reads them from Gmsh MSH 4.1 files; [`checks`] finds flat, folded
+//! ([`mesh`]; [`gmsh`] reads them from Gmsh MSH 4.1 files, [`geo`] has the gmsh program mesh a
+//! `.geo` geometry; [`checks`] finds flat, folded
 //! and overlapping triangles), triangle geometry ([`geometry`]: area, barycentric
 //! coordinates, local frame) and P1 plane-strain elasticity ([`elasticity`]: element
 //! stiffness, stresses, edge loads, CSR assembly).
@@ -8,6 +9,7 @@
 
 pub mod checks;
 pub mod elasticity;
+pub mod geo;
 pub mod geometry;
 pub mod gmsh;
 pub mod mesh;

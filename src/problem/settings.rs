@@ -7,8 +7,8 @@ use std::rc::Rc;
 use super::meshed::{CurveCondition, MeshSpec, BODY_NAMES};
 use super::mortar::GapGeometry;
 use super::{ContactDiscretisation, DiscretisationChoice, ProblemKind, ProblemSettings};
-use crate::fem::gmsh;
 use crate::fem::Material;
+use crate::fem::{geo, gmsh};
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::{self, OptionsBlock};
 
@@ -64,8 +64,9 @@ impl ProblemSettings {
             "With the mortar discretisation: what its constraint's initial gap is measured to: curves (from each non-mortar node along its normal to the smooth curve through the mortar side's nodes: circular arcs, exact on circles; corners turning more than 20 deg kept), polygons (the dual-weighted distance between the two polygons as meshed, which differ between their nodes by the chords' heights)",
             &[("curves", GapGeometry::Curves), ("polygons", GapGeometry::Polygons)],
         )?;
+        let geo_set = read_geo_set(o, kind, &mesh_file)?;
         let mesh = match kind {
-            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &contact, choice, gap)?),
+            ProblemKind::Mesh => Some(mesh_spec(o, &mesh_file, &geo_set, &contact, choice, gap)?),
             _ => None,
         };
         if let Some(w) = mesh.as_ref().and_then(|m| units_warning(m, &materials)) {
@@ -105,7 +106,7 @@ fn read_kind(o: &mut OptionsBlock) -> Result<(ProblemKind, String, String), Sett
     )?;
     let (mesh_file, mesh_given) = o.string(
         "-nndd_mesh",
-        "Gmsh MSH 4.1 file of the two bodies (physical surfaces body1, body2); sets -nndd_problem mesh",
+        "Gmsh MSH 4.1 file of the two bodies (physical surfaces body1, body2), or their Gmsh geometry FILE.geo (meshed by the gmsh program when the run starts, parameters -nndd_geo_set); sets -nndd_problem mesh",
         "",
     )?;
     let (contact, _) = o.string(
@@ -195,15 +196,37 @@ fn read_materials(
 
 /// The meshed problem of `-nndd_mesh`: the file, the contact curves, and for every physical
 /// curve of the mesh its `-nndd_bc_NAME_{ux,uy,traction,traction_end}` options.
+/// `-nndd_geo_set`: the parameters of a `-nndd_mesh FILE.geo` (refused with anything else).
+fn read_geo_set(
+    o: &mut OptionsBlock,
+    kind: ProblemKind,
+    mesh_file: &str,
+) -> Result<Vec<(String, f64)>, SettingsError> {
+    const OPT: &str = "-nndd_geo_set";
+    let (text, given) = o.string(
+        OPT,
+        "With -nndd_mesh FILE.geo (meshed by the gmsh program when the run starts, on rank 0): its parameters as NAME=VALUE,... (Gmsh's -setnumber NAME VALUE), e.g. level=2,ratio=1.5",
+        "",
+    )?;
+    if given && !(kind == ProblemKind::Mesh && geo::is_geo(std::path::Path::new(mesh_file))) {
+        return Err(SettingsError::named(
+            OPT,
+            "sets parameters of a Gmsh geometry given as -nndd_mesh FILE.geo, which is meshed when the run starts; a .msh file is meshed already",
+        ));
+    }
+    geo::parse_parameters(&text).map_err(|e| SettingsError::named(OPT, e))
+}
+
 fn mesh_spec(
     o: &mut OptionsBlock,
     file: &str,
+    geo_set: &[(String, f64)],
     contact: &str,
     choice: DiscretisationChoice,
     gap: GapGeometry,
 ) -> Result<MeshSpec, SettingsError> {
     let named = SettingsError::named;
-    let gmsh = read_shared(file).map_err(|e| named("-nndd_mesh", e))?;
+    let gmsh = read_shared(file, geo_set).map_err(|e| named("-nndd_mesh", e))?;
     // The bodies first: without them nothing else the options name can be found.
     let missing: Vec<&str> = BODY_NAMES
         .into_iter()
@@ -509,12 +532,19 @@ fn check_materials(
 
 /// The mesh file, read and parsed on world rank 0 and sent to the other ranks as bytes (a parse
 /// on every rank costs the machine one parse per rank: Hertz level 6 on 8 ranks of 2 cores took
-/// 2.6 s). Collective; an error on rank 0 reaches every rank (the others' message says so).
-fn read_shared(file: &str) -> Result<gmsh::GmshMesh, String> {
+/// 2.6 s); a `.geo` file meshed there first by gmsh with `geo_set` ([`geo::mesh`]). Collective; an error on rank 0 reaches every rank (the others' message says so).
+fn read_shared(file: &str, geo_set: &[(String, f64)]) -> Result<gmsh::GmshMesh, String> {
     use crate::parallel::wait::politely;
     use mpi::traits::{Communicator, Root};
     let world = mpi::topology::SimpleCommunicator::world();
-    let read = || gmsh::read(std::path::Path::new(file)).map_err(|e| e.to_string());
+    let path = std::path::Path::new(file);
+    let read = || {
+        match geo::is_geo(path) {
+            true => geo::mesh(path, geo_set),
+            false => gmsh::read(path),
+        }
+        .map_err(|e| e.to_string())
+    };
     if world.size() == 1 {
         return read();
     }
