@@ -384,9 +384,19 @@ impl Ksp {
         Ok(Some(out))
     }
 
+    /// Whether several right-hand sides go to one `KSPMatSolve`: a factorisation applied once
+    /// (`preonly`), but not SuperLU_DIST's, whose multiple-right-hand-side solve
+    /// (`pdReDistribute_B_to_X` in libsuperlu-dist 8) corrupts the heap on a group of two
+    /// ranks (Hertz level 1 on 3 ranks: `free(): corrupted unsorted chunks`, SIGABRT).
+    fn solves_blocks(&self) -> Result<bool> {
+        let mut pc: ffi::PC = ptr::null_mut();
+        call!(KSPGetPC(self.ksp, &mut pc))?;
+        Ok(self.is_direct()? && self.solver_package(pc)?.as_deref() != Some("superlu_dist"))
+    }
+
     /// The block (A⁻¹)[rows, rows] (column-major), from the solves A X = E with the unit
     /// vectors of `rows`, `batch` right-hand sides at a time (`KSPMatSolve`: one multiple-RHS
-    /// solve per batch with MUMPS, one solve per column otherwise). `owned` is this rank's row
+    /// solve per batch where [`Self::solves_blocks`], one solve per column otherwise). `owned` is this rank's row
     /// range, `local_rows` its length; `gather` gathers exactly `rows`. Returns the block and
     /// the worst converged reason.
     pub fn inverse_block(
@@ -402,6 +412,22 @@ impl Ksp {
         let mut out = vec![0.0; m * m];
         let mut reason = 1;
         let mut backward = 0.0;
+        if !self.solves_blocks()? {
+            for (c, &row) in rows.iter().enumerate() {
+                let mut unit = vec![0.0; local as usize];
+                if owned.contains(&row) {
+                    unit[(row - owned.start) as usize] = 1.0;
+                }
+                let mut b = Vector::new(comm, unit.len())?;
+                b.copy_from(&unit)?;
+                let mut x = b.duplicate()?;
+                let info = self.solve(&b, &mut x)?;
+                reason = reason.min(info.reason);
+                backward = worst(backward, info.backward_error);
+                out[c * m..(c + 1) * m].copy_from_slice(&gather.gather(&x)?);
+            }
+            return Ok((out, reason, backward));
+        }
         for first in (0..m).step_by(batch.max(1)) {
             let nb = batch.max(1).min(m - first);
             let dense = |values: bool| -> Result<Matrix> {
@@ -462,8 +488,9 @@ impl Ksp {
     }
 
     /// Solve A X = B for the columns of B. A factorisation (`preonly`) solves them at once
-    /// (`KSPMatSolve`: one multiple-right-hand-side solve, which reads the factor once); an
-    /// iterative solver one by one, so that each column's convergence is checked. `columns`
+    /// (`KSPMatSolve`: one multiple-right-hand-side solve, which reads the factor once; not
+    /// SuperLU_DIST's, [`Self::solves_blocks`]); an iterative solver one by one, so that each
+    /// column's convergence is checked. `columns`
     /// are this rank's rows of B's columns, each `local` long; returns this rank's rows of X's
     /// columns and the worst converged reason.
     pub fn solve_many(
@@ -471,7 +498,7 @@ impl Ksp {
         comm: Comm,
         columns: &[Vec<f64>],
     ) -> Result<(Vec<Vec<f64>>, i32, f64)> {
-        if !self.is_direct()? {
+        if !self.solves_blocks()? {
             let (mut reason, mut backward) = (1, 0.0);
             let mut out = Vec::with_capacity(columns.len());
             for col in columns {
