@@ -18,6 +18,9 @@ use mshio::mshfile::ElementType;
 use crate::fem::checks;
 use crate::fem::mesh::Mesh;
 
+mod bytes;
+mod refine;
+
 /// What is wrong with a mesh file, in the words the user needs (the caller names the option).
 #[derive(Debug, thiserror::Error)]
 pub enum GmshError {
@@ -80,114 +83,6 @@ pub struct GmshBody {
     pub elements: Vec<usize>,
     /// Physical curve name → the body's edges on it (body node numbers).
     pub curves: BTreeMap<String, Vec<[usize; 2]>>,
-}
-
-impl GmshMesh {
-    /// The mesh as bytes (little-endian counts, coordinates, nodes and tags, then the names):
-    /// what one rank sends the others instead of their parsing the file again.
-    pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(16 * self.points.len() + 40 * self.triangles.len());
-        let int = |b: &mut Vec<u8>, v: u64| b.extend_from_slice(&v.to_le_bytes());
-        let text = |b: &mut Vec<u8>, t: &str| {
-            b.extend_from_slice(&(t.len() as u64).to_le_bytes());
-            b.extend_from_slice(t.as_bytes());
-        };
-        text(&mut b, &self.path);
-        int(&mut b, self.points.len() as u64);
-        for p in &self.points {
-            b.extend_from_slice(&p[0].to_le_bytes());
-            b.extend_from_slice(&p[1].to_le_bytes());
-        }
-        let cells = |b: &mut Vec<u8>, nodes: &[usize], tags: &[i32]| {
-            for &n in nodes {
-                int(b, n as u64);
-            }
-            int(b, tags.len() as u64);
-            for &t in tags {
-                b.extend_from_slice(&t.to_le_bytes());
-            }
-        };
-        int(&mut b, self.triangles.len() as u64);
-        for (t, tags) in &self.triangles {
-            cells(&mut b, t, tags);
-        }
-        int(&mut b, self.triangle_tags.len() as u64);
-        for &t in &self.triangle_tags {
-            int(&mut b, t);
-        }
-        int(&mut b, self.lines.len() as u64);
-        for (l, tags) in &self.lines {
-            cells(&mut b, l, tags);
-        }
-        int(&mut b, self.names.len() as u64);
-        for ((dim, tag), name) in &self.names {
-            b.extend_from_slice(&dim.to_le_bytes());
-            b.extend_from_slice(&tag.to_le_bytes());
-            text(&mut b, name);
-        }
-        b
-    }
-
-    /// The mesh [`GmshMesh::to_bytes`] wrote (`None` for bytes it did not write).
-    pub fn from_bytes(bytes: &[u8]) -> Option<GmshMesh> {
-        let mut r = Reader { bytes, at: 0 };
-        let path = r.text()?;
-        let points = (0..r.int()?)
-            .map(|_| Some([r.f64()?, r.f64()?]))
-            .collect::<Option<Vec<_>>>()?;
-        let triangles = (0..r.int()?)
-            .map(|_| Some(([r.int()?, r.int()?, r.int()?], r.tags()?)))
-            .collect::<Option<Vec<_>>>()?;
-        let triangle_tags = (0..r.int()?)
-            .map(|_| Some(r.int()? as u64))
-            .collect::<Option<Vec<_>>>()?;
-        let lines = (0..r.int()?)
-            .map(|_| Some(([r.int()?, r.int()?], r.tags()?)))
-            .collect::<Option<Vec<_>>>()?;
-        let names = (0..r.int()?)
-            .map(|_| Some(((r.i32()?, r.i32()?), r.text()?)))
-            .collect::<Option<BTreeMap<_, _>>>()?;
-        (r.at == bytes.len()).then_some(GmshMesh {
-            path,
-            points,
-            triangles,
-            triangle_tags,
-            lines,
-            names,
-        })
-    }
-}
-
-/// Reads what [`GmshMesh::to_bytes`] wrote.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> Option<[u8; N]> {
-        let b = self.bytes.get(self.at..self.at + N)?;
-        self.at += N;
-        b.try_into().ok()
-    }
-    fn int(&mut self) -> Option<usize> {
-        usize::try_from(u64::from_le_bytes(self.take()?)).ok()
-    }
-    fn f64(&mut self) -> Option<f64> {
-        Some(f64::from_le_bytes(self.take()?))
-    }
-    fn i32(&mut self) -> Option<i32> {
-        Some(i32::from_le_bytes(self.take()?))
-    }
-    fn tags(&mut self) -> Option<Vec<i32>> {
-        (0..self.int()?).map(|_| self.i32()).collect()
-    }
-    fn text(&mut self) -> Option<String> {
-        let n = self.int()?;
-        let b = self.bytes.get(self.at..self.at + n)?;
-        self.at += n;
-        String::from_utf8(b.to_vec()).ok()
-    }
 }
 
 /// The largest mesh file read: 4 GiB (tens of millions of nodes).
@@ -595,105 +490,6 @@ impl GmshMesh {
             }
         }
         seen.iter().filter(|&&s| s).count()
-    }
-
-    /// The uniform refinement of the mesh by `r` (the reference mesh of (26) for a Gmsh
-    /// problem): every triangle is split into r² similar triangles through the points
-    /// p₀ + (i/r)(p₁ − p₀) + (j/r)(p₂ − p₀), every line into r segments, so the meshes are
-    /// nested and every curve keeps its (polyline) shape.
-    ///
-    /// Numbering, which the reference solution's transfer relies on: the nodes keep
-    /// their numbers (new nodes follow), and the r² triangles of triangle t are
-    /// r² t … r² (t + 1) − 1, with t's orientation and physical groups.
-    pub fn refined(&self, r: usize) -> GmshMesh {
-        assert!(r >= 1, "refinement factor r >= 1");
-        let mut points = self.points.clone();
-        // The r − 1 points inside each edge, listed from its lower-numbered end.
-        let mut edge_points: HashMap<(usize, usize), Vec<usize>> = HashMap::new();
-        let mut on_edge = |points: &mut Vec<[f64; 2]>, a: usize, b: usize, k: usize| -> usize {
-            if k == 0 {
-                return a;
-            }
-            if k == r {
-                return b;
-            }
-            let (lo, hi) = (a.min(b), a.max(b));
-            let inner = edge_points.entry((lo, hi)).or_insert_with(|| {
-                let (p, q) = (points[lo], points[hi]);
-                (1..r)
-                    .map(|m| {
-                        let t = m as f64 / r as f64;
-                        points.push([p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]);
-                        points.len() - 1
-                    })
-                    .collect()
-            });
-            if a == lo {
-                inner[k - 1]
-            } else {
-                inner[r - k - 1]
-            }
-        };
-        let mut triangles = Vec::with_capacity(r * r * self.triangles.len());
-        for (t, phys) in &self.triangles {
-            let [v0, v1, v2] = *t;
-            // Lattice point (i, j), i + j ≤ r, of the triangle.
-            let mut lattice = vec![usize::MAX; (r + 1) * (r + 1)];
-            for j in 0..=r {
-                for i in 0..=r - j {
-                    lattice[j * (r + 1) + i] = if j == 0 {
-                        on_edge(&mut points, v0, v1, i)
-                    } else if i == 0 {
-                        on_edge(&mut points, v0, v2, j)
-                    } else if i + j == r {
-                        on_edge(&mut points, v1, v2, j)
-                    } else {
-                        let (p0, p1, p2) = (points[v0], points[v1], points[v2]);
-                        let (s, u) = (i as f64 / r as f64, j as f64 / r as f64);
-                        points.push([
-                            p0[0] + s * (p1[0] - p0[0]) + u * (p2[0] - p0[0]),
-                            p0[1] + s * (p1[1] - p0[1]) + u * (p2[1] - p0[1]),
-                        ]);
-                        points.len() - 1
-                    };
-                }
-            }
-            let at = |i: usize, j: usize| lattice[j * (r + 1) + i];
-            for j in 0..r {
-                for i in 0..r - j {
-                    triangles.push(([at(i, j), at(i + 1, j), at(i, j + 1)], phys.clone()));
-                    if i + j + 1 < r {
-                        triangles
-                            .push(([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], phys.clone()));
-                    }
-                }
-            }
-        }
-        let mut lines = Vec::with_capacity(r * self.lines.len());
-        for (l, phys) in &self.lines {
-            let [a, b] = *l;
-            for k in 0..r {
-                let (p, q) = (
-                    on_edge(&mut points, a, b, k),
-                    on_edge(&mut points, a, b, k + 1),
-                );
-                lines.push(([p, q], phys.clone()));
-            }
-        }
-        // The r² triangles of triangle t keep its Gmsh tag.
-        let triangle_tags = self
-            .triangle_tags
-            .iter()
-            .flat_map(|&t| std::iter::repeat_n(t, r * r))
-            .collect();
-        GmshMesh {
-            path: format!("{} refined {r}x", self.path),
-            points,
-            triangles,
-            triangle_tags,
-            lines,
-            names: self.names.clone(),
-        }
     }
 
     /// Cut out the physical surface `name` as a mesh of its own (nodes renumbered in the
