@@ -19,6 +19,7 @@ pub mod meshed;
 pub mod mortar;
 mod polyline;
 pub mod settings;
+mod sound;
 pub mod transfer;
 
 use std::rc::Rc;
