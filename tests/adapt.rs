@@ -8,15 +8,13 @@
 //! - The new mesh keeps the physical names (so the options' conditions still apply) and its
 //!   curves on the geometry: every node of the cylinder's arc on the circle to 1e−9 of R.
 
+mod common;
+use common::HERTZ_NM_GEO as HERTZ_GEO;
+
 use std::path::Path;
 
 use nndd::estimate::size_field::{nodal_sizes, size_field, triangle_size, Limits, Strategy};
 use nndd::fem::geo;
-
-const HERTZ_GEO: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/examples/hertz-nonmatching/hertz-nonmatching.geo"
-);
 
 /// The mean size of the triangles whose centroids lie within `radius` of `at` (or beyond it,
 /// `inside` false).

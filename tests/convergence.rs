@@ -257,14 +257,7 @@ fn theta_auto_on_a_roof() {
 #[test]
 fn theta_auto_on_curves_meshed_1_to_10() {
     let dir = scratch("conv-ratio");
-    let geo = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/hertz-nonmatching/hertz-nonmatching.geo"
-    );
-    let opts = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/hertz-nonmatching/hertz-nonmatching.opts"
-    );
+    let (geo, opts) = (HERTZ_NM_GEO, HERTZ_NM_OPTS);
     for ratio in ["10", "20", "0.1"] {
         let msh = dir.join(format!("hertz-{ratio}.msh"));
         gmsh(geo, &[("level", "1"), ("ratio", ratio)], &[], &msh);

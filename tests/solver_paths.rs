@@ -170,14 +170,7 @@ fn superlu_dist_gives_the_same_solution_and_estimates() {
     // over two ranks of three: SuperLU_DIST's multiple-right-hand-side solve corrupted the heap
     // there (SIGABRT in pdReDistribute_B_to_X), so its back-solves go one column at a time.
     let hertz = |np: usize, name: &str, superlu: bool| {
-        let geo = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/examples/hertz-nonmatching/hertz-nonmatching.geo"
-        );
-        let opts = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/examples/hertz-nonmatching/hertz-nonmatching.opts"
-        );
+        let (geo, opts) = (HERTZ_NM_GEO, HERTZ_NM_OPTS);
         let mut a = vec!["-nndd_geo_set", "level=1,ratio=1.5"];
         a.extend(["-nndd_estimate", "-nndd_reference_factor", "2"]);
         if superlu {

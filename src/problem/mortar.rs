@@ -365,6 +365,31 @@ mod tests {
             .collect()
     }
 
+    /// The coupling of the open curves `curves` (non-mortar, mortar; nodal normals `normals` of
+    /// the first) whose nodes are the mesh nodes `ids`.
+    fn open_coupling(
+        curves: [&[[f64; 2]]; 2],
+        normals: &[[f64; 2]],
+        ids: [&[usize]; 2],
+        geometry: GapGeometry,
+    ) -> Coupling {
+        Coupling::new(
+            &CurveNodes {
+                ids: ids[0],
+                points: curves[0],
+                normals,
+                ends: Ends::Open,
+            },
+            &CurveNodes {
+                ids: ids[1],
+                points: curves[1],
+                normals: &[],
+                ends: Ends::Open,
+            },
+            geometry,
+        )
+    }
+
     /// Points of y = h at the given x.
     fn line(xs: &[f64], h: f64) -> Vec<[f64; 2]> {
         xs.iter().map(|&x| [x, h]).collect()
@@ -592,19 +617,10 @@ mod tests {
         let ids1: Vec<usize> = (0..side.len()).collect();
         // Body 2's curve nodes are mesh nodes 3, 5, 7, … of a larger mesh.
         let ids2: Vec<usize> = (0..mortar.len()).map(|k| 3 + 2 * k).collect();
-        let c = Coupling::new(
-            &CurveNodes {
-                ids: &ids1,
-                points: &side,
-                normals: &normals,
-                ends: Ends::Open,
-            },
-            &CurveNodes {
-                ids: &ids2,
-                points: &mortar,
-                normals: &[],
-                ends: Ends::Open,
-            },
+        let c = open_coupling(
+            [&side, &mortar],
+            &normals,
+            [&ids1, &ids2],
             GapGeometry::Curves,
         );
         assert_eq!(c.len(), side.len());
@@ -696,23 +712,7 @@ mod tests {
         let normals: Vec<[f64; 2]> = side.iter().map(|p| unit([-p[0], -p[1]])).collect();
         let ids1: Vec<usize> = (0..side.len()).collect();
         let ids2: Vec<usize> = (0..mortar.len()).collect();
-        let couple = |geometry| {
-            Coupling::new(
-                &CurveNodes {
-                    ids: &ids1,
-                    points: &side,
-                    normals: &normals,
-                    ends: Ends::Open,
-                },
-                &CurveNodes {
-                    ids: &ids2,
-                    points: &mortar,
-                    normals: &[],
-                    ends: Ends::Open,
-                },
-                geometry,
-            )
-        };
+        let couple = |geometry| open_coupling([&side, &mortar], &normals, [&ids1, &ids2], geometry);
         let worst = |cp: &Coupling| cp.gap.iter().fold(0.0_f64, |m, g| m.max((g - c).abs() / c));
         let (curves, polygons) = (couple(GapGeometry::Curves), couple(GapGeometry::Polygons));
         assert_eq!(curves.len(), side.len());
