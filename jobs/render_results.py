@@ -242,7 +242,8 @@ def main():
     check_on_interface(warped, gamma)
     g = gamma.GetDataInformation().GetBounds()
     cy = 0.5 * (g[2] + g[3])
-    w = a.half_width or 1.1 * max(abs(g[0]), abs(g[1]))
+    # (by default Γc's x-range, and its y-range too: a closed Γc, a whole circle, is as tall)
+    w = a.half_width or 1.1 * max(abs(g[0]), abs(g[1]), 0.5 * (g[3] - g[2]) * 1160.0 / 800.0)
     h = w * 800.0 / 1160.0
     zone = (-w, w, cy - h, cy + h)
     # The bodies cut to the window, so that the picture ends where the axes do.
