@@ -379,6 +379,10 @@ fn a_geo_file_is_meshed_when_the_run_starts() {
             f(&given, "potential_energy")
         );
         assert_eq!(j["dofs"], given["dofs"]);
+        assert_eq!(
+            j["mesh"]["geometry_parameters"],
+            serde_json::json!({"n": 8.0})
+        );
         assert!(rel(f(&j, "potential_energy"), f(&given, "potential_energy")) < 1e-12);
     }
     let left: Vec<_> = std::fs::read_dir(std::env::temp_dir())

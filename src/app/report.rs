@@ -72,6 +72,7 @@ pub fn summarise(
             .then(|| [0, 1].map(|k| [settings.problem.grids[k].0, settings.problem.grids[k].1])),
         mesh: settings.problem.mesh.as_ref().map(|m| MeshProblem {
             file: m.gmsh.path.clone(),
+            geometry_parameters: m.geo_set.iter().cloned().collect(),
             bodies: crate::problem::meshed::BODY_NAMES,
             contact: m.contact.clone(),
             conditions: m.conditions.clone(),

@@ -278,6 +278,8 @@ pub struct ContactZone {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct MeshProblem {
     pub file: String,
+    /// A `.geo` file's parameters as `-nndd_geo_set` gave them (empty for a mesh file).
+    pub geometry_parameters: std::collections::BTreeMap<String, f64>,
     /// The physical surfaces of the two bodies.
     pub bodies: [&'static str; 2],
     /// `-nndd_contact`: body 1's and body 2's contact curves.

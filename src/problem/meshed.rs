@@ -51,6 +51,8 @@ pub struct MeshSpec {
     pub choice: super::DiscretisationChoice,
     /// What mortar's initial gap is measured to (`-nndd_mortar_gap`).
     pub gap: super::mortar::GapGeometry,
+    /// A `.geo` file's parameters (`-nndd_geo_set`; empty for a mesh file).
+    pub geo_set: Vec<(String, f64)>,
     /// `Some(r)`: the mesh is the user's refined r times (the reference solution): its Γc
     /// keeps the user's pairing, each coarse pair's children paired in order, and the contact
     /// direction at a new node is the user's mesh's normal field there (docs/method.md §5).
@@ -567,6 +569,7 @@ mod tests {
             discretisation: ContactDiscretisation::NodeToNode,
             choice: super::super::DiscretisationChoice::Auto,
             gap: Default::default(),
+            geo_set: Vec::new(),
             nested: None,
             matched: Rc::new(matched),
         };

@@ -380,6 +380,7 @@ fn mesh_spec(
         discretisation,
         choice,
         gap,
+        geo_set: geo_set.to_vec(),
         nested: None,
         matched: Rc::new(matched),
     })
