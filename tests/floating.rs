@@ -25,19 +25,13 @@ fn blocks_args(msh: &Path) -> Vec<String> {
         "0",
         "-nndd_bc_lid_traction",
         "0,-1e8",
-        "-nndd_body1_E",
-        "7e10",
-        "-nndd_body1_nu",
-        "0.33",
-        "-nndd_body2_E",
-        "2.1e11",
-        "-nndd_body2_nu",
-        "0.3",
         "-nndd_tol",
         "1e-12",
     ]
+    .into_iter()
+    .chain(ALUMINIUM_ON_STEEL)
     .map(String::from)
-    .to_vec()
+    .collect()
 }
 
 /// The patch test under a load: σ_yy = −p and σ_xx = 0 in both bodies (plane strain), so

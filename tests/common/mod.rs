@@ -40,6 +40,18 @@ pub const NODE_TO_NODE: [&str; 2] = ["-nndd_contact_discretisation", "node_to_no
 /// The materials of the Hertz examples (block, cylinder): (E, ν).
 pub const HERTZ_MATERIALS: [(f64, f64); 2] = [(7e10, 0.33), (2.1e11, 0.3)];
 
+/// Those materials as options: aluminium body 1, steel body 2.
+pub const ALUMINIUM_ON_STEEL: [&str; 8] = [
+    "-nndd_body1_E",
+    "7e10",
+    "-nndd_body1_nu",
+    "0.33",
+    "-nndd_body2_E",
+    "2.1e11",
+    "-nndd_body2_nu",
+    "0.3",
+];
+
 /// Hertz's solution fitted to a Hertz example's run at `prefix` (the cylinder of radius 1 m):
 /// its contact half-width, peak pressure and profile against the run's Γc results.
 pub fn hertz_fit_of(prefix: &Path) -> hertz_fit::HertzFit {
