@@ -66,7 +66,7 @@ fn main() {
     let _ = nndd::os::signals::catch_stop_requests();
     let code = match app::run(world, &agreement) {
         Ok(Outcome::Solved) | Ok(Outcome::Help) => 0,
-        Ok(Outcome::NotConverged) => 3,
+        Ok(Outcome::NotConverged) | Ok(Outcome::Unreached) => 3,
         Ok(Outcome::Interrupted) => 4,
         Err(e) => report(&e, rank, &agreement),
     };

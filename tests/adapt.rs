@@ -1,15 +1,23 @@
-//! Capability (in progress): meshes adapted to the estimates. What exists: the sizes the
-//! element estimates ask for (src/estimate/size_field.rs, the optimal-mesh criterion) and a
-//! body meshed again by Gmsh from its `.geo` with those sizes (src/fem/geo.rs, `gmsh -bgm`).
+//! Capability: meshes adapted to the estimates until the bound meets the user's tolerance
+//! (`-nndd_adapt_tol ε`, docs/method.md §8).
 //! - The sizes shrink where the error sits and grow elsewhere, and Gmsh's new mesh follows
 //!   them: on Hertz (examples/hertz-nonmatching) with an error at the contact and a target that
 //!   keeps the element count, the elements there shrink, the far field coarsens, and the
 //!   element count is near the prediction.
 //! - The new mesh keeps the physical names (so the options' conditions still apply) and its
 //!   curves on the geometry: every node of the cylinder's arc on the circle to 1e−9 of R.
+//! - The loop on `paper` from its coarse mesh (examples/paper/paper.geo, n = 8) to ε = 4 %:
+//!   η^glo falls every cycle and ends below ε ‖u_h‖_E, above e_ref at every cycle, with the
+//!   same meshes and numbers on 1, 2 and 3 ranks; ParaView's time series of the cycles and the
+//!   last cycle alone; the run that cannot reach ε in its cycles ends with exit 3.
+//! - Curved contact curves remeshed from one view (the pin in its groove, examples/pin): their
+//!   nodes come close to each other, and making them match moves them onto their partners
+//!   instead of inserting slivers beside them; the second cycle solves and η^glo falls.
+//! - Bad input: one line naming the option.
 
 mod common;
 use common::HERTZ_NM_GEO as HERTZ_GEO;
+use common::{f, mpirun, paper_mesh_args, refused, scratch, solve};
 
 use std::path::Path;
 
@@ -112,5 +120,223 @@ fn a_body_meshed_again_from_the_sizes_of_its_errors() {
         arc.len()
     );
     assert!(arc.len() > 20 && worst < 1e-9, "{worst:e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+const PAPER_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
+
+/// examples/paper/paper.opts on paper.geo with n = 8 (256 triangles), and `extra`.
+fn paper_adaptive(extra: &[&str]) -> Vec<String> {
+    let mut a = paper_mesh_args(Path::new(PAPER_GEO), "contact1,contact2", "-1e-4");
+    a.extend(["-nndd_geo_set", "n=8"].map(String::from));
+    a.extend(extra.iter().map(|s| s.to_string()));
+    a
+}
+
+fn strs(a: &[String]) -> Vec<&str> {
+    a.iter().map(String::as_str).collect()
+}
+
+#[test]
+fn paper_adapts_until_the_bound_meets_the_tolerance() {
+    let dir = scratch("adapt-paper");
+    let tol = 0.04;
+    let args = paper_adaptive(&["-nndd_adapt_tol", "0.04", "-nndd_reference_factor", "2"]);
+    let mut runs = Vec::new();
+    for np in [1, 2, 3] {
+        let prefix = dir.join(format!("np{np}"));
+        let j = solve(np, &prefix, &strs(&args));
+        let cycles = j["cycles"].as_array().expect("the cycles").clone();
+        for c in &cycles {
+            println!(
+                "{np} rank(s): cycle {}: {} dofs, {} iterations, eta_glo {:.6e} = {:.3} % of ||u_h||_E, e_ref {:.6e}, effectivity {:.4}, remeshing {:.1} % of {:.3} s",
+                c["cycle"],
+                c["dofs"],
+                c["iterations"],
+                f(c, "eta_glo"),
+                100.0 * f(c, "relative_error"),
+                f(c, "e_ref"),
+                f(c, "effectivity"),
+                100.0 * f(c, "remesh_share"),
+                f(c, "seconds")
+            );
+        }
+        assert!((2..=3).contains(&cycles.len()), "{} cycles", cycles.len());
+        assert_eq!(j["adapt"]["verdict"], "reached");
+        for w in cycles.windows(2) {
+            assert!(f(&w[1], "eta_glo") < f(&w[0], "eta_glo"), "eta_glo rose");
+            assert!(f(&w[1], "dofs") > f(&w[0], "dofs"));
+        }
+        for c in &cycles {
+            let rel = f(c, "eta_glo") / f(c, "energy_norm");
+            assert!((rel - f(c, "relative_error")).abs() < 1e-12 * rel);
+            // The bound holds against the reference solution at every cycle.
+            assert!(f(c, "eta_glo") >= f(c, "e_ref"), "{c}");
+        }
+        let last = cycles.last().unwrap();
+        assert!(f(last, "relative_error") <= tol);
+        assert!(cycles[..cycles.len() - 1]
+            .iter()
+            .all(|c| f(c, "relative_error") > tol));
+        // The run's summary is the last cycle's: its dofs and estimates.
+        assert_eq!(j["dofs"], last["dofs"]);
+        // ParaView's files: the cycles as a time series (one grid per cycle, its own mesh and
+        // data file), the last cycle alone.
+        let series = std::fs::read_to_string(format!("{}.xdmf", prefix.display())).unwrap();
+        assert!(series.contains("CollectionType=\"Temporal\""));
+        for k in 1..=cycles.len() {
+            assert!(
+                series.contains(&format!("<Time Value=\"{k}\"/>")),
+                "{series}"
+            );
+            assert!(series.contains(&format!("np{np}-cycle{k}.h5:/Mesh/bodies/geometry")));
+        }
+        let last_alone =
+            std::fs::read_to_string(format!("{}-final.xdmf", prefix.display())).unwrap();
+        let k = cycles.len();
+        assert!(
+            last_alone.contains(&format!("np{np}-cycle{k}.h5:"))
+                && !last_alone.contains("Temporal")
+        );
+        // The last cycle's η^FE map, read back, is its η^FE.
+        let cycle_prefix = dir.join(format!("np{np}-cycle{k}"));
+        let map = common::field(&cycle_prefix, "bodies", "eta_fe");
+        let sum: f64 = map.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(
+            (sum - f(last, "eta_fe")).abs() < 1e-8 * sum,
+            "{sum} against {}",
+            f(last, "eta_fe")
+        );
+        runs.push(cycles);
+    }
+    // The same meshes and numbers on every rank count.
+    for other in &runs[1..] {
+        assert_eq!(other.len(), runs[0].len());
+        for (a, b) in runs[0].iter().zip(other) {
+            assert_eq!(a["dofs"], b["dofs"]);
+            assert_eq!(a["elements"], b["elements"]);
+            for key in ["eta_glo", "eta_fe", "energy_norm"] {
+                let (x, y) = (f(a, key), f(b, key));
+                assert!((x - y).abs() < 1e-8 * x, "{key}: {x} against {y}");
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_tolerance_not_reached_in_the_cycles_ends_with_exit_3() {
+    let dir = scratch("adapt-unreached");
+    let prefix = dir.join("run");
+    let mut args = paper_adaptive(&["-nndd_adapt_tol", "0.01", "-nndd_adapt_max_cycles", "2"]);
+    args.extend(["-nndd_output".to_string(), prefix.display().to_string()]);
+    let out = mpirun(2, &strs(&args));
+    // (the cycles' lines are the monitor's, on stderr)
+    let stdout =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stdout}");
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("-nndd_adapt_tol 0.01 (1 %) not reached in 2 cycle(s)"))
+        .unwrap_or_else(|| panic!("no closing line in\n{stdout}"));
+    println!("{line}");
+    let j = common::json(&prefix);
+    assert_eq!(j["adapt"]["verdict"], "max_cycles");
+    let cycles = j["cycles"].as_array().unwrap();
+    assert_eq!(cycles.len(), 2);
+    assert!(f(&cycles[1], "relative_error") > 0.01);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_adaptive_input_is_refused_naming_the_option() {
+    let geo = paper_adaptive(&[]);
+    let with = |extra: &[&str]| -> Vec<String> {
+        let mut a = geo.clone();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    for (extra, option) in [
+        (&["-nndd_adapt_tol", "0"][..], "-nndd_adapt_tol"),
+        (&["-nndd_adapt_tol", "-0.1"], "-nndd_adapt_tol"),
+        (&["-nndd_adapt_tol", "1.5"], "-nndd_adapt_tol"),
+        (
+            &["-nndd_adapt_tol", "0.1", "-nndd_adapt_max_cycles", "0"],
+            "-nndd_adapt_max_cycles",
+        ),
+        (
+            &["-nndd_adapt_tol", "0.1", "-nndd_adapt_strategy", "greedy"],
+            "-nndd_adapt_strategy",
+        ),
+        (
+            &[
+                "-nndd_adapt_tol",
+                "0.1",
+                "-nndd_adapt_strategy",
+                "dorfler",
+                "-nndd_adapt_fraction",
+                "0",
+            ],
+            "-nndd_adapt_fraction",
+        ),
+        (
+            &["-nndd_adapt_tol", "0.1", "-nndd_adapt_fraction", "1.5"],
+            "-nndd_adapt_fraction",
+        ),
+        (&["-nndd_adapt_max_cycles", "3"], "-nndd_adapt_max_cycles"),
+        (
+            &["-nndd_adapt_tol", "0.1", "-nndd_stop", "none"],
+            "-nndd_stop",
+        ),
+    ] {
+        refused(1, &strs(&with(extra)), option);
+    }
+    // A mesh file has no geometry to remesh; nor has a built-in problem a .geo of its own.
+    let dir = scratch("adapt-refusals");
+    let msh = dir.join("paper-4.msh");
+    common::gmsh(PAPER_GEO, &[("n", "4")], &[], &msh);
+    let mut a = paper_mesh_args(&msh, "contact1,contact2", "-1e-4");
+    a.extend(["-nndd_adapt_tol", "0.1"].map(String::from));
+    refused(2, &strs(&a), "-nndd_adapt_tol");
+    refused(1, &["-nndd_adapt_tol", "0.1"], "-nndd_adapt_tol");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn curved_contact_curves_remeshed_from_one_view_are_made_to_match() {
+    let dir = scratch("adapt-pin");
+    let prefix = dir.join("pin");
+    let opts = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/pin/pin.opts");
+    let geo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/pin/pin.geo");
+    let p = prefix.display().to_string();
+    let args = [
+        "-options_file",
+        opts,
+        "-nndd_mesh",
+        geo,
+        "-nndd_geo_set",
+        "level=1",
+        "-nndd_adapt_tol",
+        "0.001",
+        "-nndd_adapt_max_cycles",
+        "2",
+        "-nndd_output",
+        &p,
+    ];
+    let out = mpirun(2, &args);
+    let text =
+        String::from_utf8_lossy(&out.stderr).to_string() + &String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(3), "{text}");
+    let j = common::json(&prefix);
+    let cycles = j["cycles"].as_array().unwrap();
+    let curves = &j["contact_curves"];
+    println!(
+        "pin: {} -> {} dofs, eta_glo {:.4e} -> {:.4e}; cycle 2's curves: {} and {} nodes inserted, {} and {} moved",
+        cycles[0]["dofs"], cycles[1]["dofs"], f(&cycles[0], "eta_glo"), f(&cycles[1], "eta_glo"),
+        curves["inserted"][0], curves["inserted"][1], curves["moved"][0], curves["moved"][1]
+    );
+    assert!(f(&cycles[1], "eta_glo") < 0.5 * f(&cycles[0], "eta_glo"));
+    let moved = curves["moved"][0].as_u64().unwrap() + curves["moved"][1].as_u64().unwrap();
+    assert!(moved > 0, "{curves}");
     std::fs::remove_dir_all(&dir).ok();
 }

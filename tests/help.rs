@@ -21,6 +21,9 @@ fn help_lists_options() {
         "-nndd_monitor",
         "-nndd_output <now results/paper",
         "-nndd_body1_nx",
+        "-nndd_adapt_tol",
+        "-nndd_adapt_max_cycles <now 8",
+        "-nndd_adapt_strategy <now optimal",
         "-body1_ksp_type",
         "-body2_pc_type",
     ] {

@@ -1,5 +1,6 @@
 //! Capability: the result files open as they are in the tools users have. ParaView's default
-//! reader (pvpython under xvfb-run) and meshio read `paper`'s results from their own folder;
+//! reader (pvpython under xvfb-run) and meshio read `paper`'s results from their own folder,
+//! and ParaView's time slider steps through an adaptive run's cycles, each its own mesh;
 //! the XDMF follows DOLFINx's `XDMFFile` layout (read here from its text: no DOLFINx needed).
 //! ParaView, xvfb and meshio come from `jobs/setup`.
 
@@ -39,24 +40,21 @@ fn run_ok(mut cmd: Command, what: &str) -> String {
     text
 }
 
-#[test]
-fn paraview_default_reader_shows_the_fields() {
-    let dir = scratch("viewers-paraview");
-    let (_, its) = paper_with_steps(&dir);
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/viewers/paraview_check.py");
-    let png = dir.join("eta_fe.png");
+/// `xvfb-run -a pvpython tests/viewers/SCRIPT ARGS…`, required to pass every check; its
+/// stdout. xvfb-run -a now and then hands pvpython a display it cannot open (SIGABRT before
+/// any check): once more then.
+fn pvpython(script: &str, args: &[&std::ffi::OsStr]) -> String {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/viewers")
+        .join(script);
     let attempt = || {
         let mut cmd = Command::new("xvfb-run");
         cmd.args(["-a", "-s", "-screen 0 800x600x24", "pvpython"])
             .arg(&script)
-            .arg(&dir)
-            .args(["paper", &its.to_string()])
-            .arg(&png);
+            .args(args);
         cmd.output()
             .expect("xvfb-run starts (jobs/setup installs it)")
     };
-    // xvfb-run -a now and then hands pvpython a display it cannot open (SIGABRT before any
-    // check): once more then.
     let mut out = attempt();
     let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).into_owned();
     if !out.status.success() && !text(&out).contains("ok   ") {
@@ -68,6 +66,24 @@ fn paraview_default_reader_shows_the_fields() {
         "pvpython: {}\n{stdout}\n{}",
         out.status,
         String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+#[test]
+fn paraview_default_reader_shows_the_fields() {
+    let dir = scratch("viewers-paraview");
+    let (_, its) = paper_with_steps(&dir);
+    let png = dir.join("eta_fe.png");
+    let its = its.to_string();
+    let stdout = pvpython(
+        "paraview_check.py",
+        &[
+            dir.as_os_str(),
+            "paper".as_ref(),
+            its.as_ref(),
+            png.as_os_str(),
+        ],
     );
     // (every check ran: the script stops at the first failure)
     assert!(
@@ -194,5 +210,35 @@ fn xdmf_follows_dolfinx_layout() {
         text("options")
     );
     assert_eq!(text("problem"), "paper");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// An adaptive run's cycles (`paper.geo`, n = 8, ε = 4 %, 1 rank): ParaView's default reader
+/// steps through them, each cycle its own mesh with its fields, and opens the last alone.
+#[test]
+fn paraview_steps_through_an_adaptive_runs_cycles() {
+    let dir = scratch("viewers-cycles");
+    let geo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
+    let mut args = paper_mesh_args(Path::new(geo), "contact1,contact2", "-1e-4");
+    args.extend(["-nndd_geo_set", "n=8", "-nndd_adapt_tol", "0.04"].map(String::from));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let j = solve(1, &dir.join("paper"), &args);
+    let cells: Vec<String> = j["cycles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["elements"].to_string())
+        .collect();
+    assert!(cells.len() >= 2, "{cells:?}");
+    let cells = cells.join(",");
+    let stdout = pvpython(
+        "paraview_cycles.py",
+        &[dir.as_os_str(), "paper".as_ref(), cells.as_ref()],
+    );
+    println!("{stdout}");
+    assert!(
+        stdout.contains("-final.xdmf: the last cycle alone"),
+        "{stdout}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

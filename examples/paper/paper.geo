@@ -39,10 +39,14 @@ Line(8) = {5, 8};
 Curve Loop(2) = {5, 6, -7, -8};
 Plane Surface(2) = {2};
 
-Transfinite Curve{1:4, 6, 8} = n + 1;
-Transfinite Curve{5, 7} = n2 + 1;
-Transfinite Surface{1} = {1, 2, 3, 4} Right;
-Transfinite Surface{2} = {5, 6, 7, 8} Right;
+// The structured grid, unless nndd remeshes it from a size field (an adaptive run sets
+// nndd_cycle, and the sizes come from its background view, which Transfinite would override).
+If (!Exists(nndd_cycle))
+  Transfinite Curve{1:4, 6, 8} = n + 1;
+  Transfinite Curve{5, 7} = n2 + 1;
+  Transfinite Surface{1} = {1, 2, 3, 4} Right;
+  Transfinite Surface{2} = {5, 6, 7, 8} Right;
+EndIf
 
 Physical Surface("body1") = {1};
 Physical Surface("body2") = {2};

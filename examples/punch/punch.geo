@@ -73,7 +73,10 @@ Curve Loop(2) = {5000 : 5000 + N - 1, 11, 12, 13, 14, 15};
 Plane Surface(2) = {2};
 
 // One segment per interface line: the interface nodes are exactly the points above.
-Transfinite Curve{1000 : 1000 + N - 1, 5000 : 5000 + N - 1} = 2;
+// (unless nndd remeshes it from a size field: an adaptive run sets nndd_cycle)
+If (!Exists(nndd_cycle))
+  Transfinite Curve{1000 : 1000 + N - 1, 5000 : 5000 + N - 1} = 2;
+EndIf
 Mesh.CharacteristicLengthExtendFromBoundary = 1;
 
 Physical Surface("body1") = {1};

@@ -8,6 +8,7 @@
 use std::path::PathBuf;
 use std::rc::Rc;
 
+use super::adapt::AdaptSettings;
 use crate::dd::body::SchurChoice;
 use crate::dd::contact::ContactSettings;
 use crate::dd::dirichlet::DirichletChoice;
@@ -63,6 +64,8 @@ pub struct Settings {
     pub checkpoint_every: usize,
     /// Continue from this restart point.
     pub restart: Option<PathBuf>,
+    /// Adapt the meshes to a tolerance (`-nndd_adapt_tol`; `None`: one solve).
+    pub adapt: Option<AdaptSettings>,
     /// Test only: fail on one rank at one phase (`-nndd_fault RANK:PHASE`).
     pub fault: Option<(i32, Phase)>,
     /// What the settings allow but the user should know (printed once, and in the summary).
@@ -82,6 +85,19 @@ impl Settings {
             "nndd",
         )?;
         let mut warnings = Vec::new();
+        // An adaptive run estimates each cycle's answer (the balanced rule's κ 0.01 where it is
+        // asked for), and couples its remeshed curves node to node, unless told otherwise.
+        let adapt = AdaptSettings::from_options(&mut o)?;
+        if adapt.is_some() {
+            petsc::option_default("-nndd_estimate", "true")?;
+            petsc::option_default("-nndd_stop_ratio", super::adapt::STOP_RATIO)?;
+            if petsc::option_present("-nndd_mesh") {
+                petsc::option_default(
+                    "-nndd_contact_discretisation",
+                    super::adapt::DISCRETISATION,
+                )?;
+            }
+        }
         let problem = ProblemSettings::from_options(&mut o, &mut warnings)?;
         let solver = o.choice(
             "-nndd_solver",
@@ -113,6 +129,10 @@ impl Settings {
             Bounds::NON_NEGATIVE_INT,
         )?;
         let restart = read_restart(&mut o)?;
+        if let Some(a) = &adapt {
+            a.check_problem(&problem)?;
+            check_adaptive(&nndd.stop, restart.is_some())?;
+        }
         let fault = read_fault(&mut o)?;
         given_options_apply(o.queried(), problem.kind)?;
         o.end()?;
@@ -128,6 +148,7 @@ impl Settings {
             body1_ranks,
             checkpoint_every,
             restart,
+            adapt,
             fault,
             warnings,
             options_text: petsc::options_text()?,
@@ -146,6 +167,7 @@ impl Settings {
         s.estimate.reference_factor = 0;
         s.checkpoint_every = 0;
         s.restart = None;
+        s.adapt = None;
         s
     }
 
@@ -346,6 +368,25 @@ fn given_options_apply(known: &[String], problem: ProblemKind) -> Result<(), Set
                 format!("unknown option{hint} (-help lists them all)"),
             ));
         }
+    }
+    Ok(())
+}
+
+/// An adaptive run's cycles stop their NNDD by a rule that ends with an answer (`tol` or
+/// `balanced`), estimate it (`-nndd_estimate` is on), and start from the previous cycle, not
+/// from a restart point.
+fn check_adaptive(stop: &crate::dd::nndd::StopRule, restart: bool) -> Result<(), SettingsError> {
+    if *stop == crate::dd::nndd::StopRule::None {
+        return Err(SettingsError::named(
+            "-nndd_stop",
+            "must be tol (the default) or balanced with -nndd_adapt_tol: each cycle estimates the error of an answer",
+        ));
+    }
+    if restart {
+        return Err(SettingsError::named(
+            "-nndd_restart",
+            "cannot be used with -nndd_adapt_tol: each cycle starts from the previous cycle's answer",
+        ));
     }
     Ok(())
 }

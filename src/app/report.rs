@@ -36,6 +36,7 @@ pub fn summarise(
 ) -> Summary {
     let PostProcessed {
         energy,
+        energy_norm,
         ref solvers,
         logged_flops,
         reference_iterations,
@@ -98,6 +99,7 @@ pub fn summarise(
         iterations: sol.iterations,
         history: sol.history.clone(),
         potential_energy: energy,
+        energy_norm,
         contact_force: contact.detail.normal_force,
         contact_zone: contact.zone,
         active_nodes: contact.active,

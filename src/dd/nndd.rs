@@ -642,6 +642,25 @@ pub struct LoopState {
     pub best_at: usize,
 }
 
+impl LoopState {
+    /// A first iteration from `lambda` (λ = 0 for a fresh run; an adaptive run's next cycle
+    /// starts from the previous cycle's λ carried over), with a fresh secant update under
+    /// θ auto.
+    pub fn at(lambda: Vec<f64>, relaxation: Relaxation) -> LoopState {
+        let memory = SECANT_MEMORY.min(lambda.len().max(1));
+        LoopState {
+            iteration: 0,
+            lambda,
+            history: Vec::new(),
+            active: Vec::new(),
+            secant: (relaxation == Relaxation::Auto)
+                .then(|| SecantUpdate::new(AUTO_THETA_PROBE, memory)),
+            best: f64::INFINITY,
+            best_at: 0,
+        }
+    }
+}
+
 /// What the loop asks of its caller, besides the bodies and steps: the estimates, the
 /// monitor, whether a stop was requested, and the restart points. Every method but
 /// `monitor` and `interrupted` is called on every rank at the same point (collectively).
@@ -769,17 +788,7 @@ impl Context<'_> {
             }
             return state;
         }
-        let memory = SECANT_MEMORY.min(self.m.max(1));
-        LoopState {
-            iteration: 0,
-            lambda: vec![0.0; self.m],
-            history: Vec::new(),
-            active: Vec::new(),
-            secant: (self.settings.relaxation == Relaxation::Auto)
-                .then(|| SecantUpdate::new(AUTO_THETA_PROBE, memory)),
-            best: f64::INFINITY,
-            best_at: 0,
-        }
+        LoopState::at(vec![0.0; self.m], self.settings.relaxation)
     }
 
     /// Step 1 at λ_p: the Dirichlet problem on its body's ranks and the other body's contact

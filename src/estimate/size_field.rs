@@ -24,19 +24,23 @@ pub enum Strategy {
     Dorfler { fraction: f64 },
 }
 
-/// The bounds of the ratio r_E = h*_E / h_E in one cycle.
+/// The bounds of one cycle's change: of the ratio r_E = h*_E / h_E, and of the element count
+/// (the estimates of a coarse mesh are a coarse guide: a mesh that grows by more than
+/// `growth` aims at a larger error, reached in more cycles).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Limits {
     pub refine: f64,
     pub coarsen: f64,
+    pub growth: f64,
 }
 
 impl Default for Limits {
-    /// At most 8 times finer and 4 times coarser in one cycle.
+    /// At most 8 times finer and 2 times coarser in one cycle, and 16 times the elements.
     fn default() -> Limits {
         Limits {
             refine: 0.125,
-            coarsen: 4.0,
+            coarsen: 2.0,
+            growth: 16.0,
         }
     }
 }
@@ -66,6 +70,30 @@ pub fn triangle_size(p: [[f64; 2]; 3]) -> f64 {
 /// The new sizes for the element contributions `squares` (e_E², η^FE² = Σ) of elements of
 /// sizes `sizes`, aiming at the discretisation error `target` (> 0).
 pub fn size_field(
+    squares: &[f64],
+    sizes: &[f64],
+    target: f64,
+    strategy: Strategy,
+    limits: Limits,
+) -> SizeField {
+    let mut field = field_at(squares, sizes, target, strategy, limits);
+    // Too many elements: aim higher, by the element count's excess (N ∝ ε^(−2/p)).
+    let cap = limits.growth * squares.len() as f64;
+    let mut aim = target;
+    for _ in 0..20 {
+        let Strategy::Optimal { order: p } = strategy else {
+            break;
+        };
+        if field.elements <= cap {
+            break;
+        }
+        aim *= (field.elements / cap).powf(0.5 * p) * 1.01;
+        field = field_at(squares, sizes, aim, strategy, limits);
+    }
+    field
+}
+
+fn field_at(
     squares: &[f64],
     sizes: &[f64],
     target: f64,
@@ -153,6 +181,7 @@ mod tests {
         let wide = Limits {
             refine: 1e-6,
             coarsen: 1e6,
+            growth: 1e6,
         };
         let f = size_field(
             &squares,
@@ -181,8 +210,22 @@ mod tests {
             Strategy::Optimal { order: 1.0 },
             Limits::default(),
         );
-        assert!(g.ratios.iter().all(|&r| (0.125..=4.0).contains(&r)));
+        assert!(g.ratios.iter().all(|&r| (0.125..=2.0).contains(&r)));
         assert!((g.sizes[3] - 0.1 * g.ratios[3]).abs() < 1e-15);
+        // A target far below reach: the element count stops at the growth limit, near it.
+        let far = size_field(
+            &squares,
+            &sizes,
+            1e-3 * target,
+            Strategy::Optimal { order: 1.0 },
+            Limits::default(),
+        );
+        let cap = 16.0 * n as f64;
+        assert!(
+            far.elements <= cap && far.elements > 0.5 * cap,
+            "{}",
+            far.elements
+        );
     }
 
     /// Dörfler: the fewest largest contributions that make up the fraction are halved.

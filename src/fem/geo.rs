@@ -67,7 +67,9 @@ pub fn remesh(
 }
 
 /// A Gmsh post-processing view (ASCII `.pos`) of the sizes `nodal` at the `points` of the
-/// `triangles`, for [`remesh`]: Gmsh interpolates it linearly over each triangle.
+/// `triangles`, for [`remesh`]: Gmsh interpolates it linearly over each triangle. The sizes
+/// are written to 7 digits, so that sizes equal to round-off (the same run on other rank
+/// counts) give the same view, hence the same mesh.
 pub fn write_background(
     path: &Path,
     points: &[[f64; 2]],
@@ -80,7 +82,7 @@ pub fn write_background(
         let [a, b, c] = t.map(|v| points[v]);
         let _ = writeln!(
             text,
-            "ST({:e},{:e},0,{:e},{:e},0,{:e},{:e},0){{{:e},{:e},{:e}}};",
+            "ST({:e},{:e},0,{:e},{:e},0,{:e},{:e},0){{{:.6e},{:.6e},{:.6e}}};",
             a[0], a[1], b[0], b[1], c[0], c[1], nodal[t[0]], nodal[t[1]], nodal[t[2]]
         );
     }

@@ -165,6 +165,9 @@ pub struct Summary {
     pub history: Vec<IterationRecord>,
     /// Σ_α ½ a^α(u, u) − ∫_{Γ_N} F·u (J/m).
     pub potential_energy: f64,
+    /// ‖u_h‖_E of the reported iterate, both bodies: (Σ_E u_Eᵀ K_E u_E)^½ (η^glo / ‖u_h‖_E is
+    /// the relative error an adaptive run's tolerance bounds).
+    pub energy_norm: f64,
     /// Total normal force on Γc (N/m), positive in compression.
     pub contact_force: f64,
     /// [x_min, x_max] of the nodes in contact (null when none).

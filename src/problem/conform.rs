@@ -200,12 +200,13 @@ pub fn conform_with(gmsh: &GmshMesh, contact: &[String; 2], snap: Snap) -> (Gmsh
             // its shape, the boundary beyond turns by O(d/h); inserting the partner instead
             // would cut a sliver of relative size d/h off the end triangle). Its contact
             // direction is the normal it was projected along, so that its partner is exact.
+            // Its contact direction is the normal it was projected along (the node's own on a
+            // straight part, a blend of its neighbours' where one turns), so that its partner
+            // is exact and finds it again below.
             g.points[c1.nodes[i]] = foot;
             out.made.insert(point_key(foot));
-            if !straight_at(&c1.segment_normals, i) {
-                n1[i] = f.normal;
-                out.normals.insert(point_key(foot), f.normal);
-            }
+            n1[i] = f.normal;
+            out.normals.insert(point_key(foot), f.normal);
             moved[0][i] = true;
             source2[j] = true;
         }
@@ -231,18 +232,21 @@ pub fn conform_with(gmsh: &GmshMesh, contact: &[String; 2], snap: Snap) -> (Gmsh
             g.points[c2.nodes[j]] = foot;
             out.made.insert(point_key(foot));
             moved[1][j] = true;
+            source2[j] = true;
             continue;
         }
         // Body 2's curve turns at its node: move body 1's node under it instead, or where
         // that cannot be (body 1's curve turns or ends there), body 2's node along its
         // segment (its curve loses O(d h κ) of its bulge).
         let under = project(p2[j], &p1, &n1)
-            .map(|f| lerp(p1[f.k], p1[f.k + 1], f.t))
-            .filter(|to| distance(*to, p1[i]) < SNAP * local);
+            .map(|f| (lerp(p1[f.k], p1[f.k + 1], f.t), f.normal))
+            .filter(|(to, _)| distance(*to, p1[i]) < SNAP * local);
         match under {
-            Some(to) if straight_at(&c1.segment_normals, i) && !moved[0][i] => {
+            Some((to, normal)) if straight_at(&c1.segment_normals, i) && !moved[0][i] => {
                 g.points[c1.nodes[i]] = to;
                 out.made.insert(point_key(to));
+                n1[i] = normal;
+                out.normals.insert(point_key(to), normal);
                 moved[0][i] = true;
                 source2[j] = true;
             }
@@ -250,6 +254,7 @@ pub fn conform_with(gmsh: &GmshMesh, contact: &[String; 2], snap: Snap) -> (Gmsh
                 g.points[c2.nodes[j]] = foot;
                 out.made.insert(point_key(foot));
                 moved[1][j] = true;
+                source2[j] = true;
             }
             _ => {}
         }
@@ -259,7 +264,9 @@ pub fn conform_with(gmsh: &GmshMesh, contact: &[String; 2], snap: Snap) -> (Gmsh
     // The partners that are not nodes: (segment, t) on each curve.
     let (p1, p2) = (points(g, &c1), points(g, &c2));
     let mut new1: Vec<(usize, f64, [f64; 2])> = Vec::new();
-    for &b in &c2.nodes {
+    // (a node that found its partner above has it: a projection again, along normals that
+    // the move blended anew, would insert a node beside the partner)
+    for (_, &b) in c2.nodes.iter().enumerate().filter(|(j, _)| !source2[*j]) {
         if let Some(f) = project(g.points[b], &p1, &n1) {
             if near_node(&f, COINCIDENT).is_none() {
                 new1.push((f.k, f.t, f.normal));

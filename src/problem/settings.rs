@@ -351,28 +351,7 @@ fn mesh_spec(
         }
     }
     let contact = [pair[0].to_string(), pair[1].to_string()];
-    let (conformed, matched) = match choice {
-        DiscretisationChoice::Given(ContactDiscretisation::Mortar) => {
-            (gmsh.clone(), Default::default())
-        }
-        _ => super::conform::conform(&gmsh, &contact),
-    };
-    // (auto: the curves match where making them match inserted no node; a node within SNAP
-    // of its partner on a straight part is moved onto it, as node to node always did)
-    let matching = matched.inserted == [0, 0];
-    let discretisation = match choice {
-        DiscretisationChoice::Given(d) => d,
-        DiscretisationChoice::Auto
-            if matching && !contact.iter().any(|c| super::curves::is_closed(&gmsh, c)) =>
-        {
-            ContactDiscretisation::NodeToNode
-        }
-        DiscretisationChoice::Auto => ContactDiscretisation::Mortar,
-    };
-    let (gmsh, matched) = match discretisation {
-        ContactDiscretisation::NodeToNode => (conformed, matched),
-        ContactDiscretisation::Mortar => (gmsh, Default::default()),
-    };
+    let (gmsh, discretisation, matched) = resolve(gmsh, &contact, choice);
     Ok(MeshSpec {
         gmsh: Rc::new(gmsh),
         conditions,
@@ -386,7 +365,55 @@ fn mesh_spec(
     })
 }
 
+/// The contact discretisation `choice` resolved on the mesh `gmsh` (`auto`: node to node where
+/// the curves match without an inserted node and none closes, else mortar), and the mesh it
+/// works on (the curves made to match, node to node).
+fn resolve(
+    gmsh: gmsh::GmshMesh,
+    contact: &[String; 2],
+    choice: DiscretisationChoice,
+) -> (
+    gmsh::GmshMesh,
+    ContactDiscretisation,
+    super::matched::Matched,
+) {
+    let (conformed, matched) = match choice {
+        DiscretisationChoice::Given(ContactDiscretisation::Mortar) => {
+            (gmsh.clone(), Default::default())
+        }
+        _ => super::conform::conform(&gmsh, contact),
+    };
+    // (auto: the curves match where making them match inserted no node; a node within SNAP
+    // of its partner on a straight part is moved onto it, as node to node always did)
+    let matching = matched.inserted == [0, 0];
+    let discretisation = match choice {
+        DiscretisationChoice::Given(d) => d,
+        DiscretisationChoice::Auto
+            if matching && !contact.iter().any(|c| super::curves::is_closed(&gmsh, c)) =>
+        {
+            ContactDiscretisation::NodeToNode
+        }
+        DiscretisationChoice::Auto => ContactDiscretisation::Mortar,
+    };
+    match discretisation {
+        ContactDiscretisation::NodeToNode => (conformed, discretisation, matched),
+        ContactDiscretisation::Mortar => (gmsh, discretisation, Default::default()),
+    }
+}
+
 impl MeshSpec {
+    /// The same problem on a new mesh of its geometry (an adaptive run's next cycle): the
+    /// contact curves resolved as [`mesh_spec`] does.
+    pub fn remeshed(&self, gmsh: gmsh::GmshMesh) -> MeshSpec {
+        let (gmsh, discretisation, matched) = resolve(gmsh, &self.contact, self.choice);
+        MeshSpec {
+            gmsh: Rc::new(gmsh),
+            discretisation,
+            matched: Rc::new(matched),
+            ..self.clone()
+        }
+    }
+
     /// The same problem node to node (`auto`'s choice where mortar is not available): the
     /// user's curves made to match ([`super::conform`]).
     pub fn node_to_node(&self) -> MeshSpec {
@@ -533,19 +560,29 @@ fn check_materials(
 
 /// The mesh file, read and parsed on world rank 0 and sent to the other ranks as bytes (a parse
 /// on every rank costs the machine one parse per rank: Hertz level 6 on 8 ranks of 2 cores took
-/// 2.6 s); a `.geo` file meshed there first by gmsh with `geo_set` ([`geo::mesh`]). Collective; an error on rank 0 reaches every rank (the others' message says so).
+/// 2.6 s); a `.geo` file meshed there first by gmsh with `geo_set` ([`geo::mesh`]). Collective;
+/// an error on rank 0 reaches every rank (the others' message says so).
 fn read_shared(file: &str, geo_set: &[(String, f64)]) -> Result<gmsh::GmshMesh, String> {
-    use crate::parallel::wait::politely;
-    use mpi::traits::{Communicator, Root};
-    let world = mpi::topology::SimpleCommunicator::world();
     let path = std::path::Path::new(file);
-    let read = || {
+    shared_mesh(file, || {
         match geo::is_geo(path) {
             true => geo::mesh(path, geo_set),
             false => gmsh::read(path),
         }
         .map_err(|e| e.to_string())
-    };
+    })
+}
+
+/// The mesh `make` gives on world rank 0 (called there alone), sent to every rank as bytes;
+/// `file` names it in the other ranks' messages. Collective.
+pub fn shared_mesh(
+    file: &str,
+    make: impl FnOnce() -> Result<gmsh::GmshMesh, String>,
+) -> Result<gmsh::GmshMesh, String> {
+    use crate::parallel::wait::politely;
+    use mpi::traits::{Communicator, Root};
+    let world = mpi::topology::SimpleCommunicator::world();
+    let read = make;
     if world.size() == 1 {
         return read();
     }

@@ -15,6 +15,9 @@ first failure.
 import os
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from checks import arrays, check, leaves  # noqa: E402
+
 import numpy as np
 from paraview import servermanager as sm
 from paraview.simple import (
@@ -32,29 +35,6 @@ from vtkmodules.vtkIOImage import vtkPNGReader
 
 directory, name, iterations, png = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 os.chdir(directory)
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what, flush=True)
-    if not ok:
-        sys.exit(1)
-
-
-def leaves(data):
-    """The datasets of a (possibly composite) output."""
-    if data.IsA("vtkMultiBlockDataSet"):
-        return [x for i in range(data.GetNumberOfBlocks()) for x in leaves(data.GetBlock(i))]
-    if data.IsA("vtkMultiPieceDataSet"):
-        return [x for i in range(data.GetNumberOfPieces()) for x in leaves(data.GetPiece(i))]
-    return [data] if data is not None else []
-
-
-def arrays(d):
-    pd, cd = d.GetPointData(), d.GetCellData()
-    return sorted(
-        [pd.GetArrayName(i) for i in range(pd.GetNumberOfArrays())]
-        + [cd.GetArrayName(i) for i in range(cd.GetNumberOfArrays())]
-    )
 
 
 bodies = OpenDataFile("./" + name + ".xdmf")

@@ -144,6 +144,7 @@ use h5::write_h5;
 pub use paths::OutputPaths;
 use team::{agree, check_team, Alone, Team, Writers};
 use validate::{prefix_name, validate};
+pub use xdmf::collection_of_singles;
 
 /// Cells of a grid: point indices (0-based) of linear triangles or of 2-node
 /// segments.

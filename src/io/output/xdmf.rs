@@ -136,6 +136,31 @@ pub(super) fn single_text(g: &Grid, step: &Step, h5_name: &str) -> String {
     out
 }
 
+/// Single grids ([`single_text`], each its own mesh and data file) as one temporal collection,
+/// the time of the i-th `singles[i].0`: an adaptive run's cycles, one mesh each, through
+/// which a reader's time slider steps. `None` if a text is not a single grid of this writer.
+pub fn collection_of_singles(singles: &[(f64, String)]) -> Option<String> {
+    let mut out = String::from(HEAD);
+    out.push_str(
+        "    <Grid Name=\"cycles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+    );
+    for (time, text) in singles {
+        let body = text.strip_prefix(HEAD)?.strip_suffix(TAIL)?;
+        let (open, rest) = body.split_once('\n')?;
+        if !open.trim_start().starts_with("<Grid ") {
+            return None;
+        }
+        let _ = writeln!(out, "  {open}");
+        let _ = writeln!(out, "        <Time Value=\"{time}\"/>");
+        for line in rest.lines() {
+            let _ = writeln!(out, "  {line}");
+        }
+    }
+    out.push_str("    </Grid>\n");
+    out.push_str(TAIL);
+    Some(out)
+}
+
 #[cfg(test)]
 mod tests {
     use std::fs;

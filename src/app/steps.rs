@@ -1,0 +1,392 @@
+//! The steps of one solve from the setup on ([`Run`]): the bodies, the estimator, the NNDD or
+//! the monolithic check, the contact's check, the post-processing and the output.
+
+use super::*;
+
+/// What the steps of a run from the setup on work with.
+pub(super) struct Run<'a> {
+    settings: &'a Settings,
+    layout: &'a Layout,
+    problems: &'a [Rc<BodyProblem>; 2],
+    stages: &'a Stages,
+    agreement: &'a Agreement,
+}
+
+/// What post-processing gives the summary.
+pub(crate) struct PostProcessed {
+    /// The potential energy of the reported iterate, both bodies (J/m).
+    pub(crate) energy: f64,
+    /// ‖u_h‖_E of the reported iterate, both bodies.
+    pub(crate) energy_norm: f64,
+    pub(crate) solvers: [solve::BodySolver; 2],
+    pub(crate) logged_flops: f64,
+    pub(crate) reference_iterations: Option<usize>,
+}
+
+impl<'a> Run<'a> {
+    pub(super) fn new(
+        settings: &'a Settings,
+        layout: &'a Layout,
+        problems: &'a [Rc<BodyProblem>; 2],
+        stages: &'a Stages,
+        agreement: &'a Agreement,
+    ) -> Run<'a> {
+        Run {
+            settings,
+            layout,
+            problems,
+            stages,
+            agreement,
+        }
+    }
+
+    /// Each rank's bodies (partition, assembly, factorisation); the ranks agree.
+    pub(super) fn set_up_bodies(
+        &self,
+        timings: &mut Timings,
+    ) -> Result<[Option<Body>; 2], AppError> {
+        let (settings, problems, layout) = (self.settings, self.problems, self.layout);
+        let bodies = solve::setup_bodies(settings, problems, layout, self.stages, timings);
+        agreed(self.agreement, bodies)
+    }
+
+    /// With `-nndd_monitor`: the problem, its size, the ranks and the steps' bodies, and the
+    /// time to here.
+    pub(super) fn announce_setup(&self, t_start: Instant) {
+        let (settings, layout) = (self.settings, self.layout);
+        if !(settings.output.monitor && layout.is_root()) {
+            return;
+        }
+        let problem = match &settings.problem.mesh {
+            Some(spec) => format!("mesh {}", spec.gmsh.path),
+            None => format!(
+                "{} n = {}",
+                settings.problem.kind.name(),
+                settings.problem.n
+            ),
+        };
+        let roles = match (settings.solver, settings.nndd.dirichlet_body) {
+            (SolverKind::Nndd, 1) => ", Dirichlet step on body 1, contact step on body 2",
+            (SolverKind::Nndd, _) => ", Dirichlet step on body 2, contact step on body 1",
+            _ => "",
+        };
+        let dofs: usize = self.problems.iter().map(|p| p.mesh.num_dofs()).sum();
+        println!(
+            "nndd: {problem}, {dofs} dofs, {} rank(s){roles}: setup {:.3} s",
+            layout.size,
+            t_start.elapsed().as_secs_f64()
+        );
+    }
+
+    /// The estimator when the run estimates, with the reference solution of (26) when asked
+    /// (one that does not converge is a warning, added to `warnings`: no e_ref then). A mortar
+    /// run's estimates and reference work on the matched meshes of
+    /// [`crate::problem::ProblemSettings::for_estimates`], their bodies set up here.
+    pub(super) fn estimator(
+        &self,
+        timings: &mut Timings,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<Estimator<'a>>, AppError> {
+        let (settings, layout) = (self.settings, self.layout);
+        let matched = settings
+            .problem
+            .for_estimates()
+            .filter(|_| settings.estimate.enabled)
+            .map(|problem| Settings {
+                problem,
+                ..settings.clone()
+            });
+        let on = matched.as_ref().unwrap_or(settings);
+        let problems = [&*self.problems[0], &*self.problems[1]];
+        let gaps = matched.as_ref().map(|_| GapField::new(problems));
+        let reference = match settings.estimate.reference_factor {
+            0 => None,
+            r => {
+                match solve::solve_reference(on, layout, self.stages, r, timings, gaps.as_ref())? {
+                    Ok(reference) => Some(reference),
+                    Err(w) => {
+                        say_warnings(layout.is_root(), std::slice::from_ref(&w));
+                        warnings.push(w);
+                        None
+                    }
+                }
+            }
+        };
+        if !settings.estimate.enabled {
+            return Ok(None);
+        }
+        let stages = Some(self.stages.estimation_parts);
+        let qp = &settings.qp;
+        let (Some(matched), Some(gaps)) = (matched, gaps) else {
+            let e = Estimator::new(
+                &settings.estimate,
+                qp,
+                layout,
+                self.problems,
+                reference,
+                stages,
+            );
+            return Ok(Some(e));
+        };
+        let problems = gaps.apply(crate::problem::build(&matched.problem)?);
+        let bodies = solve::setup_matched_bodies(&matched, &problems, layout, self.stages, timings);
+        let bodies = agreed(self.agreement, bodies)?;
+        let mortar = agreed(
+            self.agreement,
+            MortarEstimates::new(self.problems.clone(), &problems, bodies).map_err(AppError::from),
+        )?;
+        let e = Estimator::new(&settings.estimate, qp, layout, &problems, reference, stages);
+        Ok(Some(e.with_mortar(mortar)))
+    }
+
+    /// The NNDD (paper §3) with its restart points, or the monolithic check; a failure of one
+    /// rank alone ends the job.
+    pub(super) fn solve(
+        &self,
+        refs: [Option<&Body>; 2],
+        estimator: Option<&Estimator>,
+        timings: &mut Timings,
+        restart: &Restart,
+    ) -> Result<Solution, AppError> {
+        let (settings, layout, stages) = (self.settings, self.layout, self.stages);
+        end_job_on_local_failure(match settings.solver {
+            SolverKind::Nndd => {
+                let restart = Some(restart);
+                solve::solve_nndd(settings, layout, refs, estimator, stages, timings, restart)
+            }
+            SolverKind::Monolithic => {
+                solve::solve_monolithic(settings, layout, refs, estimator, stages, timings)
+            }
+        })
+    }
+
+    /// The contact over the whole contact curves: a zone that reaches an end of Γc where the
+    /// bodies go on side by side is a warning; a penetration beyond round-off, an error.
+    pub(super) fn check_contact(&self, sol: &mut Solution) -> Result<(), AppError> {
+        let problems = [&*self.problems[0], &*self.problems[1]];
+        if let Some(w) = dd::check::zone_reaches_open_end(problems, &sol.last) {
+            say_warnings(self.layout.is_root(), std::slice::from_ref(&w));
+            sol.warnings.push(w);
+        }
+        let penetration = dd::penetration::penetration(self.layout, problems, &sol.last);
+        if let Some(what) = penetration.failure(&contact_curves(self.settings)) {
+            if sol.converged {
+                return Err(AppError::Penetration(what));
+            }
+            // An iterate that is no answer (diverged, stagnated, at -nndd_max_it): its own exit
+            // says why; the overlap is said with it, not blamed on the contact curves.
+            let w = format!(
+                "the reported iterate, which did not converge, overlaps the other body: {what}"
+            );
+            say_warnings(self.layout.is_root(), std::slice::from_ref(&w));
+            sol.warnings.push(w);
+        }
+        sol.penetration = Some(penetration);
+        Ok(())
+    }
+
+    /// The energy, each body's solver, `-nndd_schur_view`'s files, the flops and the
+    /// estimates' parts; the estimator dropped, the timings made maxima over the ranks.
+    pub(super) fn post_process(
+        &self,
+        refs: [Option<&Body>; 2],
+        sol: &Solution,
+        estimator: Option<Estimator>,
+        timings: &mut Timings,
+    ) -> Result<PostProcessed, AppError> {
+        let layout = self.layout;
+        let energy = potential_energy(layout, refs, sol)?;
+        let energy_norm = energy_norm(layout, self.problems, sol);
+        let solvers = solve::body_solvers(layout, refs, sol);
+        if self.settings.output.schur_view {
+            write_interface_operators(self.settings, layout, refs)?;
+        }
+        let logged_flops = layout.sum(Petsc::logged_flops());
+        let reference_iterations = estimator.as_ref().and_then(|e| e.reference_iterations());
+        if let Some(e) = &estimator {
+            timings.estimation_parts = EstimationParts::from(e.part_seconds());
+        }
+        drop(estimator);
+        report::max_over_ranks(layout, timings);
+        Ok(PostProcessed {
+            energy,
+            energy_norm,
+            solvers,
+            logged_flops,
+            reference_iterations,
+        })
+    }
+
+    /// PREFIX.h5 + PREFIX.xdmf (collective), then PREFIX.json and the closing report (rank 0;
+    /// the ranks agree on its write).
+    pub(super) fn write_output(
+        &self,
+        sol: &Solution,
+        post: &PostProcessed,
+        mut timings: Timings,
+        t_start: Instant,
+    ) -> Result<(), AppError> {
+        let (settings, layout, problems) = (self.settings, self.layout, self.problems);
+        let t_out = Instant::now();
+        let results = {
+            let _s = self.stages.output.enter();
+            let have = [layout.owns(1), layout.owns(2)];
+            let results = results_of(settings, problems, sol, have);
+            let shares = fields::shares(layout, [&problems[0], &problems[1]]);
+            let prefix = settings.output.paths.prefix();
+            output::write_results_parallel(&layout.world, prefix, &results, &shares)?;
+            results
+        };
+        timings.output = layout.max(t_out.elapsed().as_secs_f64());
+        timings.total = t_start.elapsed().as_secs_f64();
+        // The high-water marks of the whole run, the output's fields included.
+        let peaks = report::peak_memory_per_rank(layout);
+        let mut written = Ok(());
+        if layout.is_root() {
+            let measured = report::Measured {
+                results: &results,
+                timings,
+                peaks: &peaks,
+            };
+            let problems = [&*problems[0], &*problems[1]];
+            let summary = report::summarise(settings, problems, layout, sol, post, measured);
+            let json = serde_json::to_string_pretty(&summary)
+                .map_err(|e| AppError::Json(e.to_string()))?;
+            written = output::write_atomic(&settings.output.paths.json(), json.as_bytes())
+                .map_err(AppError::from);
+            if written.is_ok() {
+                report::report(settings, &summary, sol);
+            }
+        }
+        agreed(self.agreement, written)?;
+        if signals::stop_requested() && !sol.interrupted && layout.is_root() {
+            // The output is not interrupted: a signal during it is read once the files exist.
+            crate::io::monitor::say(format_args!(
+                "nndd: {} arrived while the results were written; they are complete",
+                signals::received_name()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The potential energy of the reported iterate, both bodies (each counted once per group).
+pub(super) fn potential_energy(
+    layout: &Layout,
+    refs: [Option<&Body>; 2],
+    sol: &Solution,
+) -> Result<f64, AppError> {
+    let mut e = 0.0;
+    for (k, b) in refs.iter().enumerate() {
+        if let Some(b) = b {
+            let energy = b.potential_energy(&sol.last.u[k])?;
+            if b.is_root() {
+                e += energy; // every rank of the group has it: count it once
+            }
+        }
+    }
+    Ok(layout.sum(e))
+}
+
+/// ‖u_h‖_E = (Σ_α Σ_E u_Eᵀ K_E u_E)^½ of the reported iterate, each body's from its group's
+/// first rank (every rank gets it).
+pub(super) fn energy_norm(layout: &Layout, problems: &[Rc<BodyProblem>; 2], sol: &Solution) -> f64 {
+    let mut sum = 0.0;
+    for (k, p) in problems.iter().enumerate() {
+        let u = &sol.last.u[k];
+        if !(layout.owns(k + 1) && layout.group_rank() == 0) || u.len() != p.mesh.num_dofs() {
+            continue;
+        }
+        for (e, t) in p.mesh.triangles.iter().enumerate() {
+            let ke =
+                crate::fem::elasticity::element_stiffness(&p.mesh.triangle_points(e), &p.material);
+            let d: [f64; 6] = std::array::from_fn(|i| u[2 * t[i / 2] + i % 2]);
+            sum += (0..6)
+                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+                .sum::<f64>();
+        }
+    }
+    layout.sum(sum).max(0.0).sqrt()
+}
+
+/// The result files' content: one step per estimated iteration, and the reported iterate as
+/// the last step (estimated or not); the run's description as text attributes.
+pub(super) fn results_of(
+    settings: &Settings,
+    problems: &[Rc<BodyProblem>; 2],
+    sol: &Solution,
+    have: [bool; 2],
+) -> Results {
+    let mut steps: Vec<_> = sol
+        .estimates
+        .iter()
+        .map(|e| (&e.iterate, Some(e)))
+        .collect();
+    if steps.last().map(|(it, _)| it.iteration) != Some(sol.last.iteration) {
+        steps.push((&sol.last, None));
+    }
+    let mut attributes = vec![
+        ("n".into(), settings.problem.n as f64),
+        ("dofs".into(), settings.problem.dofs() as f64),
+        ("iterations".into(), sol.iterations as f64),
+    ];
+    // Each body's rows of the `bodies` grid: body 1's points and cells first.
+    for p in problems.iter() {
+        let at = |what: &str| format!("body{}_{what}", p.alpha);
+        attributes.push((at("points"), p.mesh.points.len() as f64));
+        attributes.push((at("cells"), p.mesh.triangles.len() as f64));
+    }
+    let mesh = settings.problem.mesh.as_ref();
+    let physical_names = mesh.map_or(String::new(), |m| {
+        let names = m.gmsh.names.iter();
+        let listed: Vec<String> = names.map(|((d, t), n)| format!("{d} {t} {n}")).collect();
+        listed.join("; ")
+    });
+    let text = vec![
+        (
+            "program".into(),
+            format!("nndd {}", env!("CARGO_PKG_VERSION")),
+        ),
+        ("options".into(), settings.options_text.clone()),
+        ("problem".into(), settings.problem.kind.name().to_string()),
+        (
+            "mesh_file".into(),
+            mesh.map_or(String::new(), |m| m.gmsh.path.clone()),
+        ),
+        ("physical_names".into(), physical_names),
+    ];
+    let problems = [&*problems[0], &*problems[1]];
+    fields::results(problems, &steps, have, attributes, text)
+}
+
+/// `-nndd_schur_view`: each body's S^α and D^α (row-major, exact in JSON) from its first rank,
+/// to `PREFIX.body<α>_schur.json` (the ranks agree on the writes).
+pub(super) fn write_interface_operators(
+    settings: &Settings,
+    layout: &Layout,
+    refs: [Option<&dd::body::Body>; 2],
+) -> Result<(), AppError> {
+    let mut written = Ok(());
+    for (k, body) in refs.iter().enumerate() {
+        let Some(c) = body.and_then(|b| b.condensed()) else {
+            continue;
+        };
+        let view = serde_json::json!({
+            "alpha": k + 1,
+            "source": body.and_then(|b| b.schur_source).map(|s| s.name()),
+            "m": c.schur.n(),
+            "schur": c.schur.data(),
+            "delassus": c.delassus.data(),
+        });
+        let path = settings.output.paths.schur_json(k + 1);
+        written = written.and_then(|()| {
+            output::write_atomic(&path, view.to_string().as_bytes()).map_err(AppError::from)
+        });
+    }
+    let failed = layout.max(written.is_err() as u8 as f64) > 0.0;
+    match (written, failed) {
+        (Err(e), _) => Err(e),
+        (Ok(()), true) => Err(AppError::ReportedElsewhere { code: 1 }),
+        (Ok(()), false) => Ok(()),
+    }
+}
