@@ -13,7 +13,8 @@
 //! - Curved contact curves remeshed from one view (the pin in its groove, examples/pin): their
 //!   nodes come close to each other, and making them match moves them onto their partners
 //!   instead of inserting slivers beside them; the second cycle solves and η^glo falls.
-//! - Bad input: one line naming the option.
+//! - Bad input: one line naming the option; gmsh failing at a remesh ends every rank with one
+//!   line, exit 2, the run's own files not written.
 
 mod common;
 use common::HERTZ_NM_GEO as HERTZ_GEO;
@@ -338,5 +339,44 @@ fn curved_contact_curves_remeshed_from_one_view_are_made_to_match() {
     assert!(f(&cycles[1], "eta_glo") < 0.5 * f(&cycles[0], "eta_glo"));
     let moved = curves["moved"][0].as_u64().unwrap() + curves["moved"][1].as_u64().unwrap();
     assert!(moved > 0, "{curves}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Gmsh failing at a remesh (the .geo breaks when `nndd_cycle` is set) ends every rank with
+/// one line naming the option and what gmsh said, exit 2; the first cycle's files stay, the
+/// run's own (PREFIX.json, PREFIX.xdmf) are not written.
+#[test]
+fn gmsh_failing_at_a_remesh_ends_the_run_in_one_line() {
+    let dir = scratch("adapt-gmsh-fails");
+    let geo = dir.join("paper-breaks.geo");
+    let text = std::fs::read_to_string(PAPER_GEO).unwrap()
+        + "If (Exists(nndd_cycle))\n  Line(99) = {1, 99};\nEndIf\n";
+    std::fs::write(&geo, text).unwrap();
+    let prefix = dir.join("run");
+    let mut args = paper_mesh_args(&geo, "contact1,contact2", "-1e-4");
+    args.extend(
+        [
+            "-nndd_geo_set",
+            "n=4",
+            "-nndd_adapt_tol",
+            "0.01",
+            "-nndd_output",
+            prefix.to_str().unwrap(),
+        ]
+        .map(String::from),
+    );
+    let out = mpirun(2, &strs(&args));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let ours: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("nndd: error"))
+        .collect();
+    assert_eq!(ours.len(), 1, "{stderr}");
+    println!("{}", ours[0]);
+    assert!(ours[0].contains("-nndd_adapt_tol") && ours[0].contains("gmsh says"));
+    assert!(!stderr.contains("panicked"));
+    assert!(dir.join("run-cycle1.json").exists());
+    assert!(!dir.join("run.json").exists() && !dir.join("run.xdmf").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
