@@ -317,8 +317,8 @@ pub(crate) fn solve_cycle(
     Ok(Cycle {
         outcome: Outcome::of(&sol),
         seconds: t_start.elapsed().as_secs_f64(),
-        settings: settings.clone(),
-        problems: problems.clone(),
+        settings,
+        problems,
         layout,
         energy_norm: post.energy_norm,
         solution: sol,
@@ -327,7 +327,7 @@ pub(crate) fn solve_cycle(
 
 impl Start {
     /// The loop's start at the carried λ, where it fits this solve (the same Dirichlet step's
-    /// body, one value per pair).
+    /// body): the previous λ at this solve's pairs ([`adapt::carry_over`]).
     fn checkpoint(
         &self,
         settings: &Settings,

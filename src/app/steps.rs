@@ -297,14 +297,7 @@ pub(super) fn energy_norm(layout: &Layout, problems: &[Rc<BodyProblem>; 2], sol:
         if !(layout.owns(k + 1) && layout.group_rank() == 0) || u.len() != p.mesh.num_dofs() {
             continue;
         }
-        for (e, t) in p.mesh.triangles.iter().enumerate() {
-            let ke =
-                crate::fem::elasticity::element_stiffness(&p.mesh.triangle_points(e), &p.material);
-            let d: [f64; 6] = std::array::from_fn(|i| u[2 * t[i / 2] + i % 2]);
-            sum += (0..6)
-                .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
-                .sum::<f64>();
-        }
+        sum += crate::fem::elasticity::energy_squared(&p.mesh, &p.material, u);
     }
     layout.sum(sum).max(0.0).sqrt()
 }

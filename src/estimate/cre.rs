@@ -524,12 +524,7 @@ enum Data {
     Fe,
 }
 
-/// dᵀ K_E d of an element stiffness K_E and element dofs d.
-pub(super) fn energy(ke: &[[f64; 6]; 6], d: &[f64; 6]) -> f64 {
-    (0..6)
-        .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
-        .sum()
-}
+pub(super) use crate::fem::elasticity::element_energy as energy;
 
 /// ‖u − v‖_E / ‖u‖_E (the energy norms of the body, assembled element by element: the same
 /// number on every rank).

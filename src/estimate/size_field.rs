@@ -77,18 +77,18 @@ pub fn size_field(
     limits: Limits,
 ) -> SizeField {
     let mut field = field_at(squares, sizes, target, strategy, limits);
-    // Too many elements: aim higher, by the element count's excess (N ∝ ε^(−2/p)).
-    let cap = limits.growth * squares.len() as f64;
-    let mut aim = target;
-    for _ in 0..20 {
-        let Strategy::Optimal { order: p } = strategy else {
-            break;
-        };
-        if field.elements <= cap {
-            break;
+    // Too many elements: aim higher, by the element count's excess (N ∝ ε^(−2/p); the clamps
+    // make the count fall slower than that, hence a few steps).
+    if let Strategy::Optimal { order: p } = strategy {
+        let cap = limits.growth * squares.len() as f64;
+        let mut aim = target;
+        for _ in 0..20 {
+            if field.elements <= cap {
+                break;
+            }
+            aim *= (field.elements / cap).powf(0.5 * p) * 1.01;
+            field = field_at(squares, sizes, aim, strategy, limits);
         }
-        aim *= (field.elements / cap).powf(0.5 * p) * 1.01;
-        field = field_at(squares, sizes, aim, strategy, limits);
     }
     field
 }

@@ -82,6 +82,26 @@ pub fn element_stiffness(p: &[[f64; 2]; 3], mat: &Material) -> [[f64; 6]; 6] {
     ke
 }
 
+/// dᵀ K_E d of an element stiffness K_E and element dofs d.
+pub fn element_energy(ke: &[[f64; 6]; 6], d: &[f64; 6]) -> f64 {
+    (0..6)
+        .map(|r| d[r] * (0..6).map(|c| ke[r][c] * d[c]).sum::<f64>())
+        .sum()
+}
+
+/// a(u, u) = Σ_E u_Eᵀ K_E u_E of a displacement `u` on `mesh` (the square of its energy norm).
+pub fn energy_squared(mesh: &Mesh, mat: &Material, u: &[f64]) -> f64 {
+    mesh.triangles
+        .iter()
+        .enumerate()
+        .map(|(e, t)| {
+            let ke = element_stiffness(&mesh.triangle_points(e), mat);
+            let dofs = element_dofs(t);
+            element_energy(&ke, &dofs.map(|i| u[i]))
+        })
+        .sum()
+}
+
 /// Element dofs of a triangle.
 pub fn element_dofs(t: &[usize; 3]) -> [usize; 6] {
     [
@@ -209,6 +229,27 @@ mod tests {
         young: 210e9,
         poisson: 0.27,
     };
+
+    /// A uniform strain ε_xx = s on a 2 × 1 rectangle: a(u, u) = |Ω| C₁₁ s²; a rigid motion
+    /// has none.
+    #[test]
+    fn energy_of_a_uniform_strain_by_hand() {
+        let mesh = Mesh::structured([0.0, 0.0], [2.0, 1.0], 4, 3);
+        let s = 1e-3;
+        let mut u = vec![0.0; mesh.num_dofs()];
+        for (i, p) in mesh.points.iter().enumerate() {
+            u[2 * i] = s * p[0];
+        }
+        let want = 2.0 * STEEL.hooke()[0][0] * s * s;
+        let got = energy_squared(&mesh, &STEEL, &u);
+        assert!((got - want).abs() < 1e-12 * want, "{got} against {want}");
+        let rigid: Vec<f64> = mesh
+            .points
+            .iter()
+            .flat_map(|p| [3e-3 - 1e-3 * p[1], 1e-3 + 1e-3 * p[0]])
+            .collect();
+        assert!(energy_squared(&mesh, &STEEL, &rigid) < 1e-12 * want);
+    }
 
     #[test]
     fn plane_strain_modulus_by_hand() {

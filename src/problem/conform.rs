@@ -266,7 +266,12 @@ pub fn conform_with(gmsh: &GmshMesh, contact: &[String; 2], snap: Snap) -> (Gmsh
     let mut new1: Vec<(usize, f64, [f64; 2])> = Vec::new();
     // (a node that found its partner above has it: a projection again, along normals that
     // the move blended anew, would insert a node beside the partner)
-    for (_, &b) in c2.nodes.iter().enumerate().filter(|(j, _)| !source2[*j]) {
+    for (&b, _) in c2
+        .nodes
+        .iter()
+        .zip(&source2)
+        .filter(|(_, &partnered)| !partnered)
+    {
         if let Some(f) = project(g.points[b], &p1, &n1) {
             if near_node(&f, COINCIDENT).is_none() {
                 new1.push((f.k, f.t, f.normal));
