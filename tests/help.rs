@@ -24,6 +24,9 @@ fn help_lists_options() {
         "-nndd_adapt_tol",
         "-nndd_adapt_max_cycles <now 8",
         "-nndd_adapt_strategy <now optimal",
+        "-nndd_friction <now none",
+        "-nndd_friction_coefficient",
+        "-nndd_friction_threshold",
         "-body1_ksp_type",
         "-body2_pc_type",
     ] {

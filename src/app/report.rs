@@ -4,14 +4,15 @@
 use super::options::Settings;
 use super::solve::Solution;
 use super::PostProcessed;
+use crate::dd::friction::{FrictionLaw, PairState};
 use crate::dd::nndd::{Iterate, Relaxation};
 use crate::estimate::EstimateRecord;
 use crate::io::fields;
 use crate::io::monitor::{self, sci};
 use crate::io::output::Results;
 use crate::io::summary::{
-    ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning, MeshProblem,
-    Summary, Timings,
+    ContactCurves, ContactZone, EquilibriumResiduals, EstimateEntry, EstimateMeaning,
+    FrictionZones, MeshProblem, Summary, Timings,
 };
 use crate::os::memory;
 use crate::parallel::layout::Layout;
@@ -50,7 +51,7 @@ pub fn summarise(
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
     let discretisation = crate::problem::discretisation([body1, body2]);
     let mortar = discretisation == ContactDiscretisation::Mortar;
-    let contact = contact_of([body1, body2], &sol.last);
+    let contact = contact_of([body1, body2], &sol.last, settings.friction);
     let paths = &settings.output.paths;
     let builtin = settings.problem.mesh.is_none();
     let matched = settings.problem.mesh.as_ref().map(|m| &*m.matched);
@@ -189,6 +190,17 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
         summary.timings.total,
         settings.output.paths.prefix().display()
     );
+    if let Some(f) = &summary.contact.friction {
+        println!(
+            "nndd: friction {}: tangential force {} N/m, {} pairs stick, {} slip, peak shear {} Pa, largest slip {} m",
+            f.friction,
+            sci(f.tangential_force, 6),
+            f.stick_nodes,
+            f.slip_nodes,
+            sci(f.peak_shear, 5),
+            sci(f.max_slip, 4)
+        );
+    }
     if let Some(e) = sol.estimates.last() {
         println!(
             "nndd: estimates at iteration {}: {}",
@@ -277,7 +289,7 @@ struct Contact {
     detail: ContactZone,
 }
 
-fn contact_of(problems: [&BodyProblem; 2], last: &Iterate) -> Contact {
+fn contact_of(problems: [&BodyProblem; 2], last: &Iterate, law: FrictionLaw) -> Contact {
     let p1 = problems[crate::problem::pair_side(problems)];
     let m = last.active.len();
     let x = p1.contact_x();
@@ -312,6 +324,51 @@ fn contact_of(problems: [&BodyProblem; 2], last: &Iterate) -> Contact {
             peak_pressure: peak.map_or(0.0, |p| p.0),
             peak_pressure_at: peak.filter(|p| p.0 > 0.0).map(|p| point(p.1)),
             normal_force: force.iter().sum(),
+            friction: friction_zones(last, law, &arc, &share, point),
         },
     }
+}
+
+/// The stick and slip zones of a frictional iterate (`None` without friction).
+fn friction_zones(
+    last: &Iterate,
+    law: FrictionLaw,
+    arc: &[f64],
+    share: &[f64],
+    point: impl Fn(usize) -> [f64; 2],
+) -> Option<FrictionZones> {
+    let t = last.tangential.as_ref()?;
+    let states = t.states(&last.active);
+    let runs = |want: PairState| {
+        let mut zones = Vec::new();
+        let mut start = None;
+        for k in 0..=states.len() {
+            let on = states.get(k) == Some(&want);
+            match (on, start) {
+                (true, None) => start = Some(k),
+                (false, Some(a)) => {
+                    zones.push([arc[a], arc[k - 1]]);
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        zones
+    };
+    let force = last.tangential_contact_forces();
+    let peak = (0..force.len())
+        .map(|k| (force[k].abs() / share[k], k))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    let count = |want| states.iter().filter(|&&s| s == want).count();
+    Some(FrictionZones {
+        friction: law.name().into(),
+        stick_zone: runs(PairState::Stick),
+        slip_zone: runs(PairState::Slip),
+        stick_nodes: count(PairState::Stick),
+        slip_nodes: count(PairState::Slip),
+        tangential_force: force.iter().sum(),
+        peak_shear: peak.map_or(0.0, |p| p.0),
+        peak_shear_at: peak.filter(|p| p.0 > 0.0).map(|p| point(p.1)),
+        max_slip: t.slip().iter().fold(0.0, |m, v| m.max(v.abs())),
+    })
 }

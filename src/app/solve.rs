@@ -11,6 +11,7 @@ use crate::dd::body::{uses_superlu_dist, Body, BodyError, SchurMode, SchurSource
 use crate::dd::check::check_solution;
 use crate::dd::contact::ContactStep;
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
+use crate::dd::friction::Friction;
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
 use crate::dd::nndd::{
@@ -146,6 +147,7 @@ fn set_up_body(
         partition,
         schur,
         settings.schur,
+        settings.friction.interface(),
         stages,
     )
     .map_err(|e| unknown_type(e, alpha))
@@ -428,7 +430,7 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
         if self.settings.output.monitor && self.layout.is_root() {
             monitor::monitor_line(
                 r,
-                self.m,
+                self.settings.friction.interface().pairs(self.m),
                 self.started.elapsed().as_secs_f64(),
                 self.estimates.last().filter(|e| e.iteration == r.iteration),
             );
@@ -505,6 +507,7 @@ pub fn solve_nndd(
         settings: &settings.nndd,
         // The number of Γc pairs (every rank holds at least one body).
         m: refs.iter().flatten().next().map_or(0, |b| b.pairs()),
+        interface: settings.friction.interface(),
         layout,
         bodies: refs,
         steps: &steps,
@@ -569,7 +572,10 @@ fn set_up_steps(
         .map(|b| DirichletStep::new(b, settings.nndd.dirichlet_step))
         .transpose()?;
     let contact = refs[ci]
-        .map(|b| ContactStep::new(b, settings.contact.clone()))
+        .map(|b| {
+            let friction = Friction::on(settings.friction, &b.problem);
+            ContactStep::new(b, settings.contact.clone(), friction)
+        })
         .transpose()?;
     drop(s);
     timings.interface += t.elapsed().as_secs_f64();
@@ -658,15 +664,18 @@ pub fn solve_monolithic(
     let res = {
         let _s = stages.monolithic.enter();
         signals::enter(StopPhase::Monolithic);
-        monolithic::solve(layout, refs, &settings.qp)?
+        let friction = refs
+            .iter()
+            .flatten()
+            .next()
+            .and_then(|b| Friction::on(settings.friction, &b.problem));
+        monolithic::solve(layout, refs, &settings.qp, friction.as_ref())?
     };
     timings.monolithic = t.elapsed().as_secs_f64();
-    let mut lambda = refs[0]
-        .map(|b| b.normal_trace(&res.u[0]))
-        .unwrap_or_default();
+    let mut lambda = refs[0].map(|b| b.trace(&res.u[0])).unwrap_or_default();
     layout.share_vec(1, &mut lambda);
     let trace2 = nndd::shared_trace2(layout, refs[1], &res.u[1], lambda.len());
-    let last = Iterate {
+    let mut last = Iterate {
         interface: lambda.clone(),
         lambda,
         trace2,
@@ -676,7 +685,10 @@ pub fn solve_monolithic(
         active: res.active,
         qp_kkt: res.kkt_residual,
         iteration: 0,
+        friction_bounds: res.bounds,
+        tangential: None,
     };
+    last.split_tangential();
     let check = check_solution(layout, &last, refs)?;
     // T¹ = −T² by construction: the balance is exact.
     if let Some(what) = check.failure(Some(crate::dd::check::CONTACT_LIMIT)) {

@@ -21,6 +21,7 @@
 
 use std::cell::RefCell;
 
+use crate::dd::friction::Interface;
 use crate::fem::{element_dofs, element_stiffness};
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::OwnComm;
@@ -255,6 +256,9 @@ pub struct Body {
     /// The trace's rows over `gc` ([`BodyProblem::trace_rows`]): pair k's normal displacement
     /// is Σ c·u[gc[i]] over row k's (i, c), and a force T_k on pair k loads gc[i] with c·T_k.
     gc_rows: Vec<Vec<(usize, f64)>>,
+    /// What the interface vectors hold: the pairs' normal components, or with friction their
+    /// normal then their tangential ones (node to node).
+    pub interface: Interface,
     /// How the interface operators were formed, on every rank of the group (`None`: the body
     /// has none).
     pub schur_source: Option<SchurSource>,
@@ -288,6 +292,7 @@ impl Body {
         partition: Partition,
         schur: SchurMode,
         choice: SchurChoice,
+        interface: Interface,
         stages: &crate::petsc::log::Stages,
     ) -> Result<Body, BodyError> {
         let comm = own_comm.petsc();
@@ -310,8 +315,7 @@ impl Body {
             };
             (k, diag, k_neu)
         };
-        let gc = problem.interface_dofs();
-        let pair_rows = problem.trace_rows();
+        let (gc, pair_rows) = interface_rows(&problem, interface);
         let gc_rows: Vec<petsc::Int> = gc.iter().map(|&d| partition.row(d)).collect();
         let t_assembly = t0.elapsed().as_secs_f64();
         let t1 = std::time::Instant::now();
@@ -348,6 +352,7 @@ impl Body {
             dirichlet: None,
             gc,
             gc_rows: pair_rows,
+            interface,
             schur_source: None,
             condensed: None,
             factorisation_flops,
@@ -541,7 +546,7 @@ impl Body {
             .collect()
     }
 
-    /// The number of Γc pairs.
+    /// The length of the interface vectors: the number of Γc pairs, twice it with friction.
     pub fn pairs(&self) -> usize {
         self.gc_rows.len()
     }
@@ -873,6 +878,27 @@ impl Body {
         self.problem.normal_trace(u)
     }
 
+    /// The interface trace of `u`: its normal Γc displacements, and with friction its
+    /// tangential ones after them.
+    pub fn trace(&self, u: &[f64]) -> Vec<f64> {
+        let mut v = self.problem.normal_trace(u);
+        if self.interface == Interface::Frictional {
+            v.extend(self.problem.tangential_trace(u));
+        }
+        v
+    }
+
+    /// Set row `row` of the interface trace of `u` to `value` (a normal row, or with friction
+    /// a tangential one), keeping the other component.
+    pub fn set_trace(&self, u: &mut [f64], row: usize, value: f64) {
+        let m = self.problem.pairs();
+        if row < m {
+            self.problem.set_normal_trace(u, row, value);
+        } else {
+            self.problem.set_tangential_trace(u, row - m, value);
+        }
+    }
+
     /// Potential energy ½ uᵀK u − fᵀu.
     pub fn potential_energy(&self, u: &[f64]) -> Result<f64, BodyError> {
         let u = self.local(u);
@@ -883,6 +909,27 @@ impl Body {
             .map(|((u, ku), f)| 0.5 * u * ku - f * u)
             .sum())
     }
+}
+
+/// The dofs the interface trace reads and its rows over them: the problem's
+/// ([`BodyProblem::interface_dofs`], [`BodyProblem::trace_rows`]), and with friction (node to
+/// node) each pair's tangential dof (2n in the node's frame (τ, n)) after the normal ones.
+fn interface_rows(
+    problem: &BodyProblem,
+    interface: Interface,
+) -> (Vec<usize>, Vec<Vec<(usize, f64)>>) {
+    let mut gc = problem.interface_dofs();
+    let mut rows = problem.trace_rows();
+    if interface == Interface::Frictional {
+        assert!(
+            problem.trace == GcTrace::Nodes,
+            "friction is refused under the mortar discretisation"
+        );
+        let m = gc.len();
+        gc.extend(problem.contact_nodes.iter().map(|&n| 2 * n));
+        rows.extend((m..2 * m).map(|k| vec![(k, 1.0)]));
+    }
+    (gc, rows)
 }
 
 /// Assemble K^α from this rank's elements (rows of other ranks travel at assembly), with

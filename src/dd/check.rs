@@ -34,6 +34,9 @@ pub struct SolutionCheck {
     pub tension: f64,
     /// The largest |T²_k| · gap_k over the largest |T²| times the displacement scale.
     pub complementarity: f64,
+    /// With friction: the largest violation of the friction law by the contact forces
+    /// ([`crate::dd::friction::Tangential::violation`]), 0 without.
+    pub friction: f64,
 }
 
 impl SolutionCheck {
@@ -61,6 +64,7 @@ impl SolutionCheck {
             ("penetration", self.penetration),
             ("tensile contact force", self.tension),
             ("complementarity product", self.complementarity),
+            ("violation of the friction law", self.friction),
         ] {
             if v.is_nan() || v > CONTACT_LIMIT {
                 return Some(format!("relative {name} {v:.1e} > {CONTACT_LIMIT:.0e}"));
@@ -99,21 +103,25 @@ pub fn check_solution(
 ) -> Result<SolutionCheck, BodyError> {
     let mut check = SolutionCheck::default();
     let mut r = [[0.0], [0.0]];
+    let forces = [it.interface_forces(0), it.interface_forces(1)];
     for (k, b) in bodies.iter().enumerate() {
         if let Some(b) = b {
-            r[k][0] = b.equilibrium_residual(&it.u[k], &it.forces[k])?;
+            r[k][0] = b.equilibrium_residual(&it.u[k], &forces[k])?;
         }
     }
     layout.share(1, &mut r[0]);
     layout.share(2, &mut r[1]);
     check.equilibrium = [r[0][0], r[1][0]];
     // Every rank holds both bodies' Γc forces.
-    let r: Vec<f64> = it.forces[0]
+    let r: Vec<f64> = forces[0]
         .iter()
-        .zip(&it.forces[1])
+        .zip(&forces[1])
         .map(|(a, b)| a + b)
         .collect();
-    check.balance = force_balance(&r, &it.forces, &it.active);
+    check.balance = force_balance(&r, &forces, &it.active);
+    if let Some(t) = &it.tangential {
+        check.friction = t.violation(&it.tangential_contact_forces());
+    }
     if let Some(b) = bodies[it.contact_body - 1] {
         let gap0 = &b.problem.gap;
         let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
@@ -215,8 +223,17 @@ mod tests {
             penetration: 1e-14,
             tension: 0.0,
             complementarity: 3e-15,
+            friction: 1e-15,
         };
         assert_eq!(ok.failure(Some(1e-8)), None);
+        let slipping = SolutionCheck {
+            friction: 2e-6,
+            ..ok
+        };
+        assert_eq!(
+            slipping.failure(None).unwrap(),
+            "relative violation of the friction law 2.0e-6 > 1e-8"
+        );
         let bad = SolutionCheck {
             equilibrium: [2e-16, 2e-2],
             ..ok

@@ -28,9 +28,13 @@
 //! records, per step, which method gave the answer and its iterations.
 
 use crate::dd::body::{Body, BodyError};
+use crate::dd::friction::{
+    coulomb_converged, Friction, FrictionLaw, COULOMB_MAX_OUTER, COULOMB_TOL,
+};
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::OptionsBlock;
 use crate::qp::active_set::{self, ActiveSet, Operator};
+use crate::qp::friction::{self as fqp, FrictionSets, Slip};
 use crate::qp::{solve_nonneg_qp, QpError, QpMethod, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -47,11 +51,18 @@ pub enum ContactError {
 pub struct ContactSolution {
     /// T^α_p = K u^α − f^α on the Γc normal dofs (T² ≥ 0, T¹ ≤ 0 in compression).
     pub forces: Vec<f64>,
-    /// Nodes in contact (v = λ_p).
+    /// Nodes in contact (v = λ_p); with friction then the sticking pairs (v_t = λ_t).
     pub active: Vec<bool>,
-    /// The gaps v − (λ_p − g₀) ≥ 0 on body 2, λ_p + g₀ − v on body 1 (0 on the contact
-    /// set).
-    pub gaps: Vec<f64>,
+    /// The sign conditions of the solution, each ≥ 0 and affine in λ while the sets stay (the
+    /// secant update's guard): on the contact set the multiplier (T² ≥ 0, −T¹ ≥ 0), off it
+    /// the gap v − (λ_p − g₀) on body 2, λ_p + g₀ − v on body 1; with friction on the
+    /// tangential rows the margin g_k − |T_t,k| of a sticking pair, the slip |z_t,k| of a
+    /// slipping one.
+    pub margins: Vec<f64>,
+    /// With friction: the nodal bounds g_k of the tangential forces (m), and the Coulomb
+    /// fixed point's Tresca solves (0 under Tresca).
+    pub bounds: Vec<f64>,
+    pub coulomb_iterations: u32,
     /// v, the body's normal Γc displacement.
     pub trace: Vec<f64>,
     /// The active-set steps, or Clarabel's iterations ([`ContactSolution::method`]).
@@ -149,22 +160,35 @@ pub struct ContactStep {
     /// The active-set method, with the factorisation of its last step (reused while the
     /// contact set stays).
     active_set: std::cell::RefCell<ActiveSet>,
+    /// The friction law on the pairs (`None`: frictionless), and the previous step's
+    /// contact and stick/slip sets.
+    friction: Option<Friction>,
+    previous_sets: std::cell::RefCell<Option<FrictionSets>>,
+    /// Coulomb: the previous step's bounds g = μ T_n, where the next fixed point starts.
+    previous_bounds: std::cell::RefCell<Vec<f64>>,
 }
 
 impl ContactStep {
     /// u₀ and v* (collective over the body's group).
-    pub fn new(body: &Body, settings: ContactSettings) -> Result<ContactStep, ContactError> {
+    pub fn new(
+        body: &Body,
+        settings: ContactSettings,
+        friction: Option<Friction>,
+    ) -> Result<ContactStep, ContactError> {
         if !body.has_condensed() {
             return Err(ContactError::NoSchur(body.alpha()));
         }
         let u0 = body.neumann_solve(&vec![0.0; body.pairs()], true)?;
-        let v_star = body.normal_trace(&u0);
+        let v_star = body.trace(&u0);
         Ok(ContactStep {
             u0,
             v_star,
             settings,
             previous: Default::default(),
             active_set: Default::default(),
+            friction,
+            previous_sets: Default::default(),
+            previous_bounds: Default::default(),
         })
     }
 
@@ -183,9 +207,11 @@ impl ContactStep {
         let w = body.neumann_solve(forces, false)?;
         let mut u: Vec<f64> = self.u0.iter().zip(&w).map(|(a, b)| a + b).collect();
         let sigma = side(body);
-        for (i, (l, g)) in lambda.iter().zip(&body.problem.gap).enumerate() {
+        let gap = &body.problem.gap;
+        for (i, l) in lambda.iter().enumerate() {
             if active[i] {
-                body.problem.set_normal_trace(&mut u, i, l - sigma * g);
+                let g = gap.get(i).copied().unwrap_or(0.0);
+                body.set_trace(&mut u, i, l - sigma * g);
             }
         }
         Ok(u)
@@ -198,6 +224,9 @@ impl ContactStep {
 
     /// The contact set the next [`Self::solve`] tries first (a restart's last one).
     pub fn set_warm_start(&self, active: Vec<bool>) {
+        if self.friction.is_some() {
+            *self.previous_sets.borrow_mut() = Some(sets_of(&active));
+        }
         *self.previous.borrow_mut() = Some(active);
     }
 
@@ -208,10 +237,12 @@ impl ContactStep {
             .condensed()
             .ok_or(ContactError::NoSchur(body.alpha()))?;
         let m = lambda.len();
-        // In the variable σv (σ = 1 on body 2, −1 on body 1) the obstacle is σλ_p − g₀.
+        // In the variable σv (σ = 1 on body 2, −1 on body 1) the obstacle is σλ_p − g₀ (the
+        // tangential rows of a frictional interface have no gap).
         let sigma = side(body);
+        let gap = &body.problem.gap;
         let obstacle: Vec<f64> = (0..m)
-            .map(|i| sigma * lambda[i] - body.problem.gap[i])
+            .map(|i| sigma * lambda[i] - gap.get(i).copied().unwrap_or(0.0))
             .collect();
         let diff: Vec<f64> = (0..m)
             .map(|i| obstacle[i] - sigma * self.v_star[i])
@@ -220,6 +251,9 @@ impl ContactStep {
         // without a product.
         let mut q = vec![0.0; m];
         c.schur.matvec(&diff, &mut q);
+        if let Some(friction) = &self.friction {
+            return self.solve_frictional(&c.schur, friction, &q, &obstacle, sigma);
+        }
         let op = Operator {
             p: &c.schur,
             inverse: Some(&c.delassus),
@@ -245,14 +279,116 @@ impl ContactStep {
         };
         *self.previous.borrow_mut() = Some(sol.active.clone());
         let trace = (0..m).map(|i| sigma * (sol.x[i] + obstacle[i])).collect();
+        let margins = (0..m)
+            .map(|i| if sol.active[i] { sol.y[i] } else { sol.x[i] })
+            .collect();
         Ok(ContactSolution {
             forces: sol.y.iter().map(|y| sigma * y).collect(),
             active: sol.active,
             trace,
-            gaps: sol.x,
+            margins,
+            bounds: Vec::new(),
+            coulomb_iterations: 0,
             qp_iterations: sol.iterations,
             method: sol.method,
             kkt_residual: sol.kkt_residual,
         })
+    }
+
+    /// The frictional contact step (docs/method.md §9): in z = σv − o (o the obstacle, λ_t on
+    /// the tangential rows), minimise ½ zᵀS z + qᵀz + Σ g_k |z_t,k| subject to z_n ≥ 0, by the
+    /// active-set method with stick and slip sets (Clarabel as its fallback), g_k = g s_k
+    /// (Tresca) or μ T_n,k to a fixed point (Coulomb, [`crate::qp::friction`]).
+    fn solve_frictional(
+        &self,
+        schur: &crate::qp::dense::SymMatrix,
+        friction: &Friction,
+        q: &[f64],
+        obstacle: &[f64],
+        sigma: f64,
+    ) -> Result<ContactSolution, ContactError> {
+        let m = q.len() / 2;
+        let settings = &self.settings;
+        let start = self
+            .previous_sets
+            .borrow()
+            .clone()
+            .filter(|_| settings.warm_start)
+            .unwrap_or_else(|| FrictionSets::cold_start(q, &friction.bounds(&vec![0.0; m])));
+        let (sol, outer) = match friction.law {
+            FrictionLaw::Coulomb { coefficient } => {
+                let g_start = self.previous_bounds.borrow().clone();
+                let (sol, outer) = fqp::solve_coulomb(
+                    schur,
+                    q,
+                    coefficient,
+                    &g_start,
+                    &start,
+                    settings.max_steps,
+                    &settings.clarabel,
+                    COULOMB_TOL,
+                    COULOMB_MAX_OUTER,
+                )?;
+                coulomb_converged(outer)?;
+                (sol, outer)
+            }
+            _ => {
+                let g = friction.bounds(&[]);
+                let sol = fqp::solve_tresca(
+                    schur,
+                    q,
+                    &g,
+                    &start,
+                    settings.max_steps,
+                    &settings.clarabel,
+                )?;
+                (sol, 0)
+            }
+        };
+        let bounds = friction.bounds(&sol.y[..m]);
+        *self.previous_sets.borrow_mut() = Some(sol.sets.clone());
+        *self.previous_bounds.borrow_mut() = bounds.clone();
+        let active = set_flags(&sol.sets);
+        *self.previous.borrow_mut() = Some(active.clone());
+        let margins = (0..2 * m)
+            .map(|i| match (i < m, active[i]) {
+                (true, true) => sol.y[i],
+                (true, false) => sol.z[i],
+                (false, true) => bounds[i - m] - sol.y[i].abs(),
+                (false, false) => sol.z[i].abs(),
+            })
+            .collect();
+        Ok(ContactSolution {
+            forces: sol.y.iter().map(|y| sigma * y).collect(),
+            trace: (0..2 * m)
+                .map(|i| sigma * (sol.z[i] + obstacle[i]))
+                .collect(),
+            active,
+            margins,
+            bounds,
+            coulomb_iterations: outer as u32,
+            qp_iterations: sol.iterations,
+            method: sol.method,
+            kkt_residual: sol.kkt_residual,
+        })
+    }
+}
+
+/// The flags of the frictional sets: in contact (m), then sticking (m).
+fn set_flags(sets: &FrictionSets) -> Vec<bool> {
+    let mut v = sets.contact.clone();
+    v.extend(sets.slip.iter().map(|s| *s == Slip::Stick));
+    v
+}
+
+/// The sets of flags [`set_flags`] made (a slip's direction is found again by the method).
+fn sets_of(flags: &[bool]) -> FrictionSets {
+    let m = flags.len() / 2;
+    FrictionSets {
+        contact: flags[..m].to_vec(),
+        slip: flags[m..]
+            .iter()
+            .map(|&s| if s { Slip::Stick } else { Slip::Forward })
+            .collect(),
     }
 }

@@ -35,7 +35,7 @@ impl DirichletStep {
     pub fn new(body: &Body, choice: DirichletChoice) -> Result<DirichletStep, BodyError> {
         if body.has_condensed() && choice != DirichletChoice::System {
             let u0 = body.neumann_solve(&vec![0.0; body.pairs()], true)?;
-            let v_star = body.normal_trace(&u0);
+            let v_star = body.trace(&u0);
             Ok(DirichletStep::Condensed { u0, v_star })
         } else {
             assert!(
@@ -100,7 +100,7 @@ impl DirichletStep {
                 let mut u: Vec<f64> = u0.iter().zip(&w).map(|(a, b)| a + b).collect();
                 for (k, &l) in lambda.iter().enumerate() {
                     // equal to round-off; make the prescribed trace exact
-                    body.problem.set_normal_trace(&mut u, k, l);
+                    body.set_trace(&mut u, k, l);
                 }
                 Ok(u)
             }

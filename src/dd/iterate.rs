@@ -1,6 +1,8 @@
 //! An iterate of the NNDD (or the monolithic solve's solution): the fields of a step 1 and
 //! its Γc data, what the final check, the estimates and the output read.
 
+use crate::dd::friction::Tangential;
+
 /// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
 #[derive(Clone, Debug)]
 pub struct Iterate {
@@ -24,9 +26,55 @@ pub struct Iterate {
     pub qp_kkt: f64,
     /// The iteration p.
     pub iteration: usize,
+    /// With friction, the nodal bounds g_k of the tangential forces while the interface
+    /// vectors above still hold both parts (empty once split, and without friction).
+    pub friction_bounds: Vec<f64>,
+    /// With friction, once split ([`Iterate::split_tangential`]): the tangential part, the
+    /// vectors above then holding the normal part only.
+    pub tangential: Option<Tangential>,
 }
 
 impl Iterate {
+    /// Body k's (0 or 1) Γc forces on its whole interface: the normal ones, then with friction
+    /// the tangential ones.
+    pub fn interface_forces(&self, k: usize) -> Vec<f64> {
+        let mut f = self.forces[k].clone();
+        if let Some(t) = &self.tangential {
+            f.extend(&t.forces[k]);
+        }
+        f
+    }
+
+    /// The tangential forces on body 2 with friction, from the contact step (T²_t, or −T¹_t);
+    /// empty without friction.
+    pub fn tangential_contact_forces(&self) -> Vec<f64> {
+        match &self.tangential {
+            None => Vec::new(),
+            Some(t) if self.contact_body == 2 => t.forces[1].clone(),
+            Some(t) => t.forces[0].iter().map(|f| -f).collect(),
+        }
+    }
+
+    /// Split a frictional iterate's interface vectors (normal rows, then tangential) into
+    /// their normal part, which the checks, the output and the summary read as without
+    /// friction, and [`Iterate::tangential`]. Nothing to do without friction or once split.
+    pub fn split_tangential(&mut self) {
+        let m = self.friction_bounds.len();
+        if m == 0 {
+            return;
+        }
+        let tail = |v: &mut Vec<f64>| v.split_off(m);
+        let [f1, f2] = &mut self.forces;
+        self.tangential = Some(Tangential {
+            trace1: tail(&mut self.lambda),
+            trace2: tail(&mut self.trace2),
+            forces: [tail(f1), tail(f2)],
+            bounds: std::mem::take(&mut self.friction_bounds),
+            stick: self.active.split_off(m),
+        });
+        self.interface.truncate(m);
+    }
+
     /// The contact forces on body 2, ≥ 0 in compression and 0 off the contact set: the
     /// contact step's multipliers, T² or −T¹ (the Dirichlet step's reaction on the other body
     /// equals them only up to the defect R).

@@ -13,6 +13,7 @@ pub mod body;
 pub mod check;
 pub mod contact;
 pub mod dirichlet;
+pub mod friction;
 pub mod iterate;
 pub mod monolithic;
 pub mod neumann;

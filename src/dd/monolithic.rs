@@ -20,9 +20,13 @@
 //! μ = T² = S²v² + c² ≥ 0 and v¹ = −M⁻¹(c¹ + c² + S²(z − g₀)) ([`held_by_contact`]).
 
 use crate::dd::body::{Body, BodyError};
+use crate::dd::friction::{
+    coulomb_converged, Friction, FrictionLaw, COULOMB_MAX_OUTER, COULOMB_TOL,
+};
 use crate::parallel::layout::Layout;
 use crate::problem::Support;
 use crate::qp::dense::SymMatrix;
+use crate::qp::friction::{self as fqp, FrictionSets, Slip};
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -41,12 +45,82 @@ pub struct MonolithicResult {
     pub active: Vec<bool>,
     pub qp_iterations: u32,
     pub kkt_residual: f64,
+    /// With friction: the nodal bounds g_k of the tangential forces (m; empty without).
+    pub bounds: Vec<f64>,
 }
+
+/// The gap QP's answer: z, its multiplier y, the flags (in contact, then with friction
+/// sticking), iterations and KKT residual.
+struct GapAnswer {
+    z: Vec<f64>,
+    y: Vec<f64>,
+    flags: Vec<bool>,
+    iterations: u32,
+    kkt: f64,
+    bounds: Vec<f64>,
+}
+
+/// Solve min ½ zᵀH z + qᵀz (+ Σ g_k |z_t,k| with friction) subject to z_n ≥ 0, the QP of the
+/// gaps z (2m rows with friction: the normal gaps, then the tangential relative displacements
+/// u²_t − u¹_t), by Clarabel polished (frictionless) or the frictional active-set method with
+/// Clarabel as its fallback (Tresca, and Coulomb's fixed point g = μ y_n).
+fn gap_qp(
+    h: &SymMatrix,
+    q: &[f64],
+    friction: Option<&Friction>,
+    qp: &QpSettings,
+) -> Result<GapAnswer, QpError> {
+    let Some(f) = friction else {
+        let sol = solve_nonneg_qp(h, q, qp)?;
+        return Ok(GapAnswer {
+            flags: sol.active,
+            z: sol.x,
+            y: sol.y,
+            iterations: sol.iterations,
+            kkt: sol.kkt_residual,
+            bounds: Vec::new(),
+        });
+    };
+    let m = q.len() / 2;
+    let start = FrictionSets::cold_start(q, &f.bounds(&vec![0.0; m]));
+    let sol = match f.law {
+        FrictionLaw::Coulomb { coefficient } => {
+            let (sol, outer) = fqp::solve_coulomb(
+                h,
+                q,
+                coefficient,
+                &[],
+                &start,
+                MAX_STEPS,
+                qp,
+                COULOMB_TOL,
+                COULOMB_MAX_OUTER,
+            )?;
+            coulomb_converged(outer)?;
+            sol
+        }
+        _ => fqp::solve_tresca(h, q, &f.bounds(&[]), &start, MAX_STEPS, qp)?,
+    };
+    let mut flags = sol.sets.contact.clone();
+    flags.extend(sol.sets.slip.iter().map(|s| *s == Slip::Stick));
+    Ok(GapAnswer {
+        bounds: f.bounds(&sol.y[..m]),
+        flags,
+        z: sol.z,
+        y: sol.y,
+        iterations: sol.iterations,
+        kkt: sol.kkt_residual,
+    })
+}
+
+/// The active-set steps of the monolithic frictional QP before Clarabel.
+const MAX_STEPS: usize = 100;
 
 pub fn solve(
     layout: &Layout,
     bodies: [Option<&Body>; 2],
     qp: &QpSettings,
+    friction: Option<&Friction>,
 ) -> Result<MonolithicResult, MonolithicError> {
     // Whether each body is held only by contact, from its root to every rank.
     let mut held = [0.0; 2];
@@ -57,23 +131,18 @@ pub fn solve(
         layout.share(k + 1, &mut held[k..k + 1]);
     }
     if held.iter().any(|&h| h > 0.5) {
-        return held_by_contact(layout, bodies, qp);
+        return held_by_contact(layout, bodies, qp, friction);
     }
     // Each body: u₀ (own data, free Γc), v* = B u₀, D = S⁻¹; shared with rank 0.
     let mut free = [Vec::new(), Vec::new()];
     let mut v_star = [Vec::new(), Vec::new()];
     // g₀ is part of the geometry every rank holds.
-    let gap = bodies
-        .iter()
-        .flatten()
-        .next()
-        .map(|b| b.problem.gap.clone())
-        .unwrap_or_default();
+    let gap = interface_gaps(bodies, friction.is_some());
     let mut delassus = [Vec::new(), Vec::new()];
     for (k, body) in bodies.iter().enumerate() {
         if let Some(b) = body {
             let u0 = b.neumann_solve(&vec![0.0; b.pairs()], true)?;
-            v_star[k] = b.normal_trace(&u0);
+            v_star[k] = b.trace(&u0);
             free[k] = u0;
             // D^α is on the body's first rank, which shares it below.
             if let Some(c) = b.condensed() {
@@ -87,6 +156,7 @@ pub fn solve(
     let mut mu = vec![0.0; m];
     let mut act = vec![0.0; m];
     let mut stats = [0.0; 2];
+    let mut bounds = vec![0.0; m - friction.map_or(m, |_| m / 2)];
     if layout.is_root() {
         let d: Vec<f64> = delassus[0]
             .iter()
@@ -97,16 +167,32 @@ pub fn solve(
         let q: Vec<f64> = (0..m)
             .map(|i| gap[i] + v_star[1][i] - v_star[0][i])
             .collect();
-        let sol = solve_nonneg_qp(&d, &q, qp)?;
-        mu = sol.x;
-        // The QP's bound μ_i ≥ 0 is active where the pair is *open*: contact is the complement.
-        act = sol.active.iter().map(|&open| !open as u8 as f64).collect();
-        stats = [sol.iterations as f64, sol.kkt_residual];
+        if friction.is_some() {
+            // The primal form in the gaps z = z* + Dμ, z* = g₀ + v²* − v¹*: H = D⁻¹,
+            // q = −H z*, and the multiplier y = H(z − z*) is μ.
+            let h = d.inverse_spd().map_err(QpError::from)?;
+            let mut hq = vec![0.0; m];
+            h.matvec(&q, &mut hq);
+            hq.iter_mut().for_each(|x| *x = -*x);
+            let a = gap_qp(&h, &hq, friction, qp)?;
+            mu = a.y;
+            act = a.flags.iter().map(|&f| f as u8 as f64).collect();
+            stats = [a.iterations as f64, a.kkt];
+            bounds = a.bounds;
+        } else {
+            let sol = solve_nonneg_qp(&d, &q, qp)?;
+            mu = sol.x;
+            // The QP's bound μ_i ≥ 0 is active where the pair is *open*: contact is the
+            // complement.
+            act = sol.active.iter().map(|&open| !open as u8 as f64).collect();
+            stats = [sol.iterations as f64, sol.kkt_residual];
+        }
     }
     // Rank 0 is body 1's root: broadcast from there.
     layout.share(1, &mut mu);
     layout.share(1, &mut act);
     layout.share(1, &mut stats);
+    layout.share(1, &mut bounds);
     let mut u = [Vec::new(), Vec::new()];
     for (k, body) in bodies.iter().enumerate() {
         if let Some(b) = body {
@@ -122,7 +208,23 @@ pub fn solve(
         active: act.iter().map(|&a| a > 0.5).collect(),
         qp_iterations: stats[0] as u32,
         kkt_residual: stats[1],
+        bounds,
     })
+}
+
+/// The initial gaps g₀ of the interface rows (0 on the tangential rows of a frictional
+/// interface), on every rank (part of the geometry every rank holds).
+fn interface_gaps(bodies: [Option<&Body>; 2], frictional: bool) -> Vec<f64> {
+    let mut gap = bodies
+        .iter()
+        .flatten()
+        .next()
+        .map(|b| b.problem.gap.clone())
+        .unwrap_or_default();
+    if frictional {
+        gap.resize(2 * gap.len(), 0.0);
+    }
+    gap
 }
 
 /// Body α's Γc energy ½vᵀSv + cᵀv as (S row-major, c), shared with every rank: S, c from its
@@ -153,7 +255,7 @@ fn condensed_by_dirichlet(
             c = c0;
         } else {
             let u0 = b.neumann_solve(&vec![0.0; m], true)?;
-            let v_star = b.normal_trace(&u0);
+            let v_star = b.trace(&u0);
             if let Some(cond) = b.condensed() {
                 s = cond.schur.data().to_vec();
                 c = vec![0.0; m];
@@ -182,19 +284,16 @@ fn held_by_contact(
     layout: &Layout,
     bodies: [Option<&Body>; 2],
     qp: &QpSettings,
+    friction: Option<&Friction>,
 ) -> Result<MonolithicResult, MonolithicError> {
-    let mut gap = bodies
-        .iter()
-        .flatten()
-        .next()
-        .map(|b| b.problem.gap.clone())
-        .unwrap_or_default();
+    let mut gap = interface_gaps(bodies, friction.is_some());
     layout.share_vec(1, &mut gap);
     let m = gap.len();
+    let pairs = m - friction.map_or(0, |_| m / 2);
     let (s1, c1) = condensed_by_dirichlet(layout, bodies[0], 1, m)?;
     let (s2, c2) = condensed_by_dirichlet(layout, bodies[1], 2, m)?;
     // v¹, v², μ, contact set, QP statistics: found on rank 0, shared.
-    let mut out = vec![0.0; 4 * m + 2];
+    let mut out = vec![0.0; 4 * m + 2 + (m - pairs)];
     if layout.is_root() {
         let sum: Vec<f64> = s1.iter().zip(&s2).map(|(a, b)| a + b).collect();
         let m_inv = SymMatrix::from_rows(m, sum)
@@ -226,8 +325,8 @@ fn held_by_contact(
             .enumerate()
             .map(|(i, x)| c2[i] - x - hg[i])
             .collect();
-        let sol = solve_nonneg_qp(&h_mat, &q, qp)?;
-        let w: Vec<f64> = sol.x.iter().zip(&gap).map(|(z, g)| z - g).collect();
+        let sol = gap_qp(&h_mat, &q, friction, qp)?;
+        let w: Vec<f64> = sol.z.iter().zip(&gap).map(|(z, g)| z - g).collect();
         let rhs: Vec<f64> = matvec(&s2, &w)
             .iter()
             .zip(&c12)
@@ -241,10 +340,11 @@ fn held_by_contact(
             out[m + i] = v1[i] + w[i];
             out[2 * m + i] = sol.y[i];
             // The bound z_i ≥ 0 is active where the pair is in contact.
-            out[3 * m + i] = f64::from(u8::from(sol.active[i]));
+            out[3 * m + i] = f64::from(u8::from(sol.flags[i]));
         }
         out[4 * m] = sol.iterations as f64;
-        out[4 * m + 1] = sol.kkt_residual;
+        out[4 * m + 1] = sol.kkt;
+        out[4 * m + 2..].copy_from_slice(&sol.bounds);
     }
     layout.share(1, &mut out);
     let mut u = [Vec::new(), Vec::new()];
@@ -265,5 +365,6 @@ fn held_by_contact(
         active: out[3 * m..4 * m].iter().map(|&a| a > 0.5).collect(),
         qp_iterations: out[4 * m] as u32,
         kkt_residual: out[4 * m + 1],
+        bounds: out[4 * m + 2..].to_vec(),
     })
 }

@@ -13,6 +13,7 @@ use crate::dd::body::{uses_superlu_dist, Body, BodyError};
 use crate::dd::check::{check_solution, force_balance, SolutionCheck};
 use crate::dd::contact::{ContactError, ContactSolution, ContactStep};
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
+use crate::dd::friction::Interface;
 pub use crate::dd::iterate::Iterate;
 use crate::dd::neumann::{NeumannBodies, NeumannChoice, NeumannStep};
 use crate::dd::secant::{SecantUpdate, AUTO_THETA_PROBE};
@@ -460,6 +461,13 @@ pub struct IterationRecord {
     /// predicts a change of the contact set before its end).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub secant_fraction: Option<f64>,
+    /// With friction: the pairs in contact that stick.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stick: Option<usize>,
+    /// `-nndd_friction coulomb`: the Tresca solves of the contact step's fixed point
+    /// g = μ T_n.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coulomb_iterations: Option<u32>,
     /// The estimates, at estimated iterations (paper (22)–(26)).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub eta_glo: Option<f64>,
@@ -557,20 +565,25 @@ struct ContactShare {
     kkt: f64,
     iterations: u32,
     clarabel: bool,
-    gaps: Vec<f64>,
+    coulomb_iterations: u32,
+    margins: Vec<f64>,
     trace: Vec<f64>,
+    /// With friction, the nodal bounds g_k (m; empty without).
+    bounds: Vec<f64>,
 }
 
 impl ContactShare {
     /// What the ranks other than the contact body's root hold before the broadcast.
-    fn none(m: usize) -> ContactShare {
+    fn none(len: usize, bounds: usize) -> ContactShare {
         ContactShare {
-            active: vec![false; m],
+            active: vec![false; len],
             kkt: 0.0,
             iterations: 0,
             clarabel: false,
-            gaps: vec![0.0; m],
-            trace: vec![0.0; m],
+            coulomb_iterations: 0,
+            margins: vec![0.0; len],
+            trace: vec![0.0; len],
+            bounds: vec![0.0; bounds],
         }
     }
 
@@ -581,35 +594,46 @@ impl ContactShare {
             kkt: sol.kkt_residual,
             iterations: sol.qp_iterations,
             clarabel: sol.method == QpMethod::Clarabel,
-            gaps: sol.gaps,
+            coulomb_iterations: sol.coulomb_iterations,
+            margins: sol.margins,
             trace: sol.trace,
+            bounds: sol.bounds,
         }
     }
 
     /// The contact body's root's share, on every rank (collective: `self` is read on that
     /// rank only).
-    fn shared(self, layout: &Layout, contact_body: usize, m: usize) -> ContactShare {
+    fn shared(self, layout: &Layout, contact_body: usize, len: usize) -> ContactShare {
         let mut packed = self.pack();
         layout.share(contact_body, &mut packed);
-        ContactShare::unpack(&packed, m)
+        ContactShare::unpack(&packed, len)
     }
 
     fn pack(&self) -> Vec<f64> {
         let mut v: Vec<f64> = self.active.iter().map(|&a| a as u8 as f64).collect();
-        v.extend([self.kkt, self.iterations as f64, self.clarabel as u8 as f64]);
-        v.extend(&self.gaps);
+        v.extend([
+            self.kkt,
+            self.iterations as f64,
+            self.clarabel as u8 as f64,
+            self.coulomb_iterations as f64,
+        ]);
+        v.extend(&self.margins);
         v.extend(&self.trace);
+        v.extend(&self.bounds);
         v
     }
 
-    fn unpack(v: &[f64], m: usize) -> ContactShare {
+    fn unpack(v: &[f64], len: usize) -> ContactShare {
+        let m = len;
         ContactShare {
             active: v[..m].iter().map(|&a| a > 0.5).collect(),
             kkt: v[m],
             iterations: v[m + 1] as u32,
             clarabel: v[m + 2] > 0.5,
-            gaps: v[m + 3..2 * m + 3].to_vec(),
-            trace: v[2 * m + 3..].to_vec(),
+            coulomb_iterations: v[m + 3] as u32,
+            margins: v[m + 4..2 * m + 4].to_vec(),
+            trace: v[2 * m + 4..3 * m + 4].to_vec(),
+            bounds: v[3 * m + 4..].to_vec(),
         }
     }
 }
@@ -617,7 +641,7 @@ impl ContactShare {
 /// u²_n, the normal Γc trace of body 2's field `u2` (on its ranks), broadcast to every rank
 /// (collective).
 pub fn shared_trace2(layout: &Layout, body2: Option<&Body>, u2: &[f64], m: usize) -> Vec<f64> {
-    let mut trace = body2.map_or(vec![0.0; m], |b| b.normal_trace(u2));
+    let mut trace = body2.map_or(vec![0.0; m], |b| b.trace(u2));
     layout.share(2, &mut trace);
     trace
 }
@@ -690,7 +714,9 @@ pub trait Observer<E> {
 /// step on its own), the `-log_view` stages, and which iterations are estimated.
 pub struct Context<'a> {
     pub settings: &'a NnddSettings,
+    /// The length of the interface vectors: the number of Γc pairs, twice it with friction.
     pub m: usize,
+    pub interface: Interface,
     pub layout: &'a Layout,
     pub bodies: [Option<&'a Body>; 2],
     pub steps: &'a Steps<'a>,
@@ -806,7 +832,7 @@ impl Context<'_> {
         }
         fault::check(Phase::Qp)?;
         // The contact QP lives on Γc: the contact body's root solves it, then shares it.
-        let mut contact = ContactShare::none(self.m);
+        let mut contact = ContactShare::none(self.m, self.m - self.interface.pairs(self.m));
         if let (Some(b), Some(c)) = (self.bodies[ci].filter(|b| b.is_root()), self.steps.contact) {
             let _s = self.stages.contact_step.enter();
             let mut sol = timers.contact_step.time(|| c.solve(b, lambda))?;
@@ -902,6 +928,7 @@ impl Context<'_> {
     ) -> Result<NnddResult, NnddError> {
         let iterations = history.len();
         self.form_fields(&mut last, &mut timers)?;
+        last.split_tangential();
         let check = timers
             .check
             .time(|| check_solution(self.layout, &last, self.bodies))?;
@@ -932,22 +959,11 @@ impl StepOne {
         t1.iter().zip(t2).map(|(a, b)| a + b).collect()
     }
 
-    /// The sign conditions of the contact step on body `contact_body`: its multipliers
-    /// (T² ≥ 0, or −T¹ ≥ 0) on the contact set, the gap ≥ 0 off it (each affine in λ while the
-    /// set stays).
-    fn sign_conditions(&self, contact_body: usize) -> Vec<f64> {
-        let sigma = if contact_body == 2 { 1.0 } else { -1.0 };
-        let tc = &self.forces[contact_body - 1];
-        let c = &self.contact;
-        (0..tc.len())
-            .map(|i| {
-                if c.active[i] {
-                    sigma * tc[i]
-                } else {
-                    c.gaps[i]
-                }
-            })
-            .collect()
+    /// The sign conditions of the contact step (each ≥ 0, affine in λ while the sets stay):
+    /// its multipliers on the contact set, the gap off it, and with friction each pair's
+    /// stick margin or slip ([`ContactSolution::margins`]).
+    fn sign_conditions(&self) -> &[f64] {
+        &self.contact.margins
     }
 
     /// The history's line of iteration p.
@@ -958,7 +974,15 @@ impl StepOne {
             lambda_change: update.change,
             residual: norm(r),
             force_balance: force_balance(r, &self.forces, &c.active),
-            active: c.active.iter().filter(|&&a| a).count(),
+            // With friction the flags hold the contact set, then the stick set.
+            active: c.active[..c.active.len() - c.bounds.len()]
+                .iter()
+                .filter(|&&a| a)
+                .count(),
+            stick: (!c.bounds.is_empty()).then(|| {
+                let m = c.bounds.len();
+                (0..m).filter(|&k| c.active[k] && c.active[m + k]).count()
+            }),
             qp_iterations: c.iterations,
             qp_solver: if c.clarabel {
                 QpMethod::Clarabel
@@ -970,6 +994,7 @@ impl StepOne {
             theta: update.theta,
             secant_columns: update.columns,
             secant_fraction: update.fraction,
+            coulomb_iterations: (c.coulomb_iterations > 0).then_some(c.coulomb_iterations),
             ..IterationRecord::default()
         }
     }
@@ -995,6 +1020,8 @@ impl StepOne {
             active: self.contact.active,
             qp_kkt: self.contact.kkt,
             iteration: p,
+            friction_bounds: self.contact.bounds,
+            tangential: None,
         }
     }
 }
@@ -1015,8 +1042,8 @@ impl LoopState {
                 if p == 1 {
                     s.estimate_spectrum(&w[di], &w[ci]);
                 }
-                let signs = one.sign_conditions(ci + 1);
-                let step = s.step(lambda, &d, &one.contact.active, &signs);
+                let signs = one.sign_conditions();
+                let step = s.step(lambda, &d, &one.contact.active, signs);
                 let (columns, fraction) = (Some(step.columns), Some(step.fraction));
                 (step.lambda, step.theta, columns, fraction)
             }

@@ -194,6 +194,8 @@ impl MortarEstimates {
             active,
             qp_kkt: it.qp_kkt,
             iteration: it.iteration,
+            friction_bounds: Vec::new(),
+            tangential: None,
         };
         Ok(Carried {
             iterate,

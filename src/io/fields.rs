@@ -175,6 +175,18 @@ pub fn results(
                 values: displacement,
             },
         ];
+        if let Some(t) = &it.tangential {
+            // Friction: body 2's tangential force, as a shear (Pa), the slip and the state.
+            let tf = it.tangential_contact_forces();
+            fields.push(scalar("shear", (0..m).map(|i| tf[i] / lumped[i]).collect()));
+            fields.push(scalar("tangential_force", tf));
+            fields.push(scalar("friction_bound", t.bounds.clone()));
+            fields.push(scalar("slip", t.slip()));
+            fields.push(scalar(
+                "contact_state",
+                t.states(&it.active).iter().map(|s| s.code()).collect(),
+            ));
+        }
         if let Some(e) = est {
             // −t̂: the estimate's admissible contact traction as a pressure (≥ 0).
             fields.push(scalar("pressure_hat", e.t_hat.iter().map(|t| -t).collect()));

@@ -26,8 +26,14 @@ pub fn monitor_line(
     } else {
         ""
     };
+    // Friction: the pairs sticking, and Coulomb's fixed-point solves.
+    let friction = match (r.stick, r.coulomb_iterations) {
+        (Some(s), Some(k)) => format!(" stick {s} coulomb_its {k}"),
+        (Some(s), None) => format!(" stick {s}"),
+        _ => String::new(),
+    };
     println!(
-        "{:4} NNDD dlambda/lambda {} |R| {} balance {} active {}/{} qp_its {}{clarabel}{secant} time {:.3} s",
+        "{:4} NNDD dlambda/lambda {} |R| {} balance {} active {}/{}{friction} qp_its {}{clarabel}{secant} time {:.3} s",
         r.iteration,
         sci(r.lambda_change, 12),
         sci(r.residual, 6),

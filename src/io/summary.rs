@@ -275,6 +275,32 @@ pub struct ContactZone {
     pub peak_pressure_at: Option<[f64; 2]>,
     /// The total normal force on Γc (N/m, positive in compression).
     pub normal_force: f64,
+    /// With friction (`-nndd_friction`): where the pairs stick and slip, the tangential force.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<FrictionZones>,
+}
+
+/// The stick and slip zones of a frictional contact, and its tangential force.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrictionZones {
+    /// The friction law (`tresca`, `coulomb`).
+    pub friction: String,
+    /// Each run of consecutive sticking pairs in contact, as an arc-length interval along Γc
+    /// from its first node (m), between the run's first and last pairs.
+    pub stick_zone: Vec<[f64; 2]>,
+    /// Each run of consecutive slipping pairs in contact, likewise.
+    pub slip_zone: Vec<[f64; 2]>,
+    /// Pairs sticking, slipping.
+    pub stick_nodes: usize,
+    pub slip_nodes: usize,
+    /// The total tangential force on body 2 (N/m, along τ = (n_y, −n_x) of each pair: +x
+    /// on a horizontal Γc).
+    pub tangential_force: f64,
+    /// The largest lumped nodal shear |T_t,k| / s_k (Pa) and where.
+    pub peak_shear: f64,
+    pub peak_shear_at: Option<[f64; 2]>,
+    /// The largest slip |u¹_t − u²_t| (m).
+    pub max_slip: f64,
 }
 
 /// A Gmsh problem as the options gave it.

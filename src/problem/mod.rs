@@ -462,6 +462,25 @@ impl BodyProblem {
         }
     }
 
+    /// Tangential Γc displacements u_t = τ_k · u, τ_k = (n_y, −n_x) (node to node; with n =
+    /// (0, 1), u_x), in pair order: the frictional interface's second half.
+    pub fn tangential_trace(&self, u: &[f64]) -> Vec<f64> {
+        self.contact_nodes
+            .iter()
+            .zip(&self.contact_normals)
+            .map(|(&node, n)| n[1] * u[2 * node] - n[0] * u[2 * node + 1])
+            .collect()
+    }
+
+    /// Set the tangential component of pair k's node to `value`, keeping its normal one.
+    pub fn set_tangential_trace(&self, u: &mut [f64], k: usize, value: f64) {
+        let (node, n) = (self.contact_nodes[k], self.contact_normals[k]);
+        let tau = [n[1], -n[0]];
+        let c = value - (tau[0] * u[2 * node] + tau[1] * u[2 * node + 1]);
+        u[2 * node] += c * tau[0];
+        u[2 * node + 1] += c * tau[1];
+    }
+
     /// The x coordinates of the Γc nodes.
     pub fn contact_x(&self) -> Vec<f64> {
         self.contact_nodes
