@@ -24,6 +24,11 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Markers at the points (data), or a plain line (a reference value).
     pub marked: bool,
+    /// The markers joined by lines (false: markers alone, see [`Series::points`]).
+    pub joined: bool,
+    /// The colour's index (default: the series' own place), to pair a data series with its
+    /// reference line.
+    pub colour: Option<usize>,
 }
 
 impl Series {
@@ -33,6 +38,24 @@ impl Series {
             label: label.to_string(),
             points,
             marked: true,
+            joined: true,
+            colour: None,
+        }
+    }
+
+    /// Data as markers alone, not joined (e.g. nodal values against a formula's line).
+    pub fn points(label: &str, points: Vec<(f64, f64)>) -> Self {
+        Series {
+            joined: false,
+            ..Series::new(label, points)
+        }
+    }
+
+    /// The same series drawn in colour `index` (of the chart's palette).
+    pub fn coloured(self, index: usize) -> Self {
+        Series {
+            colour: Some(index),
+            ..self
         }
     }
 
@@ -138,12 +161,18 @@ pub fn line_chart(path: &Path, chart: &Chart, series: &[Series]) -> Result<(), S
             .with_key_points(labelled)
             .with_light_points(lines)
     };
+    // A linear axis' tick at zero can come out as ±1e−17: labelled 0.
+    let zero = |lo: f64, hi: f64, scale| match scale {
+        Scale::Linear => 1e-9 * (hi - lo),
+        Scale::Log => 0.0,
+    };
+    let z = (zero(x0, x1, chart.x_scale), zero(y0, y1, chart.y_scale));
     use Scale::*;
     match (chart.x_scale, chart.y_scale) {
-        (Linear, Linear) => draw(path, chart, series, x0..x1, y0..y1),
-        (Linear, Log) => draw(path, chart, series, x0..x1, log(y0, y1)),
-        (Log, Linear) => draw(path, chart, series, log(x0, x1), y0..y1),
-        (Log, Log) => draw(path, chart, series, log(x0, x1), log(y0, y1)),
+        (Linear, Linear) => draw(path, chart, series, x0..x1, y0..y1, z),
+        (Linear, Log) => draw(path, chart, series, x0..x1, log(y0, y1), z),
+        (Log, Linear) => draw(path, chart, series, log(x0, x1), y0..y1, z),
+        (Log, Log) => draw(path, chart, series, log(x0, x1), log(y0, y1), z),
     }
     .map_err(|e| format!("plot {}: {e}", path.display()))
 }
@@ -163,6 +192,7 @@ fn draw<X, Y>(
     series: &[Series],
     x: X,
     y: Y,
+    zero: (f64, f64),
 ) -> Result<(), Box<dyn std::error::Error>>
 where
     X: AsRangedCoord<Value = f64>,
@@ -185,23 +215,31 @@ where
         .axis_desc_style(("sans-serif", 18))
         .light_line_style(RGBColor(235, 235, 235))
         .max_light_lines(4)
-        .x_label_formatter(&|v| short(*v))
-        .y_label_formatter(&|v| short(*v))
+        .x_label_formatter(&|v| short(if v.abs() < zero.0 { 0.0 } else { *v }))
+        .y_label_formatter(&|v| short(if v.abs() < zero.1 { 0.0 } else { *v }))
         .draw()?;
     for (k, s) in series.iter().enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
+        let colour = COLOURS[s.colour.unwrap_or(k) % COLOURS.len()];
         let style = ShapeStyle::from(&colour).stroke_width(2);
-        ctx.draw_series(LineSeries::new(s.points.iter().copied(), style))?
-            .label(s.label.as_str())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 24, y)], style.stroke_width(2))
-            });
+        if s.joined || !s.marked {
+            ctx.draw_series(LineSeries::new(s.points.iter().copied(), style))?
+                .label(s.label.as_str())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 24, y)], style.stroke_width(2))
+                });
+        } else {
+            // Markers alone: a marker in the legend.
+            ctx.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+                .label(s.label.as_str())
+                .legend(move |(x, y)| Circle::new((x + 12, y), 4, style.filled()));
+        }
         if !s.marked {
             continue;
         }
         // A different marker per series, so the curves stay apart in grey print too.
         let pts = s.points.iter().copied();
-        match k % 3 {
+        // (markers alone: circles, as in the legend)
+        match if s.joined { k % 3 } else { 0 } {
             0 => ctx.draw_series(pts.map(|p| Circle::new(p, 4, style.filled())))?,
             1 => ctx.draw_series(pts.map(|p| TriangleMarker::new(p, 6, style.filled())))?,
             _ => ctx.draw_series(pts.map(|p| Cross::new(p, 5, style)))?,
@@ -217,13 +255,17 @@ where
     Ok(())
 }
 
-/// A number in a few characters: plain for moderate magnitudes, else in scientific notation.
+/// A number in a few characters: plain for moderate magnitudes, else in scientific notation
+/// with as few digits as show it (up to 3: a linear axis' 1.2e9 is not 1e9).
 fn short(v: f64) -> String {
     let a = v.abs();
     if v == 0.0 || (1e-2..1e6).contains(&a) {
         let s = format!("{v:.3}");
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
-        format!("{v:.0e}")
+        (0..3)
+            .map(|d| format!("{v:.d$e}"))
+            .find(|s| s.parse::<f64>().is_ok_and(|w| (w - v).abs() <= 1e-6 * a))
+            .unwrap_or_else(|| format!("{v:.3e}"))
     }
 }

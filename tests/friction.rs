@@ -8,6 +8,9 @@
 //!   Hertz cylinder pushed sideways, the pin pushed sideways in its groove: curved, turning
 //!   tangents), and records its Coulomb fixed points.
 //! - Cattaneo–Mindlin at level 2: the stick zone and the peak shear against the formulas.
+//! - The estimates with friction bound the error (e_ref, r = 4) at converged and unconverged
+//!   iterates, Coulomb and Tresca, on 1, 2 and 3 ranks; an adaptive run with friction reaches
+//!   its tolerance; a frictional run continues from its restart point.
 //! - Bad input is refused in one line naming the option.
 
 mod common;
@@ -307,12 +310,207 @@ fn bad_friction_input_is_refused_in_one_line() {
         ],
         "-nndd_friction coulomb",
     );
-    refused(2, &with(&["-nndd_estimate"]), "-nndd_friction");
+    refused(
+        2,
+        &with(&["-nndd_estimate", "-nndd_stop", "balanced"]),
+        "-nndd_stop balanced",
+    );
+    // The estimates with friction on a curved Γc (the pin's groove).
+    let pin = gmsh_level(PIN_GEO, &dir, "pin", 1);
+    refused(
+        2,
+        &[
+            "-options_file",
+            PIN_OPTS,
+            "-nndd_mesh",
+            pin.to_str().unwrap(),
+            "-nndd_friction",
+            "coulomb",
+            "-nndd_friction_coefficient",
+            "0.3",
+            "-nndd_estimate",
+        ],
+        "-nndd_estimate",
+    );
     refused(2, &with(&["-nndd_friction", "sticky"]), "-nndd_friction");
     refused(
         2,
         &with(&["-nndd_contact_discretisation", "mortar"]),
         "-nndd_contact_discretisation mortar",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_frictional_run_continues_from_its_restart_point() {
+    let dir = scratch("fr-restart");
+    let msh = hertz_mesh(&dir, 1);
+    let straight = solve_meshed(2, HERTZ_FRICTION, &msh, &dir.join("straight"), &[]);
+    let first = dir.join("first");
+    let out = mpirun(
+        2,
+        &[
+            "-options_file",
+            HERTZ_FRICTION,
+            "-nndd_mesh",
+            msh.to_str().unwrap(),
+            "-nndd_output",
+            first.to_str().unwrap(),
+            "-nndd_checkpoint_every",
+            "5",
+            "-nndd_max_it",
+            "8",
+        ],
+    );
+    // (the iteration limit reached: exit 3, a restart point after iteration 5)
+    assert_eq!(out.status.code(), Some(3));
+    let point = format!("{}.checkpoint.json", first.display());
+    let resumed = solve_meshed(
+        2,
+        HERTZ_FRICTION,
+        &msh,
+        &dir.join("resumed"),
+        &["-nndd_restart", &point],
+    );
+    assert_eq!(resumed["converged"], true);
+    assert_eq!(resumed["iterations"], straight["iterations"]);
+    let de = (f(&resumed, "potential_energy") - f(&straight, "potential_energy")).abs()
+        / f(&straight, "potential_energy").abs();
+    assert!(de < 1e-12, "energy {de:e}");
+    assert_eq!(
+        resumed["contact"]["stick_nodes"],
+        straight["contact"]["stick_nodes"]
+    );
+    // Another coefficient is another problem.
+    let m = msh.to_str().unwrap();
+    let line = fails_with(
+        2,
+        &[
+            "-options_file",
+            HERTZ_FRICTION,
+            "-nndd_mesh",
+            m,
+            "-nndd_friction_coefficient",
+            "0.2",
+            "-nndd_restart",
+            &point,
+        ],
+        Some(1),
+        &[
+            "-nndd_restart",
+            "friction is coulomb 0.3, this run's coulomb 0.2",
+        ],
+    );
+    println!("{line}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// η^glo bounds the error of frictional iterates, converged and not, Coulomb and Tresca,
+/// with exactly equilibrated stresses; its split is consistent; every rank count agrees.
+#[test]
+fn the_estimates_bound_the_error_with_friction() {
+    let dir = scratch("fr-estimates");
+    let msh = hertz_mesh(&dir, 1);
+    let tresca = [
+        "-nndd_bc_lid_ux",
+        "3e-3",
+        "-nndd_friction",
+        "tresca",
+        "-nndd_friction_threshold",
+        "3e8",
+    ];
+    let cases: [(&str, &str, &[&str]); 4] = [
+        (
+            "coulomb, iteration 2",
+            HERTZ_FRICTION,
+            &["-nndd_stop", "none", "-nndd_max_it", "2"],
+        ),
+        (
+            "coulomb, iteration 4",
+            HERTZ_FRICTION,
+            &["-nndd_stop", "none", "-nndd_max_it", "4"],
+        ),
+        ("coulomb, converged", HERTZ_FRICTION, &[]),
+        ("tresca, converged", HERTZ_OPTS, &tresca),
+    ];
+    for (what, opts, extra) in cases {
+        let mut etas = Vec::new();
+        for np in [1, 2, 3] {
+            let prefix = dir.join(format!("{}-{np}", what.replace([',', ' '], "_")));
+            let mut args = vec!["-nndd_estimate", "-nndd_reference_factor", "4"];
+            args.extend_from_slice(extra);
+            let p = prefix.to_str().unwrap();
+            let mut all = vec![
+                "-options_file",
+                opts,
+                "-nndd_mesh",
+                msh.to_str().unwrap(),
+                "-nndd_output",
+                p,
+            ];
+            all.extend_from_slice(&args);
+            let run = mpirun(np, &all);
+            // (a fixed iteration count ends with exit 0: asked for)
+            assert!(
+                run.status.success(),
+                "{what} on {np}: {}",
+                String::from_utf8_lossy(&run.stderr)
+            );
+            let j = json(&prefix);
+            let e = j["estimates"].as_array().unwrap().last().unwrap().clone();
+            let (glo, fe, nndd) = (f(&e, "eta_glo"), f(&e, "eta_fe"), f(&e, "eta_nndd"));
+            let e_ref = f(&e, "e_ref");
+            let gamma = glo / e_ref;
+            println!("{what} on {np}: eta_glo {glo:.6e} eta_FE {fe:.6e} eta_NNDD {nndd:.3e} e_ref {e_ref:.6e} effectivity {gamma:.4}");
+            assert!(gamma >= 1.0, "{what}: the bound fails: {gamma}");
+            assert!(gamma <= 1.3, "{what}: effectivity {gamma}");
+            let ratio = (fe * fe + nndd * nndd) / (glo * glo);
+            assert!((0.9..1.1).contains(&ratio), "{what}: split {ratio}");
+            let res = &j["equilibrium_residuals"];
+            for key in ["divergence", "internal_jump", "element_jump", "boundary"] {
+                assert!(f(res, key) < 1e-11, "{what}: {key} {}", res[key]);
+            }
+            etas.push(glo);
+        }
+        let spread = etas
+            .iter()
+            .fold(0.0_f64, |m, e| m.max((e - etas[0]).abs() / etas[0]));
+        assert!(spread < 1e-8, "{what}: ranks disagree: {etas:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Adaptive meshes with friction: the Hertz cylinder pushed sideways (Coulomb) remeshed until
+/// η^glo ≤ 5 % of ‖u_h‖_E, its λ (normal and tangential halves) carried to each new Γc, the
+/// bound holding at every cycle.
+#[test]
+fn an_adaptive_run_with_friction_reaches_its_tolerance() {
+    let dir = scratch("fr-adapt");
+    let prefix = dir.join("hertz");
+    let j = solve_meshed(
+        2,
+        HERTZ_FRICTION,
+        Path::new(HERTZ_GEO),
+        &prefix,
+        &["-nndd_adapt_tol", "0.05", "-nndd_reference_factor", "2"],
+    );
+    let cycles = j["cycles"].as_array().unwrap();
+    assert!(cycles.len() >= 2, "{cycles:?}");
+    let rel: Vec<f64> = cycles.iter().map(|c| f(c, "relative_error")).collect();
+    assert!(rel.windows(2).all(|w| w[1] < w[0]), "{rel:?}");
+    assert!(*rel.last().unwrap() <= 0.05, "{rel:?}");
+    for c in cycles {
+        let gamma = f(c, "effectivity");
+        assert!((1.0..1.3).contains(&gamma), "effectivity {gamma}");
+    }
+    let c = &j["contact"];
+    assert!(f(c, "stick_nodes") > 0.0 && f(c, "slip_nodes") > 0.0, "{c}");
+    println!(
+        "adaptive Hertz with Coulomb friction: {rel:?}, effectivities {:?}",
+        cycles
+            .iter()
+            .map(|c| f(c, "effectivity"))
+            .collect::<Vec<_>>()
     );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -137,7 +137,7 @@ pub fn run(
         let (spec, prediction) = next_meshes(&solved, &record, adapt, &base, cycle, agreement)?;
         settings.problem.mesh = Some(spec);
         start = Start {
-            lambda: Some(solved.solution.last.interface.clone()),
+            lambda: Some(solved.solution.last.whole_interface()),
             from: adapt::pair_points([&solved.problems[0], &solved.problems[1]]),
             dirichlet_body: solved.settings.nndd.dirichlet_body,
         };

@@ -277,6 +277,7 @@ pub(crate) fn solve_cycle(
         settings
             .mortar_rules(&problems)
             .and_then(|()| settings.hold_by_contact(&problems))
+            .and_then(|()| settings.friction_rules(&problems))
             .map_err(AppError::from),
     )?;
     let settings = settings;
@@ -339,7 +340,13 @@ impl Start {
             return None;
         }
         let to = adapt::pair_points([&problems[0], &problems[1]]);
-        let lambda = adapt::carry_over(&self.from, lambda, &to);
+        // (with friction, the normal half and the tangential half each along Γc)
+        let halves = lambda.len() / self.from.len().max(1);
+        let lambda: Vec<f64> = lambda
+            .chunks(self.from.len().max(1))
+            .take(halves.max(1))
+            .flat_map(|half| adapt::carry_over(&self.from, half, &to))
+            .collect();
         Some(checkpoint::Checkpoint {
             format: checkpoint::FORMAT.into(),
             identity: restart.identity.clone(),
@@ -460,6 +467,8 @@ fn restart_point<'a>(
         settings.nndd.dirichlet_body,
         settings.nndd.neumann_bodies.name(),
     );
+    let rows = settings.friction.interface().len(identity.pairs);
+    let identity = identity.with_friction(settings.friction.text(), rows);
     let from = match &settings.restart {
         None => None,
         Some(path) => {

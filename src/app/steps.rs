@@ -125,7 +125,8 @@ impl<'a> Run<'a> {
                 self.problems,
                 reference,
                 stages,
-            );
+            )
+            .with_friction(settings.friction);
             return Ok(Some(e));
         };
         let problems = gaps.apply(crate::problem::build(&matched.problem)?);

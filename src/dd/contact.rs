@@ -309,6 +309,11 @@ impl ContactStep {
     ) -> Result<ContactSolution, ContactError> {
         let m = q.len() / 2;
         let settings = &self.settings;
+        // `-nndd_qp_solver clarabel`: no active-set step, Clarabel (polished) at every step.
+        let steps = match settings.method {
+            QpMethod::ActiveSet => settings.max_steps,
+            QpMethod::Clarabel => 0,
+        };
         let start = self
             .previous_sets
             .borrow()
@@ -324,7 +329,7 @@ impl ContactStep {
                     coefficient,
                     &g_start,
                     &start,
-                    settings.max_steps,
+                    steps,
                     &settings.clarabel,
                     COULOMB_TOL,
                     COULOMB_MAX_OUTER,
@@ -334,14 +339,7 @@ impl ContactStep {
             }
             _ => {
                 let g = friction.bounds(&[]);
-                let sol = fqp::solve_tresca(
-                    schur,
-                    q,
-                    &g,
-                    &start,
-                    settings.max_steps,
-                    &settings.clarabel,
-                )?;
+                let sol = fqp::solve_tresca(schur, q, &g, &start, steps, &settings.clarabel)?;
                 (sol, 0)
             }
         };

@@ -98,6 +98,15 @@ impl FrictionLaw {
         }
     }
 
+    /// The law with its parameter, as a restart point records it (`None` frictionless).
+    pub fn text(self) -> Option<String> {
+        match self {
+            FrictionLaw::Frictionless => None,
+            FrictionLaw::Tresca { threshold } => Some(format!("tresca {threshold:e}")),
+            FrictionLaw::Coulomb { coefficient } => Some(format!("coulomb {coefficient}")),
+        }
+    }
+
     /// Whether the interface carries the tangential components too.
     pub fn is_frictional(self) -> bool {
         self != FrictionLaw::Frictionless
@@ -225,6 +234,8 @@ pub struct Tangential {
     pub bounds: Vec<f64>,
     /// Stick (true) or slip, from the contact step.
     pub stick: Vec<bool>,
+    /// λ_t, the tangential half of the loop's variable.
+    pub interface: Vec<f64>,
 }
 
 impl Tangential {

@@ -55,6 +55,16 @@ impl Iterate {
         }
     }
 
+    /// λ_p whole: the normal rows, then with friction the tangential ones (the loop's
+    /// variable; an adaptive run carries it to its next cycle).
+    pub fn whole_interface(&self) -> Vec<f64> {
+        let mut v = self.interface.clone();
+        if let Some(t) = &self.tangential {
+            v.extend(&t.interface);
+        }
+        v
+    }
+
     /// Split a frictional iterate's interface vectors (normal rows, then tangential) into
     /// their normal part, which the checks, the output and the summary read as without
     /// friction, and [`Iterate::tangential`]. Nothing to do without friction or once split.
@@ -71,8 +81,8 @@ impl Iterate {
             forces: [tail(f1), tail(f2)],
             bounds: std::mem::take(&mut self.friction_bounds),
             stick: self.active.split_off(m),
+            interface: self.interface.split_off(m),
         });
-        self.interface.truncate(m);
     }
 
     /// The contact forces on body 2, ≥ 0 in compression and 0 off the contact set: the

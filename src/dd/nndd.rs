@@ -891,12 +891,16 @@ impl Context<'_> {
             return Ok(false);
         }
         self.form_fields(it, timers)?;
+        it.split_tangential();
         observer.estimate(it)
     }
 
     /// Form u¹_p and u²_p on their owners where the steps did not (condensed steps give only
     /// the Γc forces).
     fn form_fields(&self, it: &mut Iterate, timers: &mut LoopTimers) -> Result<(), NnddError> {
+        if it.tangential.is_some() {
+            return Ok(()); // formed before it was split
+        }
         let (di, ci) = self.steps.indices();
         let _s = self.stages.fields.enter();
         if let (Some(b), Some(d)) = (self.bodies[di], self.steps.dirichlet) {

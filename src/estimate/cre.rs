@@ -9,6 +9,7 @@ use super::equilibrate::{
     EdgeComponent, OperatorCache, Recovery, Residuals, SweepValues, NC,
 };
 use super::error::EstimateError;
+use super::friction::{self, FrictionData};
 use super::overlap::{Halo, Overlap};
 use super::parts::{Part, Parts};
 use super::polygon::{self, Bubble, BubbleTerms, EdgeValues, SegmentGap};
@@ -60,6 +61,8 @@ pub struct IterationData<'a> {
     pub reaction1: Reaction<'a>,
     /// Nodal contact forces μ̂ ≥ 0 on body 2 (for the discrete η^NNDD).
     pub mu_hat: &'a [f64],
+    /// With friction: the tangential halves of the above ([`FrictionData`]).
+    pub friction: Option<&'a FrictionData>,
     pub nndd_variant: NnddVariant,
     pub recovery: Recovery,
     /// η^FE alone (the balanced rule's first check): no η^glo re-solve and recovery, no
@@ -246,9 +249,14 @@ pub fn body_fields<'a>(
                 .collect();
             loads.push(GcForces::Vector(f));
             if data.nndd_variant == NnddVariant::Discrete {
-                loads.push(GcForces::Normal(
-                    data.mu_hat.iter().map(|m| -sign * m).collect(),
-                ));
+                let normal: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
+                loads.push(match data.friction {
+                    None => GcForces::Normal(normal),
+                    Some(f) => {
+                        let tangential: Vec<f64> = f.mu_t.iter().map(|m| -sign * m).collect();
+                        along(&body.problem, &normal, &tangential, f.tau)
+                    }
+                });
             }
         }
         let resolve1 = match data.reaction1 {
@@ -257,7 +265,18 @@ pub fn body_fields<'a>(
         };
         if alpha == 2 {
             let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
-            loads.push(GcForces::Normal(iface.forces(&t2)));
+            loads.push(match data.friction {
+                None => GcForces::Normal(iface.forces(&t2)),
+                Some(f) => {
+                    let t2t: Vec<f64> = f.fe_t.iter().map(|t| -t).collect();
+                    along(
+                        &body.problem,
+                        &iface.forces(&t2),
+                        &iface.forces(&t2t),
+                        f.tau,
+                    )
+                }
+            });
         } else if let Some(t1) = resolve1 {
             loads.push(GcForces::Normal(t1.to_vec()));
         }
@@ -274,6 +293,19 @@ pub fn body_fields<'a>(
         Ok::<_, EstimateError>(())
     })?;
     Ok(f)
+}
+
+/// The Γc loads (x, y) of nodal forces `normal` along the pairs' normals and `tangential`
+/// along the tangent `tau` (friction, a straight Γc).
+fn along(p: &BodyProblem, normal: &[f64], tangential: &[f64], tau: [f64; 2]) -> GcForces {
+    GcForces::Vector(
+        normal
+            .iter()
+            .zip(tangential)
+            .zip(&p.contact_normals)
+            .map(|((a, b), n)| [a * n[0] + b * tau[0], a * n[1] + b * tau[1]])
+            .collect(),
+    )
 }
 
 /// The element work of one body's estimate on this rank (the elements of its view): the η^glo
@@ -388,15 +420,25 @@ impl<'a> ElementWork<'a> {
         operators: &mut OperatorCache,
         parts: &Parts,
     ) -> Result<(), EstimateError> {
-        let traction = match (self.p.alpha, data.reaction1) {
-            (1, Reaction::Own(t) | Reaction::Resolved(t)) => {
-                contact_traction(self.p, &iface.density(t))
-            }
+        let (mut traction, tangential) = match (self.p.alpha, data.reaction1) {
+            (1, Reaction::Own(t) | Reaction::Resolved(t)) => (
+                contact_traction(self.p, &iface.density(t)),
+                data.friction.map(|f| iface.density(&f.reaction1)),
+            ),
             _ => {
                 let t: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
-                contact_traction(self.p, &t)
+                (
+                    contact_traction(self.p, &t),
+                    data.friction.map(|f| f.fe_t.iter().map(|t| -t).collect()),
+                )
             }
         };
+        if let (Some(f), Some(tt)) = (data.friction, tangential) {
+            for (c, t) in traction.iter_mut().zip(tt) {
+                c[0] += t * f.tau[0];
+                c[1] += t * f.tau[1];
+            }
+        }
         let edges = polygon::nodal_edges(&traction);
         let r = self.recover(Data::Fe, &edges, data, operators, parts)?;
         self.est.residuals = worst(self.est.residuals, r);
@@ -472,7 +514,45 @@ impl<'a> ElementWork<'a> {
                         })
                         .collect()
                 };
-                let c_fe = iface.segment_products(data.t_fe, &gap);
+                let mut c_fe = iface.segment_products(data.t_fe, &gap);
+                // Friction: the tangential Fenchel gaps (docs/method.md §9).
+                let mut f_glo = vec![0.0; c_fe.len()];
+                let mut f_nndd = vec![0.0; c_fe.len()];
+                if let Some(f) = data.friction {
+                    let u2t = p.tangential_trace(&self.fields.u_p);
+                    let w_fe: Vec<f64> = f.lambda_t.iter().zip(&u2t).map(|(l, u)| l - u).collect();
+                    let m = w_fe.len();
+                    for (k, c) in c_fe.iter_mut().enumerate() {
+                        let pair = |v: &[f64]| [v[k], v[k + 1]];
+                        let len = iface.lengths[k];
+                        *c += 0.5
+                            * friction::segment_term(
+                                len,
+                                pair(&f.fe_bound),
+                                pair(&f.fe_t),
+                                pair(&w_fe),
+                            );
+                        if data.fe_only {
+                            continue;
+                        }
+                        f_glo[k] = friction::segment_term(
+                            len,
+                            pair(&f.glo_bound),
+                            pair(&f.glo_t),
+                            pair(&f.glo_w),
+                        );
+                        f_nndd[k] = match data.nndd_variant {
+                            NnddVariant::Density => f_glo[k],
+                            NnddVariant::Discrete => [k, k + 1]
+                                .iter()
+                                .map(|&i| {
+                                    let w = if i == 0 || i == m - 1 { 1.0 } else { 0.5 };
+                                    w * friction::nodal_term(f.mu_bound[i], -f.mu_t[i], w_fe[i])
+                                })
+                                .sum::<f64>(),
+                        };
+                    }
+                }
                 let edges = edge_elements(mesh);
                 let m = gap.len();
                 let est = &mut self.est;
@@ -495,7 +575,8 @@ impl<'a> ElementWork<'a> {
                         continue;
                     }
                     if !data.fe_only {
-                        est.glo[e] += c_glo[k];
+                        est.glo[e] += c_glo[k] + f_glo[k];
+                        est.nndd[e] += f_nndd[k];
                         est.nndd[e] += match data.nndd_variant {
                             NnddVariant::Density => c_glo[k],
                             // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's

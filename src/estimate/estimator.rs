@@ -19,7 +19,9 @@ use crate::petsc::LogStage;
 use crate::problem::BodyProblem;
 use crate::qp::QpSettings;
 
+use crate::dd::friction::{FrictionLaw, Tangential};
 use crate::estimate::error::EstimateError;
+use crate::estimate::friction::{self, FrictionData};
 use crate::estimate::parts::{Part, Parts};
 use crate::estimate::polygon;
 use crate::estimate::reference::Reference;
@@ -80,6 +82,8 @@ pub struct Estimator<'a> {
     /// A mortar run's: its iterates carried to the matched meshes `problems` are
     /// ([`MortarEstimates`]).
     mortar: Option<MortarEstimates>,
+    /// The friction law (`-nndd_friction`; its estimates need a straight Γc).
+    friction: FrictionLaw,
 }
 
 /// The free heap (bytes) from which an estimate gives the memory back between its two
@@ -148,6 +152,55 @@ impl<'a> Estimator<'a> {
             cheap_nndd: Default::default(),
             cold: Default::default(),
             mortar: None,
+            friction: FrictionLaw::Frictionless,
+        }
+    }
+
+    /// The estimator of a run with friction `law` (docs/method.md §9).
+    pub fn with_friction(mut self, law: FrictionLaw) -> Estimator<'a> {
+        self.friction = law;
+        self
+    }
+
+    /// The tangential data of the estimates of a frictional iterate (straight Γc): the
+    /// admissible tangential densities of η^glo (from ½(T¹_t − T²_t)) and of η^FE (from −T²_t)
+    /// clipped to their bounds, the jumps ŵ_t, λ_t, body 1's reaction and the discrete
+    /// η^NNDD's nodal forces.
+    fn friction_data(
+        &self,
+        t: &Tangential,
+        t_glo: &[f64],
+        t_fe: &[f64],
+        mu_hat: &[f64],
+        jumps: &[[f64; 2]],
+    ) -> FrictionData {
+        let n = self.problems[0].contact_normals[0];
+        let tau = [n[1], -n[0]];
+        let target: Vec<f64> = t.forces[0]
+            .iter()
+            .zip(&t.forces[1])
+            .map(|(a, b)| 0.5 * (a - b))
+            .collect();
+        let glo_bound = friction::density_bound(self.friction, t_glo);
+        let minus_t2: Vec<f64> = t.forces[1].iter().map(|v| -v).collect();
+        let fe_bound = friction::density_bound(self.friction, t_fe);
+        let shares = crate::problem::pair_shares([&self.problems[0], &self.problems[1]]);
+        let (mu_t, mu_bound) = friction::nodal_forces(self.friction, t, &shares, mu_hat);
+        FrictionData {
+            tau,
+            glo_t: friction::clip(&self.iface.density(&target), &glo_bound),
+            glo_bound,
+            // ŵ_t = û¹_t − û²_t, the jumps being û² − û¹.
+            glo_w: jumps
+                .iter()
+                .map(|j| -(j[0] * tau[0] + j[1] * tau[1]))
+                .collect(),
+            fe_t: friction::clip(&self.iface.density(&minus_t2), &fe_bound),
+            fe_bound,
+            lambda_t: t.trace1.clone(),
+            reaction1: t.forces[0].clone(),
+            mu_t,
+            mu_bound,
         }
     }
 
@@ -405,18 +458,36 @@ impl<'a> Estimator<'a> {
             Ok::<_, EstimateError>((t_glo, t_fe))
         })?;
         let mu_hat = nodal_contact_forces(it);
+        let jumps = if fe_only {
+            Vec::new()
+        } else {
+            self.parts
+                .run(Part::Reduction, || contact_jumps(layout, bodies, it))
+        };
+        // With friction (a straight Γc): the tangential halves of the admissible tractions.
+        let friction = it
+            .tangential
+            .as_ref()
+            .filter(|_| self.friction.is_frictional())
+            .map(|t| self.friction_data(t, &t_glo, &t_fe, &mu_hat, &jumps));
         // η^glo's traction parallel to the normal field, and the iterate's gap along it
-        // (docs/method.md §5).
+        // (docs/method.md §5), plus its tangential part with friction.
         let normals = &self.problems[0].contact_normals;
         let glo_factors = polygon::factors(normals, &t_glo);
-        let glo_edges = polygon::edge_traction(normals, &glo_factors);
+        let mut glo_edges = polygon::edge_traction(normals, &glo_factors);
+        if let Some(f) = &friction {
+            for (k, e) in glo_edges.iter_mut().enumerate() {
+                for (end, v) in e.iter_mut().enumerate() {
+                    let t = f.glo_t[k + end];
+                    v[0] += t * f.tau[0];
+                    v[1] += t * f.tau[1];
+                }
+            }
+        }
         let glo_forces = polygon::nodal_forces(&self.iface.lengths, &glo_edges);
         let gaps = if fe_only {
             Vec::new()
         } else {
-            let jumps = self
-                .parts
-                .run(Part::Reduction, || contact_jumps(layout, bodies, it));
             polygon::segment_gaps(normals, &self.problems[0].gap, &jumps)
         };
         let data = IterationData {
@@ -429,6 +500,7 @@ impl<'a> Estimator<'a> {
             t_fe: &t_fe,
             reaction1,
             mu_hat: &mu_hat,
+            friction: friction.as_ref(),
             nndd_variant: self.nndd_variant,
             recovery: self.recovery,
             fe_only,

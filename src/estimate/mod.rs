@@ -39,6 +39,7 @@ pub mod cre;
 pub mod equilibrate;
 pub mod error;
 pub mod estimator;
+pub mod friction;
 pub mod mortar;
 pub mod overlap;
 pub mod parts;

@@ -74,7 +74,11 @@ pub struct Identity {
     /// `contact`; absent in checkpoints that do not say, and then not compared).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub neumann_bodies: Option<String>,
-    /// The number m of Γc pairs, the length of λ (not stored: a checkpoint's is that of its λ,
+    /// The friction law and its parameter (`-nndd_friction`; absent without friction, and in
+    /// checkpoints from before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<String>,
+    /// The length of λ, the number m of Γc pairs, 2m with friction (not stored: a checkpoint's is that of its λ,
     /// and its contact fingerprints cover it).
     #[serde(skip)]
     pub pairs: usize,
@@ -162,8 +166,17 @@ impl Identity {
             theta,
             dirichlet_body,
             neumann_bodies: Some(neumann_bodies.to_string()),
+            friction: None,
             pairs: bodies[0].pairs(),
         }
+    }
+
+    /// The identity of a run with friction: the law `law` (with its parameter) on an
+    /// interface of `rows` values per λ.
+    pub fn with_friction(mut self, law: Option<String>, rows: usize) -> Identity {
+        self.friction = law;
+        self.pairs = rows;
+        self
     }
 
     /// The first difference of `self` (the checkpoint's) from `run` (this run's), as a phrase.
@@ -203,6 +216,14 @@ impl Identity {
                     "body {body}'s contact interface (its nodes, normals or gaps) differs (-nndd_contact, -nndd_mesh)"
                 ));
             }
+        }
+        if self.friction != run.friction {
+            let name = |f: &Option<String>| f.clone().unwrap_or_else(|| "none".into());
+            return Some(format!(
+                "its friction is {}, this run's {} (-nndd_friction, -nndd_friction_coefficient, -nndd_friction_threshold)",
+                name(&self.friction),
+                name(&run.friction)
+            ));
         }
         if self.dirichlet_body != run.dirichlet_body {
             return Some(format!(
@@ -320,7 +341,7 @@ pub fn read(
 fn length_mismatch(state: &LoopState, m: usize) -> Option<String> {
     (state.lambda.len() != m).then(|| {
         format!(
-            "its λ has {} values, this run's contact interface {m} pairs",
+            "its λ has {} values, this run's contact interface {m} (pairs; twice them with friction)",
             state.lambda.len()
         )
     })
