@@ -369,6 +369,11 @@ fn friction_zones(
         tangential_force: force.iter().sum(),
         peak_shear: peak.map_or(0.0, |p| p.0),
         peak_shear_at: peak.filter(|p| p.0 > 0.0).map(|p| point(p.1)),
-        max_slip: t.slip().iter().fold(0.0, |m, v| m.max(v.abs())),
+        max_slip: t
+            .slip()
+            .iter()
+            .zip(&states)
+            .filter(|(_, s)| **s == PairState::Slip)
+            .fold(0.0, |m, (v, _)| m.max(v.abs())),
     })
 }

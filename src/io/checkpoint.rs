@@ -317,7 +317,7 @@ pub fn read(
     let secant = secant_mismatch(&value["state"], identity.pairs);
     let cp: Checkpoint = serde_json::from_value(value).map_err(|e| format(e.to_string()))?;
     let differs = cp.identity.difference(identity);
-    if let Some(what) = differs.or_else(|| length_mismatch(&cp.state, identity.pairs)) {
+    if let Some(what) = differs.or_else(|| length_mismatch(&cp.state, identity)) {
         return Err(CheckpointError::Differs {
             path: path.to_path_buf(),
             what,
@@ -338,12 +338,18 @@ pub fn read(
 
 /// How λ of a checkpoint of this problem does not fit this run's `m` Γc pairs (a file edited
 /// and its checksum made again), if it does not.
-fn length_mismatch(state: &LoopState, m: usize) -> Option<String> {
-    (state.lambda.len() != m).then(|| {
-        format!(
-            "its λ has {} values, this run's contact interface {m} (pairs; twice them with friction)",
+fn length_mismatch(state: &LoopState, identity: &Identity) -> Option<String> {
+    let m = identity.pairs;
+    (state.lambda.len() != m).then(|| match identity.friction {
+        None => format!(
+            "its λ has {} values, this run's contact interface {m} pairs",
             state.lambda.len()
-        )
+        ),
+        Some(_) => format!(
+            "its λ has {} values, this run's contact interface {m} (its {} pairs' normal and tangential components: friction)",
+            state.lambda.len(),
+            m / 2
+        ),
     })
 }
 

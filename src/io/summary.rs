@@ -299,7 +299,7 @@ pub struct FrictionZones {
     /// The largest lumped nodal shear |T_t,k| / s_k (Pa) and where.
     pub peak_shear: f64,
     pub peak_shear_at: Option<[f64; 2]>,
-    /// The largest slip |u¹_t − u²_t| (m).
+    /// The largest slip |u¹_t − u²_t| of a slipping pair in contact (m).
     pub max_slip: f64,
 }
 
