@@ -25,13 +25,10 @@
 use std::collections::HashSet;
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus,
-};
 
 use crate::qp::dense::SymMatrix;
 use crate::qp::solution::{inf_norm, QpMethod, POLISH_EPS};
-use crate::qp::solver::{QpError, QpSettings};
+use crate::qp::solver::{run_clarabel, scaled_upper, QpError, QpSettings};
 
 /// Active-set steps tried when polishing Clarabel's point from its sets.
 const MAX_POLISH_STEPS: usize = 5;
@@ -407,20 +404,8 @@ fn clarabel_tresca(
 ) -> Result<(Vec<f64>, u32), QpError> {
     let m = g.len();
     let (n2, n3) = (2 * m, 3 * m);
-    // Upper triangle of ½(P + Pᵀ)/d in CSC; the s columns are empty.
-    let mut colptr = vec![0];
-    let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
-    for j in 0..n3 {
-        for i in (0..=j).filter(|_| j < n2) {
-            let v = 0.5 * (p.get(i, j) + p.get(j, i)) / d;
-            if v != 0.0 || i == j {
-                rowval.push(i);
-                nzval.push(v);
-            }
-        }
-        colptr.push(rowval.len());
-    }
-    let ph = CscMatrix::new(n3, n3, colptr, rowval, nzval);
+    // The s columns of P̂ are empty.
+    let ph = scaled_upper(p, d, n3);
     let c: Vec<f64> = q.iter().chain(g).map(|v| v / qmax).collect();
     // Columns of A: z_n,k → row k; z_t,k → rows m+k (+1), 2m+k (−1); s_k → both rows (−1).
     let mut colptr = vec![0];
@@ -439,27 +424,7 @@ fn clarabel_tresca(
         colptr.push(rowval.len());
     }
     let a = CscMatrix::new(n3, n3, colptr, rowval, nzval);
-    let b = vec![0.0; n3];
-    let cones = [NonnegativeConeT(n3)];
-    let cl_settings = DefaultSettingsBuilder::default()
-        .verbose(settings.verbose)
-        .tol_gap_abs(settings.tol)
-        .tol_gap_rel(settings.tol)
-        .tol_feas(settings.tol)
-        .max_iter(settings.max_iter)
-        .build()
-        .map_err(|e| QpError::Setup(e.to_string()))?;
-    let mut solver = DefaultSolver::new(&ph, &c, &a, &b, &cones, cl_settings)
-        .map_err(|e| QpError::Setup(e.to_string()))?;
-    solver.solve();
-    let sol = &solver.solution;
-    match sol.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => Ok((sol.x.clone(), sol.iterations)),
-        status => Err(QpError::NotConverged {
-            status: status.to_string(),
-            iterations: sol.iterations,
-        }),
-    }
+    run_clarabel(&ph, &c, &a, settings)
 }
 
 /// Solve the Tresca problem by the active-set method from `start` (at most `max_steps`

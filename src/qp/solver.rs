@@ -217,14 +217,22 @@ fn clarabel_solve(
     settings: &QpSettings,
 ) -> Result<(Vec<f64>, u32), QpError> {
     let m = p.n();
-    // Upper triangle of ½(P + Pᵀ)/d in CSC; explicit zeros off the diagonal
-    // are dropped, the diagonal is always stored.
-    let mut colptr = Vec::with_capacity(m + 1);
+    let ph = scaled_upper(p, d, m);
+    let qh: Vec<f64> = q.iter().map(|v| v / qmax).collect();
+    let a = CscMatrix::new(m, m, (0..=m).collect(), (0..m).collect(), vec![-1.0; m]);
+    run_clarabel(&ph, &qh, &a, settings)
+}
+
+/// The upper triangle of ½(P + Pᵀ)/d in CSC, of size `n` ≥ P's (the columns beyond P's
+/// empty); explicit zeros off the diagonal are dropped, the diagonal is always stored.
+pub(crate) fn scaled_upper(p: &SymMatrix, d: f64, n: usize) -> CscMatrix<f64> {
+    let m = p.n();
+    let mut colptr = Vec::with_capacity(n + 1);
     let mut rowval = Vec::with_capacity(m * (m + 1) / 2);
     let mut nzval = Vec::with_capacity(m * (m + 1) / 2);
     colptr.push(0);
-    for j in 0..m {
-        for i in 0..=j {
+    for j in 0..n {
+        for i in (0..=j).filter(|_| j < m) {
             let v = 0.5 * (p.get(i, j) + p.get(j, i)) / d;
             if v != 0.0 || i == j {
                 rowval.push(i);
@@ -233,12 +241,20 @@ fn clarabel_solve(
         }
         colptr.push(rowval.len());
     }
-    let ph = CscMatrix::new(m, m, colptr, rowval, nzval);
-    let qh: Vec<f64> = q.iter().map(|v| v / qmax).collect();
-    let a = CscMatrix::new(m, m, (0..=m).collect(), (0..m).collect(), vec![-1.0; m]);
-    let b = vec![0.0; m];
-    let cones = [NonnegativeConeT(m)];
+    CscMatrix::new(n, n, colptr, rowval, nzval)
+}
 
+/// Clarabel on min ½xᵀP̂x + q̂ᵀx subject to A x + s = 0, s ≥ 0 (a nonnegative cone on every
+/// row of A), with `settings`' tolerances: x̂ and the iteration count.
+pub(crate) fn run_clarabel(
+    ph: &CscMatrix<f64>,
+    qh: &[f64],
+    a: &CscMatrix<f64>,
+    settings: &QpSettings,
+) -> Result<(Vec<f64>, u32), QpError> {
+    let rows = a.m;
+    let b = vec![0.0; rows];
+    let cones = [NonnegativeConeT(rows)];
     let cl_settings = DefaultSettingsBuilder::default()
         .verbose(settings.verbose)
         .tol_gap_abs(settings.tol)
@@ -247,7 +263,7 @@ fn clarabel_solve(
         .max_iter(settings.max_iter)
         .build()
         .map_err(|e| QpError::Setup(e.to_string()))?;
-    let mut solver = DefaultSolver::new(&ph, &qh, &a, &b, &cones, cl_settings)
+    let mut solver = DefaultSolver::new(ph, qh, a, &b, &cones, cl_settings)
         .map_err(|e| QpError::Setup(e.to_string()))?;
     solver.solve();
     let sol = &solver.solution;
