@@ -28,13 +28,11 @@
 //! records, per step, which method gave the answer and its iterations.
 
 use crate::dd::body::{Body, BodyError};
-use crate::dd::friction::{
-    coulomb_converged, Friction, FrictionLaw, COULOMB_MAX_OUTER, COULOMB_TOL,
-};
+use crate::dd::friction::{Friction, Solved};
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::OptionsBlock;
 use crate::qp::active_set::{self, ActiveSet, Operator};
-use crate::qp::friction::{self as fqp, FrictionSets, Slip};
+use crate::qp::friction::FrictionSets;
 use crate::qp::{solve_nonneg_qp, QpError, QpMethod, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -225,7 +223,7 @@ impl ContactStep {
     /// The contact set the next [`Self::solve`] tries first (a restart's last one).
     pub fn set_warm_start(&self, active: Vec<bool>) {
         if self.friction.is_some() {
-            *self.previous_sets.borrow_mut() = Some(sets_of(&active));
+            *self.previous_sets.borrow_mut() = Some(FrictionSets::from_flags(&active));
         }
         *self.previous.borrow_mut() = Some(active);
     }
@@ -318,35 +316,13 @@ impl ContactStep {
             .previous_sets
             .borrow()
             .clone()
-            .filter(|_| settings.warm_start)
-            .unwrap_or_else(|| FrictionSets::cold_start(q, &friction.bounds(&vec![0.0; m])));
-        let (sol, outer) = match friction.law {
-            FrictionLaw::Coulomb { coefficient } => {
-                let g_start = self.previous_bounds.borrow().clone();
-                let (sol, outer) = fqp::solve_coulomb(
-                    schur,
-                    q,
-                    coefficient,
-                    &g_start,
-                    &start,
-                    steps,
-                    &settings.clarabel,
-                    COULOMB_TOL,
-                    COULOMB_MAX_OUTER,
-                )?;
-                coulomb_converged(outer)?;
-                (sol, outer)
-            }
-            _ => {
-                let g = friction.bounds(&[]);
-                let sol = fqp::solve_tresca(schur, q, &g, &start, steps, &settings.clarabel)?;
-                (sol, 0)
-            }
-        };
-        let bounds = friction.bounds(&sol.y[..m]);
+            .filter(|_| settings.warm_start);
+        let g_start = self.previous_bounds.borrow().clone();
+        let Solved { sol, outer, bounds } =
+            friction.solve(schur, q, start, &g_start, steps, &settings.clarabel)?;
         *self.previous_sets.borrow_mut() = Some(sol.sets.clone());
         *self.previous_bounds.borrow_mut() = bounds.clone();
-        let active = set_flags(&sol.sets);
+        let active = sol.sets.flags();
         *self.previous.borrow_mut() = Some(active.clone());
         let margins = (0..2 * m)
             .map(|i| match (i < m, active[i]) {
@@ -369,24 +345,5 @@ impl ContactStep {
             method: sol.method,
             kkt_residual: sol.kkt_residual,
         })
-    }
-}
-
-/// The flags of the frictional sets: in contact (m), then sticking (m).
-fn set_flags(sets: &FrictionSets) -> Vec<bool> {
-    let mut v = sets.contact.clone();
-    v.extend(sets.slip.iter().map(|s| *s == Slip::Stick));
-    v
-}
-
-/// The sets of flags [`set_flags`] made (a slip's direction is found again by the method).
-fn sets_of(flags: &[bool]) -> FrictionSets {
-    let m = flags.len() / 2;
-    FrictionSets {
-        contact: flags[..m].to_vec(),
-        slip: flags[m..]
-            .iter()
-            .map(|&s| if s { Slip::Stick } else { Slip::Forward })
-            .collect(),
     }
 }

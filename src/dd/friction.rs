@@ -13,6 +13,9 @@
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::OptionsBlock;
 use crate::problem::{pair_shares, BodyProblem};
+use crate::qp::dense::SymMatrix;
+use crate::qp::friction::{self as fqp, FrictionSets, FrictionSolution};
+use crate::qp::{QpError, QpSettings};
 
 /// The friction law on Γc (`-nndd_friction`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -124,13 +127,13 @@ impl FrictionLaw {
 
 /// The Coulomb fixed point's tolerance on the bounds g = μ T_n (relative,
 /// [`crate::qp::friction::solve_coulomb`]).
-pub const COULOMB_TOL: f64 = 1e-12;
+const COULOMB_TOL: f64 = 1e-12;
 /// The most Tresca solves of one Coulomb contact problem.
-pub const COULOMB_MAX_OUTER: usize = 100;
+const COULOMB_MAX_OUTER: usize = 100;
 
 /// A Coulomb fixed point that took all [`COULOMB_MAX_OUTER`] solves did not converge: an
 /// error naming the coefficient (the fixed point contracts for small μ).
-pub fn coulomb_converged(outer: usize) -> Result<(), crate::qp::QpError> {
+fn coulomb_converged(outer: usize) -> Result<(), crate::qp::QpError> {
     if outer < COULOMB_MAX_OUTER {
         return Ok(());
     }
@@ -175,7 +178,61 @@ pub struct Friction {
     pub shares: Vec<f64>,
 }
 
+/// A frictional contact QP's answer ([`Friction::solve`]).
+pub struct Solved {
+    pub sol: FrictionSolution,
+    /// Coulomb's Tresca solves (0 under Tresca).
+    pub outer: usize,
+    /// The nodal bounds g_k of the answer's tangential forces.
+    pub bounds: Vec<f64>,
+}
+
 impl Friction {
+    /// Solve min ½ zᵀP z + qᵀz + Σ g_k |z_t,k|, z_n ≥ 0 (P 2m × 2m) under this law: Tresca by
+    /// the active-set method with stick and slip sets from `start` (the cold start of z = 0
+    /// without one) in at most `steps` steps, Clarabel its fallback; Coulomb by the fixed
+    /// point g = μ y_n from the bounds `g_start` (empty: 0), an error if it does not settle
+    /// ([`crate::qp::friction`]).
+    pub fn solve(
+        &self,
+        p: &SymMatrix,
+        q: &[f64],
+        start: Option<FrictionSets>,
+        g_start: &[f64],
+        steps: usize,
+        settings: &QpSettings,
+    ) -> Result<Solved, QpError> {
+        let m = q.len() / 2;
+        let start =
+            start.unwrap_or_else(|| FrictionSets::cold_start(q, &self.bounds(&vec![0.0; m])));
+        let (sol, outer) = match self.law {
+            FrictionLaw::Coulomb { coefficient } => {
+                let (sol, outer) = fqp::solve_coulomb(
+                    p,
+                    q,
+                    coefficient,
+                    g_start,
+                    &start,
+                    steps,
+                    settings,
+                    COULOMB_TOL,
+                    COULOMB_MAX_OUTER,
+                )?;
+                coulomb_converged(outer)?;
+                (sol, outer)
+            }
+            _ => (
+                fqp::solve_tresca(p, q, &self.bounds(&[]), &start, steps, settings)?,
+                0,
+            ),
+        };
+        Ok(Solved {
+            bounds: self.bounds(&sol.y[..m]),
+            sol,
+            outer,
+        })
+    }
+
     /// The law on the pairs of `problem`'s Γc (node to node), `None` when frictionless.
     pub fn on(law: FrictionLaw, problem: &BodyProblem) -> Option<Friction> {
         law.is_frictional().then(|| Friction {

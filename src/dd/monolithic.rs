@@ -20,13 +20,10 @@
 //! μ = T² = S²v² + c² ≥ 0 and v¹ = −M⁻¹(c¹ + c² + S²(z − g₀)) ([`held_by_contact`]).
 
 use crate::dd::body::{Body, BodyError};
-use crate::dd::friction::{
-    coulomb_converged, Friction, FrictionLaw, COULOMB_MAX_OUTER, COULOMB_TOL,
-};
+use crate::dd::friction::{Friction, Solved};
 use crate::parallel::layout::Layout;
 use crate::problem::Support;
 use crate::qp::dense::SymMatrix;
-use crate::qp::friction::{self as fqp, FrictionSets, Slip};
 use crate::qp::{solve_nonneg_qp, QpError, QpSettings};
 
 #[derive(Debug, thiserror::Error)]
@@ -81,31 +78,10 @@ fn gap_qp(
             bounds: Vec::new(),
         });
     };
-    let m = q.len() / 2;
-    let start = FrictionSets::cold_start(q, &f.bounds(&vec![0.0; m]));
-    let sol = match f.law {
-        FrictionLaw::Coulomb { coefficient } => {
-            let (sol, outer) = fqp::solve_coulomb(
-                h,
-                q,
-                coefficient,
-                &[],
-                &start,
-                MAX_STEPS,
-                qp,
-                COULOMB_TOL,
-                COULOMB_MAX_OUTER,
-            )?;
-            coulomb_converged(outer)?;
-            sol
-        }
-        _ => fqp::solve_tresca(h, q, &f.bounds(&[]), &start, MAX_STEPS, qp)?,
-    };
-    let mut flags = sol.sets.contact.clone();
-    flags.extend(sol.sets.slip.iter().map(|s| *s == Slip::Stick));
+    let Solved { sol, bounds, .. } = f.solve(h, q, None, &[], MAX_STEPS, qp)?;
     Ok(GapAnswer {
-        bounds: f.bounds(&sol.y[..m]),
-        flags,
+        flags: sol.sets.flags(),
+        bounds,
         z: sol.z,
         y: sol.y,
         iterations: sol.iterations,

@@ -68,6 +68,26 @@ pub struct FrictionSets {
 }
 
 impl FrictionSets {
+    /// The sets as flags: in contact (m), then sticking (m) — what the NNDD shares and
+    /// restarts from.
+    pub fn flags(&self) -> Vec<bool> {
+        let mut v = self.contact.clone();
+        v.extend(self.slip.iter().map(|s| *s == Slip::Stick));
+        v
+    }
+
+    /// The sets of [`FrictionSets::flags`] (a slip's direction is found again by the method).
+    pub fn from_flags(flags: &[bool]) -> Self {
+        let m = flags.len() / 2;
+        FrictionSets {
+            contact: flags[..m].to_vec(),
+            slip: flags[m..]
+                .iter()
+                .map(|&s| if s { Slip::Stick } else { Slip::Forward })
+                .collect(),
+        }
+    }
+
     /// The sets of the point z = 0, y = q (the cold start when no earlier sets are known):
     /// contact where q_n > 0, stick where |q_t| ≤ g, else slip against q_t.
     pub fn cold_start(q: &[f64], g: &[f64]) -> Self {
