@@ -27,7 +27,7 @@ const FUNCTIONS: &[&str] = &[
     "ISCreateGeneral",
     "ISDestroy",
     "Vec(Create|CreateMPI|CreateSeq|Destroy|Duplicate|Set|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|GetArray|RestoreArray|GetArrayRead|RestoreArrayRead|Norm|AXPY|Copy|SetUp)",
-    "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|ZeroRowsColumns|SetOption|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|DenseGetArray|DenseRestoreArray|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo|SetValues|SetNearNullSpace|CreateDense|DenseGetColumnVecRead|DenseRestoreColumnVecRead|Norm|MatMult|AXPY|GetColumnNorms)",
+    "Mat(Create|SetSizes|SetType|SetFromOptions|SetUp|Destroy|Duplicate|Mult|MultAdd|ZeroRowsColumns|SetOption|SetBlockSize|GetSize|GetLocalSize|GetOwnershipRange|AssemblyBegin|AssemblyEnd|DenseGetArrayRead|DenseRestoreArrayRead|DenseGetArray|DenseRestoreArray|FactorSetSchurIS|FactorCreateSchurComplement|SetOptionsPrefix|GetInfo|SetValues|SetNearNullSpace|CreateDense|DenseGetColumnVecRead|DenseRestoreColumnVecRead|Norm|MatMult|AXPY|GetColumnNorms)",
     "MatNullSpace(Create|Destroy)",
     "VecScatter(Create|Begin|End|Destroy)",
     "MatSeqAIJSetPreallocation",

@@ -13,6 +13,7 @@ mod cycles;
 pub mod options;
 pub mod preflight;
 mod report;
+mod reported;
 mod solve;
 mod steps;
 
@@ -309,10 +310,13 @@ pub(crate) fn solve_cycle(
     let t_contact = Instant::now();
     run.check_contact(&mut sol)?;
     timings.checks += layout.max(t_contact.elapsed().as_secs_f64());
-    // Post-processing: energy, Schur source, timings and memory over ranks.
-    let post = run.post_process(refs, &sol, estimator, &mut timings)?;
+    // Post-processing: energy, each body's solver.
+    let mut post = run.post_process(refs, &sol)?;
     drop(bodies);
     memory::release_free_memory(0);
+    // The reported iterate's estimate finished (its recoveries) with the factorisations
+    // freed; the flops, timings and memory over ranks.
+    run.finish_estimates(&mut sol, estimator, &mut post, &mut timings)?;
     // Output: PREFIX.h5 + PREFIX.xdmf (collective), PREFIX.json (rank 0).
     run.write_output(&sol, &post, timings, t_start)?;
     Ok(Cycle {

@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use super::agreed;
 use super::options::{Settings, SettingsError, SolverKind};
+use super::reported::{attach_estimates, resolve_reported, Pending};
 use super::AppError;
 use crate::dd::body::{uses_superlu_dist, Body, BodyError, SchurMode, SchurSource};
 use crate::dd::check::check_solution;
@@ -15,8 +16,8 @@ use crate::dd::friction::Friction;
 use crate::dd::monolithic;
 use crate::dd::neumann::{NeumannChoice, NeumannStep};
 use crate::dd::nndd::{
-    self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddResult, NnddSettings,
-    Relaxation, Status, Steps, StopRule,
+    self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddSettings, Relaxation,
+    Status, Steps, StopRule,
 };
 use crate::estimate::{BalancedRule, EstimateError, EstimateRecord, Estimator, Reference};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
@@ -56,6 +57,9 @@ pub struct Solution {
     pub warnings: Vec<String>,
     /// The largest penetration over the whole contact curves (after the checks).
     pub penetration: Option<crate::dd::penetration::Penetration>,
+    /// The reported iterate's estimate between its parts: re-solved, its recoveries left to
+    /// [`super::reported::finish_reported`] once the bodies are freed.
+    pub pending: Option<Pending>,
 }
 
 /// Meshes, assembly and factorisation of the bodies this rank owns.
@@ -141,6 +145,9 @@ fn set_up_body(
     let alpha = problem.alpha;
     announce_setup(alpha, problem, layout)?;
     let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
+    // METIS's work arrays (on the group's first rank) back to the system before the assembly
+    // and the factorisation allocate theirs.
+    crate::os::memory::release_free_memory(0);
     Body::setup(
         Rc::clone(problem),
         layout.own_body_comm(),
@@ -284,11 +291,14 @@ pub fn solve_reference(
             tried.join("; ")
         )));
     }
+    // The fine factorisations freed here: e_ref needs the fine problems and u_ref only.
+    drop(bodies);
+    crate::os::memory::release_free_memory(0);
     Ok(Ok(Reference {
         factor: r,
         u: sol.last.u,
         iterations: sol.iterations,
-        bodies,
+        problems: [0, 1].map(|k| layout.owns(k + 1).then(|| Rc::clone(&problems[k]))),
     }))
 }
 
@@ -523,12 +533,12 @@ pub fn solve_nndd(
     }
     let res = nndd::solve::<AppError>(&ctx, from.map(|c| c.state), &mut observer)?;
     let RunObserver {
-        mut estimates,
+        estimates,
         balanced,
         seconds,
         ..
     } = observer;
-    let reported = estimate_reported(settings, &ctx, estimator, &res, &mut estimates)?;
+    let (reported, pending) = resolve_reported(settings, &ctx, estimator, &res, &estimates)?;
     timings.estimation += seconds + reported;
     add_loop_timings(timings, &res.timers, refs);
     let mut history = res.history;
@@ -551,6 +561,7 @@ pub fn solve_nndd(
         check: Some(res.check),
         warnings: Vec::new(),
         penetration: None,
+        pending,
     })
 }
 
@@ -592,48 +603,6 @@ fn dirichlet_step_name(
     let mut system = [dirichlet.is_some_and(|d| d.is_system()) as u8 as f64];
     layout.share(settings.nndd.dirichlet_body, &mut system);
     DirichletStep::name_of(system[0] > 0.5)
-}
-
-/// The reported iterate's estimate (not when a signal stopped the run: it must end soon), its
-/// η^glo recovery cold: one bound per iterate, whichever iterates were estimated before (an
-/// estimate of it in the loop may have started warm: it is made again). Its time (s).
-fn estimate_reported(
-    settings: &Settings,
-    ctx: &nndd::Context,
-    estimator: Option<&Estimator>,
-    res: &NnddResult,
-    estimates: &mut Vec<EstimateRecord>,
-) -> Result<f64, AppError> {
-    let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) else {
-        return Ok(0.0);
-    };
-    let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
-    if in_loop && !est.starts_warm() {
-        return Ok(0.0);
-    }
-    let root = ctx.layout.is_root();
-    let t = Instant::now();
-    let _s = ctx.stages.estimation.enter();
-    let before = signals::enter(StopPhase::FinalEstimate);
-    let dofs = settings.problem.dofs();
-    if root && dofs >= LONG_PHASE_DOFS {
-        println!(
-            "nndd: estimating the errors of iteration {} ({dofs} dofs) …",
-            res.last.iteration
-        );
-    }
-    let rec = est.estimate_cold(ctx.bodies, &res.last)?;
-    signals::enter(before);
-    let seconds = t.elapsed().as_secs_f64();
-    if settings.output.monitor && root {
-        let again = if in_loop { " (cold recovery)" } else { "" };
-        println!("{}{again}", monitor::estimate_text(&rec));
-    }
-    if in_loop {
-        estimates.pop();
-    }
-    estimates.push(rec);
-    Ok(seconds)
 }
 
 /// The loop's phases (maxima over ranks later) and the checks into the run's timings.
@@ -723,20 +692,8 @@ pub fn solve_monolithic(
         check: Some(check),
         warnings: Vec::new(),
         penetration: None,
+        pending: None,
     })
-}
-
-fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord]) {
-    for e in estimates {
-        if let Some(h) = history.iter_mut().find(|h| h.iteration == e.iteration) {
-            h.eta_glo = Some(e.eta_glo);
-            h.eta_fe = Some(e.eta_fe);
-            h.eta_nndd = Some(e.eta_nndd);
-            h.eta_ratio = Some(e.eta_ratio);
-            h.e_ref = e.e_ref;
-            h.effectivity = e.effectivity;
-        }
-    }
 }
 
 /// What the summary says of each body's solver, known on the body's ranks.

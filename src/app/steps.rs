@@ -186,14 +186,12 @@ impl<'a> Run<'a> {
         Ok(())
     }
 
-    /// The energy, each body's solver, `-nndd_schur_view`'s files, the flops and the
-    /// estimates' parts; the estimator dropped, the timings made maxima over the ranks.
+    /// What needs the bodies once solved: the energy, each body's solver, `-nndd_schur_view`'s
+    /// files (the flops and the estimates' parts come with [`Run::finish_estimates`]).
     pub(super) fn post_process(
         &self,
         refs: [Option<&Body>; 2],
         sol: &Solution,
-        estimator: Option<Estimator>,
-        timings: &mut Timings,
     ) -> Result<PostProcessed, AppError> {
         let layout = self.layout;
         let energy = potential_energy(layout, refs, sol)?;
@@ -202,20 +200,42 @@ impl<'a> Run<'a> {
         if self.settings.output.schur_view {
             write_interface_operators(self.settings, layout, refs)?;
         }
-        let logged_flops = layout.sum(Petsc::logged_flops());
-        let reference_iterations = estimator.as_ref().and_then(|e| e.reference_iterations());
-        if let Some(e) = &estimator {
-            timings.estimation_parts = EstimationParts::from(e.part_seconds());
-        }
-        drop(estimator);
-        report::max_over_ranks(layout, timings);
         Ok(PostProcessed {
             energy,
             energy_norm,
             solvers,
-            logged_flops,
-            reference_iterations,
+            logged_flops: 0.0,
+            reference_iterations: None,
         })
+    }
+
+    /// After the bodies are freed: the reported iterate's recoveries ([`reported::finish_reported`];
+    /// a failure of one rank alone ends the job), the flops, the estimates' parts; the
+    /// estimator dropped, the timings made maxima over the ranks.
+    pub(super) fn finish_estimates(
+        &self,
+        sol: &mut Solution,
+        estimator: Option<Estimator>,
+        post: &mut PostProcessed,
+        timings: &mut Timings,
+    ) -> Result<(), AppError> {
+        let (settings, layout) = (self.settings, self.layout);
+        let e = estimator.as_ref();
+        timings.estimation += end_job_on_local_failure(reported::finish_reported(
+            settings,
+            layout,
+            self.stages,
+            e,
+            sol,
+        ))?;
+        post.logged_flops = layout.sum(Petsc::logged_flops());
+        post.reference_iterations = e.and_then(|e| e.reference_iterations());
+        if let Some(e) = e {
+            timings.estimation_parts = EstimationParts::from(e.part_seconds());
+        }
+        drop(estimator);
+        report::max_over_ranks(layout, timings);
+        Ok(())
     }
 
     /// PREFIX.h5 + PREFIX.xdmf (collective), then PREFIX.json and the closing report (rank 0;

@@ -22,12 +22,12 @@
 use std::cell::RefCell;
 
 use crate::dd::friction::Interface;
-use crate::fem::{element_dofs, element_stiffness};
+use crate::dd::stiffness::{self, Stiffness};
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::OwnComm;
 use crate::parallel::partition::Partition;
 use crate::petsc::readers::SettingsError;
-use crate::petsc::{self, Comm, Gather, Ksp, Matrix, OptionsBlock, Vector};
+use crate::petsc::{self, Comm, Gather, Ksp, OptionsBlock, Vector};
 use std::rc::Rc;
 
 use crate::problem::{BodyProblem, Frames, GcTrace, Support};
@@ -235,8 +235,11 @@ type Prescribed = Vec<(usize, f64)>;
 pub struct Body {
     /// The body's problem, shared with the run (which keeps both bodies' geometry).
     pub problem: Rc<BodyProblem>,
-    /// Assembled stiffness K^α without boundary conditions, in the nodal frames.
-    k: Matrix,
+    /// The stiffness K^α without boundary conditions, in the nodal frames (held once:
+    /// [`Stiffness`]).
+    stiffness: Stiffness,
+    /// ‖K^α‖∞ (an upper bound where K is split), the scale of equilibrium residuals.
+    k_norm: f64,
     /// The rotated nodal frames of the Γc nodes whose normal is not (0, 1): the systems are
     /// assembled in them; every vector crossing this module's boundary is in global (x, y)
     /// components except the Γc normal entries (u_n, T_n).
@@ -275,8 +278,6 @@ pub struct Body {
     x: RefCell<Vector>,
     b: RefCell<Vector>,
     kx: RefCell<Vector>,
-    /// Gathers a whole vector (mesh order) and its Γc normal entries to every rank.
-    whole: RefCell<Gather>,
     trace: RefCell<Gather>,
     /// The body's own communicator (`comm`): the last field, so that it is freed after
     /// every PETSc object on it.
@@ -300,20 +301,24 @@ impl Body {
         let t0 = std::time::Instant::now();
         let frames = problem.frames();
         let held = problem.support == Support::Conditions;
-        let (k, diag, k_neu) = {
+        let (stiffness, diag, k_norm, k_neu) = {
             let _s = stages.assembly.enter();
             fault::check(Phase::Assembly)?;
-            let (k, diag) = assemble(&problem, &frames, comm, &partition)?;
-            let k_neu = if held {
-                let rows = owned_rows(&partition, problem.dirichlet.iter().map(|d| d.0));
-                let mut k_neu = k.duplicate()?;
-                k_neu.zero_rows_columns(&rows, diag)?;
-                k_neu.set_near_null_space(comm, &rigid_modes(&problem, &frames, &partition))?;
-                Some(k_neu)
-            } else {
-                None
-            };
-            (k, diag, k_neu)
+            let a = stiffness::assemble(&problem, &frames, comm, &partition, held)?;
+            match a.coupling {
+                Some(coupling) => {
+                    let mut k_neu = a.matrix;
+                    let modes = stiffness::rigid_modes(&problem, &frames, &partition);
+                    k_neu.set_near_null_space(comm, &modes)?;
+                    (
+                        Stiffness::Split { coupling },
+                        a.diag,
+                        a.norm_inf,
+                        Some(k_neu),
+                    )
+                }
+                None => (Stiffness::Whole(a.matrix), a.diag, a.norm_inf, None),
+            }
         };
         let (gc, pair_rows) = interface_rows(&problem, interface);
         let gc_rows: Vec<petsc::Int> = gc.iter().map(|&d| partition.row(d)).collect();
@@ -335,7 +340,6 @@ impl Body {
             None => None,
         };
         let x = Vector::new(comm, partition.local_rows())?;
-        let whole = Gather::new(&x, &partition.rows_in_mesh_order())?;
         let trace = Gather::new(&x, &gc_rows)?;
         let b = x.duplicate()?;
         let kx = x.duplicate()?;
@@ -344,7 +348,8 @@ impl Body {
         let mut body = Body {
             problem,
             comm,
-            k,
+            stiffness,
+            k_norm,
             frames,
             load,
             diag,
@@ -362,7 +367,6 @@ impl Body {
             x: RefCell::new(x),
             b: RefCell::new(b),
             kx: RefCell::new(kx),
-            whole: RefCell::new(whole),
             trace: RefCell::new(trace),
             _own_comm: own_comm,
         };
@@ -426,12 +430,16 @@ impl Body {
         let m = {
             let _s = stages.assembly.enter();
             let dofs = self.problem.dirichlet.iter().map(|d| d.0);
-            let rows = owned_rows(&self.partition, dofs.chain(self.gc.iter().copied()));
-            let mut m = self.k.duplicate()?;
+            let rows = stiffness::owned_rows(&self.partition, dofs.chain(self.gc.iter().copied()));
+            // K_N (or K) with the Γc normal rows and columns eliminated too.
+            let mut m = match &self.stiffness {
+                Stiffness::Whole(k) => k.duplicate()?,
+                Stiffness::Split { .. } => self.ksp(System::Neumann)?.operator().duplicate()?,
+            };
             m.zero_rows_columns(&rows, self.diag)?;
             m.set_near_null_space(
                 self.comm,
-                &rigid_modes(&self.problem, &self.frames, &self.partition),
+                &stiffness::rigid_modes(&self.problem, &self.frames, &self.partition),
             )?;
             m
         };
@@ -710,7 +718,7 @@ impl Body {
     /// The last solution, whole (mesh order, global components), with the exact prescribed
     /// values (the solve returns them to round-off).
     fn solution(&self, fixed: &[(usize, f64)]) -> Result<Vec<f64>, BodyError> {
-        let mut u = self.whole.borrow_mut().gather(&self.x.borrow())?;
+        let mut u = self.gather_whole(&self.x.borrow())?;
         for &(dof, v) in fixed {
             u[dof] = v;
         }
@@ -722,9 +730,36 @@ impl Body {
     fn apply_k_local(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         let mut x = self.x.borrow_mut();
         let mut kx = self.kx.borrow_mut();
-        x.copy_from(&self.partition.local_part(u))?;
-        self.k.mult(&x, &mut kx)?;
-        Ok(self.whole.borrow_mut().gather(&kx)?)
+        match &self.stiffness {
+            Stiffness::Whole(k) => {
+                x.copy_from(&self.partition.local_part(u))?;
+                k.mult(&x, &mut kx)?;
+            }
+            // K u = K_N (P u) + B u.
+            Stiffness::Split { coupling } => {
+                let mut free = u.to_vec();
+                for &(dof, _) in &self.problem.dirichlet {
+                    free[dof] = 0.0;
+                }
+                x.copy_from(&self.partition.local_part(&free))?;
+                self.ksp(System::Neumann)?.operator().mult(&x, &mut kx)?;
+                x.copy_from(&self.partition.local_part(u))?;
+                coupling.mult_add(&x, &mut kx)?;
+            }
+        }
+        self.gather_whole(&kx)
+    }
+
+    /// The whole vector `v` (mesh order) on every rank of the group. The scatter is made for
+    /// the call and freed after it: held, its index set, target vector and buffers would weigh
+    /// about 40 bytes per dof of the body on every rank (docs/scaling.md, "Memory").
+    fn gather_whole(&self, v: &Vector) -> Result<Vec<f64>, BodyError> {
+        if self.partition.size == 1 {
+            // One rank: PETSc's order is the mesh's.
+            return Ok(v.to_vec()?);
+        }
+        let mut whole = Gather::new(v, &self.partition.rows_in_mesh_order())?;
+        Ok(whole.gather(v)?)
     }
 
     /// `u` (global components) in the nodal frames.
@@ -756,7 +791,7 @@ impl Body {
             r[dof] = 0.0;
         }
         let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-        let scale = self.k.norm_inf()? * inf(&u) + inf(&self.load) + inf(gc_forces);
+        let scale = self.k_norm * inf(&u) + inf(&self.load) + inf(gc_forces);
         let num = inf(&r);
         Ok(if !(num.is_finite() && scale.is_finite()) {
             f64::NAN
@@ -930,115 +965,4 @@ fn interface_rows(
         rows.extend((m..2 * m).map(|k| vec![(k, 1.0)]));
     }
     (gc, rows)
-}
-
-/// Assemble K^α from this rank's elements (rows of other ranks travel at assembly), with
-/// the exact preallocation of this rank's rows; returns K and its mean diagonal (the value put
-/// on eliminated rows, for conditioning).
-fn assemble(
-    problem: &BodyProblem,
-    frames: &Frames,
-    comm: Comm,
-    part: &Partition,
-) -> Result<(Matrix, f64), BodyError> {
-    let mesh = &problem.mesh;
-    // Node neighbours (sharing an element) of the owned nodes, split by owner.
-    let owned = part.owned_nodes();
-    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); owned.len()];
-    for t in &mesh.triangles {
-        for &a in t {
-            let pa = part.petsc_node[a] as usize;
-            if owned.contains(&pa) {
-                let list = &mut neighbours[pa - owned.start];
-                for &b in t {
-                    let pb = part.petsc_node[b];
-                    if !list.contains(&pb) {
-                        list.push(pb);
-                    }
-                }
-            }
-        }
-    }
-    let (mut d_nnz, mut o_nnz) = (Vec::new(), Vec::new());
-    for list in &neighbours {
-        let d = 2 * list
-            .iter()
-            .filter(|&&p| owned.contains(&(p as usize)))
-            .count();
-        let o = 2 * list.len() - d;
-        for _ in 0..2 {
-            d_nnz.push(d as petsc::Int);
-            o_nnz.push(o as petsc::Int);
-        }
-    }
-    drop(neighbours);
-    let mut k = Matrix::preallocated(comm, part.local_rows(), &d_nnz, &o_nnz)?;
-    let mut diag_sum = 0.0;
-    let mut vals = [0.0; 36];
-    for (e, t) in mesh.triangles.iter().enumerate() {
-        if !part.owns_element(e) {
-            continue;
-        }
-        let mut ke = element_stiffness(&mesh.triangle_points(e), &problem.material);
-        frames.rotate_element(t, &mut ke);
-        let rows = element_dofs(t).map(|d| part.row(d));
-        for r in 0..6 {
-            vals[6 * r..6 * r + 6].copy_from_slice(&ke[r]);
-            diag_sum += ke[r][r];
-        }
-        k.add_values(&rows, &rows, &vals)?;
-    }
-    k.assemble()?;
-    // Σ over the group of the diagonal sums (through a PETSc vector of one entry per rank).
-    let mut partial = Vector::new(comm, 1)?;
-    partial.copy_from(&[diag_sum])?;
-    let every: Vec<petsc::Int> = (0..part.size as petsc::Int).collect();
-    let total: f64 = Gather::new(&partial, &every)?
-        .gather(&partial)?
-        .iter()
-        .sum();
-    Ok((k, total / mesh.num_dofs() as f64))
-}
-
-/// The PETSc rows of `dofs` that this rank owns (each once).
-fn owned_rows(part: &Partition, dofs: impl Iterator<Item = usize>) -> Vec<petsc::Int> {
-    let mut rows: Vec<petsc::Int> = dofs
-        .filter(|&d| part.owns_dof(d))
-        .map(|d| part.row(d))
-        .collect();
-    rows.sort_unstable();
-    rows.dedup();
-    rows
-}
-
-/// The rigid-body modes of 2D elasticity (two translations and the rotation about the
-/// centroid), in the nodal frames, orthonormalised: this rank's parts, in PETSc order (the
-/// near null space of GAMG).
-fn rigid_modes(problem: &BodyProblem, frames: &Frames, part: &Partition) -> Vec<Vec<f64>> {
-    let pts = &problem.mesh.points;
-    let n = pts.len() as f64;
-    let c = pts
-        .iter()
-        .fold([0.0; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
-    let mut modes: Vec<Vec<f64>> = vec![
-        pts.iter().flat_map(|_| [1.0, 0.0]).collect(),
-        pts.iter().flat_map(|_| [0.0, 1.0]).collect(),
-        pts.iter()
-            .flat_map(|p| [c[1] - p[1], p[0] - c[0]])
-            .collect(),
-    ];
-    // Gram–Schmidt, on the whole vectors (every rank holds them: the same result everywhere).
-    for i in 0..modes.len() {
-        frames.to_local(&mut modes[i]);
-        for j in 0..i {
-            let d: f64 = modes[i].iter().zip(&modes[j]).map(|(a, b)| a * b).sum();
-            let (done, rest) = modes.split_at_mut(i);
-            for (a, b) in rest[0].iter_mut().zip(&done[j]) {
-                *a -= d * b;
-            }
-        }
-        let norm = modes[i].iter().map(|a| a * a).sum::<f64>().sqrt();
-        modes[i].iter_mut().for_each(|a| *a /= norm);
-    }
-    modes.iter().map(|m| part.local_part(m)).collect()
 }

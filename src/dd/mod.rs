@@ -20,3 +20,4 @@ pub mod neumann;
 pub mod nndd;
 pub mod penetration;
 pub mod secant;
+mod stiffness;

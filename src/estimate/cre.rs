@@ -553,7 +553,7 @@ impl<'a> ElementWork<'a> {
                         };
                     }
                 }
-                let edges = edge_elements(mesh);
+                let elements = mesh.chain_elements(&p.contact_nodes);
                 let m = gap.len();
                 let est = &mut self.est;
                 for (&e, b) in &self.bubbles {
@@ -569,8 +569,7 @@ impl<'a> ElementWork<'a> {
                 }
                 est.bubbles.sort_by_key(|t| t.element);
                 for k in 0..c_fe.len() {
-                    let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
-                    let e = edges[&(a.min(b), a.max(b))];
+                    let e = elements[k].expect("a Γc segment is an element's edge");
                     if !self.view.estimates(e) {
                         continue;
                     }
@@ -689,12 +688,11 @@ fn bubbles(p: &BodyProblem, data: &IterationData) -> HashMap<usize, ElementBubbl
     if data.gaps.iter().all(|g| !g.turns) {
         return HashMap::new();
     }
-    let edges = edge_elements(&p.mesh);
+    let elements = p.mesh.chain_elements(&p.contact_nodes);
     for (k, gap) in data.gaps.iter().enumerate() {
         if gap.turns {
-            let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
             segments
-                .entry(edges[&(a.min(b), a.max(b))])
+                .entry(elements[k].expect("a Γc segment is an element's edge"))
                 .or_default()
                 .push(k);
         }
@@ -747,18 +745,6 @@ pub(super) fn worst(a: Residuals, b: Residuals) -> Residuals {
         boundary: a.boundary.max(b.boundary),
         point_reaction: a.point_reaction.max(b.point_reaction),
     }
-}
-
-/// The element of each boundary edge (sorted node pair).
-pub(super) fn edge_elements(mesh: &Mesh) -> HashMap<(usize, usize), usize> {
-    let mut map = HashMap::new();
-    for (e, t) in mesh.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            map.entry((a.min(b), a.max(b))).or_insert(e);
-        }
-    }
-    map
 }
 
 /// The Γc traction vector of body α (nodal values of a P1 density per unit length of body 1's

@@ -12,7 +12,6 @@ use crate::estimate::cre::{
 };
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::mortar::MortarEstimates;
-use crate::estimate::reference::interpolate_nested;
 use crate::estimate::share::{estimate_owners, Share};
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
@@ -27,6 +26,9 @@ use crate::estimate::polygon;
 use crate::estimate::reference::Reference;
 use crate::estimate::settings::{EstimateSettings, NnddVariant};
 use crate::estimate::traction::Interface;
+
+mod recover;
+pub(crate) use recover::{InParts, ReactionOf};
 
 /// The estimates of one iteration: totals (on every rank) and element maps η_E (on the ranks
 /// of each body's group,
@@ -313,6 +315,35 @@ impl<'a> Estimator<'a> {
         rec
     }
 
+    /// [`Estimator::estimate_cold`] in two parts: the re-solves now (with the bodies), the
+    /// rest by [`Estimator::finish_cold`] once the caller has freed the bodies'
+    /// factorisations; a mortar run's estimate (which needs its bodies to the end) is made
+    /// whole here.
+    pub fn resolve_cold(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+    ) -> Result<InParts, EstimateError> {
+        if self.mortar.is_some() {
+            return Ok(InParts::Done(Box::new(self.estimate_cold(bodies, it)?)));
+        }
+        let resolved = self.resolve(bodies, it, false, ReactionOf::Own, None)?;
+        Ok(InParts::Resolved(Box::new(resolved)))
+    }
+
+    /// The rest of [`Estimator::resolve_cold`]'s estimate (collective; no body needed).
+    pub fn finish_cold(&self, parts: InParts) -> Result<EstimateRecord, EstimateError> {
+        match parts {
+            InParts::Done(rec) => Ok(*rec),
+            InParts::Resolved(r) => {
+                self.cold.set(true);
+                let rec = self.recover(*r);
+                self.cold.set(false);
+                rec
+            }
+        }
+    }
+
     /// Whether an estimate may start its recoveries from an earlier one's (so that it may
     /// differ from [`Estimator::estimate_cold`]).
     pub fn starts_warm(&self) -> bool {
@@ -347,7 +378,7 @@ impl<'a> Estimator<'a> {
         fe_only: bool,
     ) -> Result<EstimateRecord, EstimateError> {
         match &self.mortar {
-            None => self.run_on(bodies, it, fe_only, Reaction::Own(&it.forces[0]), &it.u),
+            None => self.run_on(bodies, it, fe_only, ReactionOf::Own, None),
             Some(m) => self.run_mortar(m, bodies, it, fe_only),
         }
     }
@@ -370,8 +401,8 @@ impl<'a> Estimator<'a> {
             m.bodies(),
             &carried.iterate,
             fe_only,
-            Reaction::Resolved(&carried.iterate.forces[0]),
-            &carried.u_plain,
+            ReactionOf::Resolved,
+            Some(carried.u_plain.clone()),
         )?;
         let q = rec.eta_glo * rec.eta_glo;
         let lift2 = carried.lift_elements.iter().flatten().sum::<f64>();
@@ -427,301 +458,17 @@ impl<'a> Estimator<'a> {
         Ok(rec)
     }
 
-    /// The estimates of `it` on `bodies` (this estimator's problems), body 1's η^FE data
-    /// `reaction1`; e_ref of the fields `plain` (u^α_p, where `it` has a mortar iterate's
-    /// û^α).
+    /// The estimates of `it` on `bodies` (this estimator's problems): its re-solves, then
+    /// the rest ([`Estimator::resolve`], [`Estimator::recover`]).
     fn run_on(
         &self,
         bodies: [Option<&Body>; 2],
         it: &Iterate,
         fe_only: bool,
-        reaction1: Reaction,
-        plain: &[Vec<f64>; 2],
+        reaction1: ReactionOf,
+        plain: Option<[Vec<f64>; 2]>,
     ) -> Result<EstimateRecord, EstimateError> {
-        crate::parallel::fault::check(crate::parallel::fault::Phase::Estimate)?;
-        self.stop_point()?;
-        let layout = self.layout;
-        // The admissible Γc tractions (the same small QPs on every rank).
-        let target: Vec<f64> = it.forces[0]
-            .iter()
-            .zip(&it.forces[1])
-            .map(|(a, b)| 0.5 * (a - b))
-            .collect();
-        let minus_t2: Vec<f64> = it.forces[1].iter().map(|t| -t).collect();
-        let (t_glo, t_fe) = self.parts.run(Part::TractionQp, || {
-            let t_fe = self.iface.admissible_traction(&minus_t2, &self.qp)?;
-            let t_glo = if fe_only {
-                t_fe.clone() // unused
-            } else {
-                self.iface.admissible_traction(&target, &self.qp)?
-            };
-            Ok::<_, EstimateError>((t_glo, t_fe))
-        })?;
-        let mu_hat = nodal_contact_forces(it);
-        let jumps = if fe_only {
-            Vec::new()
-        } else {
-            self.parts
-                .run(Part::Reduction, || contact_jumps(layout, bodies, it))
-        };
-        // With friction (a straight Γc): the tangential halves of the admissible tractions.
-        let friction = it
-            .tangential
-            .as_ref()
-            .filter(|_| self.friction.is_frictional())
-            .map(|t| self.friction_data(t, &t_glo, &t_fe, &mu_hat, &jumps));
-        // η^glo's traction parallel to the normal field, and the iterate's gap along it
-        // (docs/method.md §5), plus its tangential part with friction.
-        let normals = &self.problems[0].contact_normals;
-        let glo_factors = polygon::factors(normals, &t_glo);
-        let mut glo_edges = polygon::edge_traction(normals, &glo_factors);
-        if let Some(f) = &friction {
-            for (k, e) in glo_edges.iter_mut().enumerate() {
-                for (end, v) in e.iter_mut().enumerate() {
-                    let t = f.glo_t[k + end];
-                    v[0] += t * f.tau[0];
-                    v[1] += t * f.tau[1];
-                }
-            }
-        }
-        let glo_forces = polygon::nodal_forces(&self.iface.lengths, &glo_edges);
-        let gaps = if fe_only {
-            Vec::new()
-        } else {
-            polygon::segment_gaps(normals, &self.problems[0].gap, &jumps)
-        };
-        let data = IterationData {
-            lambda: &it.lambda,
-            t_glo: &t_glo,
-            glo_factors: &glo_factors,
-            glo_edges: &glo_edges,
-            glo_forces: &glo_forces,
-            gaps: &gaps,
-            t_fe: &t_fe,
-            reaction1,
-            mu_hat: &mu_hat,
-            friction: friction.as_ref(),
-            nndd_variant: self.nndd_variant,
-            recovery: self.recovery,
-            fe_only,
-        };
-        let mut sums = [0.0; 3];
-        let mut res = Residuals::default();
-        let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
-        let mut e_ref2 = 0.0;
-        let (owners, crosses) = self.owners.get_or_init(|| {
-            let owners = estimate_owners(
-                [&self.problems[0].mesh, &self.problems[1].mesh],
-                layout.size as usize,
-            );
-            let crosses = [0, 1].map(|k| {
-                let group = layout.group_ranks(k + 1);
-                owners[k].iter().any(|&r| !group.contains(&(r as usize)))
-            });
-            (owners, crosses)
-        });
-        // The re-solves on each body's group, their fields to the other ranks estimating
-        // elements of the body.
-        let mut fields: [BodyFields; 2] = Default::default();
-        for (k, body) in bodies.iter().enumerate() {
-            if let Some(b) = body {
-                fields[k] = body_fields(b, &it.u[k], &self.iface, &data, &self.parts)?;
-            }
-            if crosses[k] {
-                let f = &mut fields[k];
-                self.parts.run(Part::Reduction, || {
-                    layout.share_vec(k + 1, f.u_p.to_mut());
-                    for v in [&mut f.u_tilde, &mut f.u_d, &mut f.u_fe] {
-                        layout.share_vec(k + 1, v);
-                    }
-                });
-            }
-        }
-        self.stop_point()?;
-        // The element work: each recovery prepared for both bodies before any is made (the
-        // warm-start exchanges are the only collectives in it, so no rank waits for another
-        // between them).
-        let shares = [0, 1].map(|k| {
-            self.shares[k].get_or_init(|| {
-                self.parts.run(Part::Recovery, || {
-                    let p = &self.problems[k];
-                    Share::new(
-                        k + 1,
-                        &p.mesh,
-                        &owners[k],
-                        crosses[k],
-                        self.recovery,
-                        layout,
-                    )
-                })
-            })
-        });
-        let views = shares.map(|s| s.view(layout));
-        let mut works: Vec<(usize, ElementWork)> = (0..2)
-            .filter_map(|k| {
-                let view = views[k].as_ref()?;
-                Some((k, ElementWork::new(&self.problems[k], &fields[k], view)))
-            })
-            .collect();
-        // Before each recovery, every body's is prepared (η^FE's data when `fe`).
-        let prepare = |works: &[(usize, ElementWork)], fe: bool| {
-            for (k, w) in works {
-                let view = views[*k].as_ref().expect("a view");
-                let u = if fe { w.fe_data() } else { w.glo_data() };
-                let ops = &mut self.operators[*k].borrow_mut();
-                // (a negative change bound: no earlier recovery is near enough to start from;
-                // a cold estimate's η^FE recovery may start from its own η^glo recovery)
-                let warm_change = if self.cold.get() && !fe {
-                    -1.0
-                } else {
-                    self.warm_change
-                };
-                view.prepare(&self.problems[*k], u, self.recovery, warm_change, ops);
-            }
-        };
-        if !fe_only {
-            prepare(&works, false);
-            for (k, w) in works.iter_mut() {
-                w.glo(&data, &mut self.operators[*k].borrow_mut(), &self.parts)?;
-            }
-        }
-        // The η^glo recovery's temporaries back to the system before the η^FE one allocates
-        // its own (the first estimate's high-water mark on large meshes: paper n = 1024 out of
-        // core, 3018 / 3055 → 2921 / 2971 MiB).
-        crate::os::memory::release_free_memory(TRIM_BYTES);
-        self.stop_point()?;
-        prepare(&works, true);
-        for (k, w) in works.iter_mut() {
-            w.fe(
-                &self.iface,
-                &data,
-                &mut self.operators[*k].borrow_mut(),
-                &self.parts,
-            )?;
-        }
-        let mut done: [Option<BodyEstimate>; 2] = [None, None];
-        for (k, w) in works {
-            done[k] = Some(w.finish(&self.iface, &data, &self.parts));
-        }
-        // The bubble amplitudes of û = u_p + δ and the bound of the answer's error,
-        // (1 + θ)Q + (1 + 1/θ)Δ ≥ (‖u − û‖ + ‖δ‖)² (docs/method.md §5): each element's η^glo
-        // term times (1 + θ), plus (1 + 1/θ) a c² on the elements of δ.
-        let delta2 = self.parts.run(Part::Reduction, || {
-            let q0 = layout.sum(
-                done.iter()
-                    .flatten()
-                    .map(|e| e.glo.iter().sum::<f64>())
-                    .sum(),
-            );
-            let terms: Vec<polygon::BubbleTerms> = done
-                .iter()
-                .flatten()
-                .flat_map(|e| e.bubbles.iter().copied())
-                .collect();
-            let sum = |mut x: [f64; 2]| {
-                layout.world_sum(&mut x);
-                x
-            };
-            let (c, [theta, _, delta2]) = polygon::choose_amplitudes(&terms, q0, &sum);
-            if theta > 0.0 {
-                // (`terms` lists the bodies' bubbles in this order)
-                let mut chosen = c.iter();
-                for est in done.iter_mut().flatten() {
-                    for g in est.glo.iter_mut() {
-                        *g *= 1.0 + theta;
-                    }
-                    for t in &est.bubbles {
-                        let c = *chosen.next().expect("an amplitude per bubble");
-                        est.glo[t.element] += (1.0 + theta)
-                            * (t.a * c * c - 2.0 * t.b * c + t.l * c)
-                            + (1.0 + 1.0 / theta) * t.a * c * c;
-                    }
-                }
-            }
-            delta2
-        });
-        for (k, body) in bodies.iter().enumerate() {
-            let ne = self.problems[k].mesh.triangles.len();
-            let mut map: [Vec<f64>; 3] = Default::default();
-            if let Some(est) = done[k].take() {
-                let t = est.totals();
-                for c in 0..3 {
-                    sums[c] += t[c];
-                }
-                res = worst(res, est.residuals);
-                map = [est.glo, est.fe, est.nndd];
-                for v in map.iter_mut().flatten() {
-                    *v = v.max(0.0).sqrt();
-                }
-            }
-            // The element maps onto the body's ranks, each element from its estimating rank.
-            self.parts.run(Part::Reduction, || {
-                if crosses[k] {
-                    for m in map.iter_mut() {
-                        m.resize(ne, 0.0);
-                        layout.world_sum(m);
-                    }
-                } else if body.is_some() {
-                    for m in map.iter_mut() {
-                        layout.group_sum(m);
-                    }
-                }
-            });
-            if body.is_some() {
-                maps[k] = map;
-            }
-            if let (Some(b), Some(r)) = (body, self.reference.as_ref().filter(|_| !fe_only)) {
-                e_ref2 += self.parts.run(Part::ReferenceError, || {
-                    let fine = r.bodies[k]
-                        .as_ref()
-                        .expect("reference body on the same ranks");
-                    let iu = interpolate_nested(&b.problem.mesh, &fine.problem.mesh, &plain[k])?;
-                    let d: Vec<f64> = r.u[k].iter().zip(&iu).map(|(a, b)| a - b).collect();
-                    let kd = fine.apply_k(&d)?;
-                    // Every rank of the group has it: count it once.
-                    Ok::<f64, EstimateError>(if b.is_root() {
-                        d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
-                    } else {
-                        0.0
-                    })
-                })?;
-            }
-        }
-        drop(fields);
-        let (sums, e_ref, res) = self.parts.run(Part::Reduction, || {
-            let e_ref = self
-                .reference
-                .as_ref()
-                .map(|_| layout.sum(e_ref2).max(0.0).sqrt());
-            let res = Residuals {
-                divergence: layout.max(res.divergence),
-                internal_jump: layout.max(res.internal_jump),
-                element_jump: layout.max(res.element_jump),
-                boundary: layout.max(res.boundary),
-                point_reaction: layout.max(res.point_reaction),
-            };
-            (sums.map(|s| layout.sum(s)), e_ref, res)
-        });
-        let [glo, fe, nndd] = sums;
-        let iterate = it.clone();
-        let eta_glo = glo.max(0.0).sqrt();
-        Ok(EstimateRecord {
-            iteration: it.iteration,
-            eta_glo,
-            eta_fe: fe.max(0.0).sqrt(),
-            eta_nndd: nndd.max(0.0).sqrt(),
-            correction: delta2.max(0.0).sqrt(),
-            eta_ratio: if glo > 0.0 {
-                (fe + nndd) / glo
-            } else {
-                f64::NAN
-            },
-            e_ref,
-            effectivity: e_ref.map(|e| eta_glo / e),
-            residuals: res,
-            maps,
-            iterate,
-            t_hat: t_glo,
-        })
+        let resolved = self.resolve(bodies, it, fe_only, reaction1, plain)?;
+        self.recover(resolved)
     }
 }

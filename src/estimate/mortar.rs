@@ -19,7 +19,7 @@
 use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;
 
-use super::cre::{edge_elements, energy};
+use super::cre::energy;
 use super::error::EstimateError;
 use super::traction::Interface;
 use crate::dd::body::Body;
@@ -238,7 +238,7 @@ impl MortarEstimates {
             if k == self.side {
                 let obstacle = p.obstacle(&it.lambda);
                 let nodes = &p.contact_nodes;
-                let edges = edge_elements(&p.mesh);
+                let elements = p.mesh.chain_elements(nodes);
                 let m = nodes.len();
                 for i in 0..m {
                     let term = 2.0 * mu_hat[i] * (it.trace2[i] - obstacle[i]).abs();
@@ -247,8 +247,7 @@ impl MortarEstimates {
                         .flatten()
                         .collect();
                     for &s in &segs {
-                        let (a, c) = (nodes[s], nodes[s + 1]);
-                        if let Some(&e) = edges.get(&(a.min(c), a.max(c))) {
+                        if let Some(e) = elements[s] {
                             map[e] += term / segs.len() as f64;
                         }
                     }

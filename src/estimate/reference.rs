@@ -1,18 +1,53 @@
 //! The reference solution of (26) and the exact transfer of a coarse P1 field to it (for
 //! e_ref and the effectivity).
 
+use std::rc::Rc;
+
 use super::error::EstimateError;
-use crate::dd::body::Body;
 use crate::fem::mesh::Mesh;
+use crate::fem::{element_dofs, element_energy, element_stiffness};
+use crate::problem::BodyProblem;
 
 /// The reference solution of (26): the same problem on the nested mesh r·n, solved by the
-/// NNDD to tol 1e−8, on the ranks owning each body.
+/// NNDD to tol 1e−8, on the ranks owning each body. Its bodies' factorisations are freed once
+/// it is solved: e_ref needs only the fine problems and u_ref (element sums).
 pub struct Reference {
     pub factor: usize,
-    /// Fine bodies (for their stiffness) and u_ref^α, on the owners.
-    pub bodies: [Option<Body>; 2],
+    /// The fine problems, on the ranks of each body's group (`None` elsewhere).
+    pub problems: [Option<Rc<BodyProblem>>; 2],
+    /// u_ref^α, on the ranks of each body's group.
     pub u: [Vec<f64>; 2],
     pub iterations: usize,
+}
+
+impl Reference {
+    /// This rank's part of ‖u_ref^α − I u^α‖²_E, body α = `k + 1` (I: the exact P1 transfer
+    /// to the fine mesh, [`interpolate_nested`]): the sum of d_Eᵀ K_E d_E over the fine
+    /// elements E ≡ `part` (mod `parts`), so that the parts of a body's group add up to it
+    /// (the sum of (26) over the group, element by element, each counted once).
+    pub fn error_squared_part(
+        &self,
+        k: usize,
+        coarse: &Mesh,
+        u: &[f64],
+        part: usize,
+        parts: usize,
+    ) -> Result<f64, EstimateError> {
+        let fine = self.problems[k]
+            .as_ref()
+            .expect("the reference problem on the body's ranks");
+        let iu = interpolate_nested(coarse, &fine.mesh, u)?;
+        let u_ref = &self.u[k];
+        let mesh = &fine.mesh;
+        Ok((part..mesh.triangles.len())
+            .step_by(parts.max(1))
+            .map(|e| {
+                let ke = element_stiffness(&mesh.triangle_points(e), &fine.material);
+                let d = element_dofs(&mesh.triangles[e]).map(|i| u_ref[i] - iu[i]);
+                element_energy(&ke, &d)
+            })
+            .sum())
+    }
 }
 
 /// P1 interpolation of a field on `coarse` onto the nested mesh `fine`: exact for nested P1

@@ -5,6 +5,7 @@
 //! b (lower right), c (upper left), d (upper right) is split into the triangles (a, b, d) and
 //! (a, d, c). Node (i, j) has index `j (nx + 1) + i`; its dofs are `2 node` (x) and
 //! `2 node + 1` (y).
+use std::collections::HashMap;
 
 /// A triangle mesh: structured (`nx × ny` grid of the rectangle `origin + [0, size.0] ×
 /// [0, size.1]`) or unstructured (`nx = ny = 0`, `origin` and `size` its bounding box).
@@ -155,6 +156,29 @@ impl Mesh {
         [self.points[t[0]], self.points[t[1]], self.points[t[2]]]
     }
 
+    /// The element of each edge `(a, b)` of the chain `nodes` (segment k joins nodes k and
+    /// k + 1), or `None` where no triangle has that edge: one scan of the triangles with a map
+    /// of the chain's edges only (memory O(chain), not O(mesh)).
+    pub fn chain_elements(&self, nodes: &[usize]) -> Vec<Option<usize>> {
+        let key = |a: usize, b: usize| (a.min(b), a.max(b));
+        let mut wanted: HashMap<(usize, usize), Vec<usize>> = HashMap::new();
+        for (k, w) in nodes.windows(2).enumerate() {
+            wanted.entry(key(w[0], w[1])).or_default().push(k);
+        }
+        let mut out = vec![None; nodes.len().saturating_sub(1)];
+        for (e, t) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                if let Some(segs) = wanted.get(&key(t[k], t[(k + 1) % 3])) {
+                    for &s in segs {
+                        // The first triangle with the edge, as a whole-mesh edge map gives.
+                        out[s].get_or_insert(e);
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// Sorted node neighbourhoods (each node with itself), the sparsity pattern of P1.
     pub fn node_neighbours(&self) -> Vec<Vec<usize>> {
         let mut nb: Vec<Vec<usize>> = (0..self.num_nodes()).map(|i| vec![i]).collect();
@@ -230,6 +254,30 @@ pub(crate) fn for_each_side(mesh: &Mesh, mut f: impl FnMut(&[(u32, u32)]) -> boo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn chain_elements_are_the_first_triangles_with_each_edge() {
+        let m = Mesh::structured([0.0, 1.0], [1.0, 1.0], 5, 4);
+        // The top side, a diagonal-crossing chain and an edge that no triangle has.
+        for chain in [
+            m.top_nodes(),
+            vec![m.node(0, 0), m.node(1, 1), m.node(1, 2)],
+        ] {
+            let got = m.chain_elements(&chain);
+            for (k, w) in chain.windows(2).enumerate() {
+                let first = m.triangles.iter().position(|t| {
+                    (0..3).any(|i| {
+                        let (a, b) = (t[i], t[(i + 1) % 3]);
+                        (a, b) == (w[0], w[1]) || (b, a) == (w[0], w[1])
+                    })
+                });
+                assert_eq!(got[k], first, "segment {k} of {chain:?}");
+                assert!(first.is_some());
+            }
+        }
+        let apart = m.chain_elements(&[m.node(0, 0), m.node(2, 0)]);
+        assert_eq!(apart, vec![None]);
+    }
 
     #[test]
     fn counts_area_and_diagonal() {

@@ -15,7 +15,7 @@ pub mod gmsh;
 pub mod mesh;
 
 pub use elasticity::{
-    assemble_stiffness, edge_load, element_dofs, element_stiffness, element_stress,
+    assemble_stiffness, edge_load, element_dofs, element_energy, element_stiffness, element_stress,
     strain_displacement, stresses, Csr, Material,
 };
 pub use mesh::Mesh;

@@ -14,7 +14,11 @@ use super::vec::{Gather, Vector, PETSC_DETERMINE};
 use super::{ffi, Int};
 
 /// The largest block of right-hand sides of [`Ksp::mumps_inverse_block`] (MUMPS's ICNTL(27)).
-const INVERSE_BLOCK: Int = 1024;
+/// MUMPS's solve workspace on the first rank grows with it: `paper` n = 512 on 8 ranks, the
+/// group's first rank held 97 MiB of it with all 513 columns in one block, 49 with 256, and
+/// that was its peak (docs/scaling.md, "Memory"); 256 columns still traverse the pruned tree
+/// in two passes at most on m ≤ 512.
+const INVERSE_BLOCK: Int = 256;
 
 /// The solver options whose value PETSc may not know, each with the error code that says so
 /// and the words of PETSc's message before the value ("Unable to find requested KSP type foo").
@@ -64,6 +68,11 @@ pub struct Ksp {
 }
 
 impl Ksp {
+    /// The operator the solver was made for.
+    pub fn operator(&self) -> &Matrix {
+        &self._mat
+    }
+
     /// Create the solver for `mat` with options prefix `prefix` (e.g. `body1_`). When
     /// `schur_rows` is given and the factorisation is MUMPS, its Schur complement on those rows
     /// is computed during the factorisation ([`Ksp::schur_complement`]).
@@ -345,9 +354,9 @@ impl Ksp {
         call!(MatMumpsGetIcntl(f, 21, &mut icntl21))?;
         call!(MatMumpsGetIcntl(f, 27, &mut icntl27))?;
         call!(MatMumpsGetIcntl(f, 30, &mut icntl30))?;
-        // All the columns in one block (ICNTL(27), MUMPS's default is 32 at most): the pruned
-        // tree is then traversed once (paper n = 256 on 2 ranks: 0.50 → 0.24 s), unless the
-        // user chose a block size.
+        // Up to INVERSE_BLOCK columns in one block (ICNTL(27), MUMPS's default is 32 at most):
+        // the pruned tree is then traversed once or twice (paper n = 256 on 2 ranks: all in one
+        // block 0.24 s against 0.50 s with 32), unless the user chose a block size.
         if !option_present(&format!("-{}mat_mumps_icntl_27", self.prefix)) {
             call!(MatMumpsSetIcntl(f, 27, (m as Int).clamp(1, INVERSE_BLOCK)))?;
         }

@@ -71,6 +71,12 @@ impl Matrix {
         call!(MatSetOption(self.0, ffi::MAT_SPD, ffi::PETSC_TRUE))
     }
 
+    /// Final assembly (collective) of a matrix that is not SPD (a coupling block).
+    pub fn assemble_general(&mut self) -> Result<()> {
+        call!(MatAssemblyBegin(self.0, ffi::MAT_FINAL_ASSEMBLY))?;
+        call!(MatAssemblyEnd(self.0, ffi::MAT_FINAL_ASSEMBLY))
+    }
+
     /// Attach a near null space (for GAMG) spanned by `modes`: this rank's parts (in the
     /// matrix's row order) of orthonormal vectors.
     pub fn set_near_null_space(&mut self, comm: Comm, modes: &[Vec<f64>]) -> Result<()> {
@@ -121,6 +127,11 @@ impl Matrix {
     /// y = A x.
     pub fn mult(&self, x: &Vector, y: &mut Vector) -> Result<()> {
         call!(MatMult(self.0, x.0, y.0))
+    }
+
+    /// y = y + A x.
+    pub fn mult_add(&self, x: &Vector, y: &mut Vector) -> Result<()> {
+        call!(MatMultAdd(self.0, x.0, y.0, y.0))
     }
 }
 

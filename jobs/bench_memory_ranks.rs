@@ -1,0 +1,100 @@
+//! Memory per rank against the rank count: `paper` with one estimate (the reported iterate's,
+//! `-nndd_estimate -nndd_estimate_every 0`, no reference) solved on 2, 4 and 8 ranks at
+//! n = 512 and on 2 and 8 ranks at n = 1024 (`--quick`: n = 128 and 256). Per run one row: the peak
+//! resident memory of each rank (the summary's `peak_memory_mib_per_rank`), its largest and
+//! smallest, the ideal (the 2-rank largest × 2 / ranks, where the same binary ran n on 2
+//! ranks), their ratio, the sum over the ranks and its ratio to the 2-rank sum, the wall time,
+//! the solve's time and η^glo. With `NNDD_BEFORE=path/to/nndd` every case runs with that binary
+//! too, right after this one's (a before/after table measured in one run). More ranks than
+//! cores run oversubscribed: their memory is what is measured, not their speed. The table goes
+//! to `results/bench-memory-ranks.txt`. Run through `jobs/bench-memory-ranks [--quick]`.
+
+#[path = "runner.rs"]
+mod runner;
+
+use std::collections::HashMap;
+use std::io::Write;
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let dir = runner::scratch("bench-memory-ranks");
+    let cases: Vec<(usize, usize)> = if quick {
+        vec![(128, 2), (128, 4), (128, 8), (256, 2), (256, 8)]
+    } else {
+        vec![(512, 2), (512, 4), (512, 8), (1024, 2), (1024, 8)]
+    };
+    let mut binaries = vec![("this", "target/release/nndd".to_string())];
+    if let Ok(before) = std::env::var("NNDD_BEFORE") {
+        binaries.push(("before", before));
+    }
+    let mut lines = vec![
+        "# jobs/bench-memory-ranks: paper, one estimate (-nndd_estimate -nndd_estimate_every 0), solve to tol 1e-8; MiB per rank (peak resident), oversubscribed above 2 ranks".to_string(),
+        format!(
+            "{:>7} {:>5} {:>5} {:>9} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>7} {:>7} {:>12}",
+            "binary", "n", "ranks", "dofs", "max MiB", "min MiB", "ideal", "max/ideal", "sum MiB",
+            "sum/sum@2", "wall s", "solve s", "eta_glo"
+        ),
+    ];
+    // (binary, n) → (largest, sum) on 2 ranks
+    let mut two: HashMap<(&str, usize), (f64, f64)> = HashMap::new();
+    for &(n, ranks) in &cases {
+        for (name, exe) in &binaries {
+            eprintln!("bench-memory-ranks: {name}, n = {n} on {ranks} ranks …");
+            std::env::set_var("NNDD", exe);
+            let prefix = dir.join(format!("{name}-n{n}-p{ranks}"));
+            let args = [
+                "-nndd_n",
+                &n.to_string(),
+                "-nndd_estimate",
+                "-nndd_estimate_every",
+                "0",
+                "-nndd_reference_factor",
+                "0",
+            ];
+            let mpirun: &[&str] = if ranks > 2 { &["--oversubscribe"] } else { &[] };
+            let (j, wall) =
+                match runner::try_run(ranks, "petsc-options/paper.opts", mpirun, &prefix, &args) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        lines.push(format!("{name:>7} {n:>5} {ranks:>5} failed: {e}"));
+                        continue;
+                    }
+                };
+            let peaks: Vec<f64> = j["peak_memory_mib_per_rank"]
+                .as_array()
+                .expect("per-rank peaks")
+                .iter()
+                .map(|v| v.as_f64().expect("a number"))
+                .collect();
+            let max = peaks.iter().cloned().fold(0.0, f64::max);
+            let min = peaks.iter().cloned().fold(f64::INFINITY, f64::min);
+            let sum: f64 = peaks.iter().sum();
+            if ranks == 2 {
+                two.insert((name, n), (max, sum));
+            }
+            let base = two.get(&(name, n));
+            let ideal = base.map(|b| b.0 * 2.0 / ranks as f64);
+            let opt = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+            let eta = j["estimates"]
+                .as_array()
+                .and_then(|e| e.last())
+                .map_or(f64::NAN, |e| runner::num(e, "eta_glo"));
+            lines.push(format!(
+                "{name:>7} {n:>5} {ranks:>5} {:>9} {max:>8.0} {min:>8.0} {:>8} {:>10} {sum:>8.0} {:>9} {wall:>7.1} {:>7.2} {eta:>12.6e}",
+                runner::num(&j, "dofs"),
+                opt(ideal, 0),
+                opt(ideal.map(|i| max / i), 2),
+                opt(base.map(|b| sum / b.1), 2),
+                runner::solve_seconds(&j),
+            ));
+            eprintln!("{}", lines.last().expect("a row"));
+        }
+    }
+    let table = lines.join("\n") + "\n";
+    print!("{table}");
+    std::fs::create_dir_all("results").ok();
+    std::fs::File::create("results/bench-memory-ranks.txt")
+        .and_then(|mut f| f.write_all(table.as_bytes()))
+        .expect("write results/bench-memory-ranks.txt");
+    std::fs::remove_dir_all(&dir).ok();
+}

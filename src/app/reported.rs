@@ -1,0 +1,106 @@
+//! The reported iterate's estimate, in two parts around the freeing of the bodies: its
+//! re-solves with the bodies' factorisations ([`resolve_reported`]), then its recoveries and
+//! element sums ([`finish_reported`]), so that the run's peak memory is the larger of the two
+//! phases, not their sum (docs/scaling.md, "Memory per rank").
+
+use std::time::Instant;
+
+use super::options::Settings;
+use super::solve::{Solution, LONG_PHASE_DOFS};
+use super::AppError;
+use crate::dd::nndd::{self, IterationRecord, NnddResult, Status};
+use crate::estimate::estimator::InParts;
+use crate::estimate::{EstimateRecord, Estimator};
+use crate::io::monitor;
+use crate::os::signals::{self, StopPhase};
+use crate::parallel::layout::Layout;
+use crate::petsc::log::Stages;
+
+/// The reported iterate's estimate, re-solved ([`Estimator::resolve_cold`]).
+pub struct Pending {
+    parts: InParts,
+    /// Whether the loop estimated that iterate too (its record is replaced).
+    in_loop: bool,
+}
+
+/// The reported iterate's estimate (not when a signal stopped the run: it must end soon), its
+/// η^glo recovery cold: one bound per iterate, whichever iterates were estimated before (an
+/// estimate of it in the loop may have started warm: it is made again). Its re-solves here,
+/// with the bodies; its recoveries by [`finish_reported`]. The time (s) and what is left.
+pub(super) fn resolve_reported(
+    settings: &Settings,
+    ctx: &nndd::Context,
+    estimator: Option<&Estimator>,
+    res: &NnddResult,
+    estimates: &[EstimateRecord],
+) -> Result<(f64, Option<Pending>), AppError> {
+    let Some(est) = estimator.filter(|_| res.status != Status::Interrupted) else {
+        return Ok((0.0, None));
+    };
+    let in_loop = estimates.last().map(|e| e.iteration) == Some(res.iterations);
+    if in_loop && !est.starts_warm() {
+        return Ok((0.0, None));
+    }
+    let t = Instant::now();
+    let _s = ctx.stages.estimation.enter();
+    let before = signals::enter(StopPhase::FinalEstimate);
+    let dofs = settings.problem.dofs();
+    if ctx.layout.is_root() && dofs >= LONG_PHASE_DOFS {
+        println!(
+            "nndd: estimating the errors of iteration {} ({dofs} dofs) …",
+            res.last.iteration
+        );
+    }
+    let parts = est.resolve_cold(ctx.bodies, &res.last)?;
+    signals::enter(before);
+    let pending = Pending { parts, in_loop };
+    Ok((t.elapsed().as_secs_f64(), Some(pending)))
+}
+
+/// The rest of the reported iterate's estimate ([`resolve_reported`]), once the bodies'
+/// factorisations are freed: its recoveries, its record among the estimates and in the
+/// history, its monitor line. Its time (s; collective).
+pub fn finish_reported(
+    settings: &Settings,
+    layout: &Layout,
+    stages: &Stages,
+    estimator: Option<&Estimator>,
+    sol: &mut Solution,
+) -> Result<f64, AppError> {
+    let (Some(pending), Some(est)) = (sol.pending.take(), estimator) else {
+        return Ok(0.0);
+    };
+    let t = Instant::now();
+    let _s = stages.estimation.enter();
+    let before = signals::enter(StopPhase::FinalEstimate);
+    let rec = est.finish_cold(pending.parts)?;
+    signals::enter(before);
+    if settings.output.monitor && layout.is_root() {
+        let again = if pending.in_loop {
+            " (cold recovery)"
+        } else {
+            ""
+        };
+        println!("{}{again}", monitor::estimate_text(&rec));
+    }
+    if pending.in_loop {
+        sol.estimates.pop();
+    }
+    sol.estimates.push(rec);
+    attach_estimates(&mut sol.history, &sol.estimates);
+    Ok(t.elapsed().as_secs_f64())
+}
+
+/// Each estimate into the history record of its iteration.
+pub(super) fn attach_estimates(history: &mut [IterationRecord], estimates: &[EstimateRecord]) {
+    for e in estimates {
+        if let Some(h) = history.iter_mut().find(|h| h.iteration == e.iteration) {
+            h.eta_glo = Some(e.eta_glo);
+            h.eta_fe = Some(e.eta_fe);
+            h.eta_nndd = Some(e.eta_nndd);
+            h.eta_ratio = Some(e.eta_ratio);
+            h.e_ref = e.e_ref;
+            h.effectivity = e.effectivity;
+        }
+    }
+}

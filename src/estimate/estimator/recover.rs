@@ -1,0 +1,437 @@
+//! An estimate in two parts: [`Estimator::resolve`] (the Γc data and the bodies' re-solves,
+//! which need the bodies' factorisations) and [`Estimator::recover`] (the recoveries, the
+//! element sums and e_ref, which need none), so that a run's last estimate can follow the
+//! release of the factorisations: its peak memory is then the larger of the two phases',
+//! not their sum (docs/scaling.md, "Memory").
+
+use std::borrow::Cow;
+
+use super::*;
+use crate::estimate::polygon::{EdgeValues, SegmentGap};
+
+/// What body 1's Γc forces T¹_p are, for its η^FE recovery ([`Reaction`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum ReactionOf {
+    /// The NNDD's own iterate's reaction.
+    Own,
+    /// A mortar iterate carried to the matched meshes, body 1 re-solved with them.
+    Resolved,
+}
+
+impl ReactionOf {
+    fn of(self, forces: &[f64]) -> Reaction<'_> {
+        match self {
+            ReactionOf::Own => Reaction::Own(forces),
+            ReactionOf::Resolved => Reaction::Resolved(forces),
+        }
+    }
+}
+
+/// An estimate after [`Estimator::resolve`]: the iterate, its Γc data and the bodies' fields
+/// (u^α_p itself not copied: taken from the iterate again by [`Estimator::recover`]).
+pub struct Resolved {
+    it: Iterate,
+    fe_only: bool,
+    reaction1: ReactionOf,
+    plain: Option<[Vec<f64>; 2]>,
+    t_glo: Vec<f64>,
+    t_fe: Vec<f64>,
+    mu_hat: Vec<f64>,
+    friction: Option<FrictionData>,
+    glo_factors: Vec<[f64; 2]>,
+    glo_edges: Vec<EdgeValues>,
+    glo_forces: Vec<[f64; 2]>,
+    gaps: Vec<SegmentGap>,
+    fields: [BodyFields<'static>; 2],
+}
+
+/// A cold estimate between its parts ([`Estimator::resolve_cold`]).
+pub enum InParts {
+    /// Re-solved; the rest to come.
+    Resolved(Box<Resolved>),
+    /// Made whole (a mortar run's).
+    Done(Box<EstimateRecord>),
+}
+
+impl BodyFields<'_> {
+    /// These fields without the borrow of u^α_p (kept where it was made or shared here).
+    fn detached(self) -> BodyFields<'static> {
+        BodyFields {
+            u_p: match self.u_p {
+                Cow::Owned(v) => Cow::Owned(v),
+                Cow::Borrowed(_) => Cow::Borrowed(&[]),
+            },
+            u_tilde: self.u_tilde,
+            u_d: self.u_d,
+            u_fe: self.u_fe,
+        }
+    }
+}
+
+impl BodyFields<'static> {
+    /// These fields with u^α_p borrowed from `u` where it was not kept.
+    fn on(self, u: &[f64]) -> BodyFields<'_> {
+        BodyFields {
+            u_p: match self.u_p {
+                Cow::Owned(v) => Cow::Owned(v),
+                Cow::Borrowed(_) => Cow::Borrowed(u),
+            },
+            u_tilde: self.u_tilde,
+            u_d: self.u_d,
+            u_fe: self.u_fe,
+        }
+    }
+}
+
+impl Estimator<'_> {
+    /// An estimate's first part: its Γc data and the bodies' re-solves (collective; the
+    /// bodies' factorisations are used here only). `reaction1` says what body 1's Γc forces
+    /// are (its η^FE data); e_ref is of the fields `plain` (u^α_p, where `it` has a mortar
+    /// iterate's û^α; `None`: `it`'s own).
+    pub(crate) fn resolve(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+        fe_only: bool,
+        reaction1: ReactionOf,
+        plain: Option<[Vec<f64>; 2]>,
+    ) -> Result<Resolved, EstimateError> {
+        crate::parallel::fault::check(crate::parallel::fault::Phase::Estimate)?;
+        self.stop_point()?;
+        let layout = self.layout;
+        // The admissible Γc tractions (the same small QPs on every rank).
+        let target: Vec<f64> = it.forces[0]
+            .iter()
+            .zip(&it.forces[1])
+            .map(|(a, b)| 0.5 * (a - b))
+            .collect();
+        let minus_t2: Vec<f64> = it.forces[1].iter().map(|t| -t).collect();
+        let (t_glo, t_fe) = self.parts.run(Part::TractionQp, || {
+            let t_fe = self.iface.admissible_traction(&minus_t2, &self.qp)?;
+            let t_glo = if fe_only {
+                t_fe.clone() // unused
+            } else {
+                self.iface.admissible_traction(&target, &self.qp)?
+            };
+            Ok::<_, EstimateError>((t_glo, t_fe))
+        })?;
+        let mu_hat = nodal_contact_forces(it);
+        let jumps = if fe_only {
+            Vec::new()
+        } else {
+            self.parts
+                .run(Part::Reduction, || contact_jumps(layout, bodies, it))
+        };
+        // With friction (a straight Γc): the tangential halves of the admissible tractions.
+        let friction = it
+            .tangential
+            .as_ref()
+            .filter(|_| self.friction.is_frictional())
+            .map(|t| self.friction_data(t, &t_glo, &t_fe, &mu_hat, &jumps));
+        // η^glo's traction parallel to the normal field, and the iterate's gap along it
+        // (docs/method.md §5), plus its tangential part with friction.
+        let normals = &self.problems[0].contact_normals;
+        let glo_factors = polygon::factors(normals, &t_glo);
+        let mut glo_edges = polygon::edge_traction(normals, &glo_factors);
+        if let Some(f) = &friction {
+            for (k, e) in glo_edges.iter_mut().enumerate() {
+                for (end, v) in e.iter_mut().enumerate() {
+                    let t = f.glo_t[k + end];
+                    v[0] += t * f.tau[0];
+                    v[1] += t * f.tau[1];
+                }
+            }
+        }
+        let glo_forces = polygon::nodal_forces(&self.iface.lengths, &glo_edges);
+        let gaps = if fe_only {
+            Vec::new()
+        } else {
+            polygon::segment_gaps(normals, &self.problems[0].gap, &jumps)
+        };
+        let data = IterationData {
+            lambda: &it.lambda,
+            t_glo: &t_glo,
+            glo_factors: &glo_factors,
+            glo_edges: &glo_edges,
+            glo_forces: &glo_forces,
+            gaps: &gaps,
+            t_fe: &t_fe,
+            reaction1: reaction1.of(&it.forces[0]),
+            mu_hat: &mu_hat,
+            friction: friction.as_ref(),
+            nndd_variant: self.nndd_variant,
+            recovery: self.recovery,
+            fe_only,
+        };
+        let (_, crosses) = self.owners.get_or_init(|| {
+            let owners = estimate_owners(
+                [&self.problems[0].mesh, &self.problems[1].mesh],
+                layout.size as usize,
+            );
+            let crosses = [0, 1].map(|k| {
+                let group = layout.group_ranks(k + 1);
+                owners[k].iter().any(|&r| !group.contains(&(r as usize)))
+            });
+            (owners, crosses)
+        });
+        // The re-solves on each body's group, their fields to the other ranks estimating
+        // elements of the body.
+        let mut fields: [BodyFields; 2] = Default::default();
+        for (k, body) in bodies.iter().enumerate() {
+            if let Some(b) = body {
+                fields[k] = body_fields(b, &it.u[k], &self.iface, &data, &self.parts)?;
+            }
+            if crosses[k] {
+                let f = &mut fields[k];
+                self.parts.run(Part::Reduction, || {
+                    layout.share_vec(k + 1, f.u_p.to_mut());
+                    for v in [&mut f.u_tilde, &mut f.u_d, &mut f.u_fe] {
+                        layout.share_vec(k + 1, v);
+                    }
+                });
+            }
+        }
+        let fields = fields.map(BodyFields::detached);
+        Ok(Resolved {
+            it: it.clone(),
+            fe_only,
+            reaction1,
+            plain,
+            t_glo,
+            t_fe,
+            mu_hat,
+            friction,
+            glo_factors,
+            glo_edges,
+            glo_forces,
+            gaps,
+            fields,
+        })
+    }
+
+    /// An estimate's second part, after [`Estimator::resolve`]: the recoveries, the element
+    /// sums and e_ref (collective). It needs no body: a run may free the factorisations of
+    /// its bodies between the two (docs/scaling.md, "Memory").
+    pub(crate) fn recover(&self, resolved: Resolved) -> Result<EstimateRecord, EstimateError> {
+        let layout = self.layout;
+        let Resolved {
+            it,
+            fe_only,
+            reaction1,
+            plain,
+            t_glo,
+            t_fe,
+            mu_hat,
+            friction,
+            glo_factors,
+            glo_edges,
+            glo_forces,
+            gaps,
+            fields,
+        } = resolved;
+        let it = &it;
+        let plain = plain.as_ref().unwrap_or(&it.u);
+        let data = IterationData {
+            lambda: &it.lambda,
+            t_glo: &t_glo,
+            glo_factors: &glo_factors,
+            glo_edges: &glo_edges,
+            glo_forces: &glo_forces,
+            gaps: &gaps,
+            t_fe: &t_fe,
+            reaction1: reaction1.of(&it.forces[0]),
+            mu_hat: &mu_hat,
+            friction: friction.as_ref(),
+            nndd_variant: self.nndd_variant,
+            recovery: self.recovery,
+            fe_only,
+        };
+        let [f1, f2] = fields;
+        let fields = [f1.on(&it.u[0]), f2.on(&it.u[1])];
+        let mut sums = [0.0; 3];
+        let mut res = Residuals::default();
+        let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
+        let mut e_ref2 = 0.0;
+        let (owners, crosses) = self.owners.get().expect("made by resolve");
+        self.stop_point()?;
+        // The element work: each recovery prepared for both bodies before any is made (the
+        // warm-start exchanges are the only collectives in it, so no rank waits for another
+        // between them).
+        let shares = [0, 1].map(|k| {
+            self.shares[k].get_or_init(|| {
+                self.parts.run(Part::Recovery, || {
+                    let p = &self.problems[k];
+                    Share::new(
+                        k + 1,
+                        &p.mesh,
+                        &owners[k],
+                        crosses[k],
+                        self.recovery,
+                        layout,
+                    )
+                })
+            })
+        });
+        let views = shares.map(|s| s.view(layout));
+        let mut works: Vec<(usize, ElementWork)> = (0..2)
+            .filter_map(|k| {
+                let view = views[k].as_ref()?;
+                Some((k, ElementWork::new(&self.problems[k], &fields[k], view)))
+            })
+            .collect();
+        // Before each recovery, every body's is prepared (η^FE's data when `fe`).
+        let prepare = |works: &[(usize, ElementWork)], fe: bool| {
+            for (k, w) in works {
+                let view = views[*k].as_ref().expect("a view");
+                let u = if fe { w.fe_data() } else { w.glo_data() };
+                let ops = &mut self.operators[*k].borrow_mut();
+                // (a negative change bound: no earlier recovery is near enough to start from;
+                // a cold estimate's η^FE recovery may start from its own η^glo recovery)
+                let warm_change = if self.cold.get() && !fe {
+                    -1.0
+                } else {
+                    self.warm_change
+                };
+                view.prepare(&self.problems[*k], u, self.recovery, warm_change, ops);
+            }
+        };
+        if !fe_only {
+            prepare(&works, false);
+            for (k, w) in works.iter_mut() {
+                w.glo(&data, &mut self.operators[*k].borrow_mut(), &self.parts)?;
+            }
+        }
+        // The η^glo recovery's temporaries back to the system before the η^FE one allocates
+        // its own (the first estimate's high-water mark on large meshes: paper n = 1024 out of
+        // core, 3018 / 3055 → 2921 / 2971 MiB).
+        crate::os::memory::release_free_memory(TRIM_BYTES);
+        self.stop_point()?;
+        prepare(&works, true);
+        for (k, w) in works.iter_mut() {
+            w.fe(
+                &self.iface,
+                &data,
+                &mut self.operators[*k].borrow_mut(),
+                &self.parts,
+            )?;
+        }
+        let mut done: [Option<BodyEstimate>; 2] = [None, None];
+        for (k, w) in works {
+            done[k] = Some(w.finish(&self.iface, &data, &self.parts));
+        }
+        // The bubble amplitudes of û = u_p + δ and the bound of the answer's error,
+        // (1 + θ)Q + (1 + 1/θ)Δ ≥ (‖u − û‖ + ‖δ‖)² (docs/method.md §5): each element's η^glo
+        // term times (1 + θ), plus (1 + 1/θ) a c² on the elements of δ.
+        let delta2 = self.parts.run(Part::Reduction, || {
+            let q0 = layout.sum(
+                done.iter()
+                    .flatten()
+                    .map(|e| e.glo.iter().sum::<f64>())
+                    .sum(),
+            );
+            let terms: Vec<polygon::BubbleTerms> = done
+                .iter()
+                .flatten()
+                .flat_map(|e| e.bubbles.iter().copied())
+                .collect();
+            let sum = |mut x: [f64; 2]| {
+                layout.world_sum(&mut x);
+                x
+            };
+            let (c, [theta, _, delta2]) = polygon::choose_amplitudes(&terms, q0, &sum);
+            if theta > 0.0 {
+                // (`terms` lists the bodies' bubbles in this order)
+                let mut chosen = c.iter();
+                for est in done.iter_mut().flatten() {
+                    for g in est.glo.iter_mut() {
+                        *g *= 1.0 + theta;
+                    }
+                    for t in &est.bubbles {
+                        let c = *chosen.next().expect("an amplitude per bubble");
+                        est.glo[t.element] += (1.0 + theta)
+                            * (t.a * c * c - 2.0 * t.b * c + t.l * c)
+                            + (1.0 + 1.0 / theta) * t.a * c * c;
+                    }
+                }
+            }
+            delta2
+        });
+        for k in 0..2 {
+            let ne = self.problems[k].mesh.triangles.len();
+            // (this rank is one of the body's group)
+            let body = layout.owns(k + 1).then_some(());
+            let mut map: [Vec<f64>; 3] = Default::default();
+            if let Some(est) = done[k].take() {
+                let t = est.totals();
+                for c in 0..3 {
+                    sums[c] += t[c];
+                }
+                res = worst(res, est.residuals);
+                map = [est.glo, est.fe, est.nndd];
+                for v in map.iter_mut().flatten() {
+                    *v = v.max(0.0).sqrt();
+                }
+            }
+            // The element maps onto the body's ranks, each element from its estimating rank.
+            self.parts.run(Part::Reduction, || {
+                if crosses[k] {
+                    for m in map.iter_mut() {
+                        m.resize(ne, 0.0);
+                        layout.world_sum(m);
+                    }
+                } else if body.is_some() {
+                    for m in map.iter_mut() {
+                        layout.group_sum(m);
+                    }
+                }
+            });
+            if body.is_some() {
+                maps[k] = map;
+            }
+            if let (Some(()), Some(r)) = (body, self.reference.as_ref().filter(|_| !fe_only)) {
+                // (each rank of the group sums its share of the fine elements)
+                let (part, parts) = (layout.group_rank(), layout.group_size());
+                let p = &self.problems[k];
+                e_ref2 += self.parts.run(Part::ReferenceError, || {
+                    r.error_squared_part(k, &p.mesh, &plain[k], part, parts)
+                })?;
+            }
+        }
+        drop(fields);
+        let (sums, e_ref, res) = self.parts.run(Part::Reduction, || {
+            let e_ref = self
+                .reference
+                .as_ref()
+                .map(|_| layout.sum(e_ref2).max(0.0).sqrt());
+            let res = Residuals {
+                divergence: layout.max(res.divergence),
+                internal_jump: layout.max(res.internal_jump),
+                element_jump: layout.max(res.element_jump),
+                boundary: layout.max(res.boundary),
+                point_reaction: layout.max(res.point_reaction),
+            };
+            (sums.map(|s| layout.sum(s)), e_ref, res)
+        });
+        let [glo, fe, nndd] = sums;
+        let iterate = it.clone();
+        let eta_glo = glo.max(0.0).sqrt();
+        Ok(EstimateRecord {
+            iteration: it.iteration,
+            eta_glo,
+            eta_fe: fe.max(0.0).sqrt(),
+            eta_nndd: nndd.max(0.0).sqrt(),
+            correction: delta2.max(0.0).sqrt(),
+            eta_ratio: if glo > 0.0 {
+                (fe + nndd) / glo
+            } else {
+                f64::NAN
+            },
+            e_ref,
+            effectivity: e_ref.map(|e| eta_glo / e),
+            residuals: res,
+            maps,
+            iterate,
+            t_hat: t_glo,
+        })
+    }
+}
