@@ -53,11 +53,11 @@ pub(super) fn assemble(
     let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); owned.len()];
     let mut coupled: HashMap<usize, Vec<u32>> = HashMap::new();
     for t in &mesh.triangles {
-        let touch = touches(t);
-        for &a in t {
+        let touch = touches(&t);
+        for a in t {
             let pa = part.petsc_node[a] as usize;
             if owned.contains(&pa) {
-                for &b in t {
+                for b in t {
                     let pb = part.petsc_node[b];
                     let list = &mut neighbours[pa - owned.start];
                     if !list.contains(&pb) {
@@ -89,10 +89,10 @@ pub(super) fn assemble(
             continue;
         }
         let mut ke = element_stiffness(&mesh.triangle_points(e), &problem.material);
-        frames.rotate_element(t, &mut ke);
-        let dofs = element_dofs(t);
+        frames.rotate_element(&t, &mut ke);
+        let dofs = element_dofs(&t);
         let rows = dofs.map(|d| part.row(d));
-        let touch = touches(t);
+        let touch = touches(&t);
         for r in 0..6 {
             diag_sum += ke[r][r];
             for c in 0..6 {

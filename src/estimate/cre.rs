@@ -402,7 +402,7 @@ impl<'a> ElementWork<'a> {
             for e in self.kept.iter().filter(|&&e| e != u32::MAX) {
                 let e = *e as usize;
                 let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
-                let dofs = element_dofs(&mesh.triangles[e]);
+                let dofs = element_dofs(&mesh.triangles.get(e));
                 let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - u_p[dofs[r]]);
                 self.est.nndd[e] = energy(&ke, &d);
             }
@@ -612,7 +612,7 @@ fn relative_change(mesh: &Mesh, material: &crate::fem::Material, u: &[f64], v: &
     let (mut du, mut uu) = (0.0, 0.0);
     for e in 0..mesh.triangles.len() {
         let ke = element_stiffness(&mesh.triangle_points(e), material);
-        let dofs = element_dofs(&mesh.triangles[e]);
+        let dofs = element_dofs(&mesh.triangles.get(e));
         let a: [f64; 6] = std::array::from_fn(|r| u[dofs[r]]);
         let d: [f64; 6] = std::array::from_fn(|r| u[dofs[r]] - v[dofs[r]]);
         uu += energy(&ke, &a);
@@ -699,7 +699,7 @@ fn bubbles(p: &BodyProblem, data: &IterationData) -> HashMap<usize, ElementBubbl
     }
     let mut out = HashMap::new();
     for (e, ks) in segments {
-        let t = p.mesh.triangles[e];
+        let t = p.mesh.triangles.get(e);
         let local = |n: usize| t.iter().position(|&v| v == n).expect("the edge's node");
         let points = p.mesh.triangle_points(e);
         let least = |k: usize| data.gaps[k].least_amplitude();

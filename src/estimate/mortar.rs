@@ -230,7 +230,7 @@ impl MortarEstimates {
             let mut map: Vec<f64> = (0..p.mesh.triangles.len())
                 .map(|e| {
                     let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
-                    let dofs = element_dofs(&p.mesh.triangles[e]);
+                    let dofs = element_dofs(&p.mesh.triangles.get(e));
                     let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - it.u[k][dofs[r]]);
                     energy(&ke, &d)
                 })
@@ -280,7 +280,7 @@ fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
             .collect();
         let mut a = vec![0.0; m];
         for e in 0..p.mesh.triangles.len() {
-            let t = p.mesh.triangles[e];
+            let t = p.mesh.triangles.get(e);
             if !t.iter().any(|n| at.contains_key(n)) {
                 continue;
             }
@@ -334,14 +334,16 @@ fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<f64> {
     }
     (0..p.mesh.triangles.len())
         .map(|e| {
-            if p.mesh.triangles[e]
+            if p.mesh
+                .triangles
+                .get(e)
                 .iter()
                 .all(|&a| delta[2 * a] == 0.0 && delta[2 * a + 1] == 0.0)
             {
                 return 0.0;
             }
             let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
-            let dofs = element_dofs(&p.mesh.triangles[e]);
+            let dofs = element_dofs(&p.mesh.triangles.get(e));
             let d: [f64; 6] = std::array::from_fn(|r| delta[dofs[r]]);
             energy(&ke, &d)
         })

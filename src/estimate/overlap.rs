@@ -179,7 +179,7 @@ impl Overlap {
         let elements: Vec<usize> = (0..nt).filter(|&e| inside[e]).collect();
         let mut local = vec![NONE; nn];
         for &e in &elements {
-            mesh.triangles[e].iter().for_each(|&v| local[v] = 0);
+            mesh.triangles.get(e).iter().for_each(|&v| local[v] = 0);
         }
         let nodes: Vec<usize> = (0..nn).filter(|&v| local[v] != NONE).collect();
         for (k, &v) in nodes.iter().enumerate() {
@@ -193,7 +193,7 @@ impl Overlap {
             points: nodes.iter().map(|&v| mesh.points[v]).collect(),
             triangles: elements
                 .iter()
-                .map(|&e| mesh.triangles[e].map(|v| local[v]))
+                .map(|&e| mesh.triangles.get(e).map(|v| local[v]))
                 .collect(),
         };
         Overlap {
@@ -663,14 +663,14 @@ mod tests {
             t.iter().for_each(|&v| touched[v] = true);
         }
         let expected: Vec<usize> = (0..nt)
-            .filter(|&e| mesh.triangles[e].iter().any(|&v| touched[v]))
+            .filter(|&e| mesh.triangles.get(e).iter().any(|&v| touched[v]))
             .collect();
         assert_eq!(ov.elements, expected);
         for (le, &ge) in ov.elements.iter().enumerate() {
             assert_eq!(ov.owned[le], own[ge]);
             assert_eq!(
-                ov.mesh.triangles[le].map(|v| ov.nodes[v]),
-                mesh.triangles[ge]
+                ov.mesh.triangles.get(le).map(|v| ov.nodes[v]),
+                mesh.triangles.get(ge)
             );
         }
         for (k, &g) in ov.nodes.iter().enumerate() {

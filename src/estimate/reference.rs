@@ -43,7 +43,7 @@ impl Reference {
             .step_by(parts.max(1))
             .map(|e| {
                 let ke = element_stiffness(&mesh.triangle_points(e), &fine.material);
-                let d = element_dofs(&mesh.triangles[e]).map(|i| u_ref[i] - iu[i]);
+                let d = element_dofs(&mesh.triangles.get(e)).map(|i| u_ref[i] - iu[i]);
                 element_energy(&ke, &d)
             })
             .sum())
@@ -119,10 +119,10 @@ fn interpolate_split(coarse: &Mesh, fine: &Mesh, u: &[f64]) -> Result<Vec<f64>, 
     for (f, t) in fine.triangles.iter().enumerate() {
         let c = f / r2;
         let q = coarse.triangle_points(c);
-        let nodes = coarse.triangles[c];
+        let nodes = coarse.triangles.get(c);
         let det =
             (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (q[1][1] - q[0][1]);
-        for &n in t {
+        for n in t {
             let p = fine.points[n];
             let l1 = ((p[0] - q[0][0]) * (q[2][1] - q[0][1])
                 - (q[2][0] - q[0][0]) * (p[1] - q[0][1]))

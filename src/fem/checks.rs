@@ -84,7 +84,7 @@ pub fn segments_cross(p: [[f64; 2]; 2], q: [[f64; 2]; 2], tol: f64) -> bool {
 /// they lie on the same side of it (consistent neighbours go through it in opposite
 /// directions); also a side of three or more triangles, or a triangle given twice.
 pub fn fold(mesh: &Mesh) -> Option<(usize, usize)> {
-    let from = |s: u32| mesh.triangles[s as usize / 3][s as usize % 3];
+    let from = |s: u32| mesh.triangles.get(s as usize / 3)[s as usize % 3];
     let mut found = None;
     for_each_side(mesh, |run| {
         let bad = match run.len() {
@@ -339,7 +339,7 @@ pub fn overlap(meshes: [&Mesh; 2]) -> Option<Overlap> {
         let part = Mesh {
             triangles: near[k]
                 .iter()
-                .map(|&(e, _)| m.triangles[e as usize])
+                .map(|&(e, _)| m.triangles.get(e as usize))
                 .collect(),
             points: Vec::new(),
             ..*m

@@ -96,7 +96,7 @@ pub fn energy_squared(mesh: &Mesh, mat: &Material, u: &[f64]) -> f64 {
         .enumerate()
         .map(|(e, t)| {
             let ke = element_stiffness(&mesh.triangle_points(e), mat);
-            let dofs = element_dofs(t);
+            let dofs = element_dofs(&t);
             element_energy(&ke, &dofs.map(|i| u[i]))
         })
         .sum()
@@ -117,7 +117,7 @@ pub fn element_dofs(t: &[usize; 3]) -> [usize; 6] {
 /// Constant stress K ε(u) (Voigt xx, yy, xy) in triangle `e` for the nodal field `u`.
 pub fn element_stress(mesh: &Mesh, e: usize, mat: &Material, u: &[f64]) -> [f64; 3] {
     let (b, _) = strain_displacement(&mesh.triangle_points(e));
-    let dofs = element_dofs(&mesh.triangles[e]);
+    let dofs = element_dofs(&mesh.triangles.get(e));
     let mut eps = [0.0; 3];
     for r in 0..3 {
         eps[r] = (0..6).map(|c| b[r][c] * u[dofs[c]]).sum();
@@ -201,7 +201,7 @@ pub fn assemble_stiffness(mesh: &Mesh, mat: &Material) -> Csr {
     let mut vals = vec![0.0; cols.len()];
     for e in 0..mesh.triangles.len() {
         let ke = element_stiffness(&mesh.triangle_points(e), mat);
-        let dofs = element_dofs(&mesh.triangles[e]);
+        let dofs = element_dofs(&mesh.triangles.get(e));
         for r in 0..6 {
             let row = dofs[r];
             let (s, t) = (row_ptr[row] as usize, row_ptr[row + 1] as usize);

@@ -141,7 +141,7 @@ pub(super) fn check_pieces(
     let mut nodes: Vec<Vec<usize>> = vec![Vec::new(); count];
     let mut seen = vec![usize::MAX; mesh.points.len()];
     for (e, t) in mesh.triangles.iter().enumerate() {
-        for &a in t {
+        for a in t {
             if seen[a] != piece[e] {
                 seen[a] = piece[e];
                 nodes[piece[e]].push(a);

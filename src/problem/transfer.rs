@@ -217,7 +217,7 @@ fn foot(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> (f64, f64) {
 fn parents(coarse: &Mesh, fine: &Mesh, sources: &[Source]) -> Result<Vec<usize>, String> {
     let mut around: Vec<Vec<usize>> = vec![Vec::new(); coarse.points.len()];
     for (e, t) in coarse.triangles.iter().enumerate() {
-        for &a in t {
+        for a in t {
             around[a].push(e);
         }
     }
@@ -229,7 +229,7 @@ fn parents(coarse: &Mesh, fine: &Mesh, sources: &[Source]) -> Result<Vec<usize>,
             (p[0][1] + p[1][1] + p[2][1]) / 3.0,
         ];
         let mut best: Option<(usize, f64)> = None;
-        for &v in t {
+        for v in t {
             let near: &[usize] = match sources[v] {
                 Source::Node(i) => &around[i],
                 Source::Segment { a, .. } => &around[a],

@@ -138,7 +138,7 @@ pub(super) fn element_tractions(
     mesh: &Mesh,
     e: usize,
 ) -> [f64; NT] {
-    let t = mesh.triangles[e];
+    let t = mesh.triangles.get(e);
     let mut out = [0.0; NT];
     for l in 0..3 {
         let g = topo.edges_of(e)[l];

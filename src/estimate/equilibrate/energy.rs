@@ -102,7 +102,7 @@ impl EnergyContext<'_> {
         let mut dts: Vec<[f64; NT]> = Vec::new();
         let mut pv: Vec<[[f64; 3]; 9]> = Vec::new();
         for e in 0..mesh.triangles.len() {
-            let tri = mesh.triangles[e];
+            let tri = mesh.triangles.get(e);
             let pts = mesh.triangle_points(e);
             let (_, _, q) = local_frame(&pts);
             let w = triangle_area(&pts) / 9.0;

@@ -137,7 +137,7 @@ impl Plan {
             plan.eptr.push(plan.pel.len() as u32);
         }
         for e in 0..nt {
-            let t = mesh.triangles[e];
+            let t = mesh.triangles.get(e);
             let mut o = 0u8;
             for (l, g) in topo.edges_of(e).into_iter().enumerate() {
                 o |= (topo.end_of(g, t[l]) as u8) << l;

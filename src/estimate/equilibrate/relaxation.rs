@@ -241,7 +241,7 @@ impl Relaxation<'_> {
         let mut hp: f64 = 0.0;
         if !unknowns.is_empty() {
             for (e, a) in elems.iter() {
-                let tri = mesh.triangles[e];
+                let tri = mesh.triangles.get(e);
                 let mut list = Vec::with_capacity(8);
                 for l in [a, (a + 2) % 3] {
                     let g = topo.edges_of(e)[l];
@@ -289,7 +289,7 @@ impl Relaxation<'_> {
             for &(ti, u, s) in &lay.smap[row] {
                 key.extend([ti as i64, u as i64, s as i64]);
             }
-            for v in mesh.triangles[e] {
+            for v in mesh.triangles.get(e) {
                 let p = mesh.points[v];
                 for c in 0..2 {
                     key.push(((p[c] - pi[c]) / hp / SHAPE_QUANTUM).round() as i64);
@@ -631,7 +631,7 @@ mod tests {
             let sig = fem::element_stress(mesh, e, &STEEL, u);
             // known part (Known comps only: zero the unknown ones)
             let mut t0 = element_tractions(&topo, &trac_known, mesh, e);
-            let tri = mesh.triangles[e];
+            let tri = mesh.triangles.get(e);
             let mut map = [NONE; NT];
             let mut sgn = [0.0; NT];
             for l in 0..3 {

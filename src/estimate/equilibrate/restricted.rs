@@ -280,7 +280,7 @@ impl<'a> Recovering<'a> {
         let mut force_scale: f64 = 0.0;
         for e in 0..nt {
             let (b, area) = fem::strain_displacement(&mesh.triangle_points(e));
-            let dofs = fem::element_dofs(&mesh.triangles[e]);
+            let dofs = fem::element_dofs(&mesh.triangles.get(e));
             let mut eps = [0.0; 3];
             for r in 0..3 {
                 eps[r] = (0..6).map(|c| b[r][c] * u[dofs[c]]).sum();

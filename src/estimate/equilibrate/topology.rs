@@ -51,7 +51,7 @@ fn index_order_colours(mesh: &Mesh) -> Vec<u8> {
     for i in 0..nn {
         let mut used = [0u64; 4];
         for &(e, _) in &around[ptr[i]..ptr[i + 1]] {
-            for &v in &mesh.triangles[e] {
+            for &v in &mesh.triangles.get(e) {
                 if v < i {
                     let c = colour[v] as usize;
                     used[c / 64] |= 1 << (c % 64);
@@ -73,7 +73,7 @@ fn vertex_neighbours(mesh: &Mesh) -> Vec<Vec<u32>> {
         .map(|i| {
             let mut n: Vec<u32> = around[ptr[i]..ptr[i + 1]]
                 .iter()
-                .flat_map(|&(e, _)| mesh.triangles[e])
+                .flat_map(|&(e, _)| mesh.triangles.get(e))
                 .filter(|&v| v != i)
                 .map(|v| v as u32)
                 .collect();
@@ -147,7 +147,7 @@ fn vertex_stars(mesh: &Mesh) -> (Vec<usize>, Vec<(usize, usize)>) {
     let nn = mesh.num_nodes();
     let mut ptr = vec![0usize; nn + 1];
     for t in &mesh.triangles {
-        for &v in t {
+        for v in t {
             ptr[v + 1] += 1;
         }
     }
@@ -175,7 +175,7 @@ pub(super) fn owned_vertices(mesh: &Mesh, owned: Option<&[bool]>) -> Option<Vec<
     owned.map(|o| {
         let mut v = vec![false; mesh.num_nodes()];
         for (t, _) in mesh.triangles.iter().zip(o).filter(|(_, &own)| own) {
-            for &a in t {
+            for a in t {
                 v[a] = true;
             }
         }
@@ -400,9 +400,7 @@ mod tests {
         }
         mesh.points = points;
         (mesh.nx, mesh.ny) = (0, 0);
-        for t in mesh.triangles.iter_mut() {
-            *t = t.map(|v| perm[v]);
-        }
+        mesh.triangles = mesh.triangles.iter().map(|t| t.map(|v| perm[v])).collect();
         let neighbours = vertex_neighbours(&mesh);
         let count = |c: &[u8]| c.iter().max().map_or(0, |&m| m as usize + 1);
         let natural = count(&index_order_colours(&mesh));
