@@ -56,6 +56,9 @@ split into discretisation (eta_FE) and algebraic (eta_NNDD) parts.\n\
 Usage: mpirun -n 2 nndd -options_file petsc-options/paper.opts [-nndd_monitor] [-log_view]\n\
 Subdomain solvers take the prefixes body1_ and body2_ (default: MUMPS Cholesky).\n\n";
 
+/// A phase with at least this many dofs may take seconds or more: a line says so before it.
+pub const LONG_PHASE_DOFS: usize = 100_000;
+
 #[derive(Debug, thiserror::Error)]
 pub enum AppError {
     #[error(transparent)]

@@ -6,8 +6,7 @@
 use std::time::Instant;
 
 use super::options::Settings;
-use super::solve::{Solution, LONG_PHASE_DOFS};
-use super::AppError;
+use super::{AppError, LONG_PHASE_DOFS};
 use crate::dd::nndd::{self, IterationRecord, NnddResult, Status};
 use crate::estimate::estimator::InParts;
 use crate::estimate::{EstimateRecord, Estimator};
@@ -59,15 +58,18 @@ pub(super) fn resolve_reported(
 
 /// The rest of the reported iterate's estimate ([`resolve_reported`]), once the bodies'
 /// factorisations are freed: its recoveries, its record among the estimates and in the
-/// history, its monitor line. Its time (s; collective).
+/// history (a run's `Solution::estimates`, `history`), its monitor line. Its time (s;
+/// collective).
 pub fn finish_reported(
     settings: &Settings,
     layout: &Layout,
     stages: &Stages,
     estimator: Option<&Estimator>,
-    sol: &mut Solution,
+    pending: Option<Pending>,
+    estimates: &mut Vec<EstimateRecord>,
+    history: &mut [IterationRecord],
 ) -> Result<f64, AppError> {
-    let (Some(pending), Some(est)) = (sol.pending.take(), estimator) else {
+    let (Some(pending), Some(est)) = (pending, estimator) else {
         return Ok(0.0);
     };
     let t = Instant::now();
@@ -84,10 +86,10 @@ pub fn finish_reported(
         println!("{}{again}", monitor::estimate_text(&rec));
     }
     if pending.in_loop {
-        sol.estimates.pop();
+        estimates.pop();
     }
-    sol.estimates.push(rec);
-    attach_estimates(&mut sol.history, &sol.estimates);
+    estimates.push(rec);
+    attach_estimates(history, estimates);
     Ok(t.elapsed().as_secs_f64())
 }
 

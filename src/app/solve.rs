@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::agreed;
 use super::options::{Settings, SettingsError, SolverKind};
 use super::reported::{attach_estimates, resolve_reported, Pending};
-use super::AppError;
+use super::{AppError, LONG_PHASE_DOFS};
 use crate::dd::body::{uses_superlu_dist, Body, BodyError, SchurMode, SchurSource};
 use crate::dd::check::check_solution;
 use crate::dd::contact::ContactStep;
@@ -179,9 +179,6 @@ pub(super) fn unknown_type(e: BodyError, alpha: usize) -> AppError {
         None => e.into(),
     }
 }
-
-/// A phase with at least this many dofs may take seconds or more: a line says so before it.
-pub const LONG_PHASE_DOFS: usize = 100_000;
 
 /// Word before a body's setup that may take long (assembly, and a factorisation or an
 /// iterative solver's setup with the interface operators from m solves), from its group's

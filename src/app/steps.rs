@@ -226,7 +226,9 @@ impl<'a> Run<'a> {
             layout,
             self.stages,
             e,
-            sol,
+            sol.pending.take(),
+            &mut sol.estimates,
+            &mut sol.history,
         ))?;
         post.logged_flops = layout.sum(Petsc::logged_flops());
         post.reference_iterations = e.and_then(|e| e.reference_iterations());

@@ -378,7 +378,7 @@ impl<'a> Estimator<'a> {
         fe_only: bool,
     ) -> Result<EstimateRecord, EstimateError> {
         match &self.mortar {
-            None => self.run_on(bodies, it, fe_only, ReactionOf::Own, None),
+            None => self.recover(self.resolve(bodies, it, fe_only, ReactionOf::Own, None)?),
             Some(m) => self.run_mortar(m, bodies, it, fe_only),
         }
     }
@@ -397,13 +397,14 @@ impl<'a> Estimator<'a> {
         let carried = self.parts.run(Part::Reduction, || {
             m.carry(self.layout, &self.problems, &self.iface, it)
         })?;
-        let mut rec = self.run_on(
+        let resolved = self.resolve(
             m.bodies(),
             &carried.iterate,
             fe_only,
             ReactionOf::Resolved,
             Some(carried.u_plain.clone()),
         )?;
+        let mut rec = self.recover(resolved)?;
         let q = rec.eta_glo * rec.eta_glo;
         let lift2 = carried.lift_elements.iter().flatten().sum::<f64>();
         let theta = if lift2 > 0.0 && q > 0.0 {
@@ -456,19 +457,5 @@ impl<'a> Estimator<'a> {
         rec.iterate = it.clone();
         rec.t_hat = m.at_pairs(&rec.t_hat);
         Ok(rec)
-    }
-
-    /// The estimates of `it` on `bodies` (this estimator's problems): its re-solves, then
-    /// the rest ([`Estimator::resolve`], [`Estimator::recover`]).
-    fn run_on(
-        &self,
-        bodies: [Option<&Body>; 2],
-        it: &Iterate,
-        fe_only: bool,
-        reaction1: ReactionOf,
-        plain: Option<[Vec<f64>; 2]>,
-    ) -> Result<EstimateRecord, EstimateError> {
-        let resolved = self.resolve(bodies, it, fe_only, reaction1, plain)?;
-        self.recover(resolved)
     }
 }

@@ -45,6 +45,27 @@ pub struct Resolved {
     fields: [BodyFields<'static>; 2],
 }
 
+impl Resolved {
+    /// What the recoveries of this iterate read (its Γc data), with `est`'s settings.
+    fn data<'a>(&'a self, est: &Estimator) -> IterationData<'a> {
+        IterationData {
+            lambda: &self.it.lambda,
+            t_glo: &self.t_glo,
+            glo_factors: &self.glo_factors,
+            glo_edges: &self.glo_edges,
+            glo_forces: &self.glo_forces,
+            gaps: &self.gaps,
+            t_fe: &self.t_fe,
+            reaction1: self.reaction1.of(&self.it.forces[0]),
+            mu_hat: &self.mu_hat,
+            friction: self.friction.as_ref(),
+            nndd_variant: est.nndd_variant,
+            recovery: est.recovery,
+            fe_only: self.fe_only,
+        }
+    }
+}
+
 /// A cold estimate between its parts ([`Estimator::resolve_cold`]).
 pub enum InParts {
     /// Re-solved; the rest to come.
@@ -148,21 +169,22 @@ impl Estimator<'_> {
         } else {
             polygon::segment_gaps(normals, &self.problems[0].gap, &jumps)
         };
-        let data = IterationData {
-            lambda: &it.lambda,
-            t_glo: &t_glo,
-            glo_factors: &glo_factors,
-            glo_edges: &glo_edges,
-            glo_forces: &glo_forces,
-            gaps: &gaps,
-            t_fe: &t_fe,
-            reaction1: reaction1.of(&it.forces[0]),
-            mu_hat: &mu_hat,
-            friction: friction.as_ref(),
-            nndd_variant: self.nndd_variant,
-            recovery: self.recovery,
+        let mut resolved = Resolved {
+            it: it.clone(),
             fe_only,
+            reaction1,
+            plain,
+            t_glo,
+            t_fe,
+            mu_hat,
+            friction,
+            glo_factors,
+            glo_edges,
+            glo_forces,
+            gaps,
+            fields: Default::default(),
         };
+        let data = resolved.data(self);
         let (_, crosses) = self.owners.get_or_init(|| {
             let owners = estimate_owners(
                 [&self.problems[0].mesh, &self.problems[1].mesh],
@@ -191,62 +213,19 @@ impl Estimator<'_> {
                 });
             }
         }
-        let fields = fields.map(BodyFields::detached);
-        Ok(Resolved {
-            it: it.clone(),
-            fe_only,
-            reaction1,
-            plain,
-            t_glo,
-            t_fe,
-            mu_hat,
-            friction,
-            glo_factors,
-            glo_edges,
-            glo_forces,
-            gaps,
-            fields,
-        })
+        resolved.fields = fields.map(BodyFields::detached);
+        Ok(resolved)
     }
 
     /// An estimate's second part, after [`Estimator::resolve`]: the recoveries, the element
     /// sums and e_ref (collective). It needs no body: a run may free the factorisations of
     /// its bodies between the two (docs/scaling.md, "Memory").
-    pub(crate) fn recover(&self, resolved: Resolved) -> Result<EstimateRecord, EstimateError> {
+    pub(crate) fn recover(&self, mut resolved: Resolved) -> Result<EstimateRecord, EstimateError> {
         let layout = self.layout;
-        let Resolved {
-            it,
-            fe_only,
-            reaction1,
-            plain,
-            t_glo,
-            t_fe,
-            mu_hat,
-            friction,
-            glo_factors,
-            glo_edges,
-            glo_forces,
-            gaps,
-            fields,
-        } = resolved;
-        let it = &it;
-        let plain = plain.as_ref().unwrap_or(&it.u);
-        let data = IterationData {
-            lambda: &it.lambda,
-            t_glo: &t_glo,
-            glo_factors: &glo_factors,
-            glo_edges: &glo_edges,
-            glo_forces: &glo_forces,
-            gaps: &gaps,
-            t_fe: &t_fe,
-            reaction1: reaction1.of(&it.forces[0]),
-            mu_hat: &mu_hat,
-            friction: friction.as_ref(),
-            nndd_variant: self.nndd_variant,
-            recovery: self.recovery,
-            fe_only,
-        };
-        let [f1, f2] = fields;
+        let [f1, f2] = std::mem::take(&mut resolved.fields);
+        let data = resolved.data(self);
+        let (it, fe_only) = (&resolved.it, resolved.fe_only);
+        let plain = resolved.plain.as_ref().unwrap_or(&it.u);
         let fields = [f1.on(&it.u[0]), f2.on(&it.u[1])];
         let mut sums = [0.0; 3];
         let mut res = Residuals::default();
@@ -431,7 +410,7 @@ impl Estimator<'_> {
             residuals: res,
             maps,
             iterate,
-            t_hat: t_glo,
+            t_hat: resolved.t_glo.clone(),
         })
     }
 }
