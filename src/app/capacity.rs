@@ -144,8 +144,8 @@ mod tests {
         // paper n = 512 with one estimate (1 052 676 dofs) peaked at 1854 MiB summed over
         // 2 ranks, 2350 over 4 and 3006 over 8; n = 1024 (4 202 500) at 7898 over 2 and
         // 11 412 over 8 (jobs/bench-memory-ranks); n = 1448 (8 398 404) at 16 080 and
-        // n = 1600 (10 252 804) at 20 737 over 2 (docs/scaling.md, "Memory per rank"): the model is above each, by less than a
-        // tenth.
+        // n = 1600 (10 252 804) at 20 737 over 2 (docs/scaling.md, "Memory per rank"): the
+        // model is above each, by less than a tenth.
         for (ranks, dofs, peak) in [
             (2, 1_052_676, 1854.0),
             (4, 1_052_676, 2350.0),

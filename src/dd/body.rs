@@ -752,7 +752,7 @@ impl Body {
 
     /// The whole vector `v` (mesh order) on every rank of the group. The scatter is made for
     /// the call and freed after it: held, its index set, target vector and buffers would weigh
-    /// about 40 bytes per dof of the body on every rank (docs/scaling.md, "Memory").
+    /// about 40 bytes per dof of the body on every rank (docs/scaling.md, "Memory per rank").
     fn gather_whole(&self, v: &Vector) -> Result<Vec<f64>, BodyError> {
         if self.partition.size == 1 {
             // One rank: PETSc's order is the mesh's.

@@ -2,7 +2,7 @@
 //! K_N = P K P + d (I − P) (P removes the Γ_D rows and columns, d the mean diagonal), which its
 //! factorisation's KSP holds, and the coupling B = K − P K P (the entries of K in a Γ_D row or
 //! column, a boundary's worth); K u = K_N (P u) + B u. A body held only by contact keeps K.
-//! One copy of K on each rank's rows instead of K and K_N (docs/scaling.md, "Memory").
+//! One copy of K on each rank's rows instead of K and K_N (docs/scaling.md, "Memory per rank").
 
 use std::collections::HashMap;
 

@@ -16,8 +16,8 @@ use super::{ffi, Int};
 /// The largest block of right-hand sides of [`Ksp::mumps_inverse_block`] (MUMPS's ICNTL(27)).
 /// MUMPS's solve workspace on the first rank grows with it: `paper` n = 512 on 8 ranks, the
 /// group's first rank held 97 MiB of it with all 513 columns in one block, 49 with 256, and
-/// that was its peak (docs/scaling.md, "Memory"); 256 columns still traverse the pruned tree
-/// in two passes at most on m ≤ 512.
+/// that was its peak (docs/scaling.md, "Memory per rank"); 256 columns still traverse the
+/// pruned tree in two passes at most on m ≤ 512.
 const INVERSE_BLOCK: Int = 256;
 
 /// The solver options whose value PETSc may not know, each with the error code that says so

@@ -2,7 +2,7 @@
 //! which need the bodies' factorisations) and [`Estimator::recover`] (the recoveries, the
 //! element sums and e_ref, which need none), so that a run's last estimate can follow the
 //! release of the factorisations: its peak memory is then the larger of the two phases',
-//! not their sum (docs/scaling.md, "Memory").
+//! not their sum (docs/scaling.md, "Memory per rank").
 
 use std::borrow::Cow;
 
@@ -219,7 +219,7 @@ impl Estimator<'_> {
 
     /// An estimate's second part, after [`Estimator::resolve`]: the recoveries, the element
     /// sums and e_ref (collective). It needs no body: a run may free the factorisations of
-    /// its bodies between the two (docs/scaling.md, "Memory").
+    /// its bodies between the two (docs/scaling.md, "Memory per rank").
     pub(crate) fn recover(&self, mut resolved: Resolved) -> Result<EstimateRecord, EstimateError> {
         let layout = self.layout;
         let [f1, f2] = std::mem::take(&mut resolved.fields);
