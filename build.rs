@@ -32,7 +32,7 @@ const FUNCTIONS: &[&str] = &[
     "VecScatter(Create|Begin|End|Destroy)",
     "MatSeqAIJSetPreallocation",
     "MatMPIAIJSetPreallocation",
-    "MatMumps(SetIcntl|GetIcntl|GetRinfog|GetInverseTranspose)",
+    "MatMumps(SetIcntl|GetIcntl|GetInfog|GetRinfog|GetInverseTranspose)",
     "MatCreateAIJ",
     "Mat(GetRow|RestoreRow)",
     "PetscGetFlops",

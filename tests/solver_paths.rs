@@ -200,3 +200,35 @@ fn superlu_dist_gives_the_same_solution_and_estimates() {
     assert!(((a - b) / b).abs() < 1e-9, "Hertz, eta_glo: {a} vs {b}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A MUMPS factorisation that fails is an error in one line naming INFOG(1), INFOG(2) and the
+/// option to change (before: a later MatMumpsGetInverseTranspose's "INFOG(1)=-3", which says
+/// nothing of the cause): `paper` n = 64 on 6 ranks (3 per body) outgrows a workspace relaxed by
+/// 0 % (ICNTL(14)); MUMPS's default relaxation solves it.
+#[test]
+fn a_failed_mumps_factorisation_names_its_cause() {
+    let args = ["-nndd_problem", "paper", "-nndd_n", "64"];
+    fails_with(
+        6,
+        &[
+            &args[..],
+            &[
+                "-body1_mat_mumps_icntl_14",
+                "0",
+                "-body2_mat_mumps_icntl_14",
+                "0",
+            ],
+        ]
+        .concat(),
+        Some(2),
+        &[
+            "-body1_mat_mumps_icntl_14",
+            "INFOG(1) = -9",
+            "estimate + 0 %",
+        ],
+    );
+    let dir = scratch("paths-mumps-workspace");
+    let j = solve(6, &dir.join("default"), &args);
+    assert_eq!(j["ranks"], 6);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -843,31 +843,31 @@ impl Body {
     /// estimates' re-solves): one multiple-right-hand-side solve, which with a factorisation
     /// reads the factor once for all of them.
     pub fn neumann_solve_many(&self, gc_forces: &[GcForces]) -> Result<Vec<Vec<f64>>, BodyError> {
-        let loads: Vec<Vec<f64>> = gc_forces.iter().map(|f| self.gc_load(f)).collect();
-        if loads.len() < 2 {
-            return loads
+        if gc_forces.len() < 2 {
+            return gc_forces
                 .iter()
-                .map(|load| {
-                    let fixed = self.solve(System::Neumann, load, false, None)?;
+                .map(|f| {
+                    let fixed = self.solve(System::Neumann, &self.gc_load(f), false, None)?;
                     self.solution(&fixed)
                 })
                 .collect();
         }
-        let mut columns = Vec::with_capacity(loads.len());
+        // (each load whole only while its column, this rank's rows, is formed)
+        let mut columns = Vec::with_capacity(gc_forces.len());
         let mut fixed = Vec::new();
-        for load in &loads {
-            let (rhs, fx) = self.right_hand_side(load, false, None)?;
+        for f in gc_forces {
+            let (rhs, fx) = self.right_hand_side(&self.gc_load(f), false, None)?;
             columns.push(rhs);
             fixed = fx;
         }
         let neumann = self.ksp(System::Neumann)?;
-        let (solved, reason, backward) = neumann.solve_many(self.comm, &columns)?;
+        let (solved, reason, backward) = neumann.solve_many(self.comm, columns)?;
         self.solves.set(self.solves.get() + solved.len());
         self.check_solve(System::Neumann, reason, backward)?;
         solved
-            .iter()
+            .into_iter()
             .map(|x| {
-                self.x.borrow_mut().copy_from(x)?;
+                self.x.borrow_mut().copy_from(&x)?;
                 self.solution(&fixed)
             })
             .collect()

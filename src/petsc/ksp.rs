@@ -9,6 +9,7 @@ use super::comm::Comm;
 use super::error::{call, cstr, PetscError, Result, ERR_MISSING_FACTOR, ERR_UNKNOWN_TYPE};
 use super::is::Is;
 use super::mat::Matrix;
+use super::mumps;
 use super::options::{option_default, option_present, option_string};
 use super::vec::{Gather, Vector, PETSC_DETERMINE};
 use super::{ffi, Int};
@@ -108,16 +109,19 @@ impl Ksp {
         call!(KSPSetFromOptions(solver.ksp))?;
         let mut factor: ffi::Mat = ptr::null_mut();
         let mut schur_is = None;
-        if let Some(rows) = schur_rows {
-            if solver.uses_mumps_factor(pc)? {
-                call!(PCFactorSetUpMatSolverType(pc))?;
-                call!(PCFactorGetMatrix(pc, &mut factor))?;
-                let is = Is::new(comm, rows)?;
-                call!(MatFactorSetSchurIS(factor, is.0))?;
-                schur_is = Some((is, rows.len()));
-            }
+        let mumps_factor = solver.uses_mumps_factor(pc)?;
+        if let (Some(rows), true) = (schur_rows, mumps_factor) {
+            call!(PCFactorSetUpMatSolverType(pc))?;
+            call!(PCFactorGetMatrix(pc, &mut factor))?;
+            let is = Is::new(comm, rows)?;
+            call!(MatFactorSetSchurIS(factor, is.0))?;
+            schur_is = Some((is, rows.len()));
         }
         call!(KSPSetUp(solver.ksp))?;
+        if mumps_factor {
+            call!(PCFactorGetMatrix(pc, &mut factor))?;
+            mumps::verdict(factor, prefix)?;
+        }
         if let Some((_is, m)) = schur_is {
             let mut s: ffi::Mat = ptr::null_mut();
             let mut status = ffi::MAT_FACTOR_SCHUR_UNFACTORED;
@@ -501,18 +505,18 @@ impl Ksp {
     /// SuperLU_DIST's, [`Self::solves_blocks`]); an iterative solver one by one, so that each
     /// column's convergence is checked. `columns`
     /// are this rank's rows of B's columns, each `local` long; returns this rank's rows of X's
-    /// columns and the worst converged reason.
+    /// columns and the worst converged reason. Each column is freed once PETSc holds its copy.
     pub fn solve_many(
         &self,
         comm: Comm,
-        columns: &[Vec<f64>],
+        columns: Vec<Vec<f64>>,
     ) -> Result<(Vec<Vec<f64>>, i32, f64)> {
         if !self.solves_blocks()? {
             let (mut reason, mut backward) = (1, 0.0);
             let mut out = Vec::with_capacity(columns.len());
             for col in columns {
                 let mut b = Vector::new(comm, col.len())?;
-                b.copy_from(col)?;
+                b.copy_from(&col)?;
                 let mut x = b.duplicate()?;
                 let info = self.solve(&b, &mut x)?;
                 reason = reason.min(info.reason);
@@ -542,9 +546,9 @@ impl Ksp {
         // SAFETY: a dense matrix PETSc allocated with `local` rows and `nb` columns on this
         // rank, column-major with leading dimension `local`, writable until the restore.
         let values = unsafe { std::slice::from_raw_parts_mut(a, local * nb) };
-        for (c, col) in columns.iter().enumerate() {
+        for (c, col) in columns.into_iter().enumerate() {
             assert_eq!(col.len(), local, "right-hand side length mismatch");
-            values[c * local..(c + 1) * local].copy_from_slice(col);
+            values[c * local..(c + 1) * local].copy_from_slice(&col);
         }
         call!(MatDenseRestoreArray(b.0, &mut a))?;
         call!(MatAssemblyBegin(b.0, ffi::MAT_FINAL_ASSEMBLY))?;
@@ -555,6 +559,7 @@ impl Ksp {
         let mut reason = ffi::KSP_CONVERGED_ITERATING;
         call!(KSPGetConvergedReason(self.ksp, &mut reason))?;
         let backward = self.backward_error_columns(&b, &x, nb)?;
+        drop(b);
         let mut r: *const f64 = ptr::null();
         call!(MatDenseGetArrayRead(x.0, &mut r))?;
         // SAFETY: as above, readable until the restore.

@@ -8,6 +8,7 @@
 //!   ([`OptionsBlock`]);
 //! - `is.rs`, `vec.rs`, `mat.rs`, `ksp.rs`: index sets, vectors ([`Vector`], [`Gather`]),
 //!   matrices ([`Matrix`]), linear solvers ([`Ksp`]);
+//! - `mumps.rs`: the verdict of a MUMPS factorisation (a failure in one line);
 //! - [`log`]: the `-log_view` stages of a run.
 //!
 //! Every `PetscErrorCode` becomes a [`PetscError`] carrying PETSc's own message; PETSc's
@@ -25,6 +26,7 @@ mod is;
 mod ksp;
 pub mod log;
 mod mat;
+mod mumps;
 mod options;
 pub mod readers;
 mod vec;
