@@ -4,8 +4,8 @@
 use std::rc::Rc;
 
 use super::error::EstimateError;
+use crate::fem::energy_squared_on;
 use crate::fem::mesh::Mesh;
-use crate::fem::{element_dofs, element_energy, element_stiffness};
 use crate::problem::BodyProblem;
 
 /// The reference solution of (26): the same problem on the nested mesh r·n, solved by the
@@ -38,15 +38,13 @@ impl Reference {
             .expect("the reference problem on the body's ranks");
         let iu = interpolate_nested(coarse, &fine.mesh, u)?;
         let u_ref = &self.u[k];
-        let mesh = &fine.mesh;
-        Ok((part..mesh.triangles.len())
-            .step_by(parts.max(1))
-            .map(|e| {
-                let ke = element_stiffness(&mesh.triangle_points(e), &fine.material);
-                let d = element_dofs(&mesh.triangles.get(e)).map(|i| u_ref[i] - iu[i]);
-                element_energy(&ke, &d)
-            })
-            .sum())
+        let elements = (part..fine.mesh.triangles.len()).step_by(parts.max(1));
+        Ok(energy_squared_on(
+            &fine.mesh,
+            &fine.material,
+            elements,
+            |i| u_ref[i] - iu[i],
+        ))
     }
 }
 

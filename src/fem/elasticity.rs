@@ -91,13 +91,21 @@ pub fn element_energy(ke: &[[f64; 6]; 6], d: &[f64; 6]) -> f64 {
 
 /// a(u, u) = Σ_E u_Eᵀ K_E u_E of a displacement `u` on `mesh` (the square of its energy norm).
 pub fn energy_squared(mesh: &Mesh, mat: &Material, u: &[f64]) -> f64 {
-    mesh.triangles
-        .iter()
-        .enumerate()
-        .map(|(e, t)| {
+    energy_squared_on(mesh, mat, 0..mesh.triangles.len(), |i| u[i])
+}
+
+/// Σ_E u_Eᵀ K_E u_E over the triangles `elements` of `mesh`, dof i of u being `u(i)` (a part of
+/// [`energy_squared`], of a field not held as a vector: a difference of two).
+pub fn energy_squared_on(
+    mesh: &Mesh,
+    mat: &Material,
+    elements: impl Iterator<Item = usize>,
+    u: impl Fn(usize) -> f64,
+) -> f64 {
+    elements
+        .map(|e| {
             let ke = element_stiffness(&mesh.triangle_points(e), mat);
-            let dofs = element_dofs(&t);
-            element_energy(&ke, &dofs.map(|i| u[i]))
+            element_energy(&ke, &element_dofs(&mesh.triangles.get(e)).map(&u))
         })
         .sum()
 }
