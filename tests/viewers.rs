@@ -40,16 +40,23 @@ fn run_ok(mut cmd: Command, what: &str) -> String {
     text
 }
 
-/// `xvfb-run -a pvpython tests/viewers/SCRIPT ARGS…`, required to pass every check; its
-/// stdout. xvfb-run -a now and then hands pvpython a display it cannot open (SIGABRT before
-/// any check): once more then.
+/// `xvfb-run -a -n N pvpython tests/viewers/SCRIPT ARGS…`, required to pass every check; its
+/// stdout. Each call starts its search for a free X display at its own N: two tests that start
+/// xvfb-run -a at once may both take :99, and the one whose Xvfb lost renders on the other's,
+/// gone when that test ends ("bad X server connection", SIGABRT, after the checks that need
+/// no rendering printed "ok"). A run that ends without a failed check (no "FAIL") is made
+/// once more.
 fn pvpython(script: &str, args: &[&std::ffi::OsStr]) -> String {
+    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
     let script = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/viewers")
         .join(script);
     let attempt = || {
+        let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let start = 100 + (std::process::id() % 100) * 40 + call;
         let mut cmd = Command::new("xvfb-run");
-        cmd.args(["-a", "-s", "-screen 0 800x600x24", "pvpython"])
+        cmd.args(["-a", "-n", &start.to_string()])
+            .args(["-s", "-screen 0 800x600x24", "pvpython"])
             .arg(&script)
             .args(args);
         cmd.output()
@@ -57,7 +64,7 @@ fn pvpython(script: &str, args: &[&std::ffi::OsStr]) -> String {
     };
     let mut out = attempt();
     let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).into_owned();
-    if !out.status.success() && !text(&out).contains("ok   ") {
+    if !out.status.success() && !text(&out).contains("FAIL") {
         out = attempt();
     }
     let stdout = text(&out);
