@@ -10,25 +10,20 @@
 //! several ranks, `paper` n = 1024 on 8 ranks ended in MUMPS 5.5 with a Fortran runtime error
 //! (dfac_process_blocfacto_LDLT.F, line 983) instead of INFOG(1) = −9.
 
-use super::error::{call, PetscError, Result};
+use super::error::{call, PetscError, Result, ERR_LIB};
 use super::{ffi, Int};
 
 /// `Ok` where MUMPS's factorisation `factor` succeeded (INFOG is the same on every rank of its
 /// group, so every rank returns the same), else the error naming what to change.
 pub(super) fn verdict(factor: ffi::Mat, prefix: &str) -> Result<()> {
-    let get = |i: Int, infog: bool| -> Result<Int> {
-        let mut v: Int = 0;
-        match infog {
-            true => call!(MatMumpsGetInfog(factor, i, &mut v))?,
-            false => call!(MatMumpsGetIcntl(factor, i, &mut v))?,
-        }
-        Ok(v)
-    };
-    let status = get(1, true)?;
+    let (mut status, mut detail, mut relaxation): (Int, Int, Int) = (0, 0, 0);
+    call!(MatMumpsGetInfog(factor, 1, &mut status))?;
     if status >= 0 {
         return Ok(());
     }
-    Err(failure(prefix, status, get(2, true)?, get(14, false)?))
+    call!(MatMumpsGetInfog(factor, 2, &mut detail))?;
+    call!(MatMumpsGetIcntl(factor, 14, &mut relaxation))?;
+    Err(failure(prefix, status, detail, relaxation))
 }
 
 /// The error of a failed MUMPS factorisation: INFOG(1) `status`, INFOG(2) `detail`, under the
@@ -44,7 +39,7 @@ fn failure(prefix: &str, status: Int, detail: Int, relaxation: Int) -> PetscErro
         _ => "see INFOG(1) in MUMPS's users' guide".to_string(),
     };
     PetscError {
-        code: 76, // PETSC_ERR_LIB: an error in a library PETSc called
+        code: ERR_LIB,
         call: "MatCholeskyFactorNumeric",
         message: format!(
             "-{prefix}pc_factor_mat_solver_type mumps: the factorisation failed (INFOG(1) = {status}, INFOG(2) = {detail}): {why}"
