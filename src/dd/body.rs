@@ -22,12 +22,13 @@
 use std::cell::RefCell;
 
 use crate::dd::friction::Interface;
+use crate::dd::load::Load;
+pub use crate::dd::schur::{uses_mumps, uses_superlu_dist, SchurChoice, SchurMode, SchurSource};
 use crate::dd::stiffness::{self, Stiffness};
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::OwnComm;
 use crate::parallel::partition::Partition;
-use crate::petsc::readers::SettingsError;
-use crate::petsc::{self, Comm, Gather, Ksp, OptionsBlock, Vector};
+use crate::petsc::{self, Comm, Gather, Ksp, Vector};
 use std::rc::Rc;
 
 use crate::problem::{BodyProblem, Frames, GcTrace, Support};
@@ -87,121 +88,6 @@ pub const ECHO: &str = "(reported by body";
 /// Unit right-hand sides per multiple-RHS solve when S^α comes from back-solves.
 const SCHUR_BATCH: usize = 64;
 
-/// Whether a body needs its interface operators S^α, D^α.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SchurMode {
-    None,
-    /// Only when the factorisation gives them (MUMPS, on any rank count).
-    IfFactored,
-    /// Always: from MUMPS, else from m back-solves.
-    Always,
-}
-
-/// How the interface operators are formed (`-nndd_schur`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SchurChoice {
-    /// MUMPS's Schur complement on one rank, MUMPS's entries of K⁻¹ on several, back-solves
-    /// without a MUMPS factorisation.
-    Auto,
-    MumpsSchur,
-    MumpsInverse,
-    Solves,
-}
-
-impl SchurChoice {
-    pub fn name(self) -> &'static str {
-        match self {
-            SchurChoice::Auto => "auto",
-            SchurChoice::MumpsSchur => "mumps_schur",
-            SchurChoice::MumpsInverse => "mumps_inverse",
-            SchurChoice::Solves => "solves",
-        }
-    }
-
-    /// Read and register `-nndd_schur`.
-    pub fn from_options(o: &mut OptionsBlock) -> Result<SchurChoice, SettingsError> {
-        o.choice(
-            "-nndd_schur",
-            "Interface operators S, D of each body: auto (MUMPS's Schur complement on one rank, MUMPS's entries of the inverse on several, back-solves without MUMPS), mumps_schur, mumps_inverse, solves",
-            &[
-                SchurChoice::Auto,
-                SchurChoice::MumpsSchur,
-                SchurChoice::MumpsInverse,
-                SchurChoice::Solves,
-            ]
-            .map(|c| (c.name(), c)),
-        )
-    }
-
-    /// `mumps_schur` needs each body on one rank and factored by MUMPS, and `mumps_inverse` a
-    /// MUMPS factorisation; `group_sizes`: the ranks of each body (bad input, found alike on
-    /// every rank).
-    pub fn check(self, group_sizes: [usize; 2]) -> Result<(), SettingsError> {
-        for alpha in [1, 2] {
-            let why = match self {
-                SchurChoice::MumpsSchur | SchurChoice::MumpsInverse if !uses_mumps(alpha)? => {
-                    format!("body {alpha} is not factored by MUMPS (-body{alpha}_pc_factor_mat_solver_type mumps with -body{alpha}_pc_type cholesky or lu and -body{alpha}_ksp_type preonly); use auto or solves")
-                }
-                SchurChoice::MumpsSchur if group_sizes[alpha - 1] > 1 => format!(
-                    "body {alpha} is on {} ranks, and PETSc 3.18 forms MUMPS's Schur complement on one only; use auto or mumps_inverse",
-                    group_sizes[alpha - 1]
-                ),
-                _ => continue,
-            };
-            return Err(SettingsError::named(
-                &format!("-nndd_schur {}", self.name()),
-                why,
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// Whether body α's solver is a MUMPS factorisation (`-body<α>_ksp_type preonly`,
-/// `-body<α>_pc_type cholesky` or `lu`, `-body<α>_pc_factor_mat_solver_type mumps`: the
-/// defaults).
-pub fn uses_mumps(alpha: usize) -> Result<bool, petsc::PetscError> {
-    let get = |what: &str, default: &str| -> Result<String, petsc::PetscError> {
-        Ok(petsc::option_string(&format!("-body{alpha}_{what}"))?
-            .unwrap_or_else(|| default.to_string()))
-    };
-    Ok(get("ksp_type", "preonly")? == "preonly"
-        && matches!(get("pc_type", "cholesky")?.as_str(), "cholesky" | "lu")
-        && get("pc_factor_mat_solver_type", "mumps")? == "mumps")
-}
-
-/// Whether body α's factorisation is SuperLU_DIST (`-body<α>_pc_factor_mat_solver_type`).
-/// PETSc 3.18 keeps one SuperLU_DIST process grid per communicator and frees it twice when two
-/// factorisations shared it, so a body that uses it gets no second factorisation.
-pub fn uses_superlu_dist(alpha: usize) -> Result<bool, petsc::PetscError> {
-    let name = format!("-body{alpha}_pc_factor_mat_solver_type");
-    Ok(petsc::option_string(&name)?.as_deref() == Some("superlu_dist"))
-}
-
-/// Where a body's interface operators came from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SchurSource {
-    /// MUMPS's Schur complement, formed during the factorisation (one rank: PETSc 3.18's
-    /// MUMPS interface refuses it on several): S^α, then D^α = (S^α)⁻¹.
-    MumpsSchur,
-    /// MUMPS's selected entries of K⁻¹ on the Γc normal dofs (ICNTL(30), sparse right-hand
-    /// sides on the pruned elimination tree of the one factorisation, any rank count): D^α,
-    /// then S^α = (D^α)⁻¹.
-    MumpsInverse,
-    /// m back-solves K X = Bᵀ (any KSP; `KSPMatSolve` in batches): D^α, then S^α.
-    Solves,
-}
-
-impl SchurSource {
-    pub fn name(self) -> &'static str {
-        match self {
-            SchurSource::MumpsSchur => "mumps_schur",
-            SchurSource::MumpsInverse => "mumps_inverse",
-            SchurSource::Solves => "solves",
-        }
-    }
-}
-
 /// A body's interface operators on the Γc normal dofs in pair order (docs/method.md §2):
 /// the Schur complement S^α of the Neumann system, and its inverse D^α = B K⁻¹ Bᵀ, the normal
 /// Γc displacement of unit Γc forces. With them each step of the NNDD is m × m algebra: the
@@ -244,8 +130,9 @@ pub struct Body {
     /// assembled in them; every vector crossing this module's boundary is in global (x, y)
     /// components except the Γc normal entries (u_n, T_n).
     frames: Frames,
-    /// Neumann load f^α, in the nodal frames.
-    load: Vec<f64>,
+    /// Neumann load f^α, in the nodal frames: its non-zero entries (a boundary's worth),
+    /// not a whole vector ([`Load`]).
+    load: Load,
     /// Value on the diagonal of eliminated rows (mean diagonal of K, for conditioning).
     diag: f64,
     comm: Comm,
@@ -343,8 +230,7 @@ impl Body {
         let trace = Gather::new(&x, &gc_rows)?;
         let b = x.duplicate()?;
         let kx = x.duplicate()?;
-        let mut load = problem.load();
-        frames.to_local(&mut load);
+        let load = Load::of(problem.load(), &frames);
         let mut body = Body {
             problem,
             comm,
@@ -783,15 +669,13 @@ impl Body {
     pub fn equilibrium_residual(&self, u: &[f64], gc_forces: &[f64]) -> Result<f64, BodyError> {
         let u = self.local(u);
         let mut r = self.apply_k_local(&u)?;
-        for (ri, fi) in r.iter_mut().zip(&self.load) {
-            *ri -= fi;
-        }
+        self.load.add_to(&mut r, -1.0);
         self.add_gc_forces(&mut r, gc_forces, -1.0);
         for &(dof, _) in &self.problem.dirichlet {
             r[dof] = 0.0;
         }
         let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-        let scale = self.k_norm * inf(&u) + inf(&self.load) + inf(gc_forces);
+        let scale = self.k_norm * inf(&u) + self.load.norm_inf() + inf(gc_forces);
         let num = inf(&r);
         Ok(if !(num.is_finite() && scale.is_finite()) {
             f64::NAN
@@ -807,13 +691,13 @@ impl Body {
     /// which under the mortar discretisation is the non-mortar one.
     pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         let ku = self.apply_k_local(&self.local(u))?;
-        Ok(self.gc.iter().map(|&d| ku[d] - self.load[d]).collect())
+        Ok(self.gc.iter().map(|&d| ku[d] - self.load.at(d)).collect())
     }
 
     /// Solve the Dirichlet system: u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
     /// Returns the displacement and the reaction T = K u − f on the Γc normal dofs.
     pub fn dirichlet_solve(&self, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
-        let fixed = self.solve(System::Dirichlet, &self.load, false, Some(lambda))?;
+        let fixed = self.solve(System::Dirichlet, &self.load.whole(), false, Some(lambda))?;
         let u = self.solution(&fixed)?;
         let t = self.interface_forces(&u)?;
         Ok((u, t))
@@ -822,11 +706,10 @@ impl Body {
     /// The Neumann load (in the nodal frames): nodal forces `gc_forces` on the Γc normal dofs,
     /// plus the body's f^α when `with_data`.
     fn neumann_load(&self, gc_forces: &[f64], with_data: bool) -> Vec<f64> {
-        let mut load = if with_data {
-            self.load.clone()
-        } else {
-            vec![0.0; self.load.len()]
-        };
+        let mut load = vec![0.0; self.load.len];
+        if with_data {
+            self.load.add_to(&mut load, 1.0);
+        }
         self.add_gc_forces(&mut load, gc_forces, 1.0);
         load
     }
@@ -878,7 +761,7 @@ impl Body {
         match f {
             GcForces::Normal(t) => self.neumann_load(t, true),
             GcForces::Vector(v) => {
-                let mut load = self.load.clone();
+                let mut load = self.load.whole();
                 if let GcTrace::Mortar(c) = &self.problem.trace {
                     // Pair k's force reaches the mortar body's node j as P_kj f_k (no rotated
                     // frames there).
@@ -938,11 +821,8 @@ impl Body {
     pub fn potential_energy(&self, u: &[f64]) -> Result<f64, BodyError> {
         let u = self.local(u);
         let ku = self.apply_k_local(&u)?;
-        Ok(u.iter()
-            .zip(&ku)
-            .zip(&self.load)
-            .map(|((u, ku), f)| 0.5 * u * ku - f * u)
-            .sum())
+        let half: f64 = u.iter().zip(&ku).map(|(u, ku)| 0.5 * u * ku).sum();
+        Ok(half - self.load.dot(&u))
     }
 }
 

@@ -151,7 +151,8 @@ fn side(body: &Body) -> f64 {
 
 /// The condensed contact problem of a body (set up once).
 pub struct ContactStep {
-    u0: Vec<f64>,
+    /// v* = B u₀, the interface trace of the body's solution u₀ with free Γc (its data only);
+    /// u₀ itself is not held: a field is one solve with the data and the Γc forces.
     v_star: Vec<f64>,
     settings: ContactSettings,
     previous: std::cell::RefCell<Option<Vec<bool>>>,
@@ -167,7 +168,7 @@ pub struct ContactStep {
 }
 
 impl ContactStep {
-    /// u₀ and v* (collective over the body's group).
+    /// v* (collective over the body's group).
     pub fn new(
         body: &Body,
         settings: ContactSettings,
@@ -176,10 +177,8 @@ impl ContactStep {
         if !body.has_condensed() {
             return Err(ContactError::NoSchur(body.alpha()));
         }
-        let u0 = body.neumann_solve(&vec![0.0; body.pairs()], true)?;
-        let v_star = body.trace(&u0);
+        let v_star = body.neumann_trace(&vec![0.0; body.pairs()], true)?;
         Ok(ContactStep {
-            u0,
             v_star,
             settings,
             previous: Default::default(),
@@ -202,8 +201,7 @@ impl ContactStep {
         lambda: &[f64],
         active: &[bool],
     ) -> Result<Vec<f64>, ContactError> {
-        let w = body.neumann_solve(forces, false)?;
-        let mut u: Vec<f64> = self.u0.iter().zip(&w).map(|(a, b)| a + b).collect();
+        let mut u = body.neumann_solve(forces, true)?;
         let sigma = side(body);
         let gap = &body.problem.gap;
         for (i, l) in lambda.iter().enumerate() {
@@ -213,11 +211,6 @@ impl ContactStep {
             }
         }
         Ok(u)
-    }
-
-    /// The unconstrained solution u₀ and its normal trace v*.
-    pub fn free_solution(&self) -> (&[f64], &[f64]) {
-        (&self.u0, &self.v_star)
     }
 
     /// The contact set the next [`Self::solve`] tries first (a restart's last one).

@@ -26,7 +26,10 @@ pub enum DirichletChoice {
 
 pub enum DirichletStep {
     System,
-    Condensed { u0: Vec<f64>, v_star: Vec<f64> },
+    /// v¹* = B u¹₀ (u¹₀ itself is not held: u¹_p is one solve with the data and T¹_p).
+    Condensed {
+        v_star: Vec<f64>,
+    },
 }
 
 impl DirichletStep {
@@ -34,9 +37,8 @@ impl DirichletStep {
     /// the Dirichlet system (which must exist). Collective over the body's group.
     pub fn new(body: &Body, choice: DirichletChoice) -> Result<DirichletStep, BodyError> {
         if body.has_condensed() && choice != DirichletChoice::System {
-            let u0 = body.neumann_solve(&vec![0.0; body.pairs()], true)?;
-            let v_star = body.trace(&u0);
-            Ok(DirichletStep::Condensed { u0, v_star })
+            let v_star = body.neumann_trace(&vec![0.0; body.pairs()], true)?;
+            Ok(DirichletStep::Condensed { v_star })
         } else {
             assert!(
                 body.has_dirichlet_system(),
@@ -95,9 +97,9 @@ impl DirichletStep {
     ) -> Result<Vec<f64>, BodyError> {
         match self {
             DirichletStep::System => Ok(body.dirichlet_solve(lambda)?.0),
-            DirichletStep::Condensed { u0, .. } => {
-                let w = body.neumann_solve(forces, false)?;
-                let mut u: Vec<f64> = u0.iter().zip(&w).map(|(a, b)| a + b).collect();
+            DirichletStep::Condensed { .. } => {
+                // u¹₀ + K⁻¹BᵀT¹_p: the Neumann solve with the body's data and T¹_p.
+                let mut u = body.neumann_solve(forces, true)?;
                 for (k, &l) in lambda.iter().enumerate() {
                     // equal to round-off; make the prescribed trace exact
                     body.set_trace(&mut u, k, l);

@@ -1,5 +1,6 @@
 //! Layer `dd`: the Neumann–Neumann domain decomposition (paper §3, `docs/method.md` §2).
-//! [`body`]: one subdomain's PETSc systems and solves; the steps of an iteration:
+//! [`body`]: one subdomain's PETSc systems and solves ([`schur`]: how its interface operators
+//! are formed); the steps of an iteration:
 //! [`dirichlet`] (step 1 on the Dirichlet body, Ω¹ in the paper, (8)–(10)), [`contact`] (step 1
 //! on the other body, (11)–(14)), [`neumann`] (step 2, (15)–(16)); [`nndd`]: the loop and its
 //! update of λ; [`secant`]: the self-tuning update of `-nndd_theta auto`; [`iterate`]: an
@@ -15,9 +16,11 @@ pub mod contact;
 pub mod dirichlet;
 pub mod friction;
 pub mod iterate;
+mod load;
 pub mod monolithic;
 pub mod neumann;
 pub mod nndd;
 pub mod penetration;
+pub mod schur;
 pub mod secant;
 mod stiffness;

@@ -84,10 +84,8 @@ pub(super) fn assemble(
     drop(coupled);
     let mut diag_sum = 0.0;
     let (mut vals, mut bvals) = ([0.0; 36], [0.0; 36]);
-    for (e, t) in mesh.triangles.iter().enumerate() {
-        if !part.owns_element(e) {
-            continue;
-        }
+    for e in part.elements.iter().map(|&e| e as usize) {
+        let t = mesh.triangles.get(e);
         let mut ke = element_stiffness(&mesh.triangle_points(e), &problem.material);
         frames.rotate_element(&t, &mut ke);
         let dofs = element_dofs(&t);

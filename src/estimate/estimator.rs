@@ -12,7 +12,7 @@ use crate::estimate::cre::{
 };
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::mortar::MortarEstimates;
-use crate::estimate::share::{estimate_owners, Share};
+use crate::estimate::share::{estimate_owners, estimating_ranks, Share};
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
 use crate::problem::BodyProblem;
@@ -67,10 +67,6 @@ pub struct Estimator<'a> {
     /// The two bodies' problems (every rank has both: any rank may estimate elements of
     /// either, [`crate::estimate::share`]).
     problems: [Rc<BodyProblem>; 2],
-    /// The world rank estimating each element of each body ([`crate::estimate::share::estimate_owners`]),
-    /// and whether some of a body's elements are estimated outside its group (its fields
-    /// then travel); made at the first estimate.
-    owners: OnceCell<([Vec<u32>; 2], [bool; 2])>,
     /// Per body, this rank's share of the element work (built at the first estimate).
     shares: [OnceCell<Share>; 2],
     /// The time of each part of the estimates.
@@ -147,7 +143,6 @@ impl<'a> Estimator<'a> {
             layout,
             reference,
             problems: problems.clone(),
-            owners: Default::default(),
             shares: Default::default(),
             parts: Parts::new(stages),
             operators: Default::default(),
@@ -354,6 +349,18 @@ impl<'a> Estimator<'a> {
     /// the balanced stopping rule compares η^NNDD with at its first check.
     pub fn eta_fe(&self, bodies: [Option<&Body>; 2], it: &Iterate) -> Result<f64, EstimateError> {
         Ok(self.run(bodies, it, true)?.eta_fe)
+    }
+
+    /// Per body, whether some of its elements are estimated outside its group (its fields
+    /// then travel to those ranks), from the element counts alone
+    /// ([`crate::estimate::share::estimating_ranks`]).
+    fn crosses(&self) -> [bool; 2] {
+        let sizes = self.problems.each_ref().map(|p| p.mesh.triangles.len());
+        let ranks = estimating_ranks(sizes, self.layout.size as usize);
+        [0, 1].map(|k| {
+            let group = self.layout.group_ranks(k + 1);
+            ranks[k].start < group.start || ranks[k].end > group.end
+        })
     }
 
     /// Whether a stop signal arrived on any rank (`Err(Stopped)` on every rank then): one

@@ -8,6 +8,8 @@
 //! [`Halo::exchange_sweep`]), so the estimates do not depend on the assignment; the ranks
 //! that share a body recover it in step.
 
+use std::ops::Range;
+
 use crate::estimate::cre::View;
 use crate::estimate::equilibrate::{vertex_colours, Recovery};
 use crate::estimate::overlap::{colour_count, Halo, Overlap};
@@ -23,34 +25,45 @@ use crate::parallel::layout::Layout;
 /// so each must hold an equal part of it: a rank with parts of two bodies would keep the
 /// others of one body waiting while it recovers the other.
 pub fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
-    let slabs = meshes.map(slab_order);
-    let total: usize = meshes.iter().map(|m| m.triangles.len()).sum();
+    let sizes = meshes.map(|m| m.triangles.len());
+    let own = dealt_ranks(sizes, ranks).is_some();
+    let total = (sizes[0] + sizes[1]).max(1);
     let mut position = 0;
-    let dealt = [&slabs[0], &slabs[1]].map(|order| {
-        let mut owner = vec![0u32; order.len()];
+    meshes.map(|mesh| {
+        let order = slab_order(mesh);
+        let len = order.len();
+        let mut owner = vec![0u32; len];
         for (q, &e) in order.iter().enumerate() {
-            owner[e] = ((position + q) * ranks / total.max(1)) as u32;
+            owner[e] = match own {
+                true => (position + q) * ranks / total,
+                false => q * ranks / len.max(1),
+            } as u32;
         }
-        position += order.len();
-        owner
-    });
-    let mut holds = vec![[false; 2]; ranks];
-    for (k, owner) in dealt.iter().enumerate() {
-        for &r in owner {
-            holds[r as usize][k] = true;
-        }
-    }
-    let shared = holds.iter().any(|h| h[0] && h[1]);
-    if !shared {
-        return dealt;
-    }
-    slabs.map(|order| {
-        let mut owner = vec![0u32; order.len()];
-        for (q, &e) in order.iter().enumerate() {
-            owner[e] = (q * ranks / order.len().max(1)) as u32;
-        }
+        position += len;
         owner
     })
+}
+
+/// The world ranks that estimate elements of each body ([`estimate_owners`]), from the
+/// bodies' element counts `sizes` alone: known before, and without, the owner of every
+/// element.
+pub fn estimating_ranks(sizes: [usize; 2], ranks: usize) -> [Range<usize>; 2] {
+    dealt_ranks(sizes, ranks).unwrap_or([0..ranks, 0..ranks])
+}
+
+/// The ranks of each body when the elements of body 1 then body 2 are dealt in order into
+/// `ranks` equal shares (element q of all goes to rank q · ranks / total); `None` when a rank
+/// would get elements of both.
+fn dealt_ranks(sizes: [usize; 2], ranks: usize) -> Option<[Range<usize>; 2]> {
+    let total = (sizes[0] + sizes[1]).max(1);
+    let rank_of = |q: usize| q * ranks / total;
+    let first = [0, sizes[0]];
+    let ranges = [0, 1].map(|k| match sizes[k] {
+        0 => 0..0,
+        n => rank_of(first[k])..rank_of(first[k] + n - 1) + 1,
+    });
+    let both = !ranges[0].is_empty() && !ranges[1].is_empty() && ranges[0].end > ranges[1].start;
+    (!both).then_some(ranges)
 }
 
 /// The elements of `mesh` in slab order: by the barycentre's coordinate along the longer side
@@ -181,7 +194,15 @@ mod tests {
         // Any rank count: the ranks holding a body hold equal parts of it (to within one
         // element: they recover it in step), and a rank holds two bodies only when every body
         // is over all ranks (equal bodies on 3 ranks too: the middle rank would have both).
-        for (m1, ranks) in [(&big, 3), (&big, 4), (&big, 6), (&big, 7), (&a, 3)] {
+        for (m1, ranks) in [
+            (&big, 3),
+            (&big, 4),
+            (&big, 6),
+            (&big, 7),
+            (&a, 3),
+            (&a, 4),
+            (&a, 1),
+        ] {
             let owners = estimate_owners([m1, &b], ranks);
             let mut holds = vec![[0usize; 2]; ranks];
             for (k, o) in owners.iter().enumerate() {
@@ -191,6 +212,12 @@ mod tests {
                 let counts: Vec<usize> = holds.iter().map(|h| h[k]).filter(|&c| c > 0).collect();
                 let (lo, hi) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
                 assert!(hi - lo <= 1, "{ranks} ranks, body {}: {counts:?}", k + 1);
+            }
+            // The ranks named from the sizes alone are those holding elements.
+            let named = estimating_ranks([m1.triangles.len(), b.triangles.len()], ranks);
+            for (k, range) in named.iter().enumerate() {
+                let holding: Vec<usize> = (0..ranks).filter(|&r| holds[r][k] > 0).collect();
+                assert_eq!(holding, range.clone().collect::<Vec<_>>(), "{ranks} ranks");
             }
             let both = holds.iter().any(|h| h[0] > 0 && h[1] > 0);
             let everywhere = holds.iter().all(|h| h[0] > 0 && h[1] > 0);

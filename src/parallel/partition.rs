@@ -31,8 +31,9 @@ pub struct Partition {
     /// This rank's position in the group.
     pub rank: usize,
     pub size: usize,
-    /// Group rank owning each element (assembles it, estimates it).
-    pub element_owner: Vec<u32>,
+    /// The elements this rank owns (assembles), by increasing index: its part of METIS's
+    /// element parts, not the owner of every element (4 bytes per element on every rank).
+    pub elements: Vec<u32>,
     /// PETSc node index of each mesh node.
     pub petsc_node: Vec<u32>,
     /// First PETSc node of each rank, and the node count at the end (`size + 1` entries).
@@ -98,7 +99,7 @@ impl Partition {
             return Ok(Partition {
                 rank,
                 size,
-                element_owner: vec![0; ne],
+                elements: (0..ne as u32).collect(),
                 petsc_node: (0..nn as u32).collect(),
                 node_start: vec![0, nn],
             });
@@ -129,7 +130,10 @@ impl Partition {
         Partition {
             rank,
             size,
-            element_owner: epart.to_vec(),
+            elements: (epart.iter().enumerate())
+                .filter(|(_, &p)| p as usize == rank)
+                .map(|(e, _)| e as u32)
+                .collect(),
             petsc_node,
             node_start,
         }
@@ -161,11 +165,6 @@ impl Partition {
             .contains(&(self.petsc_node[dof / 2] as usize))
     }
 
-    /// Does this rank own element `e`?
-    pub fn owns_element(&self, e: usize) -> bool {
-        self.element_owner[e] as usize == self.rank
-    }
-
     /// Every PETSc row in mesh dof order (row of dof 0, dof 1, …): gathering these rows gives
     /// a vector in mesh numbering.
     pub fn rows_in_mesh_order(&self) -> Vec<Int> {
@@ -190,10 +189,7 @@ impl Partition {
 
     /// Number of elements owned by this rank.
     pub fn owned_elements(&self) -> usize {
-        self.element_owner
-            .iter()
-            .filter(|&&o| o as usize == self.rank)
-            .count()
+        self.elements.len()
     }
 }
 
@@ -247,10 +243,15 @@ mod tests {
             let parts: Vec<Partition> = (0..size)
                 .map(|r| Partition::new(&mesh, 1, r, size).unwrap())
                 .collect();
-            // Every rank computed the same partition.
-            for p in &parts[1..] {
-                assert_eq!(p.element_owner, parts[0].element_owner);
+            // Every rank computed the same partition: the ranks' elements are disjoint.
+            let mut owner = vec![usize::MAX; mesh.triangles.len()];
+            for p in &parts {
                 assert_eq!(p.petsc_node, parts[0].petsc_node);
+                assert!(p.elements.windows(2).all(|w| w[0] < w[1]));
+                for &e in &p.elements {
+                    assert_eq!(owner[e as usize], usize::MAX, "element {e} owned twice");
+                    owner[e as usize] = p.rank;
+                }
             }
             // PETSc numbering is a permutation; each rank's nodes are its range.
             let mut seen = vec![false; mesh.num_nodes()];

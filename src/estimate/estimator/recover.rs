@@ -185,17 +185,7 @@ impl Estimator<'_> {
             fields: Default::default(),
         };
         let data = resolved.data(self);
-        let (_, crosses) = self.owners.get_or_init(|| {
-            let owners = estimate_owners(
-                [&self.problems[0].mesh, &self.problems[1].mesh],
-                layout.size as usize,
-            );
-            let crosses = [0, 1].map(|k| {
-                let group = layout.group_ranks(k + 1);
-                owners[k].iter().any(|&r| !group.contains(&(r as usize)))
-            });
-            (owners, crosses)
-        });
+        let crosses = self.crosses();
         // The re-solves on each body's group, their fields to the other ranks estimating
         // elements of the body.
         let mut fields: [BodyFields; 2] = Default::default();
@@ -231,15 +221,24 @@ impl Estimator<'_> {
         let mut res = Residuals::default();
         let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
         let mut e_ref2 = 0.0;
-        let (owners, crosses) = self.owners.get().expect("made by resolve");
+        let crosses = self.crosses();
         self.stop_point()?;
         // The element work: each recovery prepared for both bodies before any is made (the
         // warm-start exchanges are the only collectives in it, so no rank waits for another
         // between them).
+        // (each element's estimating rank, made for the shares of the first estimate and
+        // freed with them made: not held through the solve)
+        let owners = OnceCell::new();
         let shares = [0, 1].map(|k| {
             self.shares[k].get_or_init(|| {
                 self.parts.run(Part::Recovery, || {
                     let p = &self.problems[k];
+                    let owners = owners.get_or_init(|| {
+                        estimate_owners(
+                            [&self.problems[0].mesh, &self.problems[1].mesh],
+                            layout.size as usize,
+                        )
+                    });
                     Share::new(
                         k + 1,
                         &p.mesh,
@@ -251,6 +250,7 @@ impl Estimator<'_> {
                 })
             })
         });
+        drop(owners);
         let views = shares.map(|s| s.view(layout));
         let mut works: Vec<(usize, ElementWork)> = (0..2)
             .filter_map(|k| {
@@ -392,10 +392,11 @@ impl Estimator<'_> {
             (sums.map(|s| layout.sum(s)), e_ref, res)
         });
         let [glo, fe, nndd] = sums;
-        let iterate = it.clone();
         let eta_glo = glo.max(0.0).sqrt();
+        // (the iterate and its fields moved into the record, not copied)
+        let iterate = resolved.it;
         Ok(EstimateRecord {
-            iteration: it.iteration,
+            iteration: iterate.iteration,
             eta_glo,
             eta_fe: fe.max(0.0).sqrt(),
             eta_nndd: nndd.max(0.0).sqrt(),
@@ -410,7 +411,7 @@ impl Estimator<'_> {
             residuals: res,
             maps,
             iterate,
-            t_hat: resolved.t_glo.clone(),
+            t_hat: resolved.t_glo,
         })
     }
 }
