@@ -253,9 +253,8 @@ impl<'a> Run<'a> {
         let t_out = Instant::now();
         let results = {
             let _s = self.stages.output.enter();
-            let have = [layout.owns(1), layout.owns(2)];
-            let results = results_of(settings, problems, sol, have);
             let shares = fields::shares(layout, [&problems[0], &problems[1]]);
+            let results = results_of(settings, problems, sol, &shares);
             let prefix = settings.output.paths.prefix();
             output::write_results_parallel(&layout.world, prefix, &results, &shares)?;
             results
@@ -331,7 +330,7 @@ pub(super) fn results_of(
     settings: &Settings,
     problems: &[Rc<BodyProblem>; 2],
     sol: &Solution,
-    have: [bool; 2],
+    shares: &[output::Share],
 ) -> Results {
     let mut steps: Vec<_> = sol
         .estimates
@@ -372,7 +371,7 @@ pub(super) fn results_of(
         ("physical_names".into(), physical_names),
     ];
     let problems = [&*problems[0], &*problems[1]];
-    fields::results(problems, &steps, have, attributes, text)
+    fields::results(problems, &steps, shares, attributes, text)
 }
 
 /// `-nndd_schur_view`: each body's S^α and D^α (row-major, exact in JSON) from its first rank,

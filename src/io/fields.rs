@@ -4,7 +4,7 @@
 
 use crate::dd::nndd::Iterate;
 use crate::estimate::{EstimateRecord, Interface};
-use crate::fem::{self, Material, Mesh};
+use crate::fem;
 use crate::io::output::{
     function_path, Center, Field, Grid, GridFields, Kind, Results, Share, Step, Topology,
 };
@@ -16,12 +16,13 @@ use crate::problem::BodyProblem;
 /// triangles, then body 2's, with the constant cell field `body` = 1 or 2), Γc as the grid
 /// `contact`, and one step per entry of `steps` (an iterate, with its estimates when it was
 /// estimated).
-/// Body α's fields are filled on the ranks of its group (`have`) and zero at the other body's
-/// entries, empty elsewhere; the geometry and the Γc fields are known everywhere.
+/// A step's fields of the `bodies` grid are given for this rank's rows of it alone
+/// (`shares[0]`, [`shares`]: rows of the bodies of its group, whose fields it has), so that no
+/// rank holds any step's fields whole; the geometry and the Γc fields are known everywhere.
 pub fn results(
     problems: [&BodyProblem; 2],
     steps: &[(&Iterate, Option<&EstimateRecord>)],
-    have: [bool; 2],
+    shares: &[Share],
     attributes: Vec<(String, f64)>,
     text: Vec<(String, String)>,
 ) -> Results {
@@ -71,52 +72,18 @@ pub fn results(
         },
     ];
     let rows = [&r1, &r2];
+    let mine = &shares[0];
     let step = |it: &Iterate, est: Option<&EstimateRecord>| {
-        // Body α's values at its rows of the `bodies` grid, zero at the other body's.
-        let spread = |per_body: [Vec<f64>; 2], center: Center, width: usize| {
-            if !have[0] && !have[1] {
-                return Vec::new();
-            }
-            let total = match center {
-                Center::Node => r2.points.end,
-                Center::Cell => r2.cells.end,
-            };
-            let mut all = vec![0.0; width * total];
-            for (k, values) in per_body.iter().enumerate() {
-                if have[k] {
-                    let start = width * rows[k].rows(center).start;
-                    all[start..start + values.len()].copy_from_slice(values);
-                }
-            }
-            all
-        };
-        let per_body = [0, 1].map(|k| {
-            let p = problems[k];
-            body_fields(&p.mesh, &p.material, &it.u[k], have[k])
-        });
-        let [b1, b2] = per_body;
-        let mut fields: Vec<Field> = b1
-            .into_iter()
-            .zip(b2)
-            .map(|(f1, f2)| Field {
-                values: spread([f1.values, f2.values], f1.center, f1.kind.given()),
-                ..f1
-            })
-            .collect();
+        let mut fields = body_fields(problems, rows, mine, &it.u);
         if let Some(e) = est {
             for (j, name) in ["eta_glo", "eta_fe", "eta_nndd"].iter().enumerate() {
-                let maps = [0, 1].map(|k| {
-                    if have[k] {
-                        e.maps[k][j].clone()
-                    } else {
-                        Vec::new()
-                    }
-                });
                 fields.push(Field {
                     name: name.to_string(),
                     center: Center::Cell,
                     kind: Kind::Scalar,
-                    values: spread(maps, Center::Cell, 1),
+                    values: on_share(rows, mine, Center::Cell, 1, |k, e_k, out| {
+                        out.push(e.maps[k][j].get(e_k).copied().unwrap_or(0.0))
+                    }),
                 });
             }
         }
@@ -138,7 +105,7 @@ pub fn results(
         // The pair side's displacement at its Γc nodes (known on its body's ranks, the one
         // writing Γc among them: [`shares`]).
         let u1 = &it.u[side];
-        let displacement = if have[side] && !u1.is_empty() {
+        let displacement = if !u1.is_empty() {
             let nodes = &problems[side].contact_nodes;
             nodes
                 .iter()
@@ -230,28 +197,66 @@ pub fn body_rows(problems: [&BodyProblem; 2]) -> [Share; 2] {
     ]
 }
 
-/// Displacement (node vector), stress (cell tensor, plane strain σ_zz) and von Mises stress.
-/// Empty values unless `have` (the ranks of the body's group).
-fn body_fields(mesh: &Mesh, mat: &Material, u: &[f64], have: bool) -> Vec<Field> {
-    let s = if have {
-        fem::stresses(mesh, mat, u)
-    } else {
-        Vec::new()
-    };
-    let mut tensor = Vec::with_capacity(6 * s.len());
-    let mut mises = Vec::with_capacity(s.len());
-    for si in &s {
-        let zz = mat.sigma_zz(si);
-        tensor.extend_from_slice(&[si[0], si[1], zz, si[2], 0.0, 0.0]);
-        let (a, b, c) = (si[0] - si[1], si[1] - zz, zz - si[0]);
-        mises.push((0.5 * (a * a + b * b + c * c) + 3.0 * si[2] * si[2]).sqrt());
+/// The values of a field at this rank's rows `mine` of the `bodies` grid (in row order):
+/// `value(k, i, out)` pushes the `width` values of body k + 1's entry i (its node or element);
+/// entries of a body whose fields this rank does not have are zero.
+fn on_share(
+    rows: [&Share; 2],
+    mine: &Share,
+    center: Center,
+    width: usize,
+    mut value: impl FnMut(usize, usize, &mut Vec<f64>),
+) -> Vec<f64> {
+    let wanted = mine.rows(center);
+    let mut out = Vec::with_capacity(width * wanted.len());
+    for (k, body) in rows.iter().enumerate() {
+        let body = body.rows(center);
+        for r in wanted.start.max(body.start)..wanted.end.min(body.end) {
+            value(k, r - body.start, &mut out);
+        }
     }
+    out
+}
+
+/// Displacement (node vector), stress (cell tensor, plane strain σ_zz) and von Mises stress
+/// at this rank's rows `mine` of the `bodies` grid, from the fields `u` of the bodies (empty
+/// where this rank does not have a body's).
+fn body_fields(
+    problems: [&BodyProblem; 2],
+    rows: [&Share; 2],
+    mine: &Share,
+    u: &[Vec<f64>; 2],
+) -> Vec<Field> {
+    let stress = |k: usize, e: usize| {
+        let p = problems[k];
+        (!u[k].is_empty()).then(|| fem::element_stress(&p.mesh, e, &p.material, &u[k]))
+    };
+    let displacement = on_share(rows, mine, Center::Node, 2, |k, n, out| {
+        out.extend([0, 1].map(|c| u[k].get(2 * n + c).copied().unwrap_or(0.0)))
+    });
+    let tensor = on_share(rows, mine, Center::Cell, 6, |k, e, out| {
+        match stress(k, e) {
+            Some(si) => {
+                let zz = problems[k].material.sigma_zz(&si);
+                out.extend_from_slice(&[si[0], si[1], zz, si[2], 0.0, 0.0]);
+            }
+            None => out.extend_from_slice(&[0.0; 6]),
+        }
+    });
+    // (σ_zz from the tensor's third column)
+    let mises = tensor
+        .chunks_exact(6)
+        .map(|t| {
+            let (a, b, c) = (t[0] - t[1], t[1] - t[2], t[2] - t[0]);
+            (0.5 * (a * a + b * b + c * c) + 3.0 * t[3] * t[3]).sqrt()
+        })
+        .collect();
     vec![
         Field {
             name: "displacement".into(),
             center: Center::Node,
             kind: Kind::Vector,
-            values: if have { u.to_vec() } else { Vec::new() },
+            values: displacement,
         },
         Field {
             name: "stress".into(),

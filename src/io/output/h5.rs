@@ -298,9 +298,10 @@ fn fill_h5<W: Writers>(
         let shape = [g.topology.cell_count(), g.topology.nodes_per_cell()];
         out.dataset(&group, "topology", &shape, rows.clone(), cells)?;
         for field in &g.fields {
-            let shape = field.stored_shape(entries(Some(g), field.center));
+            let all = entries(Some(g), field.center);
+            let shape = field.stored_shape(all);
             let rows = share.rows(field.center);
-            let data = || field.stored_rows(rows.clone());
+            let data = || field.stored_rows(rows.clone(), all);
             out.dataset(&group, &field.name, &shape, rows.clone(), data)?;
         }
     }
@@ -325,9 +326,10 @@ fn fill_h5<W: Writers>(
                 let Some(field) = step.fields_of(&g.name).find(|f| f.name == name) else {
                     continue;
                 };
-                let shape = field.stored_shape(entries(Some(g), field.center));
+                let all = entries(Some(g), field.center);
+                let shape = field.stored_shape(all);
                 let rows = share.rows(field.center);
-                let data = || field.stored_rows(rows.clone());
+                let data = || field.stored_rows(rows.clone(), all);
                 out.dataset(&fg, &time_key(step.time), &shape, rows.clone(), data)?;
             }
         }

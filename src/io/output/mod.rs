@@ -10,7 +10,9 @@
 //! geometry, the same steps, field names, kinds and centers, the same
 //! attributes; checked with a hash) and, per grid, a [`Share`]: the
 //! contiguous rows of points and of cells it writes. The ranks' shares tile
-//! each grid (checked); a rank's field values may be empty where its share is.
+//! each grid (checked); a rank gives a field's values for every entry of the grid, or for
+//! its share's rows alone (so that no rank need hold a step's fields whole), or none where
+//! its share is empty.
 //! All ranks open the file with the MPI-IO driver (`H5Pset_fapl_mpio`),
 //! create every group, attribute and dataset together in the same order
 //! (creation is collective in parallel HDF5; datasets are contiguous), and
@@ -377,14 +379,18 @@ impl Center {
 }
 
 impl Field {
-    /// Entries `rows` as stored in the file (vectors padded with z = 0); nothing for no rows
-    /// (the values may then be empty).
-    fn stored_rows(&self, rows: Range<usize>) -> Vec<f64> {
+    /// Entries `rows` as stored in the file (vectors padded with z = 0), from values given
+    /// for each of the grid's `entries`, or for `rows` alone; nothing for no rows (the values
+    /// may then be empty).
+    fn stored_rows(&self, rows: Range<usize>, entries: usize) -> Vec<f64> {
         if rows.is_empty() {
             return Vec::new();
         }
         let given = self.kind.given();
-        let values = &self.values[rows.start * given..rows.end * given];
+        let values = match self.values.len() == entries * given {
+            true => &self.values[rows.start * given..rows.end * given],
+            false => &self.values[..],
+        };
         match self.kind {
             Kind::Vector => values
                 .chunks_exact(2)
@@ -482,9 +488,9 @@ pub fn write_results(prefix: &Path, results: &Results) -> Result<(), OutputError
 /// structure: same grids with the same full geometry — points and topology
 /// are known on every rank —, same steps, same field names/kinds/centers in
 /// the same order, same attributes). Field `values` are either full length
-/// (all entries of the grid, in the grid's numbering) on ranks whose share of
-/// that grid is non-empty, or may be empty on ranks whose share is empty
-/// (precisely: where this rank's rows of the field's center are empty).
+/// (all entries of the grid, in the grid's numbering), or exactly this rank's
+/// rows of the field's center (its share, in order), or empty where those rows
+/// are empty.
 /// `shares[g]` is this rank's share of `results.grids[g]`. Each rank writes
 /// its hyperslabs (points, cells and every field dataset of that grid at
 /// every step) with collective transfer (H5FD_MPIO_COLLECTIVE); rank 0 writes

@@ -168,8 +168,8 @@ pub(super) fn validate(
     Ok(())
 }
 
-/// A field of `grid`: its name, and as many values as the grid has entries of its center
-/// (or none where this rank's share of them is empty).
+/// A field of `grid`: its name, and as many values as the grid has entries of its center,
+/// or as this rank's share has rows of them (none where that share is empty).
 fn check_field(at: &str, field: &Field, grid: &Grid, share: &Share) -> Result<(), String> {
     if !valid_name(&field.name) {
         return Err(format!("{at}: name must be {NAME_RULE}"));
@@ -179,10 +179,12 @@ fn check_field(at: &str, field: &Field, grid: &Grid, share: &Share) -> Result<()
         Center::Cell => (grid.topology.cell_count(), "cells"),
     };
     let expected = entries.checked_mul(field.kind.given());
-    let absent = field.values.is_empty() && share.rows(field.center).is_empty();
-    if expected != Some(field.values.len()) && !absent {
+    let rows = share.rows(field.center).len();
+    let local = rows.checked_mul(field.kind.given());
+    let absent = field.values.is_empty() && rows == 0;
+    if expected != Some(field.values.len()) && local != Some(field.values.len()) && !absent {
         return Err(format!(
-            "{at}: {} values, expected {entries} {what} x {} ({:?})",
+            "{at}: {} values, expected {entries} {what} x {} ({:?}), or this rank's {rows} of them",
             field.values.len(),
             field.kind.given(),
             field.kind
@@ -208,6 +210,33 @@ mod tests {
             other => panic!("expected Invalid({needle}), got {other:?}"),
         }
         assert!(dir.entries().is_empty(), "{:?}", dir.entries());
+    }
+
+    #[test]
+    fn a_field_is_given_whole_or_for_the_share_alone() {
+        let r = sample();
+        let (g, f) = (&r.grids[0], &r.steps[0].grids[0].fields[1]);
+        let whole = Share::whole(g);
+        let part = Share {
+            points: 1..3,
+            cells: 2..4,
+        };
+        let given = f.kind.given();
+        let mut local = f.clone();
+        local.values = f.values[2 * given..4 * given].to_vec();
+        assert!(check_field("f", f, g, &whole).is_ok());
+        assert!(check_field("f", f, g, &part).is_ok());
+        assert!(check_field("f", &local, g, &part).is_ok());
+        // The share's rows, from either form, are the same entries.
+        let n = g.topology.cell_count();
+        assert_eq!(
+            local.stored_rows(part.cells.clone(), n),
+            f.stored_rows(part.cells.clone(), n)
+        );
+        // Neither whole nor the share's length: refused.
+        local.values.pop();
+        let err = check_field("f", &local, g, &part).unwrap_err();
+        assert!(err.contains("or this rank's 2 of them"), "{err}");
     }
 
     #[test]
