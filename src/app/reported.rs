@@ -88,9 +88,19 @@ pub fn finish_reported(
     if pending.in_loop {
         estimates.pop();
     }
+    keep_for_output(estimates, layout, est);
     estimates.push(rec);
     attach_estimates(history, estimates);
     Ok(t.elapsed().as_secs_f64())
+}
+
+/// Before a new estimate joins `estimates`: the newest so far, now kept only for the output,
+/// keeps its η maps on the elements this rank writes alone ([`EstimateRecord::keep_block`];
+/// the newest stays whole: an adaptive run's size field reads it).
+pub(super) fn keep_for_output(estimates: &mut [EstimateRecord], layout: &Layout, est: &Estimator) {
+    if let Some(last) = estimates.last_mut() {
+        last.keep_block(&crate::io::fields::cell_blocks(layout, est.elements()));
+    }
 }
 
 /// Each estimate into the history record of its iteration.

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use super::agreed;
 use super::options::{Settings, SettingsError, SolverKind};
-use super::reported::{attach_estimates, resolve_reported, Pending};
+use super::reported::{attach_estimates, keep_for_output, resolve_reported, Pending};
 use super::{AppError, LONG_PHASE_DOFS};
 use crate::dd::body::{uses_superlu_dist, Body, BodyError, SchurMode, SchurSource};
 use crate::dd::check::check_solution;
@@ -428,6 +428,7 @@ impl nndd::Observer<AppError> for RunObserver<'_> {
             }
             let rec = est.estimate(refs, it)?;
             let holds = o.balanced.holds(&rec);
+            keep_for_output(&mut o.estimates, o.layout, est);
             o.estimates.push(rec);
             Ok(holds)
         })

@@ -46,11 +46,51 @@ pub struct EstimateRecord {
     pub e_ref: Option<f64>,
     pub effectivity: Option<f64>,
     pub residuals: Residuals,
-    /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (on the body's ranks, empty elsewhere).
+    /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (on the body's ranks, empty elsewhere), from
+    /// the body's element `map_first[k]` on: whole (0) while the record is the newest, its
+    /// rank's block of elements alone once it is kept for the output ([`Self::keep_block`]).
     pub maps: [[Vec<f64>; 3]; 2],
+    pub map_first: [usize; 2],
     /// The iterate, with u^α_p gathered on rank 0 (for output), and t̂^c.
     pub iterate: Iterate,
     pub t_hat: Vec<f64>,
+}
+
+impl EstimateRecord {
+    /// η_E of map `j` (0: η^glo, 1: η^FE, 2: η^NNDD) at body k + 1's element `e`; 0 where
+    /// this rank holds no value for it.
+    pub fn eta_at(&self, k: usize, j: usize, e: usize) -> f64 {
+        map_value(&self.maps[k][j], self.map_first[k], e)
+    }
+
+    /// Keep each body's maps on its elements `blocks[k]` alone: an estimate kept for the
+    /// output, whose rank writes those rows (`io::fields::cell_blocks`), holds a share of its
+    /// maps rather than the whole body's for every estimated step.
+    pub fn keep_block(&mut self, blocks: &[std::ops::Range<usize>; 2]) {
+        for (k, block) in blocks.iter().enumerate() {
+            let first = self.map_first[k];
+            for m in self.maps[k].iter_mut().filter(|m| !m.is_empty()) {
+                *m = map_block(m, first, block);
+            }
+            self.map_first[k] = block.start.max(first);
+        }
+    }
+}
+
+/// The value at element `e` of a map held from element `first` on (0 beyond it).
+fn map_value(map: &[f64], first: usize, e: usize) -> f64 {
+    e.checked_sub(first)
+        .and_then(|i| map.get(i))
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// The entries of elements `block` of a map held from element `first` on (those it holds),
+/// which then starts at element max(block.start, first).
+fn map_block(map: &[f64], first: usize, block: &std::ops::Range<usize>) -> Vec<f64> {
+    let start = block.start.max(first);
+    let hi = (block.end.max(start) - first).min(map.len());
+    map[(start - first).min(hi)..hi].to_vec()
 }
 
 /// Computes the estimates of NNDD iterates (collective over all ranks).
@@ -211,6 +251,11 @@ impl<'a> Estimator<'a> {
     /// The iterations of the reference solution's NNDD (none without one).
     pub fn reference_iterations(&self) -> Option<usize> {
         self.reference.as_ref().map(|r| r.iterations)
+    }
+
+    /// The element count of each body (the length of its whole η maps).
+    pub fn elements(&self) -> [usize; 2] {
+        self.problems.each_ref().map(|p| p.mesh.triangles.len())
     }
 
     /// Seconds spent in each part of the estimates on this rank, in [`Part`]'s order.
@@ -464,5 +509,27 @@ impl<'a> Estimator<'a> {
         rec.iterate = it.clone();
         rec.t_hat = m.at_pairs(&rec.t_hat);
         Ok(rec)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_kept_block_of_a_map_has_the_values_of_its_elements() {
+        let whole: Vec<f64> = (0..10).map(|e| e as f64 + 0.5).collect();
+        let block = map_block(&whole, 0, &(3..7));
+        assert_eq!(block, vec![3.5, 4.5, 5.5, 6.5]);
+        for e in 0..10 {
+            let want = if (3..7).contains(&e) { whole[e] } else { 0.0 };
+            assert_eq!(map_value(&block, 3, e), want, "element {e}");
+            assert_eq!(map_value(&whole, 0, e), whole[e]);
+        }
+        // Kept again (the same block, or a wider one): unchanged.
+        assert_eq!(map_block(&block, 3, &(3..7)), block);
+        assert_eq!(map_block(&block, 3, &(0..10)), block);
+        // An empty block keeps nothing.
+        assert!(map_block(&whole, 0, &(0..0)).is_empty());
     }
 }

@@ -82,7 +82,7 @@ pub fn results(
                     center: Center::Cell,
                     kind: Kind::Scalar,
                     values: on_share(rows, mine, Center::Cell, 1, |k, e_k, out| {
-                        out.push(e.maps[k][j].get(e_k).copied().unwrap_or(0.0))
+                        out.push(e.eta_at(k, j, e_k))
                     }),
                 });
             }
@@ -297,14 +297,9 @@ pub fn shares(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<Share> {
             cells: 0..rows[1].cells.end,
         }
     } else if let Some(k) = (0..2).find(|&k| layout.owns(k + 1)) {
-        let (part, parts) = (layout.group_rank(), layout.group_sizes[k]);
-        let block = |r: &std::ops::Range<usize>| {
-            let len = r.len();
-            r.start + len * part / parts..r.start + len * (part + 1) / parts
-        };
         Share {
-            points: block(&rows[k].points),
-            cells: block(&rows[k].cells),
+            points: block(layout, k, &rows[k].points),
+            cells: block(layout, k, &rows[k].cells),
         }
     } else {
         Share::default()
@@ -320,6 +315,25 @@ pub fn shares(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<Share> {
         false => Share::default(),
     };
     vec![bodies, contact]
+}
+
+/// This rank's block of the rows `r` of body k + 1 (its group's ranks split them evenly).
+fn block(layout: &Layout, k: usize, r: &std::ops::Range<usize>) -> std::ops::Range<usize> {
+    let (part, parts) = (layout.group_rank(), layout.group_sizes[k]);
+    let len = r.len();
+    r.start + len * part / parts..r.start + len * (part + 1) / parts
+}
+
+/// The elements of each body whose rows of the `bodies` grid this rank writes ([`shares`]),
+/// in the body's numbering (`cells[k]`: its element count): all of a body on a rank that
+/// holds both, its block on a rank of its group, none elsewhere.
+pub fn cell_blocks(layout: &Layout, cells: [usize; 2]) -> [std::ops::Range<usize>; 2] {
+    let both = layout.owns(1) && layout.owns(2);
+    [0, 1].map(|k| match (both, layout.owns(k + 1)) {
+        (true, _) => 0..cells[k],
+        (false, true) => block(layout, k, &(0..cells[k])),
+        (false, false) => 0..0,
+    })
 }
 
 /// The JSON description of the fields of the last step (dataset paths of `PREFIX.h5`).

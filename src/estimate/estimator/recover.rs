@@ -410,6 +410,7 @@ impl Estimator<'_> {
             effectivity: e_ref.map(|e| eta_glo / e),
             residuals: res,
             maps,
+            map_first: [0, 0],
             iterate,
             t_hat: resolved.t_glo,
         })
