@@ -134,13 +134,6 @@ pub fn element_stress(mesh: &Mesh, e: usize, mat: &Material, u: &[f64]) -> [f64;
     [0, 1, 2].map(|r| (0..3).map(|k| d[r][k] * eps[k]).sum())
 }
 
-/// Element stresses (Voigt xx, yy, xy) of a displacement field on every triangle.
-pub fn stresses(mesh: &Mesh, mat: &Material, u: &[f64]) -> Vec<[f64; 3]> {
-    (0..mesh.triangles.len())
-        .map(|e| element_stress(mesh, e, mat, u))
-        .collect()
-}
-
 /// Consistent nodal forces of a traction that is linear along the edge [a, b]
 /// (values `ta` at a, `tb` at b): exact integration, f_a = L/6 (2 t_a + t_b).
 pub fn edge_load(pa: [f64; 2], pb: [f64; 2], ta: [f64; 2], tb: [f64; 2]) -> ([f64; 2], [f64; 2]) {
