@@ -25,7 +25,7 @@ const PER_RANK: f64 = 45.0 * MIB;
 /// Bytes per dof and per log2(dofs) of a mesh.
 const PER_DOF_LOG: f64 = 80.0;
 /// Bytes per dof of the meshes on every rank (docs/scaling.md, "Memory per rank").
-const PER_RANK_DOF: f64 = 150.0;
+const PER_RANK_DOF: f64 = 138.0;
 const MIB: f64 = 1024.0 * 1024.0;
 const GIB: f64 = 1024.0 * MIB;
 
@@ -141,18 +141,17 @@ mod tests {
         let (small, large) = (mesh_bytes(1 << 16), mesh_bytes(1 << 20));
         // 16 times the dofs, log2 from 16 to 20: 20 times the bytes.
         assert!((large / small - 20.0).abs() < 1e-9, "{}", large / small);
-        // paper n = 512 with one estimate (1 052 676 dofs) peaked at 1832 MiB summed over
-        // 2 ranks, 2310 over 4 and 2949 over 8; n = 1024 (4 202 500) at 7792 over 2 and
-        // 11 231 over 8 (jobs/bench-memory-ranks); n = 1448 (8 398 404) at 16 080 and
-        // n = 1600 (10 252 804) at 20 737 over 2 (docs/scaling.md, "Memory per rank", measured
-        // before the estimate's re-solves freed their loads, 1–2 % less since): the model is
-        // above each, by less than a tenth.
+        // paper n = 512 with one estimate (1 052 676 dofs) peaks at 1808 MiB summed over
+        // 2 ranks, 2278 over 4 and 2874 over 8; n = 1024 (4 202 500) at 7728 over 2 and
+        // 10 989 over 8 (jobs/bench-memory-ranks); n = 1448 (8 398 404) at 16 080 and
+        // n = 1600 (10 252 804) at 20 737 over 2 (docs/scaling.md, "Memory per rank"): the
+        // model is above each, by less than a tenth.
         for (ranks, dofs, peak) in [
-            (2, 1_052_676, 1832.0),
-            (4, 1_052_676, 2310.0),
-            (8, 1_052_676, 2949.0),
-            (2, 4_202_500, 7792.0),
-            (8, 4_202_500, 11231.0),
+            (2, 1_052_676, 1808.0),
+            (4, 1_052_676, 2278.0),
+            (8, 1_052_676, 2874.0),
+            (2, 4_202_500, 7728.0),
+            (8, 4_202_500, 10989.0),
             (2, 8_398_404, 16080.0),
             (2, 10_252_804, 20737.0),
         ] {
