@@ -7,7 +7,9 @@
 //! the solve's time and η^glo. With `NNDD_BEFORE=path/to/nndd` every case runs with that binary
 //! too, right after this one's (a before/after table measured in one run). More ranks than
 //! cores run oversubscribed: their memory is what is measured, not their speed. The table goes
-//! to `results/bench-memory-ranks.txt`. Run through `jobs/bench-memory-ranks [--quick]`.
+//! to `results/bench-memory-ranks.txt`. `--every K` estimates every K-th iteration instead
+//! (`-nndd_estimate_every K`: many estimated steps, each kept for the output). Run through
+//! `jobs/bench-memory-ranks [--quick] [--every K]`.
 
 #[path = "runner.rs"]
 mod runner;
@@ -16,7 +18,18 @@ use std::collections::HashMap;
 use std::io::Write;
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let every = match args.iter().position(|a| a == "--every") {
+        Some(i) => match args.get(i + 1).and_then(|v| v.parse::<usize>().ok()) {
+            Some(k) => k,
+            None => {
+                eprintln!("bench-memory-ranks: --every takes a whole number of iterations (0: the reported iterate alone)");
+                std::process::exit(2);
+            }
+        },
+        None => 0,
+    };
     let dir = runner::scratch("bench-memory-ranks");
     let cases: Vec<(usize, usize)> = if quick {
         vec![(128, 2), (128, 4), (128, 8), (256, 2), (256, 8)]
@@ -28,7 +41,10 @@ fn main() {
         binaries.push(("before", before));
     }
     let mut lines = vec![
-        "# jobs/bench-memory-ranks: paper, one estimate (-nndd_estimate -nndd_estimate_every 0), solve to tol 1e-8; MiB per rank (peak resident), oversubscribed above 2 ranks".to_string(),
+        format!("# jobs/bench-memory-ranks: paper, -nndd_estimate -nndd_estimate_every {every} ({}), solve to tol 1e-8; MiB per rank (peak resident), oversubscribed above 2 ranks", match every {
+            0 => "one estimate".to_string(),
+            k => format!("an estimate every {k} iterations"),
+        }),
         format!(
             "{:>7} {:>5} {:>5} {:>9} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>7} {:>7} {:>12}",
             "binary", "n", "ranks", "dofs", "max MiB", "min MiB", "ideal", "max/ideal", "sum MiB",
@@ -47,7 +63,7 @@ fn main() {
                 &n.to_string(),
                 "-nndd_estimate",
                 "-nndd_estimate_every",
-                "0",
+                &every.to_string(),
                 "-nndd_reference_factor",
                 "0",
             ];

@@ -15,7 +15,10 @@
 //!   twice that.
 //! - The estimates (src/estimate/mortar.rs): on the patch test η^glo, η^FE, η^NNDD and e_ref
 //!   vanish to 1e−6 of ‖u‖_E (the answer is exact); on Hertz 1:1.5 and the pin in its hole 2:3 η^glo bounds e_ref at
-//!   two reference factors, η^NNDD vanishes at convergence, and 1, 2 and 3 ranks agree.
+//!   two reference factors, η^NNDD vanishes at convergence, and 1, 2 and 3 ranks agree; with
+//!   estimates during the loop each estimated step's η^glo_E and η^FE_E in the result file
+//!   (on the run's own meshes, each rank keeping its rows) sum to that step's η^glo and η^FE on
+//!   1 and 4 ranks.
 //! - Closed contact curves (tests/mortar/bore.geo, a pin in its bore, whole circles meshed 2:3):
 //!   the same answer as on the circles' lower arcs, NNDD = monolithic, 1, 2 and 3 ranks alike;
 //!   node to node and the estimates on them refused in a line.
@@ -482,6 +485,38 @@ fn mortar_estimates_bound_the_error_on_hertz_and_the_pin() {
         }
         for g in &glo {
             assert!((g - glo[0]).abs() < 1e-6 * glo[0], "{name}: {glo:?}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn each_estimated_step_written_sums_to_its_estimate_on_1_and_4_ranks() {
+    let dir = scratch("mortar-steps");
+    let msh = hertz_mesh(&dir, "1.5", "2");
+    for np in [1, 4] {
+        let prefix = dir.join(format!("steps-{np}"));
+        let args = ["-nndd_estimate", "-nndd_estimate_every", "3"];
+        let j = hertz_run(np, &msh, &prefix, &args);
+        let estimates = j["estimates"].as_array().expect("the estimates");
+        assert!(
+            estimates.len() >= 3,
+            "{np} ranks: {} estimates",
+            estimates.len()
+        );
+        for e in estimates {
+            let it = f(e, "iteration") as usize;
+            for key in ["eta_glo", "eta_fe"] {
+                let map = h5(&prefix, &format!("/Function/bodies/{key}/{it}"));
+                let sum = map.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let d = (sum - f(e, key)).abs() / f(e, key);
+                println!("hertz 1:1.5 mortar on {np} rank(s), iteration {it}: {key} (sum of the file's map) {sum:.12e}, estimate {:.12e}", f(e, key));
+                assert!(
+                    d < 1e-9,
+                    "{np} ranks, iteration {it}: {key} map sums to {sum}, the estimate is {}",
+                    f(e, key)
+                );
+            }
         }
     }
     std::fs::remove_dir_all(&dir).ok();

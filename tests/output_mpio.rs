@@ -250,12 +250,12 @@ fn write_and_compare<C: Communicator>(
 /// A grid with points but no cells (so its cells and cell fields have no element), its
 /// points spread over all ranks.
 fn empty_cells(rank: usize, size: usize) -> (Results, Vec<Share>) {
-    let grid = Grid {
-        name: "probe".into(),
-        points: (0..7).map(|i| [i as f64 / 3.0, 0.5]).collect(),
-        topology: Topology::Segment(Vec::new()),
-        fields: Vec::new(),
-    };
+    let grid = Grid::whole(
+        "probe",
+        (0..7).map(|i| [i as f64 / 3.0, 0.5]).collect(),
+        Topology::Segment(Vec::new()),
+        Vec::new(),
+    );
     let results = Results {
         steps: vec![Step {
             time: 0.5,
@@ -320,11 +320,13 @@ fn error_paths<C: Communicator>(
         bad,
         shares.to_vec(),
     ));
-    let mut gap = shares.to_vec();
+    let (mut gap, mut gapped) = (shares.to_vec(), mine.clone());
     if rank == 0 {
         gap[0].points.start = 1;
+        // (rank 0 holds its share's points alone: the first is no longer its)
+        gapped.grids[0].points.remove(0);
     }
-    cases.push(("a gap in the shares", dir.join("gap"), mine.clone(), gap));
+    cases.push(("a gap in the shares", dir.join("gap"), gapped, gap));
     if size > 1 {
         let mut overlap = shares.to_vec();
         if rank == 1 {
@@ -383,14 +385,14 @@ fn error_paths<C: Communicator>(
 fn sample() -> Results {
     let body1 = triangles("body1", 14, 16, 0.0, 0.0);
     let body2 = triangles("body2", 18, 12, 0.1, 1.0);
-    let contact = Grid {
-        name: "contact".into(),
-        points: (0..41)
+    let contact = Grid::whole(
+        "contact",
+        (0..41)
             .map(|i| [i as f64 / 40.0 + 1.0 / 7.0, 1.0])
             .collect(),
-        topology: Topology::Segment((0..40).map(|i| [i, i + 1]).collect()),
-        fields: Vec::new(),
-    };
+        Topology::Segment((0..40).map(|i| [i, i + 1]).collect()),
+        Vec::new(),
+    );
     let grids = vec![body1, body2, contact];
     let steps = (0..2)
         .map(|k| {
@@ -466,12 +468,7 @@ fn triangles(name: &str, nx: u32, ny: u32, x0: f64, y0: f64) -> Grid {
         0.5,
         cells.len(),
     )];
-    Grid {
-        name: name.into(),
-        points,
-        topology: Topology::Triangle(cells),
-        fields,
-    }
+    Grid::whole(name, points, Topology::Triangle(cells), fields)
 }
 
 fn cells(g: &Grid) -> usize {
@@ -530,10 +527,20 @@ fn shares_of(results: &Results, rank: usize, size: usize) -> Vec<Share> {
         .collect()
 }
 
-/// What a rank holds: the full results, but odd ranks drop the field values of the grids
-/// they have no share of.
+/// What a rank holds: the full results, but even ranks hold each grid's points and cells
+/// of their share alone, and odd ranks drop the field values of the grids they have no share
+/// of.
 fn local_view(full: &Results, shares: &[Share], rank: usize) -> Results {
     let mut mine = full.clone();
+    if rank.is_multiple_of(2) {
+        for (g, share) in mine.grids.iter_mut().zip(shares) {
+            g.points = g.points[share.points.clone()].to_vec();
+            g.topology = match &g.topology {
+                Topology::Triangle(c) => Topology::Triangle(c[share.cells.clone()].to_vec()),
+                Topology::Segment(c) => Topology::Segment(c[share.cells.clone()].to_vec()),
+            };
+        }
+    }
     if rank % 2 == 1 {
         for (g, share) in mine.grids.iter_mut().zip(shares) {
             if share.points.is_empty() && share.cells.is_empty() {

@@ -267,7 +267,7 @@ pub(crate) fn solve_cycle(
 ) -> Result<Cycle, AppError> {
     let mut settings = settings.clone();
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
-    // the whole geometry, for the interface and the output).
+    // the whole geometry: the interface, the estimator's slabs and the output's blocks read it).
     let mut problems = build_problems(&settings, agreement, world.rank() == 0)?;
     if let Some(why) = settings.problem.node_to_node_instead(&problems) {
         // (`-nndd_contact_discretisation auto` where mortar is not available)

@@ -10,7 +10,7 @@ use super::{AppError, LONG_PHASE_DOFS};
 use crate::dd::nndd::{self, IterationRecord, NnddResult, Status};
 use crate::estimate::estimator::InParts;
 use crate::estimate::{EstimateRecord, Estimator};
-use crate::io::monitor;
+use crate::io::{fields, monitor};
 use crate::os::signals::{self, StopPhase};
 use crate::parallel::layout::Layout;
 use crate::petsc::log::Stages;
@@ -95,11 +95,15 @@ pub fn finish_reported(
 }
 
 /// Before a new estimate joins `estimates`: the newest so far, now kept only for the output,
-/// keeps its η maps on the elements this rank writes alone ([`EstimateRecord::keep_block`];
-/// the newest stays whole: an adaptive run's size field reads it).
+/// keeps what this rank writes of it alone (its η maps and displacement on its rows of the
+/// `bodies` grid, [`EstimateRecord::keep_rows`]; the newest stays whole: an adaptive run's
+/// size field reads it).
 pub(super) fn keep_for_output(estimates: &mut [EstimateRecord], layout: &Layout, est: &Estimator) {
     if let Some(last) = estimates.last_mut() {
-        last.keep_block(&crate::io::fields::cell_blocks(layout, est.elements()));
+        let problems = est.run_problems();
+        let kept = fields::kept_rows(layout, problems);
+        let contact = fields::contact_displacement(problems, &last.iterate.u);
+        last.keep_rows(&kept.cells, &kept.dofs, contact);
     }
 }
 

@@ -3,6 +3,7 @@
 //! [`crate::estimate`] give the estimates).
 
 use std::cell::{Cell, OnceCell, RefCell};
+use std::ops::Range;
 use std::rc::Rc;
 
 use crate::dd::body::Body;
@@ -13,6 +14,7 @@ use crate::estimate::cre::{
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::mortar::MortarEstimates;
 use crate::estimate::share::{estimate_owners, estimating_ranks, Share};
+use crate::parallel::held;
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
 use crate::problem::BodyProblem;
@@ -48,11 +50,17 @@ pub struct EstimateRecord {
     pub residuals: Residuals,
     /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (on the body's ranks, empty elsewhere), from
     /// the body's element `map_first[k]` on: whole (0) while the record is the newest, its
-    /// rank's block of elements alone once it is kept for the output ([`Self::keep_block`]).
+    /// rank's block of elements alone once it is kept for the output ([`Self::keep_rows`]).
     pub maps: [[Vec<f64>; 3]; 2],
     pub map_first: [usize; 2],
-    /// The iterate, with u^α_p gathered on rank 0 (for output), and t̂^c.
+    /// The iterate, with u^α_p on body α's ranks from dof `u_first[α − 1]` on (whole, 0, while
+    /// the record is the newest), and t̂^c.
     pub iterate: Iterate,
+    pub u_first: [usize; 2],
+    /// The pair side's displacement at its Γc nodes (x, y per pair; empty on the ranks
+    /// without that body's field) once the record is kept for the output, its iterate's
+    /// displacement no longer holding them; `None` before.
+    pub contact_displacement: Option<Vec<f64>>,
     pub t_hat: Vec<f64>,
 }
 
@@ -60,37 +68,33 @@ impl EstimateRecord {
     /// η_E of map `j` (0: η^glo, 1: η^FE, 2: η^NNDD) at body k + 1's element `e`; 0 where
     /// this rank holds no value for it.
     pub fn eta_at(&self, k: usize, j: usize, e: usize) -> f64 {
-        map_value(&self.maps[k][j], self.map_first[k], e)
+        held::value_at(&self.maps[k][j], self.map_first[k], e)
     }
 
-    /// Keep each body's maps on its elements `blocks[k]` alone: an estimate kept for the
-    /// output, whose rank writes those rows (`io::fields::cell_blocks`), holds a share of its
-    /// maps rather than the whole body's for every estimated step.
-    pub fn keep_block(&mut self, blocks: &[std::ops::Range<usize>; 2]) {
-        for (k, block) in blocks.iter().enumerate() {
+    /// Keep what this rank writes of the record in the output alone (`io::fields::kept_rows`):
+    /// each body's maps on its elements `cells[k]`, its displacement on its dofs `dofs[k]`,
+    /// and the pair side's displacement at Γc (`contact`, from the iterate's before it is
+    /// cut), rather than the whole bodies' for every estimated step.
+    pub fn keep_rows(
+        &mut self,
+        cells: &[Range<usize>; 2],
+        dofs: &[Range<usize>; 2],
+        contact: Vec<f64>,
+    ) {
+        self.contact_displacement.get_or_insert(contact);
+        for k in 0..2 {
             let first = self.map_first[k];
             for m in self.maps[k].iter_mut().filter(|m| !m.is_empty()) {
-                *m = map_block(m, first, block);
+                *m = held::keep(m, first, &cells[k]);
             }
-            self.map_first[k] = block.start.max(first);
+            self.map_first[k] = cells[k].start.max(first);
+            let (u, first) = (&mut self.iterate.u[k], self.u_first[k]);
+            if !u.is_empty() {
+                *u = held::keep(u, first, &dofs[k]);
+                self.u_first[k] = dofs[k].start.max(first);
+            }
         }
     }
-}
-
-/// The value at element `e` of a map held from element `first` on (0 beyond it).
-fn map_value(map: &[f64], first: usize, e: usize) -> f64 {
-    e.checked_sub(first)
-        .and_then(|i| map.get(i))
-        .copied()
-        .unwrap_or(0.0)
-}
-
-/// The entries of elements `block` of a map held from element `first` on (those it holds),
-/// which then starts at element max(block.start, first).
-fn map_block(map: &[f64], first: usize, block: &std::ops::Range<usize>) -> Vec<f64> {
-    let start = block.start.max(first);
-    let hi = (block.end.max(start) - first).min(map.len());
-    map[(start - first).min(hi)..hi].to_vec()
 }
 
 /// Computes the estimates of NNDD iterates (collective over all ranks).
@@ -253,9 +257,12 @@ impl<'a> Estimator<'a> {
         self.reference.as_ref().map(|r| r.iterations)
     }
 
-    /// The element count of each body (the length of its whole η maps).
-    pub fn elements(&self) -> [usize; 2] {
-        self.problems.each_ref().map(|p| p.mesh.triangles.len())
+    /// The run's two problems, whose elements the records' η maps and whose dofs their
+    /// iterates' displacements are on (a mortar run's own, not the matched meshes its
+    /// estimates are made on).
+    pub fn run_problems(&self) -> [&BodyProblem; 2] {
+        let problems = self.mortar.as_ref().map_or(&self.problems, |m| &m.problems);
+        [&problems[0], &problems[1]]
     }
 
     /// Seconds spent in each part of the estimates on this rank, in [`Part`]'s order.
@@ -509,27 +516,5 @@ impl<'a> Estimator<'a> {
         rec.iterate = it.clone();
         rec.t_hat = m.at_pairs(&rec.t_hat);
         Ok(rec)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_kept_block_of_a_map_has_the_values_of_its_elements() {
-        let whole: Vec<f64> = (0..10).map(|e| e as f64 + 0.5).collect();
-        let block = map_block(&whole, 0, &(3..7));
-        assert_eq!(block, vec![3.5, 4.5, 5.5, 6.5]);
-        for e in 0..10 {
-            let want = if (3..7).contains(&e) { whole[e] } else { 0.0 };
-            assert_eq!(map_value(&block, 3, e), want, "element {e}");
-            assert_eq!(map_value(&whole, 0, e), whole[e]);
-        }
-        // Kept again (the same block, or a wider one): unchanged.
-        assert_eq!(map_block(&block, 3, &(3..7)), block);
-        assert_eq!(map_block(&block, 3, &(0..10)), block);
-        // An empty block keeps nothing.
-        assert!(map_block(&whole, 0, &(0..0)).is_empty());
     }
 }

@@ -124,11 +124,21 @@ pub fn element_dofs(t: &[usize; 3]) -> [usize; 6] {
 
 /// Constant stress K ε(u) (Voigt xx, yy, xy) in triangle `e` for the nodal field `u`.
 pub fn element_stress(mesh: &Mesh, e: usize, mat: &Material, u: &[f64]) -> [f64; 3] {
+    element_stress_with(mesh, e, mat, |d| u[d])
+}
+
+/// [`element_stress`] from the displacement's value `u(dof)` at each dof of the element.
+pub fn element_stress_with(
+    mesh: &Mesh,
+    e: usize,
+    mat: &Material,
+    u: impl Fn(usize) -> f64,
+) -> [f64; 3] {
     let (b, _) = strain_displacement(&mesh.triangle_points(e));
     let dofs = element_dofs(&mesh.triangles.get(e));
     let mut eps = [0.0; 3];
     for r in 0..3 {
-        eps[r] = (0..6).map(|c| b[r][c] * u[dofs[c]]).sum();
+        eps[r] = (0..6).map(|c| b[r][c] * u(dofs[c])).sum();
     }
     let d = mat.hooke();
     [0, 1, 2].map(|r| (0..3).map(|k| d[r][k] * eps[k]).sum())

@@ -16,6 +16,6 @@ pub mod mesh;
 
 pub use elasticity::{
     assemble_stiffness, edge_load, element_dofs, element_energy, element_stiffness, element_stress,
-    energy_squared_on, strain_displacement, Csr, Material,
+    element_stress_with, energy_squared_on, strain_displacement, Csr, Material,
 };
 pub use mesh::Mesh;

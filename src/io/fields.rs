@@ -2,13 +2,16 @@
 //! an iterate (displacements, stresses, Γc quantities) with the estimates' element maps. Built
 //! here from the solver's and the estimator's data, written by [`super::output`].
 
+use std::ops::Range;
+
 use crate::dd::nndd::Iterate;
 use crate::estimate::{EstimateRecord, Interface};
-use crate::fem;
+use crate::fem::{self, Mesh};
 use crate::io::output::{
-    function_path, Center, Field, Grid, GridFields, Kind, Results, Share, Step, Topology,
+    function_path, Center, Extent, Field, Grid, GridFields, Kind, Results, Share, Step, Topology,
 };
 use crate::io::summary::FieldInfo;
+use crate::parallel::held;
 use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 
@@ -16,9 +19,10 @@ use crate::problem::BodyProblem;
 /// triangles, then body 2's, with the constant cell field `body` = 1 or 2), Γc as the grid
 /// `contact`, and one step per entry of `steps` (an iterate, with its estimates when it was
 /// estimated).
-/// A step's fields of the `bodies` grid are given for this rank's rows of it alone
+/// The `bodies` grid, and its fields at every step, are given for this rank's rows of it alone
 /// (`shares[0]`, [`shares`]: rows of the bodies of its group, whose fields it has), so that no
-/// rank holds any step's fields whole; the geometry and the Γc fields are known everywhere.
+/// rank holds the grid or any step's fields whole; the Γc grid and its fields (O(√N)) are
+/// known everywhere.
 pub fn results(
     problems: [&BodyProblem; 2],
     steps: &[(&Iterate, Option<&EstimateRecord>)],
@@ -31,50 +35,27 @@ pub fn results(
     let iface = Interface::new(problems[side].contact_lengths.clone());
     let m = iface.len();
     let [r1, r2] = body_rows(problems);
-    let mut points = problems[0].mesh.points.clone();
-    points.extend_from_slice(&problems[1].mesh.points);
-    let offset = [0, r1.points.end];
-    let triangles = problems
-        .iter()
-        .zip(offset)
-        .flat_map(|(p, o)| {
-            p.mesh
-                .triangles
-                .iter()
-                .map(move |t| t.map(|v| (v + o) as u32))
-        })
-        .collect();
-    let body = (r1.cells.clone().map(|_| 1.0))
-        .chain(r2.cells.clone().map(|_| 2.0))
-        .collect();
-    let grids = vec![
-        Grid {
-            name: "bodies".into(),
-            points,
-            topology: Topology::Triangle(triangles),
-            fields: vec![Field {
-                name: "body".into(),
-                center: Center::Cell,
-                kind: Kind::Scalar,
-                values: body,
-            }],
-        },
-        Grid {
-            name: "contact".into(),
-            // Γc at body 1's side (its nodes, in pair order).
-            points: problems[side]
-                .contact_nodes
-                .iter()
-                .map(|&n| problems[side].mesh.points[n])
-                .collect(),
-            topology: Topology::Segment(contact_segments(problems)),
-            fields: Vec::new(),
-        },
-    ];
     let rows = [&r1, &r2];
     let mine = &shares[0];
+    let grids = vec![
+        bodies_grid(problems, rows, mine),
+        // Γc at its pair side (its nodes, in pair order).
+        Grid::whole(
+            "contact",
+            (problems[side].contact_nodes.iter())
+                .map(|&n| problems[side].mesh.points[n])
+                .collect(),
+            Topology::Segment(contact_segments(problems)),
+            Vec::new(),
+        ),
+    ];
     let step = |it: &Iterate, est: Option<&EstimateRecord>| {
-        let mut fields = body_fields(problems, rows, mine, &it.u);
+        let first = est.map_or([0, 0], |e| e.u_first);
+        let u = [0, 1].map(|k| Held {
+            values: &it.u[k],
+            first: first[k],
+        });
+        let mut fields = body_fields(problems, rows, mine, u);
         if let Some(e) = est {
             for (j, name) in ["eta_glo", "eta_fe", "eta_nndd"].iter().enumerate() {
                 fields.push(Field {
@@ -104,15 +85,9 @@ pub fn results(
         };
         // The pair side's displacement at its Γc nodes (known on its body's ranks, the one
         // writing Γc among them: [`shares`]).
-        let u1 = &it.u[side];
-        let displacement = if !u1.is_empty() {
-            let nodes = &problems[side].contact_nodes;
-            nodes
-                .iter()
-                .flat_map(|&n| [u1[2 * n], u1[2 * n + 1]])
-                .collect()
-        } else {
-            Vec::new()
+        let displacement = match est.and_then(|e| e.contact_displacement.as_ref()) {
+            Some(kept) => kept.clone(),
+            None => contact_displacement(problems, &it.u),
         };
         let mut fields = vec![
             scalar("lambda", it.lambda.clone()),
@@ -175,16 +150,50 @@ pub fn results(
     }
 }
 
+/// The `bodies` grid at this rank's rows `mine` alone: its points, its triangles (by point
+/// indices of the whole grid: body 2's after body 1's) and the constant cell field `body`.
+fn bodies_grid(problems: [&BodyProblem; 2], rows: [&Share; 2], mine: &Share) -> Grid {
+    let points = on_share(rows, mine, Center::Node, 2, |k, n, out| {
+        out.extend(problems[k].mesh.points[n])
+    });
+    let mut triangles = Vec::with_capacity(mine.cells.len());
+    let body = on_share(rows, mine, Center::Cell, 1, |k, e, out| {
+        let offset = rows[k].points.start;
+        triangles.push(
+            problems[k]
+                .mesh
+                .triangles
+                .get(e)
+                .map(|v| (v + offset) as u32),
+        );
+        out.push((k + 1) as f64);
+    });
+    Grid {
+        name: "bodies".into(),
+        extent: Extent {
+            points: rows[1].points.end,
+            cells: rows[1].cells.end,
+        },
+        points: points.chunks_exact(2).map(|p| [p[0], p[1]]).collect(),
+        topology: Topology::Triangle(triangles),
+        fields: vec![Field {
+            name: "body".into(),
+            center: Center::Cell,
+            kind: Kind::Scalar,
+            values: body,
+        }],
+    }
+}
+
 /// Each body's rows of the `bodies` grid: body 1's points and cells, then body 2's.
 pub fn body_rows(problems: [&BodyProblem; 2]) -> [Share; 2] {
-    let (n1, m1) = (
-        problems[0].mesh.points.len(),
-        problems[0].mesh.triangles.len(),
-    );
-    let (n2, m2) = (
-        problems[1].mesh.points.len(),
-        problems[1].mesh.triangles.len(),
-    );
+    grid_rows(problems.map(|p| &p.mesh))
+}
+
+/// [`body_rows`] of the meshes.
+fn grid_rows(meshes: [&Mesh; 2]) -> [Share; 2] {
+    let [n1, n2] = meshes.map(|m| m.points.len());
+    let [m1, m2] = meshes.map(|m| m.triangles.len());
     [
         Share {
             points: 0..n1,
@@ -218,21 +227,35 @@ fn on_share(
     out
 }
 
+/// A body's displacement as a step holds it: its dofs from `first` on (whole: 0; `values`
+/// empty where this rank does not have the body's field).
+#[derive(Clone, Copy)]
+struct Held<'a> {
+    values: &'a [f64],
+    first: usize,
+}
+
+impl Held<'_> {
+    fn at(self, dof: usize) -> f64 {
+        held::value_at(self.values, self.first, dof)
+    }
+}
+
 /// Displacement (node vector), stress (cell tensor, plane strain σ_zz) and von Mises stress
-/// at this rank's rows `mine` of the `bodies` grid, from the fields `u` of the bodies (empty
-/// where this rank does not have a body's).
+/// at this rank's rows `mine` of the `bodies` grid, from the fields `u` of the bodies.
 fn body_fields(
     problems: [&BodyProblem; 2],
     rows: [&Share; 2],
     mine: &Share,
-    u: &[Vec<f64>; 2],
+    u: [Held; 2],
 ) -> Vec<Field> {
     let stress = |k: usize, e: usize| {
         let p = problems[k];
-        (!u[k].is_empty()).then(|| fem::element_stress(&p.mesh, e, &p.material, &u[k]))
+        (!u[k].values.is_empty())
+            .then(|| fem::element_stress_with(&p.mesh, e, &p.material, |d| u[k].at(d)))
     };
     let displacement = on_share(rows, mine, Center::Node, 2, |k, n, out| {
-        out.extend([0, 1].map(|c| u[k].get(2 * n + c).copied().unwrap_or(0.0)))
+        out.extend([0, 1].map(|c| u[k].at(2 * n + c)))
     });
     let tensor = on_share(rows, mine, Center::Cell, 6, |k, e, out| {
         match stress(k, e) {
@@ -324,16 +347,56 @@ fn block(layout: &Layout, k: usize, r: &std::ops::Range<usize>) -> std::ops::Ran
     r.start + len * part / parts..r.start + len * (part + 1) / parts
 }
 
-/// The elements of each body whose rows of the `bodies` grid this rank writes ([`shares`]),
-/// in the body's numbering (`cells[k]`: its element count): all of a body on a rank that
-/// holds both, its block on a rank of its group, none elsewhere.
-pub fn cell_blocks(layout: &Layout, cells: [usize; 2]) -> [std::ops::Range<usize>; 2] {
-    let both = layout.owns(1) && layout.owns(2);
-    [0, 1].map(|k| match (both, layout.owns(k + 1)) {
-        (true, _) => 0..cells[k],
-        (false, true) => block(layout, k, &(0..cells[k])),
-        (false, false) => 0..0,
-    })
+/// What a rank keeps of an estimated step for the output ([`kept_rows`]), per body in its
+/// own numbering: the elements whose rows of the `bodies` grid it writes ([`shares`]), and the
+/// dofs that its points and those elements' nodes span.
+pub struct KeptRows {
+    pub cells: [Range<usize>; 2],
+    pub dofs: [Range<usize>; 2],
+}
+
+/// This rank's [`KeptRows`]: all of a body on a rank that holds both, its block on a rank of
+/// its group, none elsewhere.
+pub fn kept_rows(layout: &Layout, problems: [&BodyProblem; 2]) -> KeptRows {
+    let mine = shares(layout, problems).swap_remove(0);
+    kept_on(&mine, problems.map(|p| &p.mesh))
+}
+
+/// The [`KeptRows`] of the rows `mine` of the `bodies` grid of `meshes`.
+fn kept_on(mine: &Share, meshes: [&Mesh; 2]) -> KeptRows {
+    let rows = grid_rows(meshes);
+    let local = |r: &Range<usize>, body: &Range<usize>| {
+        let (lo, hi) = (r.start.max(body.start), r.end.min(body.end));
+        match lo < hi {
+            true => lo - body.start..hi - body.start,
+            false => 0..0,
+        }
+    };
+    let cells = [0, 1].map(|k| local(&mine.cells, &rows[k].cells));
+    let dofs = [0, 1].map(|k| {
+        let points = local(&mine.points, &rows[k].points);
+        let nodes = (cells[k].clone())
+            .flat_map(|e| meshes[k].triangles.get(e))
+            .chain(points);
+        let (lo, hi) = nodes.fold((usize::MAX, 0), |(lo, hi), n| (lo.min(n), hi.max(n + 1)));
+        match lo < hi {
+            true => 2 * lo..2 * hi,
+            false => 0..0,
+        }
+    });
+    KeptRows { cells, dofs }
+}
+
+/// The pair side's displacement at its Γc nodes, x and y per pair, from the bodies' whole
+/// fields `u` (empty where this rank does not have that body's).
+pub fn contact_displacement(problems: [&BodyProblem; 2], u: &[Vec<f64>; 2]) -> Vec<f64> {
+    let side = crate::problem::pair_side(problems);
+    match u[side].is_empty() {
+        true => Vec::new(),
+        false => (problems[side].contact_nodes.iter())
+            .flat_map(|&n| [u[side][2 * n], u[side][2 * n + 1]])
+            .collect(),
+    }
 }
 
 /// The JSON description of the fields of the last step (dataset paths of `PREFIX.h5`).
@@ -362,4 +425,59 @@ pub fn describe(results: &Results) -> Vec<FieldInfo> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a rank keeps of a step holds every node of its cells and its points, and on a
+    /// structured mesh no more than its block's rows of nodes and one more.
+    #[test]
+    fn kept_rows_hold_the_nodes_of_the_rows_written() {
+        let (nx, ny) = (8, 6);
+        let meshes = [
+            Mesh::structured([0.0, 0.0], [1.0, 1.0], nx, ny),
+            Mesh::structured([0.0, 1.0], [1.0, 1.0], nx, ny),
+        ];
+        let [r1, r2] = grid_rows([&meshes[0], &meshes[1]]);
+        // Body 2's second of three blocks, as its group's middle rank writes it.
+        let third = |r: &Range<usize>| r.start + r.len() / 3..r.start + 2 * r.len() / 3;
+        let mine = Share {
+            points: third(&r2.points),
+            cells: third(&r2.cells),
+        };
+        let kept = kept_on(&mine, [&meshes[0], &meshes[1]]);
+        assert_eq!(kept.cells[0], 0..0);
+        assert_eq!(kept.dofs[0], 0..0);
+        let cells = &kept.cells[1];
+        assert_eq!(cells.len(), mine.cells.len());
+        assert_eq!(cells.start, mine.cells.start - r1.cells.end);
+        let dofs = &kept.dofs[1];
+        for e in cells.clone() {
+            for n in meshes[1].triangles.get(e) {
+                assert!(
+                    dofs.contains(&(2 * n)) && dofs.contains(&(2 * n + 1)),
+                    "{n}"
+                );
+            }
+        }
+        for p in mine.points.clone() {
+            assert!(dofs.contains(&(2 * (p - r1.points.end))), "{p}");
+        }
+        let rows_of_nodes = cells.len().div_ceil(2 * nx) + 1;
+        assert!(dofs.len() <= 2 * (nx + 1) * (rows_of_nodes + 1), "{dofs:?}");
+        assert!(dofs.len() < meshes[1].num_dofs() / 2, "{dofs:?}");
+        // A rank holding both bodies keeps them whole.
+        let all = Share {
+            points: 0..r2.points.end,
+            cells: 0..r2.cells.end,
+        };
+        let kept = kept_on(&all, [&meshes[0], &meshes[1]]);
+        assert_eq!(kept.cells, [0..r1.cells.end, 0..r2.cells.len()]);
+        assert_eq!(
+            kept.dofs,
+            [0..meshes[0].num_dofs(), 0..meshes[1].num_dofs()]
+        );
+    }
 }

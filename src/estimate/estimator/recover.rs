@@ -412,6 +412,8 @@ impl Estimator<'_> {
             maps,
             map_first: [0, 0],
             iterate,
+            u_first: [0, 0],
+            contact_displacement: None,
             t_hat: resolved.t_glo,
         })
     }

@@ -285,17 +285,17 @@ fn fill_h5<W: Writers>(
     for (g, share) in results.grids.iter().zip(shares) {
         let group = out.group(&meshes, &g.name)?;
         let rows = share.points.clone();
-        let points = || g.points[rows.clone()].iter().flatten().copied().collect();
+        let points = || g.stored_points(rows.clone());
         out.dataset::<f64>(
             &group,
             "geometry",
-            &[g.points.len(), 2],
+            &[g.extent.points, 2],
             rows.clone(),
             points,
         )?;
         let rows = share.cells.clone();
-        let cells = || g.topology.flat_rows(rows.clone());
-        let shape = [g.topology.cell_count(), g.topology.nodes_per_cell()];
+        let cells = || g.stored_cells(rows.clone());
+        let shape = [g.extent.cells, g.topology.nodes_per_cell()];
         out.dataset(&group, "topology", &shape, rows.clone(), cells)?;
         for field in &g.fields {
             let all = entries(Some(g), field.center);

@@ -6,13 +6,12 @@
 //!
 //! [`write_results_parallel`] is collective over an MPI communicator and
 //! writes one `PREFIX.h5` whatever the number of ranks. Every rank passes
-//! [`Results`] of the same structure (the same grids with their full
-//! geometry, the same steps, field names, kinds and centers, the same
-//! attributes; checked with a hash) and, per grid, a [`Share`]: the
-//! contiguous rows of points and of cells it writes. The ranks' shares tile
-//! each grid (checked); a rank gives a field's values for every entry of the grid, or for
-//! its share's rows alone (so that no rank need hold a step's fields whole), or none where
-//! its share is empty.
+//! [`Results`] of the same structure (the same grids with the same point and cell counts,
+//! the same steps, field names, kinds and centers, the same attributes; checked with a hash)
+//! and, per grid, a [`Share`]: the contiguous rows of points and of cells it writes. The
+//! ranks' shares tile each grid (checked); a rank gives a grid's points and cells, and a
+//! field's values, for every entry of the grid, or for its share's rows alone (so that no
+//! rank need hold a grid or a step's fields whole), or none where its share is empty.
 //! All ranks open the file with the MPI-IO driver (`H5Pset_fapl_mpio`),
 //! create every group, attribute and dataset together in the same order
 //! (creation is collective in parallel HDF5; datasets are contiguous), and
@@ -193,9 +192,62 @@ pub struct Field {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid {
     pub name: String,
+    /// How many points and cells the grid has.
+    pub extent: Extent,
+    /// The points: all of them, or this rank's share's rows alone (as a field's values).
     pub points: Vec<[f64; 2]>,
+    /// The cells, by point indices in the grid's numbering: all of them, or this rank's
+    /// share's rows alone.
     pub topology: Topology,
     pub fields: Vec<Field>,
+}
+
+/// The point and cell counts of a grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Extent {
+    pub points: usize,
+    pub cells: usize,
+}
+
+impl Grid {
+    /// A grid given whole: its extent is that of `points` and `topology`.
+    pub fn whole(
+        name: &str,
+        points: Vec<[f64; 2]>,
+        topology: Topology,
+        fields: Vec<Field>,
+    ) -> Grid {
+        let extent = Extent {
+            points: points.len(),
+            cells: topology.cell_count(),
+        };
+        Grid {
+            name: name.into(),
+            extent,
+            points,
+            topology,
+            fields,
+        }
+    }
+
+    /// Points `rows` as stored (x, y after each other), from the points held: all of them
+    /// or `rows` alone.
+    fn stored_points(&self, rows: Range<usize>) -> Vec<f64> {
+        let held = match self.points.len() == self.extent.points {
+            true => &self.points[rows],
+            false => &self.points[..],
+        };
+        held.iter().flatten().copied().collect()
+    }
+
+    /// The point indices of cells `rows`, cell after cell, from the cells held: all of them
+    /// or `rows` alone.
+    fn stored_cells(&self, rows: Range<usize>) -> Vec<i64> {
+        match self.topology.cell_count() == self.extent.cells {
+            true => self.topology.flat_rows(rows),
+            false => self.topology.flat_rows(0..self.topology.cell_count()),
+        }
+    }
 }
 
 /// Fields of one grid at one time step.
@@ -248,8 +300,8 @@ impl Share {
     /// All of `grid` (what one process writing everything holds).
     pub fn whole(grid: &Grid) -> Share {
         Share {
-            points: 0..grid.points.len(),
-            cells: 0..grid.topology.cell_count(),
+            points: 0..grid.extent.points,
+            cells: 0..grid.extent.cells,
         }
     }
 
@@ -416,8 +468,8 @@ fn grid_index(results: &Results, name: &str) -> Option<usize> {
 
 fn entries(grid: Option<&Grid>, center: Center) -> usize {
     match (grid, center) {
-        (Some(g), Center::Node) => g.points.len(),
-        (Some(g), Center::Cell) => g.topology.cell_count(),
+        (Some(g), Center::Node) => g.extent.points,
+        (Some(g), Center::Cell) => g.extent.cells,
         (None, _) => 0,
     }
 }
@@ -485,12 +537,11 @@ pub fn write_results(prefix: &Path, results: &Results) -> Result<(), OutputError
 }
 
 /// Collective over `comm` (every rank calls it with Results of identical
-/// structure: same grids with the same full geometry — points and topology
-/// are known on every rank —, same steps, same field names/kinds/centers in
-/// the same order, same attributes). Field `values` are either full length
-/// (all entries of the grid, in the grid's numbering), or exactly this rank's
-/// rows of the field's center (its share, in order), or empty where those rows
-/// are empty.
+/// structure: same grids with the same extents, same steps, same field
+/// names/kinds/centers in the same order, same attributes). A grid's points and
+/// cells, and field `values`, are either full length (all entries of the grid,
+/// in the grid's numbering), or exactly this rank's rows (its share, in order),
+/// or empty where those rows are empty.
 /// `shares[g]` is this rank's share of `results.grids[g]`. Each rank writes
 /// its hyperslabs (points, cells and every field dataset of that grid at
 /// every step) with collective transfer (H5FD_MPIO_COLLECTIVE); rank 0 writes

@@ -139,7 +139,7 @@ pub(super) fn check_team<W: Writers>(
     if let Some(r) = hashes.iter().position(|&h| h != hashes[0]) {
         return Err(format!(
             "rank {r} holds results of another structure than rank 0 \
-             (grids, geometry, steps, field names/kinds/centers or attributes differ)"
+             (grids, their extents, steps, field names/kinds/centers or attributes differ)"
         ));
     }
     if shares.is_empty() {
@@ -152,10 +152,7 @@ pub(super) fn check_team<W: Writers>(
         .collect();
     let all = w.all_gather(&mine);
     for (gi, g) in results.grids.iter().enumerate() {
-        let totals = [
-            (0, g.points.len(), "points"),
-            (2, g.topology.cell_count(), "cells"),
-        ];
+        let totals = [(0, g.extent.points, "points"), (2, g.extent.cells, "cells")];
         for (at, total, what) in totals {
             let mut ranges: Vec<(usize, Range<usize>)> = all
                 .chunks_exact(mine.len())
@@ -187,18 +184,15 @@ pub(super) fn check_team<W: Writers>(
     Ok(())
 }
 
-/// A hash of what must be identical on every rank: grids (with geometry),
+/// A hash of what must be identical on every rank: grids (names, extents, cell kinds),
 /// steps (times, grids, field names, centers, kinds), attributes.
 fn structure_hash(results: &Results) -> u64 {
     let mut h = DefaultHasher::new();
     results.grids.len().hash(&mut h);
     for g in &results.grids {
         g.name.hash(&mut h);
-        g.points.len().hash(&mut h);
-        for p in &g.points {
-            p.map(f64::to_bits).hash(&mut h);
-        }
-        g.topology.hash(&mut h);
+        g.extent.hash(&mut h);
+        g.topology.nodes_per_cell().hash(&mut h);
         for f in &g.fields {
             (&f.name, f.center, f.kind).hash(&mut h);
         }

@@ -54,9 +54,9 @@ fn field(name: &str, center: Center, kind: Kind, tag: f64, entries: usize) -> Fi
 /// Two bodies in one grid (a square and a trapezoid above it, with a constant cell field)
 /// and their contact line, at two steps.
 pub(super) fn sample() -> Results {
-    let bodies = Grid {
-        name: "bodies".into(),
-        points: vec![
+    let bodies = Grid::whole(
+        "bodies",
+        vec![
             [0.0, 0.0],
             [1.0, 0.0],
             [1.0, 1.0],
@@ -67,20 +67,20 @@ pub(super) fn sample() -> Results {
             [0.5, 2.0],
             [1.5, 2.0],
         ],
-        topology: Topology::Triangle(vec![[0, 1, 2], [0, 2, 3], [4, 5, 7], [5, 8, 7], [5, 6, 8]]),
-        fields: vec![Field {
+        Topology::Triangle(vec![[0, 1, 2], [0, 2, 3], [4, 5, 7], [5, 8, 7], [5, 6, 8]]),
+        vec![Field {
             name: "body".into(),
             center: Center::Cell,
             kind: Kind::Scalar,
             values: vec![1.0, 1.0, 2.0, 2.0, 2.0],
         }],
-    };
-    let contact = Grid {
-        name: "contact".into(),
-        points: vec![[0.0, 1.0], [0.5, 1.0], [1.0, 1.0]],
-        topology: Topology::Segment(vec![[0, 1], [1, 2]]),
-        fields: Vec::new(),
-    };
+    );
+    let contact = Grid::whole(
+        "contact",
+        vec![[0.0, 1.0], [0.5, 1.0], [1.0, 1.0]],
+        Topology::Segment(vec![[0, 1], [1, 2]]),
+        Vec::new(),
+    );
     let steps = (0..2)
         .map(|k| {
             let t = 10.0 * (k as f64 + 1.0);

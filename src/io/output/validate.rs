@@ -83,23 +83,34 @@ pub(super) fn validate(
             return Err(invalid(format!("grid name {:?} is used twice", g.name)));
         }
         if let Some(max) = g.topology.max_index() {
-            if max as usize >= g.points.len() {
+            if max as usize >= g.extent.points {
                 return Err(invalid(format!(
                     "grid {:?}: cell refers to point {max}, but it has {} points",
-                    g.name,
-                    g.points.len()
+                    g.name, g.extent.points
                 )));
             }
         }
         let totals = [
-            (&share.points, g.points.len(), "points"),
-            (&share.cells, g.topology.cell_count(), "cells"),
+            (&share.points, g.extent.points, g.points.len(), "points"),
+            (
+                &share.cells,
+                g.extent.cells,
+                g.topology.cell_count(),
+                "cells",
+            ),
         ];
-        for (rows, total, what) in totals {
+        for (rows, total, held, what) in totals {
             if rows.start > rows.end || rows.end > total {
                 return Err(invalid(format!(
                     "grid {:?}: share of {what} {rows:?} is not within 0..{total}",
                     g.name
+                )));
+            }
+            if held != total && held != rows.len() {
+                return Err(invalid(format!(
+                    "grid {:?}: {held} {what} given, expected all {total} or this rank's {} of them",
+                    g.name,
+                    rows.len()
                 )));
             }
         }
@@ -175,8 +186,8 @@ fn check_field(at: &str, field: &Field, grid: &Grid, share: &Share) -> Result<()
         return Err(format!("{at}: name must be {NAME_RULE}"));
     }
     let (entries, what) = match field.center {
-        Center::Node => (grid.points.len(), "points"),
-        Center::Cell => (grid.topology.cell_count(), "cells"),
+        Center::Node => (grid.extent.points, "points"),
+        Center::Cell => (grid.extent.cells, "cells"),
     };
     let expected = entries.checked_mul(field.kind.given());
     let rows = share.rows(field.center).len();
@@ -237,6 +248,49 @@ mod tests {
         local.values.pop();
         let err = check_field("f", &local, g, &part).unwrap_err();
         assert!(err.contains("or this rank's 2 of them"), "{err}");
+    }
+
+    #[test]
+    fn a_grid_is_given_whole_or_for_the_share_alone() {
+        let whole = sample();
+        let g = &whole.grids[0];
+        let part = Share {
+            points: 2..7,
+            cells: 1..4,
+        };
+        let mut local = whole.clone();
+        let l = &mut local.grids[0];
+        l.points = g.points[part.points.clone()].to_vec();
+        let Topology::Triangle(cells) = &g.topology else {
+            panic!("the sample's first grid is of triangles")
+        };
+        l.topology = Topology::Triangle(cells[part.cells.clone()].to_vec());
+        let shares = |s: &Share| vec![s.clone(), Share::whole(&whole.grids[1])];
+        let path = std::path::Path::new("run.h5");
+        assert!(validate(&whole, &shares(&part), path).is_ok());
+        assert!(validate(&local, &shares(&part), path).is_ok());
+        // The share's rows, from either form, are the same entries.
+        let l = &local.grids[0];
+        assert_eq!(
+            l.stored_points(part.points.clone()),
+            g.stored_points(part.points.clone())
+        );
+        assert_eq!(
+            l.stored_cells(part.cells.clone()),
+            g.stored_cells(part.cells.clone())
+        );
+        assert_eq!(g.stored_cells(1..2), vec![0, 2, 3]);
+        // A part that is not the share's rows: refused, naming the counts.
+        let other = Share {
+            points: 2..6,
+            cells: 1..4,
+        };
+        let err = validate(&local, &shares(&other), path).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("5 points given, expected all 9 or this rank's 4 of them"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -45,7 +45,7 @@ fn data_item(
 
 /// Topology + geometry of one grid.
 fn grid_mesh(out: &mut String, indent: &str, g: &Grid, h5_name: &str) {
-    let m = g.topology.cell_count();
+    let m = g.extent.cells;
     let npc = g.topology.nodes_per_cell();
     let _ = writeln!(
         out,
@@ -58,7 +58,7 @@ fn grid_mesh(out: &mut String, indent: &str, g: &Grid, h5_name: &str) {
     let _ = writeln!(out, "{indent}</Topology>");
     let _ = writeln!(out, "{indent}<Geometry GeometryType=\"XY\">");
     let path = format!("/Mesh/{}/geometry", g.name);
-    data_item(out, &inner, &[g.points.len(), 2], true, h5_name, &path);
+    data_item(out, &inner, &[g.extent.points, 2], true, h5_name, &path);
     let _ = writeln!(out, "{indent}</Geometry>");
 }
 
