@@ -4,7 +4,8 @@
 //! line naming the cause. Failures that all ranks meet at the same point (bad input, an
 //! unwritable output, a failure at the end of a setup phase) are agreed on and reported once,
 //! and the ranks exit together; a failure of one rank in the middle of the solve, where the
-//! others wait in a collective, is reported by that rank, which then aborts the job.
+//! others wait in a collective, is reported by that rank, which then aborts the job; so is an
+//! internal error (a panic) on any rank.
 //! A result file that failed once created is left open (HDF5 would close it inside
 //! `MPI_Finalize`, flushing into the failed file again): after the agreed line, the ranks end
 //! without finalising. A stop signal outside the NNDD loop ends the process in its handler
@@ -18,9 +19,7 @@ use nndd::petsc::Petsc;
 use mpi::traits::Communicator;
 
 fn main() {
-    std::panic::set_hook(Box::new(|info| {
-        nndd::io::monitor::say(format_args!("nndd: internal error: {info}"));
-    }));
+    std::panic::set_hook(Box::new(internal_error));
     if let Err(e) = nndd::os::signals::ignore_file_size_limit() {
         nndd::io::monitor::say(format_args!("nndd: error: cannot ignore SIGXFSZ: {e}"));
         std::process::exit(1);
@@ -84,6 +83,30 @@ fn main() {
     std::process::exit(code);
 }
 
+/// The panic hook: one line naming the internal error, its place and the rank; then, where
+/// other ranks run, the end of the whole job (they may wait in a collective for this one, and
+/// unwinding would wait for them in MPI_Finalize).
+fn internal_error(info: &std::panic::PanicHookInfo) {
+    let payload = info.payload();
+    let what = (payload.downcast_ref::<&str>().copied())
+        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("a panic");
+    let at = info
+        .location()
+        .map_or(String::new(), |l| format!(" at {}:{}", l.file(), l.line()));
+    let running = mpi::environment::is_initialized() && !mpi::environment::is_finalized();
+    let world = mpi::topology::SimpleCommunicator::world;
+    let rank = match running {
+        true => format!(" (rank {})", world().rank()),
+        false => String::new(),
+    };
+    let what = what.replace('\n', " ");
+    nndd::io::monitor::say(format_args!("nndd: internal error{rank}: {what}{at}"));
+    if running && world().size() > 1 {
+        world().abort(101)
+    }
+}
+
 /// End the process now with `code`, after our own output, running no exit handler
 /// (neither HDF5's nor MPI's finalisation).
 fn end_at_once(code: i32) -> ! {
@@ -112,11 +135,11 @@ fn failed_somewhere(agreement: &Agreement, rank: i32, failure: Option<String>) -
     }
 }
 
-/// `-nndd_fault RANK:PHASE` from the command line (the options files are read by PETSc, and
-/// `-nndd_fault` there arms the later phases through the settings).
-fn fault_on_command_line(args: &[String]) -> Option<(i32, Phase)> {
+/// `-nndd_fault RANK:PHASE[:panic]` from the command line (the options files are read by
+/// PETSc, and `-nndd_fault` there arms the later phases through the settings).
+fn fault_on_command_line(args: &[String]) -> Option<fault::Fault> {
     let at = args.iter().position(|a| a == "-nndd_fault")?;
-    Phase::parse_spec(args.get(at + 1)?)
+    fault::Fault::parse(args.get(at + 1)?)
 }
 
 /// Report `e` once and give the exit code (see the module documentation).

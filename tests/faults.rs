@@ -1,4 +1,5 @@
-//! Faults end every rank, promptly, with one line; a run stopped by a signal
+//! Faults end every rank, promptly, with one line (an injected panic, an internal error, too);
+//! a run stopped by a signal
 //! writes a restart point that any rank count continues from. Every run here is under a
 //! time limit, so that a hang fails the test instead of CI: the process group is killed and
 //! the test says how long it waited.
@@ -203,6 +204,57 @@ fn a_fault_on_one_rank_in_any_phase_ends_the_job() {
                 ));
             }
         }
+    }
+    println!("{}", table.join("\n"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `-nndd_fault RANK:PHASE:panic`: an internal error (a panic) of one rank, in the middle of
+/// the solve and in the estimate and output phases, where the other ranks wait in collectives
+/// for it, ends the whole job within the limit, with the line of the internal error, and no
+/// result file exists under its final name.
+#[test]
+fn a_panic_on_one_rank_ends_the_job() {
+    let _s = serial();
+    let dir = scratch("faults-panic");
+    let mut table = Vec::new();
+    for phase in ["ksp", "estimate", "output"] {
+        let prefix = dir.join(format!("run-{phase}"));
+        let spec = format!("1:{phase}:panic");
+        let args = [
+            "-nndd_n",
+            "8",
+            "-nndd_theta",
+            "0.25",
+            "-nndd_estimate_every",
+            "3",
+            "-nndd_output",
+            prefix.to_str().unwrap(),
+            "-nndd_fault",
+            &spec,
+        ];
+        let what = format!("fault {spec} on 3 ranks");
+        let e = wait_within(spawn(3, &args), 3 * LIMIT, &what);
+        assert!(
+            e.seconds < LIMIT.as_secs_f64(),
+            "{what}: {:.1} s",
+            e.seconds
+        );
+        assert!(e.code != Some(0), "{what}: exit 0\n{}", e.stderr);
+        let ours = our_lines(&e.stderr);
+        assert!(
+            ours.iter()
+                .any(|l| l.starts_with("nndd: internal error (rank 1)")
+                    && l.contains(&format!("injected panic in phase '{phase}'"))),
+            "{what}: no line of the internal error in\n{}",
+            e.stderr
+        );
+        let left = results_left(&prefix);
+        assert!(left.is_empty(), "{what}: left {left:?}");
+        table.push(format!(
+            "3 ranks, fault {spec:<18} exit {:?} in {:.1} s",
+            e.code, e.seconds
+        ));
     }
     println!("{}", table.join("\n"));
     std::fs::remove_dir_all(&dir).ok();

@@ -17,7 +17,7 @@ use crate::dd::neumann::NeumannBodies;
 use crate::dd::nndd::NnddSettings;
 use crate::estimate::EstimateSettings;
 use crate::io::settings::OutputSettings;
-use crate::parallel::fault::Phase;
+use crate::parallel::fault::{Fault, Phase};
 use crate::petsc::readers::Bounds;
 pub use crate::petsc::readers::SettingsError;
 use crate::petsc::{self, Comm, OptionsBlock};
@@ -69,8 +69,8 @@ pub struct Settings {
     pub restart: Option<PathBuf>,
     /// Adapt the meshes to a tolerance (`-nndd_adapt_tol`; `None`: one solve).
     pub adapt: Option<AdaptSettings>,
-    /// Test only: fail on one rank at one phase (`-nndd_fault RANK:PHASE`).
-    pub fault: Option<(i32, Phase)>,
+    /// Test only: fail on one rank at one phase (`-nndd_fault RANK:PHASE[:panic]`).
+    pub fault: Option<Fault>,
     /// What the settings allow but the user should know (printed once, and in the summary).
     pub warnings: Vec<String>,
     /// Every option as given (command line and options files, PETSc's listing), before nndd
@@ -316,16 +316,16 @@ fn read_restart(o: &mut OptionsBlock) -> Result<Option<PathBuf>, SettingsError> 
     Ok(given.then(|| PathBuf::from(restart)))
 }
 
-/// `-nndd_fault RANK:PHASE` (testing), if given.
-fn read_fault(o: &mut OptionsBlock) -> Result<Option<(i32, Phase)>, SettingsError> {
+/// `-nndd_fault RANK:PHASE[:panic]` (testing), if given.
+fn read_fault(o: &mut OptionsBlock) -> Result<Option<Fault>, SettingsError> {
     let (text, given) = o.string(
         "-nndd_fault",
-        "Testing: fail on one rank at one phase, RANK:PHASE (PHASE: init, options, mesh, assembly, factorisation, ksp, qp, estimate, checkpoint, output)",
+        "Testing: fail on one rank at one phase, RANK:PHASE (PHASE: init, options, mesh, assembly, factorisation, ksp, qp, estimate, checkpoint, output), or panic there, RANK:PHASE:panic",
         "",
     )?;
-    match (given, Phase::parse_spec(&text)) {
+    match (given, Fault::parse(&text)) {
         (false, _) => Ok(None),
-        (true, Some(spec)) => Ok(Some(spec)),
+        (true, Some(fault)) => Ok(Some(fault)),
         (true, None) => Err(SettingsError::UnknownValue {
             option: "-nndd_fault".into(),
             value: text,

@@ -102,7 +102,7 @@ pub(super) fn keep_for_output(estimates: &mut [EstimateRecord], layout: &Layout,
     if let Some(last) = estimates.last_mut() {
         let problems = est.run_problems();
         let kept = fields::kept_rows(layout, problems);
-        let contact = fields::contact_displacement(problems, &last.iterate.u);
+        let contact = |u: &[Vec<f64>; 2]| fields::contact_displacement(problems, u);
         last.keep_rows(&kept.cells, &kept.dofs, contact);
     }
 }

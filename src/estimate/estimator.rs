@@ -73,15 +73,19 @@ impl EstimateRecord {
 
     /// Keep what this rank writes of the record in the output alone (`io::fields::kept_rows`):
     /// each body's maps on its elements `cells[k]`, its displacement on its dofs `dofs[k]`,
-    /// and the pair side's displacement at Γc (`contact`, from the iterate's before it is
-    /// cut), rather than the whole bodies' for every estimated step.
+    /// and the pair side's displacement at Γc (`contact` of the bodies' whole displacements,
+    /// taken before they are cut), rather than the whole bodies' for every estimated step. A
+    /// record kept already is left as it is.
     pub fn keep_rows(
         &mut self,
         cells: &[Range<usize>; 2],
         dofs: &[Range<usize>; 2],
-        contact: Vec<f64>,
+        contact: impl FnOnce(&[Vec<f64>; 2]) -> Vec<f64>,
     ) {
-        self.contact_displacement.get_or_insert(contact);
+        if self.contact_displacement.is_some() {
+            return;
+        }
+        self.contact_displacement = Some(contact(&self.iterate.u));
         for k in 0..2 {
             let first = self.map_first[k];
             for m in self.maps[k].iter_mut().filter(|m| !m.is_empty()) {

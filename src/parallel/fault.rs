@@ -1,5 +1,5 @@
 //! Faults: how ranks agree that a phase failed, and the test-only injection of a
-//! failure on one rank (`-nndd_fault RANK:PHASE`).
+//! failure on one rank (`-nndd_fault RANK:PHASE`, or `RANK:PHASE:panic` for an internal error).
 //!
 //! Every collective of a run is reached by all ranks in the same order, so a rank that fails
 //! between two collectives must either make the others learn it at the next agreement (the
@@ -68,14 +68,42 @@ impl Phase {
     }
 
     /// The accepted values of `-nndd_fault`, for its messages.
-    pub const ACCEPTED: &'static str = "RANK:PHASE with PHASE one of init, options, mesh, assembly, factorisation, ksp, qp, estimate, checkpoint, output";
+    pub const ACCEPTED: &'static str = "RANK:PHASE or RANK:PHASE:panic with PHASE one of init, options, mesh, assembly, factorisation, ksp, qp, estimate, checkpoint, output";
+}
 
-    /// Parse `RANK:PHASE`.
-    pub fn parse_spec(spec: &str) -> Option<(i32, Phase)> {
-        let (rank, phase) = spec.split_once(':')?;
-        let rank = rank.trim().parse::<i32>().ok().filter(|r| *r >= 0)?;
-        let phase = Phase::ALL.into_iter().find(|p| p.name() == phase.trim())?;
-        Some((rank, phase))
+/// What `-nndd_fault` injects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FaultKind {
+    /// An error of the phase, reported as the phase reports its own.
+    Error,
+    /// A panic: an internal error of nndd.
+    Panic,
+}
+
+/// `-nndd_fault RANK:PHASE[:panic]`: a failure of one rank at one phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fault {
+    pub rank: i32,
+    pub phase: Phase,
+    pub kind: FaultKind,
+}
+
+impl Fault {
+    /// Parse `RANK:PHASE` or `RANK:PHASE:panic`.
+    pub fn parse(spec: &str) -> Option<Fault> {
+        let mut parts = spec.split(':').map(str::trim);
+        let rank = parts.next()?.parse::<i32>().ok().filter(|r| *r >= 0)?;
+        let name = parts.next()?;
+        let phase = Phase::ALL.into_iter().find(|p| p.name() == name)?;
+        let kind = match parts.next() {
+            None => FaultKind::Error,
+            Some("panic") => FaultKind::Panic,
+            Some(_) => return None,
+        };
+        parts
+            .next()
+            .is_none()
+            .then_some(Fault { rank, phase, kind })
     }
 }
 
@@ -87,23 +115,33 @@ pub struct InjectedFault {
     pub rank: i32,
 }
 
-/// The armed fault: (this rank, the phase) if `-nndd_fault` names this rank.
-static ARMED: OnceLock<Option<Phase>> = OnceLock::new();
+/// The armed fault: the fault if `-nndd_fault` names this rank.
+static ARMED: OnceLock<Option<Fault>> = OnceLock::new();
 static RANK: OnceLock<i32> = OnceLock::new();
 
-/// Arm `-nndd_fault RANK:PHASE` on this rank (`my_rank`); later calls are ignored.
-pub fn arm(spec: Option<(i32, Phase)>, my_rank: i32) {
+/// Arm `-nndd_fault` on this rank (`my_rank`); later calls are ignored.
+pub fn arm(fault: Option<Fault>, my_rank: i32) {
     let _ = RANK.set(my_rank);
-    let _ = ARMED.set(spec.filter(|(r, _)| *r == my_rank).map(|(_, p)| p));
+    let _ = ARMED.set(fault.filter(|f| f.rank == my_rank));
 }
 
-/// `Err` on the rank where `-nndd_fault` injects a failure at `phase`, `Ok` everywhere else.
+/// `Err` on the rank where `-nndd_fault` injects a failure at `phase` (a panic there with
+/// `:panic`), `Ok` everywhere else.
 pub fn check(phase: Phase) -> Result<(), InjectedFault> {
     match ARMED.get() {
-        Some(Some(p)) if *p == phase => Err(InjectedFault {
-            phase: phase.name(),
-            rank: RANK.get().copied().unwrap_or(0),
-        }),
+        Some(Some(f)) if f.phase == phase => {
+            let rank = RANK.get().copied().unwrap_or(0);
+            if f.kind == FaultKind::Panic {
+                panic!(
+                    "injected panic in phase '{}' on rank {rank} (-nndd_fault)",
+                    phase.name()
+                );
+            }
+            Err(InjectedFault {
+                phase: phase.name(),
+                rank,
+            })
+        }
         _ => Ok(()),
     }
 }
@@ -221,13 +259,36 @@ mod tests {
 
     #[test]
     fn fault_specs_parse_and_refuse() {
-        assert_eq!(Phase::parse_spec("1:ksp"), Some((1, Phase::Ksp)));
-        assert_eq!(Phase::parse_spec("0:output"), Some((0, Phase::Output)));
+        let fault = |rank, phase, kind| Some(Fault { rank, phase, kind });
+        assert_eq!(
+            Fault::parse("1:ksp"),
+            fault(1, Phase::Ksp, FaultKind::Error)
+        );
+        assert_eq!(
+            Fault::parse("0:output"),
+            fault(0, Phase::Output, FaultKind::Error)
+        );
+        assert_eq!(
+            Fault::parse("2:qp:panic"),
+            fault(2, Phase::Qp, FaultKind::Panic)
+        );
         for p in Phase::ALL {
-            assert_eq!(Phase::parse_spec(&format!("3:{}", p.name())), Some((3, p)));
+            let spec = format!("3:{}", p.name());
+            assert_eq!(Fault::parse(&spec), fault(3, p, FaultKind::Error));
         }
-        for bad in ["", "1", "ksp", "-1:ksp", "1:kps", "x:qp", "1:"] {
-            assert_eq!(Phase::parse_spec(bad), None, "{bad}");
+        for bad in [
+            "",
+            "1",
+            "ksp",
+            "-1:ksp",
+            "1:kps",
+            "x:qp",
+            "1:",
+            "1:qp:",
+            "1:qp:abort",
+            "1:qp:panic:x",
+        ] {
+            assert_eq!(Fault::parse(bad), None, "{bad}");
         }
     }
 }
