@@ -35,6 +35,26 @@ fn spawn(np: usize, args: &[&str]) -> Child {
         .expect("mpirun starts")
 }
 
+/// `paper` n = 8 (estimates every 3 iterations, checkpoints every 4) on `np` ranks, output at
+/// `prefix`, with `-nndd_fault spec`.
+fn spawn_faulted(np: usize, prefix: &Path, spec: &str) -> Child {
+    let args = [
+        "-nndd_n",
+        "8",
+        "-nndd_theta",
+        "0.25",
+        "-nndd_estimate_every",
+        "3",
+        "-nndd_checkpoint_every",
+        "4",
+        "-nndd_output",
+        prefix.to_str().unwrap(),
+        "-nndd_fault",
+        spec,
+    ];
+    spawn(np, &args)
+}
+
 /// `base` then `extra` on `np` ranks, required to succeed within `limit`.
 fn solved(np: usize, base: &[&str], extra: &[&str], limit: Duration, what: &str) -> Ended {
     let args: Vec<&str> = base.iter().chain(extra).copied().collect();
@@ -174,22 +194,8 @@ fn a_fault_on_one_rank_in_any_phase_ends_the_job() {
             for phase in phases {
                 let prefix = dir.join(format!("run-{np}-{rank}-{phase}"));
                 let spec = format!("{rank}:{phase}");
-                let args = [
-                    "-nndd_n",
-                    "8",
-                    "-nndd_theta",
-                    "0.25",
-                    "-nndd_estimate_every",
-                    "3",
-                    "-nndd_checkpoint_every",
-                    "4",
-                    "-nndd_output",
-                    prefix.to_str().unwrap(),
-                    "-nndd_fault",
-                    &spec,
-                ];
                 let what = format!("fault {spec} on {np} ranks");
-                let e = wait_within(spawn(np, &args), 3 * LIMIT, &what);
+                let e = wait_within(spawn_faulted(np, &prefix, &spec), 3 * LIMIT, &what);
                 assert!(
                     e.seconds < LIMIT.as_secs_f64(),
                     "{what}: {:.1} s",
@@ -221,20 +227,8 @@ fn a_panic_on_one_rank_ends_the_job() {
     for phase in ["ksp", "estimate", "output"] {
         let prefix = dir.join(format!("run-{phase}"));
         let spec = format!("1:{phase}:panic");
-        let args = [
-            "-nndd_n",
-            "8",
-            "-nndd_theta",
-            "0.25",
-            "-nndd_estimate_every",
-            "3",
-            "-nndd_output",
-            prefix.to_str().unwrap(),
-            "-nndd_fault",
-            &spec,
-        ];
         let what = format!("fault {spec} on 3 ranks");
-        let e = wait_within(spawn(3, &args), 3 * LIMIT, &what);
+        let e = wait_within(spawn_faulted(3, &prefix, &spec), 3 * LIMIT, &what);
         assert!(
             e.seconds < LIMIT.as_secs_f64(),
             "{what}: {:.1} s",

@@ -86,16 +86,16 @@ impl EstimateRecord {
             return;
         }
         self.contact_displacement = Some(contact(&self.iterate.u));
+        // (whole until now: held from 0)
         for k in 0..2 {
-            let first = self.map_first[k];
             for m in self.maps[k].iter_mut().filter(|m| !m.is_empty()) {
-                *m = held::keep(m, first, &cells[k]);
+                *m = held::keep(m, 0, &cells[k]);
             }
-            self.map_first[k] = cells[k].start.max(first);
-            let (u, first) = (&mut self.iterate.u[k], self.u_first[k]);
+            self.map_first[k] = cells[k].start;
+            let u = &mut self.iterate.u[k];
             if !u.is_empty() {
-                *u = held::keep(u, first, &dofs[k]);
-                self.u_first[k] = dofs[k].start.max(first);
+                *u = held::keep(u, 0, &dofs[k]);
+                self.u_first[k] = dofs[k].start;
             }
         }
     }
