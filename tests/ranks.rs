@@ -126,6 +126,19 @@ fn one_to_six_ranks(recovery: &str) {
             .collect();
         assert_eq!(ranks.iter().sum::<u64>() as usize, n, "{what}: {ranks:?}");
         compare(&j, &base, &what);
+        // Each rank preallocates from its own elements (the other ranks' rows travel): the
+        // stiffness holds every node pair sharing an element, 2 × 2 entries each, on any rank
+        // count (a 16 × 16 grid, one diagonal per cell; nndd checks its preallocation exact).
+        let (nx, ny) = (16, 16);
+        let edges = nx * (ny + 1) + (nx + 1) * ny + nx * ny;
+        let pairs = (nx + 1) * (ny + 1) + 2 * edges;
+        let nonzeros: Vec<f64> = j["stiffness_nonzeros"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(nonzeros, vec![(4 * pairs) as f64; 2], "{what}");
         for (k, b) in ["body1", "body2"].iter().enumerate() {
             let u = field(&prefix, b, "displacement");
             let d = rel_max_diff(&u, &u1[k]);

@@ -699,6 +699,8 @@ pub struct BodySolver {
     pub schur_source: &'static str,
     pub neumann_step: &'static str,
     pub factorisation_flops: Option<f64>,
+    /// The nonzeros of K^α as assembled (`Body::nonzeros`).
+    pub nonzeros: f64,
     /// Assembly, factorisation and interface operators on the body's first rank (s).
     pub setup_seconds: f64,
 }
@@ -716,7 +718,7 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
         NeumannStep::Omitted,
     ];
     [1, 2].map(|alpha| {
-        let mut facts = [-1.0, -1.0, f64::NAN, 0.0];
+        let mut facts = [-1.0, -1.0, f64::NAN, 0.0, 0.0];
         if let Some(b) = refs[alpha - 1] {
             let source = b
                 .schur_source
@@ -728,6 +730,7 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
                 step.map_or(-1.0, |k| k as f64),
                 b.factorisation_flops.unwrap_or(f64::NAN),
                 a + f + i,
+                b.nonzeros,
             ];
         }
         layout.share(alpha, &mut facts);
@@ -743,6 +746,7 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
             neumann_step: pick(facts[1], &STEPS.map(NeumannStep::name), ""),
             factorisation_flops: facts[2].is_finite().then_some(facts[2]),
             setup_seconds: facts[3],
+            nonzeros: facts[4],
         }
     })
 }

@@ -156,6 +156,8 @@ pub struct Body {
     condensed: Option<Condensed>,
     /// MUMPS's factorisation flops (RINFOG(3)) of the Neumann system, when MUMPS factors it.
     pub factorisation_flops: Option<f64>,
+    /// The nonzeros of K^α as assembled (over the group; [`stiffness::Assembled`]).
+    pub nonzeros: f64,
     /// Counters of back-solves per system (for the summary).
     pub solves: std::cell::Cell<usize>,
     /// Wall time of assembly, of factorisation and of the interface operators (s).
@@ -168,7 +170,7 @@ pub struct Body {
     trace: RefCell<Gather>,
     /// The body's own communicator (`comm`): the last field, so that it is freed after
     /// every PETSc object on it.
-    _own_comm: OwnComm,
+    own_comm: OwnComm,
 }
 
 impl Body {
@@ -188,14 +190,16 @@ impl Body {
         let t0 = std::time::Instant::now();
         let frames = problem.frames();
         let held = problem.support == Support::Conditions;
+        let nonzeros;
         let (stiffness, diag, k_norm, k_neu) = {
             let _s = stages.assembly.enter();
             fault::check(Phase::Assembly)?;
-            let a = stiffness::assemble(&problem, &frames, comm, &partition, held)?;
+            let a = stiffness::assemble(&problem, &frames, &own_comm, &partition, held)?;
+            nonzeros = a.nonzeros;
             match a.coupling {
                 Some(coupling) => {
                     let mut k_neu = a.matrix;
-                    let modes = stiffness::rigid_modes(&problem, &frames, &partition);
+                    let modes = stiffness::rigid_modes(&problem, &frames, &partition, &own_comm);
                     k_neu.set_near_null_space(comm, &modes)?;
                     (
                         Stiffness::Split { coupling },
@@ -247,6 +251,7 @@ impl Body {
             schur_source: None,
             condensed: None,
             factorisation_flops,
+            nonzeros,
             solves: std::cell::Cell::new(0),
             setup_seconds: (t_assembly, 0.0, 0.0),
             partition,
@@ -254,7 +259,7 @@ impl Body {
             b: RefCell::new(b),
             kx: RefCell::new(kx),
             trace: RefCell::new(trace),
-            _own_comm: own_comm,
+            own_comm,
         };
         drop(factorisation);
         body.setup_seconds.1 = t1.elapsed().as_secs_f64();
@@ -325,7 +330,12 @@ impl Body {
             m.zero_rows_columns(&rows, self.diag)?;
             m.set_near_null_space(
                 self.comm,
-                &stiffness::rigid_modes(&self.problem, &self.frames, &self.partition),
+                &stiffness::rigid_modes(
+                    &self.problem,
+                    &self.frames,
+                    &self.partition,
+                    &self.own_comm,
+                ),
             )?;
             m
         };

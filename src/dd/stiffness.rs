@@ -4,11 +4,12 @@
 //! column, a boundary's worth); K u = K_N (P u) + B u. A body held only by contact keeps K.
 //! One copy of K on each rank's rows instead of K and K_N (docs/scaling.md, "Memory per rank").
 
+use crate::fem::{element_dofs, element_stiffness};
 use std::collections::HashMap;
 
-use crate::fem::{element_dofs, element_stiffness};
+use crate::parallel::layout::OwnComm;
 use crate::parallel::partition::Partition;
-use crate::petsc::{self, Comm, Gather, Matrix, PetscError, Vector};
+use crate::petsc::{self, Matrix, PetscError};
 use crate::problem::{BodyProblem, Frames};
 
 /// How K^α is held (see the module's doc).
@@ -20,65 +21,68 @@ pub(super) enum Stiffness {
 }
 
 /// What [`assemble`] makes: the matrix to factor (K_N) or K, B where split, the mean diagonal
-/// d, and ‖K‖∞ (an upper bound, ‖K_N‖∞ + ‖B‖∞, where split: a scale for backward errors).
+/// d, ‖K‖∞ (an upper bound, ‖K_N‖∞ + ‖B‖∞, where split: a scale for backward errors), and the
+/// nonzeros of the matrix to factor (over the group; Γ_D's rows and columns kept in K_N's
+/// pattern, so K's).
 pub(super) struct Assembled {
     pub matrix: Matrix,
+    pub nonzeros: f64,
     pub coupling: Option<Matrix>,
     pub diag: f64,
     pub norm_inf: f64,
 }
 
 /// Assemble K^α from this rank's elements (rows of other ranks travel at assembly), with the
-/// exact preallocation of this rank's rows; with `eliminate`, as K_N and B (the Γ_D rows and
-/// columns of K_N zero but kept in its pattern, d on their diagonal: the same matrix as K
-/// with MatZeroRowsColumns applied), else K.
+/// exact preallocation of this rank's rows ([`NodeLists`]: no rank reads the elements of the
+/// others); with `eliminate`, as K_N and B (the Γ_D rows and columns of K_N zero but kept in
+/// its pattern, d on their diagonal: the same matrix as K with MatZeroRowsColumns applied),
+/// else K. Collective over the body's group.
 pub(super) fn assemble(
     problem: &BodyProblem,
     frames: &Frames,
-    comm: Comm,
+    comm: &OwnComm,
     part: &Partition,
     eliminate: bool,
 ) -> Result<Assembled, PetscError> {
     let mesh = &problem.mesh;
-    // Whether each dof is on Γ_D (one byte per dof, for the time of the assembly).
-    let mut fixed = vec![false; if eliminate { mesh.num_dofs() } else { 0 }];
+    // Whether each dof is on Γ_D (one bit per dof, for the time of the assembly).
+    let mut fixed = vec![
+        0u64;
+        if eliminate {
+            mesh.num_dofs().div_ceil(64)
+        } else {
+            0
+        }
+    ];
     for &(dof, _) in problem.dirichlet.iter().filter(|_| eliminate) {
-        fixed[dof] = true;
+        fixed[dof / 64] |= 1 << (dof % 64);
     }
-    let is_fixed = |d: usize| eliminate && fixed[d];
+    let is_fixed = |d: usize| eliminate && fixed[d / 64] & (1 << (d % 64)) != 0;
     let touches = |t: &[usize; 3]| element_dofs(t).iter().any(|&d| is_fixed(d));
-    // Node neighbours (sharing an element) of the owned nodes; through elements with a Γ_D
-    // dof too (B's pattern).
+    let own = || {
+        part.elements
+            .iter()
+            .map(|&e| mesh.triangles.get(e as usize))
+    };
+    // Node neighbours of the owned nodes (K's pattern), and through the elements with a Γ_D
+    // dof (B's).
     let owned = part.owned_nodes();
-    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); owned.len()];
-    let mut coupled: HashMap<usize, Vec<u32>> = HashMap::new();
-    for t in &mesh.triangles {
-        let touch = touches(&t);
-        for a in t {
-            let pa = part.petsc_node[a] as usize;
-            if owned.contains(&pa) {
-                for b in t {
-                    let pb = part.petsc_node[b];
-                    let list = &mut neighbours[pa - owned.start];
-                    if !list.contains(&pb) {
-                        list.push(pb);
-                    }
-                    if touch {
-                        let list = coupled.entry(pa - owned.start).or_default();
-                        if !list.contains(&pb) {
-                            list.push(pb);
-                        }
-                    }
-                }
-            }
+    let mut lists = NodeLists::new(owned.clone(), true);
+    let mut coupled = NodeLists::new(owned, false);
+    for t in own() {
+        lists.add_element(part, &t);
+        if eliminate && touches(&t) {
+            coupled.add_element(part, &t);
         }
     }
-    let mut k = preallocate(comm, part, |i| &neighbours[i])?;
-    drop(neighbours);
+    lists.complete(part, comm);
+    let mut k = preallocate(comm, part, |i| lists.of(i))?;
+    drop(lists);
     let mut b = match eliminate {
-        true => Some(preallocate(comm, part, |i| {
-            coupled.get(&i).map_or(&[][..], |l| &l[..])
-        })?),
+        true => {
+            coupled.complete(part, comm);
+            Some(preallocate(comm, part, |i| coupled.of(i))?)
+        }
         false => None,
     };
     drop(coupled);
@@ -104,37 +108,117 @@ pub(super) fn assemble(
             b.add_values(&rows, &rows, &bvals)?;
         }
     }
-    // Σ over the group of the diagonal sums (through a PETSc vector of one entry per rank).
-    let mut partial = Vector::new(comm, 1)?;
-    partial.copy_from(&[diag_sum])?;
-    let every: Vec<petsc::Int> = (0..part.size as petsc::Int).collect();
-    let total: f64 = Gather::new(&partial, &every)?
-        .gather(&partial)?
-        .iter()
-        .sum();
-    let diag = total / mesh.num_dofs() as f64;
+    let mut total = [diag_sum];
+    comm.sum(&mut total);
+    let diag = total[0] / mesh.num_dofs() as f64;
     let eliminated = problem.dirichlet.iter().filter(|_| eliminate).map(|d| d.0);
     for row in owned_rows(part, eliminated) {
         k.add_values(&[row], &[row], &[diag])?;
     }
     k.assemble()?;
+    let nonzeros = k.exact_nonzeros()?;
     let mut norm_inf = k.norm_inf()?;
     if let Some(b) = b.as_mut() {
         b.assemble_general()?;
+        b.exact_nonzeros()?;
         norm_inf += b.norm_inf()?;
     }
     Ok(Assembled {
         matrix: k,
+        nonzeros,
         coupling: b,
         diag,
         norm_inf,
     })
 }
 
+/// The PETSc nodes that each owned node shares an element with (itself included), from this
+/// rank's elements alone: the lists of the nodes of other ranks that they touch (the part's
+/// boundary) are sent to those nodes' owners ([`NodeLists::complete`]), so that no rank reads
+/// the elements of the others.
+struct NodeLists {
+    owned: std::ops::Range<usize>,
+    /// Indexed by owned node − `owned.start` (dense: every owned node has a list) or by owned
+    /// node (sparse: few do).
+    dense: Vec<Vec<u32>>,
+    sparse: HashMap<usize, Vec<u32>>,
+    /// The lists of other ranks' nodes, until sent.
+    others: HashMap<u32, Vec<u32>>,
+}
+
+impl NodeLists {
+    fn new(owned: std::ops::Range<usize>, dense: bool) -> NodeLists {
+        NodeLists {
+            dense: vec![Vec::new(); if dense { owned.len() } else { 0 }],
+            owned,
+            sparse: HashMap::new(),
+            others: HashMap::new(),
+        }
+    }
+
+    fn list(&mut self, p: u32) -> &mut Vec<u32> {
+        let p = p as usize;
+        match (self.owned.contains(&p), self.dense.is_empty()) {
+            (false, _) => self.others.entry(p as u32).or_default(),
+            (true, false) => &mut self.dense[p - self.owned.start],
+            (true, true) => self.sparse.entry(p).or_default(),
+        }
+    }
+
+    fn merge(&mut self, p: u32, nodes: &[u32]) {
+        let list = self.list(p);
+        for &q in nodes {
+            if !list.contains(&q) {
+                list.push(q);
+            }
+        }
+    }
+
+    fn add_element(&mut self, part: &Partition, t: &[usize; 3]) {
+        let nodes = t.map(|a| part.petsc_node[a]);
+        for &p in &nodes {
+            self.merge(p, &nodes);
+        }
+    }
+
+    /// Send the lists of other ranks' nodes to their owners, and merge those received
+    /// (collective over the group).
+    fn complete(&mut self, part: &Partition, comm: &OwnComm) {
+        if part.size == 1 {
+            return;
+        }
+        let mut send = vec![Vec::new(); part.size];
+        for (p, list) in std::mem::take(&mut self.others) {
+            let to = &mut send[part.owner_of_petsc_node(p as usize)];
+            to.extend([p, list.len() as u32]);
+            to.extend(list);
+        }
+        for buf in comm.exchange(&send) {
+            let mut at = 0;
+            while at < buf.len() {
+                let (p, n) = (buf[at], buf[at + 1] as usize);
+                self.merge(p, &buf[at + 2..at + 2 + n]);
+                at += 2 + n;
+            }
+        }
+    }
+
+    /// The list of owned node `owned.start + i` (after [`NodeLists::complete`]).
+    fn of(&self, i: usize) -> &[u32] {
+        match self.dense.is_empty() {
+            false => &self.dense[i],
+            true => self
+                .sparse
+                .get(&(self.owned.start + i))
+                .map_or(&[][..], |l| &l[..]),
+        }
+    }
+}
+
 /// An AIJ matrix on this rank's rows whose owned node i couples to the PETSc nodes
-/// `neighbours(i)` (both dofs of each).
+/// `neighbours(i)` (both dofs of each). Collective.
 fn preallocate<'a>(
-    comm: Comm,
+    comm: &OwnComm,
     part: &Partition,
     neighbours: impl Fn(usize) -> &'a [u32],
 ) -> Result<Matrix, PetscError> {
@@ -152,7 +236,7 @@ fn preallocate<'a>(
             o_nnz.push(o as petsc::Int);
         }
     }
-    Matrix::preallocated(comm, part.local_rows(), &d_nnz, &o_nnz)
+    Matrix::preallocated(comm.petsc(), part.local_rows(), &d_nnz, &o_nnz)
 }
 
 /// The PETSc rows of `dofs` that this rank owns (each once).
@@ -167,37 +251,64 @@ pub(super) fn owned_rows(part: &Partition, dofs: impl Iterator<Item = usize>) ->
 }
 
 /// The rigid-body modes of 2D elasticity (two translations and the rotation about the
-/// centroid), in the nodal frames, orthonormalised: this rank's parts, in PETSc order (the
-/// near null space of GAMG).
+/// centroid), in the nodal frames, orthonormalised: this rank's rows, in PETSc order (the
+/// near null space of GAMG). The centroid and the Gram–Schmidt products are sums over the
+/// group: no rank forms a whole vector. Collective over the body's group.
 pub(super) fn rigid_modes(
     problem: &BodyProblem,
     frames: &Frames,
     part: &Partition,
+    comm: &OwnComm,
 ) -> Vec<Vec<f64>> {
     let pts = &problem.mesh.points;
-    let n = pts.len() as f64;
-    let c = pts
-        .iter()
-        .fold([0.0; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
-    let mut modes: Vec<Vec<f64>> = vec![
-        pts.iter().flat_map(|_| [1.0, 0.0]).collect(),
-        pts.iter().flat_map(|_| [0.0, 1.0]).collect(),
-        pts.iter()
-            .flat_map(|p| [c[1] - p[1], p[0] - c[0]])
-            .collect(),
-    ];
-    // Gram–Schmidt, on the whole vectors (every rank holds them: the same result everywhere).
-    for i in 0..modes.len() {
-        frames.to_local(&mut modes[i]);
-        for j in 0..i {
-            let d: f64 = modes[i].iter().zip(&modes[j]).map(|(a, b)| a * b).sum();
-            let (done, rest) = modes.split_at_mut(i);
-            for (a, b) in rest[0].iter_mut().zip(&done[j]) {
-                *a -= d * b;
-            }
+    // This rank's mesh nodes, in PETSc order.
+    let owned = part.owned_nodes();
+    let mut nodes = vec![0usize; owned.len()];
+    for (i, &p) in part.petsc_node.iter().enumerate() {
+        if owned.contains(&(p as usize)) {
+            nodes[p as usize - owned.start] = i;
         }
-        let norm = modes[i].iter().map(|a| a * a).sum::<f64>().sqrt();
-        modes[i].iter_mut().for_each(|a| *a /= norm);
     }
-    modes.iter().map(|m| part.local_part(m)).collect()
+    let mut sums = [0.0, 0.0, nodes.len() as f64];
+    for &i in &nodes {
+        sums[0] += pts[i][0];
+        sums[1] += pts[i][1];
+    }
+    comm.sum(&mut sums);
+    let c = [sums[0] / sums[2], sums[1] / sums[2]];
+    let mode = |k: usize| -> Vec<f64> {
+        nodes
+            .iter()
+            .flat_map(|&i| {
+                let p = pts[i];
+                let v = match k {
+                    0 => [1.0, 0.0],
+                    1 => [0.0, 1.0],
+                    _ => [c[1] - p[1], p[0] - c[0]],
+                };
+                // Rᵀ v in a rotated frame (`Frames::to_local`).
+                match frames.normal(i) {
+                    Some(n) => [n[1] * v[0] - n[0] * v[1], n[0] * v[0] + n[1] * v[1]],
+                    None => v,
+                }
+            })
+            .collect()
+    };
+    let dot = |a: &[f64], b: &[f64]| {
+        let mut d = [a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>()];
+        comm.sum(&mut d);
+        d[0]
+    };
+    let mut modes: Vec<Vec<f64>> = Vec::with_capacity(3);
+    for k in 0..3 {
+        let mut v = mode(k);
+        for done in &modes {
+            let d = dot(&v, done);
+            v.iter_mut().zip(done).for_each(|(a, b)| *a -= d * b);
+        }
+        let norm = dot(&v, &v).sqrt();
+        v.iter_mut().for_each(|a| *a /= norm);
+        modes.push(v);
+    }
+    modes
 }

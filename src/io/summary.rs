@@ -189,6 +189,9 @@ pub struct Summary {
     pub neumann_step: [String; 2],
     /// MUMPS's count of each body's factorisation flops (RINFOG(3); null without MUMPS).
     pub factorisation_flops: [Option<f64>; 2],
+    /// The nonzeros of each body's stiffness K^α as assembled (its Γ_D rows and columns
+    /// included), over its group's ranks; the preallocation is checked exact.
+    pub stiffness_nonzeros: [f64; 2],
     /// The flops PETSc logged, summed over the ranks (what `-log_view` totals).
     pub logged_flops: f64,
     /// Each body's setup on its first rank: assembly, factorisation and interface operators

@@ -21,6 +21,21 @@ impl OwnComm {
     pub fn petsc(&self) -> Comm {
         comm_from_rsmpi(self.0.as_raw())
     }
+
+    /// Personalised exchange over the communicator: `send[r]` goes to its rank r; returns,
+    /// per rank r, what r sent here (collective).
+    pub fn exchange<T: Equivalence + Copy + Default>(&self, send: &[Vec<T>]) -> Vec<Vec<T>> {
+        exchange_on(&self.0, send)
+    }
+
+    /// Sum `data` element-wise over the communicator's ranks (in place; collective).
+    pub fn sum(&self, data: &mut [f64]) {
+        if self.0.size() > 1 {
+            let send = data.to_vec();
+            self.0
+                .all_reduce_into(&send[..], data, mpi::collective::SystemOperation::sum());
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]

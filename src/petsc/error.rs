@@ -28,6 +28,8 @@ pub const ERR_UNKNOWN_TYPE: i32 = 86;
 /// `PETSC_ERR_MISSING_FACTOR` (petscerror.h): no package factors this matrix so
 /// (`-body1_pc_factor_mat_solver_type foo`).
 pub const ERR_MISSING_FACTOR: i32 = 92;
+/// `PETSC_ERR_PLIB` (petscerror.h): PETSc was used wrongly (an inexact preallocation).
+pub const ERR_PLIB: i32 = 77;
 /// `PETSC_ERR_LIB` (petscerror.h): an error in a library PETSc called (a MUMPS factorisation).
 pub const ERR_LIB: i32 = 76;
 

@@ -4,7 +4,7 @@
 use std::ptr;
 
 use super::comm::Comm;
-use super::error::{call, cstr, Result};
+use super::error::{call, cstr, PetscError, Result, ERR_PLIB};
 use super::vec::{Vector, PETSC_DETERMINE};
 use super::{ffi, Int};
 
@@ -69,6 +69,24 @@ impl Matrix {
         call!(MatAssemblyEnd(self.0, ffi::MAT_FINAL_ASSEMBLY))?;
         call!(MatSetOption(self.0, ffi::MAT_SYMMETRIC, ffi::PETSC_TRUE))?;
         call!(MatSetOption(self.0, ffi::MAT_SPD, ffi::PETSC_TRUE))
+    }
+
+    /// The nonzeros stored, summed over the ranks, after checking that the preallocation was
+    /// exact (no entry allocated during assembly, none allocated and left unused; collective).
+    pub fn exact_nonzeros(&self) -> Result<f64> {
+        let mut info = ffi::MatInfo::default();
+        call!(MatGetInfo(self.0, ffi::MAT_GLOBAL_SUM, &mut info))?;
+        if info.mallocs > 0.0 || info.nz_allocated != info.nz_used {
+            return Err(PetscError {
+                code: ERR_PLIB,
+                call: "MatGetInfo",
+                message: format!(
+                    "the preallocation was not exact: {} nonzeros used, {} allocated, {} allocations during assembly",
+                    info.nz_used, info.nz_allocated, info.mallocs
+                ),
+            });
+        }
+        Ok(info.nz_used)
     }
 
     /// Final assembly (collective) of a matrix that is not SPD (a coupling block).
