@@ -312,3 +312,59 @@ pub(super) fn rigid_modes(
     }
     modes
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::mesh::Mesh;
+
+    /// Each rank's lists from its own elements, completed by the lists the other ranks send
+    /// for its nodes (what `NodeLists::complete` exchanges), are the node pairs that share an
+    /// element anywhere in the mesh.
+    #[test]
+    fn own_elements_and_the_lists_sent_give_every_node_pair_of_the_mesh() {
+        let mesh = Mesh::structured([0.0, 0.0], [1.0, 0.7], 9, 6);
+        for size in [1, 2, 3, 5] {
+            let parts: Vec<Partition> = (0..size)
+                .map(|r| Partition::new(&mesh, 1, r, size).unwrap())
+                .collect();
+            let mut lists: Vec<NodeLists> = parts
+                .iter()
+                .map(|p| {
+                    let mut l = NodeLists::new(p.owned_nodes(), size != 3);
+                    for &e in &p.elements {
+                        l.add_element(p, &mesh.triangles.get(e as usize));
+                    }
+                    l
+                })
+                .collect();
+            let sent: Vec<(u32, Vec<u32>)> = lists
+                .iter_mut()
+                .flat_map(|l| std::mem::take(&mut l.others))
+                .collect();
+            assert_eq!(sent.is_empty(), size == 1);
+            for (p, list) in sent {
+                let owner = parts[0].owner_of_petsc_node(p as usize);
+                lists[owner].merge(p, &list);
+            }
+            let petsc = &parts[0].petsc_node;
+            for (part, l) in parts.iter().zip(&lists) {
+                for i in 0..part.owned_nodes().len() {
+                    let p = (part.owned_nodes().start + i) as u32;
+                    let mut want: Vec<u32> = mesh
+                        .triangles
+                        .iter()
+                        .map(|t| t.map(|a| petsc[a]))
+                        .filter(|t| t.contains(&p))
+                        .flatten()
+                        .collect();
+                    want.sort_unstable();
+                    want.dedup();
+                    let mut got = l.of(i).to_vec();
+                    got.sort_unstable();
+                    assert_eq!(got, want, "{size} ranks, PETSc node {p}");
+                }
+            }
+        }
+    }
+}
