@@ -4,9 +4,9 @@
 //! column, a boundary's worth); K u = K_N (P u) + B u. A body held only by contact keeps K.
 //! One copy of K on each rank's rows instead of K and K_N (docs/scaling.md, "Memory per rank").
 
-use crate::fem::{element_dofs, element_stiffness};
 use std::collections::HashMap;
 
+use crate::fem::{element_dofs, element_stiffness};
 use crate::parallel::layout::OwnComm;
 use crate::parallel::partition::Partition;
 use crate::petsc::{self, Matrix, PetscError};
@@ -46,14 +46,12 @@ pub(super) fn assemble(
 ) -> Result<Assembled, PetscError> {
     let mesh = &problem.mesh;
     // Whether each dof is on Γ_D (one bit per dof, for the time of the assembly).
-    let mut fixed = vec![
-        0u64;
-        if eliminate {
-            mesh.num_dofs().div_ceil(64)
-        } else {
-            0
-        }
-    ];
+    let words = if eliminate {
+        mesh.num_dofs().div_ceil(64)
+    } else {
+        0
+    };
+    let mut fixed = vec![0u64; words];
     for &(dof, _) in problem.dirichlet.iter().filter(|_| eliminate) {
         fixed[dof / 64] |= 1 << (dof % 64);
     }
@@ -67,8 +65,8 @@ pub(super) fn assemble(
     // Node neighbours of the owned nodes (K's pattern), and through the elements with a Γ_D
     // dof (B's).
     let owned = part.owned_nodes();
-    let mut lists = NodeLists::new(owned.clone(), true);
-    let mut coupled = NodeLists::new(owned, false);
+    let mut lists = NodeLists::new(owned.clone(), Lists::EveryNode);
+    let mut coupled = NodeLists::new(owned, Lists::FewNodes);
     for t in own() {
         lists.add_element(part, &t);
         if eliminate && touches(&t) {
@@ -138,18 +136,29 @@ pub(super) fn assemble(
 /// the elements of the others.
 struct NodeLists {
     owned: std::ops::Range<usize>,
-    /// Indexed by owned node − `owned.start` (dense: every owned node has a list) or by owned
-    /// node (sparse: few do).
+    /// Indexed by owned node − `owned.start` ([`Lists::EveryNode`]), or by owned node in
+    /// `sparse` ([`Lists::FewNodes`]).
     dense: Vec<Vec<u32>>,
     sparse: HashMap<usize, Vec<u32>>,
     /// The lists of other ranks' nodes, until sent.
     others: HashMap<u32, Vec<u32>>,
 }
 
+/// Which owned nodes have a list: every one (K's pattern), or few (B's: those near Γ_D).
+#[derive(Clone, Copy, PartialEq)]
+enum Lists {
+    EveryNode,
+    FewNodes,
+}
+
 impl NodeLists {
-    fn new(owned: std::ops::Range<usize>, dense: bool) -> NodeLists {
+    fn new(owned: std::ops::Range<usize>, lists: Lists) -> NodeLists {
+        let dense = match lists {
+            Lists::EveryNode => owned.len(),
+            Lists::FewNodes => 0,
+        };
         NodeLists {
-            dense: vec![Vec::new(); if dense { owned.len() } else { 0 }],
+            dense: vec![Vec::new(); dense],
             owned,
             sparse: HashMap::new(),
             others: HashMap::new(),
@@ -331,7 +340,11 @@ mod tests {
             let mut lists: Vec<NodeLists> = parts
                 .iter()
                 .map(|p| {
-                    let mut l = NodeLists::new(p.owned_nodes(), size != 3);
+                    let lists = match size {
+                        3 => Lists::FewNodes,
+                        _ => Lists::EveryNode,
+                    };
+                    let mut l = NodeLists::new(p.owned_nodes(), lists);
                     for &e in &p.elements {
                         l.add_element(p, &mesh.triangles.get(e as usize));
                     }
