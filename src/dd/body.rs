@@ -20,6 +20,7 @@
 //! caller needs (the Neumann step by back-solves, the Delassus operator by back-solves).
 
 use std::cell::RefCell;
+use std::collections::{HashMap, HashSet};
 
 use crate::dd::friction::Interface;
 use crate::dd::load::Load;
@@ -622,8 +623,8 @@ impl Body {
         Ok(u)
     }
 
-    /// K u in the nodal frames (u and the result in frame components).
-    fn apply_k_local(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
+    /// K u into `kx`, this rank's rows (`u` whole, in the nodal frames; collective).
+    fn mult_k(&self, u: &[f64]) -> Result<(), BodyError> {
         let mut x = self.x.borrow_mut();
         let mut kx = self.kx.borrow_mut();
         match &self.stiffness {
@@ -643,7 +644,24 @@ impl Body {
                 coupling.mult_add(&x, &mut kx)?;
             }
         }
-        self.gather_whole(&kx)
+        Ok(())
+    }
+
+    /// K u in the nodal frames (u and the result in frame components), whole.
+    fn apply_k_local(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
+        self.mult_k(u)?;
+        self.gather_whole(&self.kx.borrow())
+    }
+
+    /// K u (`u` whole, in the nodal frames) on this rank's rows alone, with each row's mesh
+    /// dof: no gather (collective).
+    fn apply_k_rows(&self, u: &[f64]) -> Result<(Vec<usize>, Vec<f64>), BodyError> {
+        self.mult_k(u)?;
+        let ku = self.kx.borrow().to_vec()?;
+        let dofs = (self.partition.owned_mesh_nodes().into_iter())
+            .flat_map(|n| [2 * n, 2 * n + 1])
+            .collect();
+        Ok((dofs, ku))
     }
 
     /// The whole vector `v` (mesh order) on every rank of the group. The scatter is made for
@@ -675,18 +693,34 @@ impl Body {
     /// The discrete equilibrium of `u` (global components, whole) with the Γc nodal forces
     /// `gc_forces` as a normwise backward error: ‖K u − f − Bᵀt‖∞ over the dofs not on Γ_D,
     /// over ‖K‖∞ ‖u‖∞ + ‖f‖∞ + ‖t‖∞; round-off (1e−16) for a field solved with these forces.
-    /// Collective over the body's group.
+    /// Each rank measures its own rows (no whole K u). Collective over the body's group.
     pub fn equilibrium_residual(&self, u: &[f64], gc_forces: &[f64]) -> Result<f64, BodyError> {
         let u = self.local(u);
-        let mut r = self.apply_k_local(&u)?;
-        self.load.add_to(&mut r, -1.0);
-        self.add_gc_forces(&mut r, gc_forces, -1.0);
-        for &(dof, _) in &self.problem.dirichlet {
-            r[dof] = 0.0;
+        let (dofs, ku) = self.apply_k_rows(&u)?;
+        // −Bᵀt at the Γc dofs, each dof's terms in the order `add_gc_forces` adds them.
+        let mut minus_bt: HashMap<usize, Vec<f64>> = HashMap::new();
+        for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
+            for &(i, c) in row {
+                minus_bt.entry(self.gc[i]).or_default().push(-1.0 * c * t);
+            }
         }
+        let fixed: HashSet<usize> = self.problem.dirichlet.iter().map(|d| d.0).collect();
+        let mut num = 0.0_f64;
+        for (&d, &k) in dofs.iter().zip(&ku).filter(|(d, _)| !fixed.contains(d)) {
+            let mut r = k + -1.0 * self.load.at(d);
+            for &f in minus_bt.get(&d).map_or(&[][..], |v| &v[..]) {
+                r += f;
+            }
+            // (a NaN row makes the residual NaN, as the whole vector's maximum did)
+            num = if r.is_nan() {
+                f64::NAN
+            } else {
+                num.max(r.abs())
+            };
+        }
+        let num = self.own_comm.max(num);
         let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
         let scale = self.k_norm * inf(&u) + self.load.norm_inf() + inf(gc_forces);
-        let num = inf(&r);
         Ok(if !(num.is_finite() && scale.is_finite()) {
             f64::NAN
         } else if scale > 0.0 {
@@ -698,10 +732,17 @@ impl Body {
 
     /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs: the force the other
     /// body exerts on this one (docs/method.md §1). Node to node: the Dirichlet step's body,
-    /// which under the mortar discretisation is the non-mortar one.
+    /// which under the mortar discretisation is the non-mortar one. K u is gathered on the
+    /// Γc dofs alone.
     pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
-        let ku = self.apply_k_local(&self.local(u))?;
-        Ok(self.gc.iter().map(|&d| ku[d] - self.load.at(d)).collect())
+        self.mult_k(&self.local(u))?;
+        let ku = self.trace.borrow_mut().gather(&self.kx.borrow())?;
+        Ok(self
+            .gc
+            .iter()
+            .zip(ku)
+            .map(|(&d, k)| k - self.load.at(d))
+            .collect())
     }
 
     /// Solve the Dirichlet system: u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
@@ -827,12 +868,18 @@ impl Body {
         }
     }
 
-    /// Potential energy ½ uᵀK u − fᵀu.
+    /// Potential energy ½ uᵀK u − fᵀu (uᵀK u from each rank's rows, summed over the group:
+    /// no whole K u). Collective over the body's group.
     pub fn potential_energy(&self, u: &[f64]) -> Result<f64, BodyError> {
         let u = self.local(u);
-        let ku = self.apply_k_local(&u)?;
-        let half: f64 = u.iter().zip(&ku).map(|(u, ku)| 0.5 * u * ku).sum();
-        Ok(half - self.load.dot(&u))
+        let (dofs, ku) = self.apply_k_rows(&u)?;
+        let mut half = [dofs
+            .iter()
+            .zip(&ku)
+            .map(|(&d, k)| 0.5 * u[d] * k)
+            .sum::<f64>()];
+        self.own_comm.sum(&mut half);
+        Ok(half[0] - self.load.dot(&u))
     }
 }
 

@@ -270,14 +270,7 @@ pub(super) fn rigid_modes(
     comm: &OwnComm,
 ) -> Vec<Vec<f64>> {
     let pts = &problem.mesh.points;
-    // This rank's mesh nodes, in PETSc order.
-    let owned = part.owned_nodes();
-    let mut nodes = vec![0usize; owned.len()];
-    for (i, &p) in part.petsc_node.iter().enumerate() {
-        if owned.contains(&(p as usize)) {
-            nodes[p as usize - owned.start] = i;
-        }
-    }
+    let nodes = part.owned_mesh_nodes();
     let mut sums = [0.0, 0.0, nodes.len() as f64];
     for &i in &nodes {
         sums[0] += pts[i][0];

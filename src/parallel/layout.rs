@@ -36,6 +36,16 @@ impl OwnComm {
                 .all_reduce_into(&send[..], data, mpi::collective::SystemOperation::sum());
         }
     }
+
+    /// The largest of `x` over the communicator's ranks (collective).
+    pub fn max(&self, x: f64) -> f64 {
+        let mut out = x;
+        if self.0.size() > 1 {
+            self.0
+                .all_reduce_into(&x, &mut out, mpi::collective::SystemOperation::max());
+        }
+        out
+    }
 }
 
 #[derive(Debug, thiserror::Error)]

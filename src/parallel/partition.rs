@@ -144,6 +144,18 @@ impl Partition {
         self.node_start[self.rank]..self.node_start[self.rank + 1]
     }
 
+    /// The mesh node of each of this rank's PETSc nodes, in PETSc order.
+    pub fn owned_mesh_nodes(&self) -> Vec<usize> {
+        let owned = self.owned_nodes();
+        let mut nodes = vec![0usize; owned.len()];
+        for (i, &p) in self.petsc_node.iter().enumerate() {
+            if owned.contains(&(p as usize)) {
+                nodes[p as usize - owned.start] = i;
+            }
+        }
+        nodes
+    }
+
     /// Rows (dofs) of the matrix on this rank.
     pub fn local_rows(&self) -> usize {
         2 * self.owned_nodes().len()
