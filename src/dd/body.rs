@@ -493,17 +493,24 @@ impl Body {
         for &(dof, v) in &fixed {
             g[dof] = v;
         }
-        let mut rhs = load.to_vec();
-        if fixed.iter().any(|f| f.1 != 0.0) {
-            let kg = self.apply_k_local(&g)?;
-            for i in 0..ndof {
-                rhs[i] -= kg[i];
+        // This rank's rows: K x_g on them alone (no whole K x_g).
+        let (dofs, kg) = match fixed.iter().any(|f| f.1 != 0.0) {
+            true => {
+                let (dofs, kg) = self.apply_k_rows(&g)?;
+                (dofs, Some(kg))
             }
-        }
-        for &(dof, v) in &fixed {
-            rhs[dof] = self.diag * v;
-        }
-        Ok((self.partition.local_part(&rhs), fixed))
+            false => (self.owned_dofs(), None),
+        };
+        drop(g);
+        // (a dof prescribed twice takes its last value, as `g` did)
+        let prescribed: HashMap<usize, f64> = fixed.iter().copied().collect();
+        let rhs = (dofs.iter().enumerate())
+            .map(|(i, d)| match prescribed.get(d) {
+                Some(&v) => self.diag * v,
+                None => load[*d] - kg.as_ref().map_or(0.0, |k| k[i]),
+            })
+            .collect();
+        Ok((rhs, fixed))
     }
 
     /// Seconds this rank spent checking the body's solves (their backward errors).
@@ -647,21 +654,19 @@ impl Body {
         Ok(())
     }
 
-    /// K u in the nodal frames (u and the result in frame components), whole.
-    fn apply_k_local(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
-        self.mult_k(u)?;
-        self.gather_whole(&self.kx.borrow())
-    }
-
     /// K u (`u` whole, in the nodal frames) on this rank's rows alone, with each row's mesh
-    /// dof: no gather (collective).
+    /// dof ([`Body::owned_dofs`]): no gather (collective).
     fn apply_k_rows(&self, u: &[f64]) -> Result<(Vec<usize>, Vec<f64>), BodyError> {
         self.mult_k(u)?;
         let ku = self.kx.borrow().to_vec()?;
-        let dofs = (self.partition.owned_mesh_nodes().into_iter())
+        Ok((self.owned_dofs(), ku))
+    }
+
+    /// The mesh dof of each of this rank's rows, in PETSc order.
+    fn owned_dofs(&self) -> Vec<usize> {
+        (self.partition.owned_mesh_nodes().into_iter())
             .flat_map(|n| [2 * n, 2 * n + 1])
-            .collect();
-        Ok((dofs, ku))
+            .collect()
     }
 
     /// The whole vector `v` (mesh order) on every rank of the group. The scatter is made for
@@ -683,11 +688,14 @@ impl Body {
         v
     }
 
-    /// K u (K without boundary conditions; u and the result in global components).
-    pub fn apply_k(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
-        let mut ku = self.apply_k_local(&self.local(u))?;
-        self.frames.to_global(&mut ku);
-        Ok(ku)
+    /// uᵀK u (K without boundary conditions, `u` whole in global components), from each
+    /// rank's rows summed over the group: no whole K u (collective).
+    pub fn quadratic(&self, u: &[f64]) -> Result<f64, BodyError> {
+        let u = self.local(u);
+        let (dofs, ku) = self.apply_k_rows(&u)?;
+        let mut sum = [dofs.iter().zip(&ku).map(|(&d, k)| u[d] * k).sum::<f64>()];
+        self.own_comm.sum(&mut sum);
+        Ok(sum[0])
     }
 
     /// The discrete equilibrium of `u` (global components, whole) with the Γc nodal forces

@@ -317,8 +317,7 @@ impl<'a> Estimator<'a> {
                             .parts
                             .run(Part::Resolves, || b.neumann_solve(&f, true))?;
                         let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
-                        let kd = self.parts.run(Part::ElementSums, || b.apply_k(&d))?;
-                        d.iter().zip(&kd).map(|(a, b)| a * b).sum::<f64>()
+                        self.parts.run(Part::ElementSums, || b.quadratic(&d))?
                     }
                 };
                 if !b.is_root() {
