@@ -23,7 +23,7 @@ use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
 
 use crate::dd::friction::Interface;
-use crate::dd::load::Load;
+use crate::dd::load::{Load, Loading};
 pub use crate::dd::schur::{uses_mumps, uses_superlu_dist, SchurChoice, SchurMode, SchurSource};
 use crate::dd::stiffness::{self, Stiffness};
 use crate::parallel::fault::{self, InjectedFault, Phase};
@@ -433,16 +433,6 @@ impl Body {
         Ok(Some(Condensed { schur, delassus }))
     }
 
-    /// Add `scale` times the nodal loads Rᵀ T of the pairs' forces `forces` to `v` (in the
-    /// nodal frames): a force T_k on pair k loads gc[i] with c·T_k for row k's (i, c).
-    fn add_gc_forces(&self, v: &mut [f64], forces: &[f64], scale: f64) {
-        for (row, &t) in self.gc_rows.iter().zip(forces) {
-            for &(i, c) in row {
-                v[self.gc[i]] += scale * c * t;
-            }
-        }
-    }
-
     /// The pairs' traces Σ c·x[i] of values `x` on `gc`.
     fn apply_rows(&self, x: &[f64]) -> Vec<f64> {
         self.gc_rows
@@ -472,11 +462,11 @@ impl Body {
     /// and the prescribed (dof, value) pairs (frame dofs).
     fn right_hand_side(
         &self,
-        load: &[f64],
+        load: &Loading,
         homogeneous: bool,
         gc_values: Option<&[f64]>,
     ) -> Result<(Vec<f64>, Prescribed), BodyError> {
-        let ndof = load.len();
+        let ndof = self.load.len;
         // x_g: the prescribed values, zero elsewhere; rhs = load − K x_g, prescribed rows = diag·g.
         let mut g = vec![0.0; ndof];
         let mut fixed: Vec<(usize, f64)> =
@@ -507,7 +497,7 @@ impl Body {
         let rhs = (dofs.iter().enumerate())
             .map(|(i, d)| match prescribed.get(d) {
                 Some(&v) => self.diag * v,
-                None => load[*d] - kg.as_ref().map_or(0.0, |k| k[i]),
+                None => load.at(*d) - kg.as_ref().map_or(0.0, |k| k[i]),
             })
             .collect();
         Ok((rhs, fixed))
@@ -604,7 +594,7 @@ impl Body {
     fn solve(
         &self,
         system: System,
-        load: &[f64],
+        load: &Loading,
         homogeneous: bool,
         gc_values: Option<&[f64]>,
     ) -> Result<Vec<(usize, f64)>, BodyError> {
@@ -705,7 +695,7 @@ impl Body {
     pub fn equilibrium_residual(&self, u: &[f64], gc_forces: &[f64]) -> Result<f64, BodyError> {
         let u = self.local(u);
         let (dofs, ku) = self.apply_k_rows(&u)?;
-        // −Bᵀt at the Γc dofs, each dof's terms in the order `add_gc_forces` adds them.
+        // −Bᵀt at the Γc dofs (as in `neumann_load`), each dof's terms in order.
         let mut minus_bt: HashMap<usize, Vec<f64>> = HashMap::new();
         for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
             for &(i, c) in row {
@@ -756,20 +746,23 @@ impl Body {
     /// Solve the Dirichlet system: u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
     /// Returns the displacement and the reaction T = K u − f on the Γc normal dofs.
     pub fn dirichlet_solve(&self, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
-        let fixed = self.solve(System::Dirichlet, &self.load.whole(), false, Some(lambda))?;
+        let data = Loading::new(Some(&self.load));
+        let fixed = self.solve(System::Dirichlet, &data, false, Some(lambda))?;
         let u = self.solution(&fixed)?;
         let t = self.interface_forces(&u)?;
         Ok((u, t))
     }
 
-    /// The Neumann load (in the nodal frames): nodal forces `gc_forces` on the Γc normal dofs,
-    /// plus the body's f^α when `with_data`.
-    fn neumann_load(&self, gc_forces: &[f64], with_data: bool) -> Vec<f64> {
-        let mut load = vec![0.0; self.load.len];
-        if with_data {
-            self.load.add_to(&mut load, 1.0);
+    /// The Neumann load (in the nodal frames): nodal forces `gc_forces` on the Γc normal dofs
+    /// (Rᵀ T: a force T_k on pair k loads gc[i] with c·T_k for row k's (i, c)), plus the
+    /// body's f^α when `with_data`.
+    fn neumann_load(&self, gc_forces: &[f64], with_data: bool) -> Loading<'_> {
+        let mut load = Loading::new(with_data.then_some(&self.load));
+        for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
+            for &(i, c) in row {
+                load.add(self.gc[i], 1.0 * c * t);
+            }
         }
-        self.add_gc_forces(&mut load, gc_forces, 1.0);
         load
     }
 
@@ -794,7 +787,7 @@ impl Body {
                 })
                 .collect();
         }
-        // (each load whole only while its column, this rank's rows, is formed)
+        // (each column formed on this rank's rows alone)
         let mut columns = Vec::with_capacity(gc_forces.len());
         let mut fixed = Vec::new();
         for f in gc_forces {
@@ -816,26 +809,26 @@ impl Body {
     }
 
     /// The body's data plus the Γc loads `f`, in the nodal frames.
-    fn gc_load(&self, f: &GcForces) -> Vec<f64> {
+    fn gc_load(&self, f: &GcForces) -> Loading<'_> {
         match f {
             GcForces::Normal(t) => self.neumann_load(t, true),
             GcForces::Vector(v) => {
-                let mut load = self.load.whole();
+                let mut load = Loading::new(Some(&self.load));
                 if let GcTrace::Mortar(c) = &self.problem.trace {
                     // Pair k's force reaches the mortar body's node j as P_kj f_k (no rotated
                     // frames there).
                     for (row, f) in c.rows.iter().zip(v) {
                         for &(node, p) in row {
-                            load[2 * node] += p * f[0];
-                            load[2 * node + 1] += p * f[1];
+                            load.add(2 * node, p * f[0]);
+                            load.add(2 * node + 1, p * f[1]);
                         }
                     }
                     return load;
                 }
                 for ((&d, f), n) in self.gc.iter().zip(v).zip(&self.problem.contact_normals) {
                     // The node's frame: (τ, n), τ = (n_y, −n_x); d is its normal dof.
-                    load[d - 1] += n[1] * f[0] - n[0] * f[1];
-                    load[d] += n[0] * f[0] + n[1] * f[1];
+                    load.add(d - 1, n[1] * f[0] - n[0] * f[1]);
+                    load.add(d, n[0] * f[0] + n[1] * f[1]);
                 }
                 load
             }

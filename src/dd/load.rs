@@ -1,12 +1,12 @@
 //! A body's load f^α held by its non-zero entries: it is non-zero on the loaded Γ_N edges
 //! only, so the body keeps a boundary's worth of it rather than a whole vector per rank of its
-//! group (docs/scaling.md, "Memory per rank"); whole vectors are made for the time of a solve.
+//! group (docs/scaling.md, "Memory per rank"); a solve's load adds the Γc forces to it
+//! ([`Loading`]), and its right-hand side is formed on each rank's rows from that.
 
 use crate::problem::Frames;
 
 /// A load vector held by its non-zero entries: a body's f^α is non-zero on its loaded Γ_N
-/// edges only, so a whole vector per body (8 bytes per dof on every rank of its group) is
-/// made only for the time of a solve.
+/// edges only (a whole vector would be 8 bytes per dof on every rank of its group).
 pub(super) struct Load {
     /// (dof, value), by increasing dof.
     entries: Vec<(usize, f64)>,
@@ -24,20 +24,6 @@ impl Load {
                 .map(|(d, &v)| (d, v))
                 .collect(),
             len: whole.len(),
-        }
-    }
-
-    /// The whole vector.
-    pub(super) fn whole(&self) -> Vec<f64> {
-        let mut v = vec![0.0; self.len];
-        self.add_to(&mut v, 1.0);
-        v
-    }
-
-    /// v += scale · f.
-    pub(super) fn add_to(&self, v: &mut [f64], scale: f64) {
-        for &(d, f) in &self.entries {
-            v[d] += scale * f;
         }
     }
 
@@ -60,6 +46,37 @@ impl Load {
     }
 }
 
+/// A load for one solve without a whole vector: a body's data f^α (or none) plus nodal
+/// contributions (the Γc forces), each dof's summed in the order they were added.
+pub(super) struct Loading<'a> {
+    data: Option<&'a Load>,
+    added: std::collections::HashMap<usize, Vec<f64>>,
+}
+
+impl<'a> Loading<'a> {
+    /// `data` (f^α) or nothing, with no contribution yet.
+    pub(super) fn new(data: Option<&'a Load>) -> Loading<'a> {
+        Loading {
+            data,
+            added: Default::default(),
+        }
+    }
+
+    /// Add `value` at dof `d`.
+    pub(super) fn add(&mut self, d: usize, value: f64) {
+        self.added.entry(d).or_default().push(value);
+    }
+
+    /// The load at dof `d`.
+    pub(super) fn at(&self, d: usize) -> f64 {
+        let mut v = self.data.map_or(0.0, |l| l.at(d));
+        for &x in self.added.get(&d).map_or(&[][..], |a| &a[..]) {
+            v += x;
+        }
+        v
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -69,7 +86,6 @@ mod tests {
         let whole = vec![0.0, 1.5, 0.0, 0.0, -2.0, 0.25, 0.0, 0.0];
         let load = Load::of(whole.clone(), &Frames::default());
         assert_eq!(load.entries.len(), 3);
-        assert_eq!(load.whole(), whole);
         for (d, &w) in whole.iter().enumerate() {
             assert_eq!(load.at(d), w);
         }
@@ -77,10 +93,15 @@ mod tests {
         let dot: f64 = whole.iter().zip(&u).map(|(a, b)| a * b).sum();
         assert_eq!(load.dot(&u), dot);
         assert_eq!(load.norm_inf(), 2.0);
-        let mut v = u.clone();
-        load.add_to(&mut v, -2.0);
+        // With contributions: each dof's summed in order onto f.
+        let mut loading = Loading::new(Some(&load));
+        loading.add(1, 0.5);
+        loading.add(3, 2.0);
+        loading.add(1, -0.25);
+        let want = [0.0, 1.5 + 0.5 - 0.25, 0.0, 2.0, -2.0, 0.25, 0.0, 0.0];
         for d in 0..8 {
-            assert_eq!(v[d], u[d] - 2.0 * whole[d]);
+            assert_eq!(loading.at(d), want[d]);
         }
+        assert_eq!(Loading::new(None).at(1), 0.0);
     }
 }
