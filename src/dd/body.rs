@@ -699,13 +699,13 @@ impl Body {
         let mut minus_bt: HashMap<usize, Vec<f64>> = HashMap::new();
         for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
             for &(i, c) in row {
-                minus_bt.entry(self.gc[i]).or_default().push(-1.0 * c * t);
+                minus_bt.entry(self.gc[i]).or_default().push(-c * t);
             }
         }
         let fixed: HashSet<usize> = self.problem.dirichlet.iter().map(|d| d.0).collect();
         let mut num = 0.0_f64;
         for (&d, &k) in dofs.iter().zip(&ku).filter(|(d, _)| !fixed.contains(d)) {
-            let mut r = k + -1.0 * self.load.at(d);
+            let mut r = k - self.load.at(d);
             for &f in minus_bt.get(&d).map_or(&[][..], |v| &v[..]) {
                 r += f;
             }
@@ -760,7 +760,7 @@ impl Body {
         let mut load = Loading::new(with_data.then_some(&self.load));
         for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
             for &(i, c) in row {
-                load.add(self.gc[i], 1.0 * c * t);
+                load.add(self.gc[i], c * t);
             }
         }
         load

@@ -99,8 +99,8 @@ mod tests {
         loading.add(3, 2.0);
         loading.add(1, -0.25);
         let want = [0.0, 1.5 + 0.5 - 0.25, 0.0, 2.0, -2.0, 0.25, 0.0, 0.0];
-        for d in 0..8 {
-            assert_eq!(loading.at(d), want[d]);
+        for (d, &w) in want.iter().enumerate() {
+            assert_eq!(loading.at(d), w);
         }
         assert_eq!(Loading::new(None).at(1), 0.0);
     }
