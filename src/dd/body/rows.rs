@@ -1,0 +1,128 @@
+//! K^α applied on each rank's rows of a body: the checks of an iterate (its equilibrium
+//! residual, interface forces and energy) and a solve's K x_g, with no whole K u on any rank
+//! (docs/scaling.md, "Memory per rank").
+
+use std::collections::{HashMap, HashSet};
+
+use super::{Body, BodyError, System};
+use crate::dd::stiffness::Stiffness;
+
+impl Body {
+    /// K u into `kx`, this rank's rows (`u` whole, in the nodal frames; collective).
+    pub(super) fn mult_k(&self, u: &[f64]) -> Result<(), BodyError> {
+        let mut x = self.x.borrow_mut();
+        let mut kx = self.kx.borrow_mut();
+        match &self.stiffness {
+            Stiffness::Whole(k) => {
+                x.copy_from(&self.partition.local_part(u))?;
+                k.mult(&x, &mut kx)?;
+            }
+            // K u = K_N (P u) + B u.
+            Stiffness::Split { coupling } => {
+                let mut free = u.to_vec();
+                for &(dof, _) in &self.problem.dirichlet {
+                    free[dof] = 0.0;
+                }
+                x.copy_from(&self.partition.local_part(&free))?;
+                self.ksp(System::Neumann)?.operator().mult(&x, &mut kx)?;
+                x.copy_from(&self.partition.local_part(u))?;
+                coupling.mult_add(&x, &mut kx)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// K u (`u` whole, in the nodal frames) on this rank's rows alone, with each row's mesh
+    /// dof ([`Body::owned_dofs`]): no gather (collective).
+    pub(super) fn apply_k_rows(&self, u: &[f64]) -> Result<(Vec<usize>, Vec<f64>), BodyError> {
+        self.mult_k(u)?;
+        let ku = self.kx.borrow().to_vec()?;
+        Ok((self.owned_dofs(), ku))
+    }
+
+    /// The mesh dof of each of this rank's rows, in PETSc order.
+    pub(super) fn owned_dofs(&self) -> Vec<usize> {
+        (self.partition.owned_mesh_nodes().into_iter())
+            .flat_map(|n| [2 * n, 2 * n + 1])
+            .collect()
+    }
+
+    /// uᵀK u (K without boundary conditions, `u` whole in global components), from each
+    /// rank's rows summed over the group: no whole K u (collective).
+    pub fn quadratic(&self, u: &[f64]) -> Result<f64, BodyError> {
+        let u = self.local(u);
+        let (dofs, ku) = self.apply_k_rows(&u)?;
+        let mut sum = [dofs.iter().zip(&ku).map(|(&d, k)| u[d] * k).sum::<f64>()];
+        self.own_comm.sum(&mut sum);
+        Ok(sum[0])
+    }
+
+    /// The discrete equilibrium of `u` (global components, whole) with the Γc nodal forces
+    /// `gc_forces` as a normwise backward error: ‖K u − f − Bᵀt‖∞ over the dofs not on Γ_D,
+    /// over ‖K‖∞ ‖u‖∞ + ‖f‖∞ + ‖t‖∞; round-off (1e−16) for a field solved with these forces.
+    /// Each rank measures its own rows (no whole K u). Collective over the body's group.
+    pub fn equilibrium_residual(&self, u: &[f64], gc_forces: &[f64]) -> Result<f64, BodyError> {
+        let u = self.local(u);
+        let (dofs, ku) = self.apply_k_rows(&u)?;
+        // −Bᵀt at the Γc dofs (as in `neumann_load`), each dof's terms in order.
+        let mut minus_bt: HashMap<usize, Vec<f64>> = HashMap::new();
+        for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
+            for &(i, c) in row {
+                minus_bt.entry(self.gc[i]).or_default().push(-c * t);
+            }
+        }
+        let fixed: HashSet<usize> = self.problem.dirichlet.iter().map(|d| d.0).collect();
+        let mut num = 0.0_f64;
+        for (&d, &k) in dofs.iter().zip(&ku).filter(|(d, _)| !fixed.contains(d)) {
+            let mut r = k - self.load.at(d);
+            for &f in minus_bt.get(&d).map_or(&[][..], |v| &v[..]) {
+                r += f;
+            }
+            // (a NaN row makes the residual NaN, as the whole vector's maximum did)
+            num = if r.is_nan() {
+                f64::NAN
+            } else {
+                num.max(r.abs())
+            };
+        }
+        let num = self.own_comm.max(num);
+        let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let scale = self.k_norm * inf(&u) + self.load.norm_inf() + inf(gc_forces);
+        Ok(if !(num.is_finite() && scale.is_finite()) {
+            f64::NAN
+        } else if scale > 0.0 {
+            num / scale
+        } else {
+            0.0
+        })
+    }
+
+    /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs: the force the other
+    /// body exerts on this one (docs/method.md §1). Node to node: the Dirichlet step's body,
+    /// which under the mortar discretisation is the non-mortar one. K u is gathered on the
+    /// Γc dofs alone.
+    pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
+        self.mult_k(&self.local(u))?;
+        let ku = self.trace.borrow_mut().gather(&self.kx.borrow())?;
+        Ok(self
+            .gc
+            .iter()
+            .zip(ku)
+            .map(|(&d, k)| k - self.load.at(d))
+            .collect())
+    }
+
+    /// Potential energy ½ uᵀK u − fᵀu (uᵀK u from each rank's rows, summed over the group:
+    /// no whole K u). Collective over the body's group.
+    pub fn potential_energy(&self, u: &[f64]) -> Result<f64, BodyError> {
+        let u = self.local(u);
+        let (dofs, ku) = self.apply_k_rows(&u)?;
+        let mut half = [dofs
+            .iter()
+            .zip(&ku)
+            .map(|(&d, k)| 0.5 * u[d] * k)
+            .sum::<f64>()];
+        self.own_comm.sum(&mut half);
+        Ok(half[0] - self.load.dot(&u))
+    }
+}
