@@ -270,7 +270,7 @@ pub(super) fn rigid_modes(
     comm: &OwnComm,
 ) -> Vec<Vec<f64>> {
     let pts = &problem.mesh.points;
-    let nodes = part.owned_mesh_nodes();
+    let nodes: Vec<usize> = part.owned_mesh_nodes().collect();
     let mut sums = [0.0, 0.0, nodes.len() as f64];
     for &i in &nodes {
         sums[0] += pts[i][0];

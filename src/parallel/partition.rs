@@ -38,6 +38,8 @@ pub struct Partition {
     pub petsc_node: Vec<u32>,
     /// First PETSc node of each rank, and the node count at the end (`size + 1` entries).
     pub node_start: Vec<usize>,
+    /// The mesh node of each of this rank's PETSc nodes, in PETSc order.
+    mesh_nodes: Vec<u32>,
 }
 
 impl Partition {
@@ -102,6 +104,7 @@ impl Partition {
                 elements: (0..ne as u32).collect(),
                 petsc_node: (0..nn as u32).collect(),
                 node_start: vec![0, nn],
+                mesh_nodes: (0..nn as u32).collect(),
             });
         }
         let (epart, npart) = metis_parts(mesh, alpha, size)?;
@@ -135,6 +138,11 @@ impl Partition {
                 .map(|(e, _)| e as u32)
                 .collect(),
             petsc_node,
+            // (each rank's nodes are numbered in mesh order)
+            mesh_nodes: (npart.iter().enumerate())
+                .filter(|(_, &p)| p as usize == rank)
+                .map(|(i, _)| i as u32)
+                .collect(),
             node_start,
         }
     }
@@ -145,15 +153,8 @@ impl Partition {
     }
 
     /// The mesh node of each of this rank's PETSc nodes, in PETSc order.
-    pub fn owned_mesh_nodes(&self) -> Vec<usize> {
-        let owned = self.owned_nodes();
-        let mut nodes = vec![0usize; owned.len()];
-        for (i, &p) in self.petsc_node.iter().enumerate() {
-            if owned.contains(&(p as usize)) {
-                nodes[p as usize - owned.start] = i;
-            }
-        }
-        nodes
+    pub fn owned_mesh_nodes(&self) -> impl Iterator<Item = usize> + '_ {
+        self.mesh_nodes.iter().map(|&n| n as usize)
     }
 
     /// Rows (dofs) of the matrix on this rank.
@@ -187,16 +188,9 @@ impl Partition {
 
     /// This rank's entries (PETSc order) of a vector given in mesh numbering.
     pub fn local_part(&self, full: &[f64]) -> Vec<f64> {
-        let mut out = vec![0.0; self.local_rows()];
-        let first = self.owned_nodes().start;
-        for (node, &p) in self.petsc_node.iter().enumerate() {
-            let p = p as usize;
-            if self.owned_nodes().contains(&p) {
-                out[2 * (p - first)] = full[2 * node];
-                out[2 * (p - first) + 1] = full[2 * node + 1];
-            }
-        }
-        out
+        self.owned_mesh_nodes()
+            .flat_map(|n| [full[2 * n], full[2 * n + 1]])
+            .collect()
     }
 
     /// Number of elements owned by this rank.

@@ -2,7 +2,7 @@
 //! residual, interface forces and energy) and a solve's K x_g, with no whole K u on any rank
 //! (docs/scaling.md, "Memory per rank").
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 
 use super::{Body, BodyError, System};
 use crate::dd::stiffness::Stiffness;
@@ -42,7 +42,7 @@ impl Body {
 
     /// The mesh dof of each of this rank's rows, in PETSc order.
     pub(super) fn owned_dofs(&self) -> Vec<usize> {
-        (self.partition.owned_mesh_nodes().into_iter())
+        (self.partition.owned_mesh_nodes())
             .flat_map(|n| [2 * n, 2 * n + 1])
             .collect()
     }
@@ -64,20 +64,12 @@ impl Body {
     pub fn equilibrium_residual(&self, u: &[f64], gc_forces: &[f64]) -> Result<f64, BodyError> {
         let u = self.local(u);
         let (dofs, ku) = self.apply_k_rows(&u)?;
-        // −Bᵀt at the Γc dofs (as in `neumann_load`), each dof's terms in order.
-        let mut minus_bt: HashMap<usize, Vec<f64>> = HashMap::new();
-        for (row, &t) in self.gc_rows.iter().zip(gc_forces) {
-            for &(i, c) in row {
-                minus_bt.entry(self.gc[i]).or_default().push(-c * t);
-            }
-        }
+        // f + Bᵀt: the body's data and the Γc forces, as a Neumann solve's load.
+        let load = self.neumann_load(gc_forces, true);
         let fixed: HashSet<usize> = self.problem.dirichlet.iter().map(|d| d.0).collect();
         let mut num = 0.0_f64;
         for (&d, &k) in dofs.iter().zip(&ku).filter(|(d, _)| !fixed.contains(d)) {
-            let mut r = k - self.load.at(d);
-            for &f in minus_bt.get(&d).map_or(&[][..], |v| &v[..]) {
-                r += f;
-            }
+            let r = k - load.at(d);
             // (a NaN row makes the residual NaN, as the whole vector's maximum did)
             num = if r.is_nan() {
                 f64::NAN
