@@ -38,21 +38,40 @@ const BASE: [&str; 8] = [
 
 #[test]
 fn dirichlet_step_system_equals_condensed() {
+    // Estimated every fourth iteration: the system step forms u¹_p with T¹_p there, and T¹_p
+    // alone (K u on each rank's rows, gathered at Γc) at the others, the last one's field
+    // formed after the loop; on 4 ranks each body's system is spread over a group of 2.
     let dir = scratch("paths-dirichlet");
-    let a = solve(
-        2,
-        &dir.join("c"),
-        &[&BASE[..], &["-nndd_dirichlet_step", "condensed"]].concat(),
-    );
-    let b = solve(
-        2,
-        &dir.join("s"),
-        &[&BASE[..], &["-nndd_dirichlet_step", "system"]].concat(),
-    );
+    let estimated = ["-nndd_estimate_every", "4", "-nndd_reference_factor", "0"];
+    let run = |np: usize, name: &str, step: &str| {
+        let args = [&BASE[..], &estimated, &["-nndd_dirichlet_step", step]].concat();
+        solve(np, &dir.join(name), &args)
+    };
+    let a = run(2, "c", "condensed");
     assert_eq!(a["dirichlet_step"], "condensed");
-    assert_eq!(b["dirichlet_step"], "system");
-    assert_eq!(a["iterations"], b["iterations"]);
-    same(&dir.join("c"), &dir.join("s"), 1e-10);
+    let estimates = |j: &serde_json::Value| -> Vec<(u64, f64)> {
+        let list = j["estimates"].as_array().expect("estimates");
+        let each = |e: &serde_json::Value| (e["iteration"].as_u64().unwrap(), f(e, "eta_glo"));
+        list.iter().map(each).collect()
+    };
+    let (ea, iterations) = (estimates(&a), a["iterations"].as_u64().unwrap());
+    assert!(
+        !ea.is_empty() && iterations % 4 != 0,
+        "{iterations} iterations, estimated {ea:?}"
+    );
+    for (np, name) in [(2, "s"), (4, "s4")] {
+        let b = run(np, name, "system");
+        assert_eq!(b["dirichlet_step"], "system", "{np} ranks");
+        assert_eq!(a["iterations"], b["iterations"], "{np} ranks");
+        same(&dir.join("c"), &dir.join(name), 1e-10);
+        for ((pa, ga), (pb, gb)) in ea.iter().zip(estimates(&b)) {
+            assert_eq!(*pa, pb);
+            assert!(
+                (ga - gb).abs() <= 1e-9 * ga,
+                "{np} ranks, iteration {pa}: η^glo {ga} and {gb}"
+            );
+        }
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -468,9 +468,7 @@ impl Body {
         homogeneous: bool,
         gc_values: Option<&[f64]>,
     ) -> Result<(Vec<f64>, Prescribed), BodyError> {
-        let ndof = self.load.len;
         // x_g: the prescribed values, zero elsewhere; rhs = load − K x_g, prescribed rows = diag·g.
-        let mut g = vec![0.0; ndof];
         let mut fixed: Vec<(usize, f64)> =
             Vec::with_capacity(self.problem.dirichlet.len() + self.gc.len());
         for &(dof, v) in &self.problem.dirichlet {
@@ -482,19 +480,20 @@ impl Body {
                 fixed.push((dof, v));
             }
         }
-        for &(dof, v) in &fixed {
-            g[dof] = v;
-        }
-        // This rank's rows: K x_g on them alone (no whole K x_g).
-        let (dofs, kg) = match fixed.iter().any(|f| f.1 != 0.0) {
+        // This rank's rows: x_g and K x_g on them alone (no whole vector; a dof prescribed
+        // twice takes its last value).
+        let dofs = self.owned_dofs();
+        let kg = match fixed.iter().any(|f| f.1 != 0.0) {
             true => {
-                let (dofs, kg) = self.apply_k_rows(&g)?;
-                (dofs, Some(kg))
+                let mut g = vec![0.0; dofs.len()];
+                for (row, v) in self.owned(&fixed) {
+                    g[row] = v;
+                }
+                self.mult_k_local(&g)?;
+                Some(self.kx.borrow().to_vec()?)
             }
-            false => (self.owned_dofs(), None),
+            false => None,
         };
-        drop(g);
-        // (a dof prescribed twice takes its last value, as `g` did)
         let prescribed: HashMap<usize, f64> = fixed.iter().copied().collect();
         let rhs = (dofs.iter().enumerate())
             .map(|(i, d)| match prescribed.get(d) {
@@ -649,6 +648,21 @@ impl Body {
         let u = self.solution(&fixed)?;
         let t = self.interface_forces(&u)?;
         Ok((u, t))
+    }
+
+    /// The reaction T = K u − f on the Γc normal dofs of the Dirichlet solve at `lambda`
+    /// alone ([`Body::dirichlet_solve`] without its field): K u formed on each rank's rows
+    /// from the solution with its exact prescribed values, gathered at Γc alone; no whole
+    /// vector on any rank (the NNDD loop's Dirichlet step, the monolithic solve's columns).
+    pub fn dirichlet_reaction(&self, lambda: &[f64]) -> Result<Vec<f64>, BodyError> {
+        let data = Loading::new(Some(&self.load));
+        let fixed = self.solve(System::Dirichlet, &data, false, Some(lambda))?;
+        let mut u = self.x.borrow().to_vec()?;
+        for (row, v) in self.owned(&fixed) {
+            u[row] = v;
+        }
+        self.mult_k_local(&u)?;
+        self.reaction_at_gc()
     }
 
     /// The Neumann load (in the nodal frames): nodal forces `gc_forces` on the Γc normal dofs

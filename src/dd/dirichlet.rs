@@ -32,6 +32,14 @@ pub enum DirichletStep {
     },
 }
 
+/// What an iteration wants of its Dirichlet step: T¹_p alone, or u¹_p as well (an iteration
+/// to be estimated, whose fields are formed at once).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wanted {
+    Forces,
+    ForcesAndField,
+}
+
 impl DirichletStep {
     /// Condensed when body 1 has its interface operators and `choice` is not `System`, else
     /// the Dirichlet system (which must exist). Collective over the body's group.
@@ -65,18 +73,25 @@ impl DirichletStep {
         matches!(self, DirichletStep::System)
     }
 
-    /// T¹_p for the interface position λ_p, and u¹_p when it came for free. Condensed, T¹_p is
-    /// known on the body's first rank only (zero elsewhere: the loop shares the first rank's).
+    /// T¹_p for the interface position λ_p, and u¹_p from the same solve when `wanted` and
+    /// the step solves its system (else the field is formed after the loop where it is wanted,
+    /// [`Self::field`]: an iteration that is not estimated gathers no whole vector). Condensed,
+    /// T¹_p is known on the body's first rank only (zero elsewhere: the loop shares the first
+    /// rank's).
     pub fn solve(
         &self,
         body: &Body,
         lambda: &[f64],
+        wanted: Wanted,
     ) -> Result<(Option<Vec<f64>>, Vec<f64>), BodyError> {
         match self {
-            DirichletStep::System => {
-                let (u, t) = body.dirichlet_solve(lambda)?;
-                Ok((Some(u), t))
-            }
+            DirichletStep::System => match wanted {
+                Wanted::ForcesAndField => {
+                    let (u, t) = body.dirichlet_solve(lambda)?;
+                    Ok((Some(u), t))
+                }
+                Wanted::Forces => Ok((None, body.dirichlet_reaction(lambda)?)),
+            },
             DirichletStep::Condensed { v_star, .. } => {
                 let mut t = vec![0.0; lambda.len()];
                 if let Some(c) = body.condensed() {

@@ -10,8 +10,6 @@ use crate::problem::Frames;
 pub(super) struct Load {
     /// (dof, value), by increasing dof.
     entries: Vec<(usize, f64)>,
-    /// The dofs of the body.
-    pub(super) len: usize,
 }
 
 impl Load {
@@ -23,7 +21,6 @@ impl Load {
                 .filter(|(_, v)| **v != 0.0)
                 .map(|(d, &v)| (d, v))
                 .collect(),
-            len: whole.len(),
         }
     }
 

@@ -216,12 +216,12 @@ fn condensed_by_dirichlet(
     let (mut s, mut c) = (Vec::new(), Vec::new());
     if let Some(b) = body {
         if b.problem.support == Support::Contact {
-            let (_, c0) = b.dirichlet_solve(&vec![0.0; m])?;
+            let c0 = b.dirichlet_reaction(&vec![0.0; m])?;
             s = vec![0.0; m * m];
             let mut e = vec![0.0; m];
             for j in 0..m {
                 e[j] = 1.0;
-                let (_, t) = b.dirichlet_solve(&e)?;
+                let t = b.dirichlet_reaction(&e)?;
                 e[j] = 0.0;
                 for i in 0..m {
                     // Symmetric: column j is row j.

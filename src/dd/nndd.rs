@@ -12,7 +12,7 @@
 use crate::dd::body::{uses_superlu_dist, Body, BodyError};
 use crate::dd::check::{check_solution, force_balance, SolutionCheck};
 use crate::dd::contact::{ContactError, ContactSolution, ContactStep};
-use crate::dd::dirichlet::{DirichletChoice, DirichletStep};
+use crate::dd::dirichlet::{DirichletChoice, DirichletStep, Wanted};
 use crate::dd::friction::Interface;
 pub use crate::dd::iterate::Iterate;
 use crate::dd::neumann::{NeumannBodies, NeumannChoice, NeumannStep};
@@ -761,7 +761,7 @@ pub fn solve<E: From<NnddError>>(
     let mut last = None;
     for p in state.iteration + 1..=ctx.settings.max_it {
         // Step 1: the Dirichlet problem at λ_p and the other body's contact problem behind λ_p.
-        let one = ctx.step_one(&state.lambda, &mut timers)?;
+        let one = ctx.step_one(&state.lambda, ctx.wanted(p), &mut timers)?;
         // Step 3: the equilibrium defect R_p = T¹_p + T²_p.
         let r = one.defect();
         // Step 4: the two Neumann problems.
@@ -820,13 +820,18 @@ impl Context<'_> {
     /// Step 1 at λ_p: the Dirichlet problem on its body's ranks and the other body's contact
     /// problem behind λ_p, concurrently; their Γc forces and the contact step's results then
     /// shared with every rank.
-    fn step_one(&self, lambda: &[f64], timers: &mut LoopTimers) -> Result<StepOne, NnddError> {
+    fn step_one(
+        &self,
+        lambda: &[f64],
+        wanted: Wanted,
+        timers: &mut LoopTimers,
+    ) -> Result<StepOne, NnddError> {
         let (di, ci) = self.steps.indices();
         let mut forces = [vec![0.0; self.m], vec![0.0; self.m]];
         let mut u_dirichlet = Vec::new();
         if let (Some(b), Some(d)) = (self.bodies[di], self.steps.dirichlet) {
             let _s = self.stages.dirichlet_step.enter();
-            let (u, f) = timers.dirichlet_step.time(|| d.solve(b, lambda))?;
+            let (u, f) = timers.dirichlet_step.time(|| d.solve(b, lambda, wanted))?;
             u_dirichlet = u.unwrap_or_default();
             forces[di] = f;
         }
@@ -877,6 +882,15 @@ impl Context<'_> {
         Ok(w)
     }
 
+    /// The Dirichlet step's field at iteration p with its forces where it is estimated (the
+    /// iterations of `estimate_every`), else its forces alone.
+    fn wanted(&self, p: usize) -> Wanted {
+        match self.estimate_every.is_some_and(|k| p.is_multiple_of(k)) {
+            true => Wanted::ForcesAndField,
+            false => Wanted::Forces,
+        }
+    }
+
     /// At the iterations of `estimate_every`, when the observer wants it: the fields of step
     /// p formed and the iterate estimated. Whether the balanced stopping rule holds.
     fn estimate_if_due<E: From<NnddError>>(
@@ -886,8 +900,7 @@ impl Context<'_> {
         observer: &mut impl Observer<E>,
         timers: &mut LoopTimers,
     ) -> Result<bool, E> {
-        let due = self.estimate_every.is_some_and(|k| p.is_multiple_of(k));
-        if !due || !observer.wants_estimate(it)? {
+        if self.wanted(p) == Wanted::Forces || !observer.wants_estimate(it)? {
             return Ok(false);
         }
         self.form_fields(it, timers)?;
@@ -895,8 +908,8 @@ impl Context<'_> {
         observer.estimate(it)
     }
 
-    /// Form u¹_p and u²_p on their owners where the steps did not (condensed steps give only
-    /// the Γc forces).
+    /// Form u¹_p and u²_p on their owners where the steps did not (condensed steps, and a
+    /// system Dirichlet step at an iteration not estimated, give only the Γc forces).
     fn form_fields(&self, it: &mut Iterate, timers: &mut LoopTimers) -> Result<(), NnddError> {
         if it.tangential.is_some() {
             return Ok(()); // formed before it was split

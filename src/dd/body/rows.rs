@@ -10,26 +10,45 @@ use crate::dd::stiffness::Stiffness;
 impl Body {
     /// K u into `kx`, this rank's rows (`u` whole, in the nodal frames; collective).
     pub(super) fn mult_k(&self, u: &[f64]) -> Result<(), BodyError> {
+        self.mult_k_local(&self.partition.local_part(u))
+    }
+
+    /// K v into `kx`, `v` this rank's entries of a vector (PETSc order, nodal frames): no
+    /// whole vector (collective).
+    pub(super) fn mult_k_local(&self, v: &[f64]) -> Result<(), BodyError> {
         let mut x = self.x.borrow_mut();
         let mut kx = self.kx.borrow_mut();
         match &self.stiffness {
             Stiffness::Whole(k) => {
-                x.copy_from(&self.partition.local_part(u))?;
+                x.copy_from(v)?;
                 k.mult(&x, &mut kx)?;
             }
-            // K u = K_N (P u) + B u.
+            // K v = K_N (P v) + B v.
             Stiffness::Split { coupling } => {
-                let mut free = u.to_vec();
-                for &(dof, _) in &self.problem.dirichlet {
-                    free[dof] = 0.0;
+                let mut free = v.to_vec();
+                for (row, _) in self.owned(&self.problem.dirichlet) {
+                    free[row] = 0.0;
                 }
-                x.copy_from(&self.partition.local_part(&free))?;
+                x.copy_from(&free)?;
                 self.ksp(System::Neumann)?.operator().mult(&x, &mut kx)?;
-                x.copy_from(&self.partition.local_part(u))?;
+                x.copy_from(v)?;
                 coupling.mult_add(&x, &mut kx)?;
             }
         }
         Ok(())
+    }
+
+    /// The (dof, value) pairs of `pairs` on this rank's rows, as (index among this rank's
+    /// entries, value).
+    pub(super) fn owned<'a>(
+        &'a self,
+        pairs: &'a [(usize, f64)],
+    ) -> impl Iterator<Item = (usize, f64)> + 'a {
+        let first = 2 * self.partition.owned_nodes().start;
+        pairs
+            .iter()
+            .filter(|(dof, _)| self.partition.owns_dof(*dof))
+            .map(move |&(dof, v)| (self.partition.row(dof) as usize - first, v))
     }
 
     /// K u (`u` whole, in the nodal frames) on this rank's rows alone, with each row's mesh
@@ -95,6 +114,12 @@ impl Body {
     /// Γc dofs alone.
     pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
         self.mult_k(&self.local(u))?;
+        self.reaction_at_gc()
+    }
+
+    /// (K u − f) on the Γc normal dofs, K u being in `kx` (this rank's rows): gathered there
+    /// alone (collective).
+    pub(super) fn reaction_at_gc(&self) -> Result<Vec<f64>, BodyError> {
         let ku = self.trace.borrow_mut().gather(&self.kx.borrow())?;
         Ok(self
             .gc
