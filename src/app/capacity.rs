@@ -8,7 +8,7 @@
 //! `jobs/bench-memory` (n = 64 … 512 on 2 ranks, factored or iterative bodies, with and without
 //! the reference solution): per rank a fixed part (MPI, PETSc, the program) and
 //! `PER_RANK_DOF` bytes per dof of the meshes (what every rank holds whole: the geometry,
-//! MUMPS's arrays over the whole elimination tree, the first rank's right-hand sides), and per
+//! MUMPS's arrays over the whole elimination tree, the first rank's pattern of K⁻¹'s entries), and per
 //! dof of each mesh `PER_DOF_LOG · log2(dofs)` bytes over all ranks (MUMPS's fill of a 2D mesh
 //! in nested-dissection order grows as dofs · log dofs; GAMG's hierarchy costs less). The
 //! available memory is the sum over the run's nodes of `MemAvailable` (`/proc/meminfo`), or of
