@@ -313,10 +313,9 @@ impl Ksp {
         call!(MatGetSize(self._mat.0, &mut n, &mut cols))?;
         // The pattern (the transpose of the wanted entries, which is the same set) lives whole
         // in the first rank's diagonal block: PETSc hands that block's CSR to MUMPS. It is
-        // given as CSR arrays that PETSc takes without a copy (rows × rows ones; 4 bytes per
-        // row of the body for the row pointers, besides PETSc's own row lengths), not
-        // preallocated and assembled by rows (a body's whole row count in per-row arrays and
-        // assembly structures: 48 bytes per row, 100 MiB at 2.1e6 rows).
+        // given as CSR arrays that PETSc takes without a copy (rows × rows ones, and the row
+        // pointers: 4 bytes per row of the body, besides PETSc's own per-row arrays of its
+        // diagonal and off-diagonal blocks; docs/scaling.md, "Memory per rank").
         let local = if root { n } else { 0 };
         let mut distinct = rows.to_vec();
         distinct.sort_unstable();
