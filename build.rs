@@ -34,7 +34,7 @@ const FUNCTIONS: &[&str] = &[
     "MatMPIAIJSetPreallocation",
     "MatMumps(SetIcntl|GetIcntl|GetInfog|GetRinfog|GetInverseTranspose)",
     "MatCreateAIJ",
-    "MatCreateMPIAIJWithSplitArrays",
+    "MatCreate(MPIAIJWithSplitArrays|SeqAIJWithArrays)",
     "Mat(GetRow|RestoreRow)",
     "PetscGetFlops",
     "KSP(MatSolve|GetType|Create|Destroy|SetOperators|SetOptionsPrefix|SetFromOptions|SetUp|Solve|GetPC|SetType|GetConvergedReason|GetIterationNumber|SetTolerances|GetTolerances|SetReusePreconditioner)",

@@ -335,26 +335,42 @@ impl Ksp {
             false => vec![0],
         };
         let mut ones = vec![1.0; columns.len()];
-        // No off-diagonal block.
-        let mut off_starts = vec![0 as Int; local as usize + 1];
+        // No off-diagonal block (on several ranks).
+        let mut off_starts: Vec<Int>;
         let (mut off_cols, mut off_values) = ([0 as Int], [0.0]);
+        // One rank (the system's rows all its own): MUMPS takes the matrix itself, sequential.
+        let (mut own_rows, mut own_cols) = (0 as Int, 0 as Int);
+        call!(MatGetLocalSize(self._mat.0, &mut own_rows, &mut own_cols))?;
         let mut bt: ffi::Mat = ptr::null_mut();
         // SAFETY: the arrays outlive `bt` (declared before it, dropped after it), as PETSc
-        // requires of matrices made from split arrays; their lengths are those it reads.
-        call!(MatCreateMPIAIJWithSplitArrays(
-            comm.0,
-            local,
-            local,
-            n,
-            n,
-            starts.as_mut_ptr(),
-            columns.as_mut_ptr(),
-            ones.as_mut_ptr(),
-            off_starts.as_mut_ptr(),
-            off_cols.as_mut_ptr(),
-            off_values.as_mut_ptr(),
-            &mut bt
-        ))?;
+        // requires of matrices made from arrays; their lengths are those it reads.
+        if own_rows == n {
+            call!(MatCreateSeqAIJWithArrays(
+                comm.0,
+                n,
+                n,
+                starts.as_mut_ptr(),
+                columns.as_mut_ptr(),
+                ones.as_mut_ptr(),
+                &mut bt
+            ))?;
+        } else {
+            off_starts = vec![0 as Int; local as usize + 1];
+            call!(MatCreateMPIAIJWithSplitArrays(
+                comm.0,
+                local,
+                local,
+                n,
+                n,
+                starts.as_mut_ptr(),
+                columns.as_mut_ptr(),
+                ones.as_mut_ptr(),
+                off_starts.as_mut_ptr(),
+                off_cols.as_mut_ptr(),
+                off_values.as_mut_ptr(),
+                &mut bt
+            ))?;
+        }
         let bt = Matrix(bt);
         // PETSc leaves ICNTL(30) = 1 (entries of the inverse) and ICNTL(21) = 0 (centralised
         // solution) set after the call, and its solves set neither: restore both.
