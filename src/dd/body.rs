@@ -643,26 +643,24 @@ impl Body {
     /// Solve the Dirichlet system: u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
     /// Returns the displacement and the reaction T = K u − f on the Γc normal dofs.
     pub fn dirichlet_solve(&self, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
-        let data = Loading::new(Some(&self.load));
-        let fixed = self.solve(System::Dirichlet, &data, false, Some(lambda))?;
+        let fixed = self.solve_dirichlet(lambda)?;
         let u = self.solution(&fixed)?;
-        let t = self.interface_forces(&u)?;
+        let t = self.reaction(&fixed)?;
         Ok((u, t))
     }
 
     /// The reaction T = K u − f on the Γc normal dofs of the Dirichlet solve at `lambda`
-    /// alone ([`Body::dirichlet_solve`] without its field): K u formed on each rank's rows
-    /// from the solution with its exact prescribed values, gathered at Γc alone; no whole
-    /// vector on any rank (the NNDD loop's Dirichlet step, the monolithic solve's columns).
+    /// alone ([`Body::dirichlet_solve`] without its field; the NNDD loop's Dirichlet step, the
+    /// monolithic solve's columns): no whole vector on any rank.
     pub fn dirichlet_reaction(&self, lambda: &[f64]) -> Result<Vec<f64>, BodyError> {
+        let fixed = self.solve_dirichlet(lambda)?;
+        self.reaction(&fixed)
+    }
+
+    /// The Dirichlet system solved with the body's data at `lambda` (the solution in `x`).
+    fn solve_dirichlet(&self, lambda: &[f64]) -> Result<Prescribed, BodyError> {
         let data = Loading::new(Some(&self.load));
-        let fixed = self.solve(System::Dirichlet, &data, false, Some(lambda))?;
-        let mut u = self.x.borrow().to_vec()?;
-        for (row, v) in self.owned(&fixed) {
-            u[row] = v;
-        }
-        self.mult_k_local(&u)?;
-        self.reaction_at_gc()
+        self.solve(System::Dirichlet, &data, false, Some(lambda))
     }
 
     /// The Neumann load (in the nodal frames): nodal forces `gc_forces` on the Γc normal dofs

@@ -108,18 +108,17 @@ impl Body {
         })
     }
 
-    /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs: the force the other
-    /// body exerts on this one (docs/method.md §1). Node to node: the Dirichlet step's body,
-    /// which under the mortar discretisation is the non-mortar one. K u is gathered on the
-    /// Γc dofs alone.
-    pub fn interface_forces(&self, u: &[f64]) -> Result<Vec<f64>, BodyError> {
-        self.mult_k(&self.local(u))?;
-        self.reaction_at_gc()
-    }
-
-    /// (K u − f) on the Γc normal dofs, K u being in `kx` (this rank's rows): gathered there
-    /// alone (collective).
-    pub(super) fn reaction_at_gc(&self) -> Result<Vec<f64>, BodyError> {
+    /// Interface nodal forces T^α = n · (K u − f) on the Γc normal dofs of the last solve's
+    /// solution (in `x`) with its exact prescribed values `fixed`: the force the other body
+    /// exerts on this one (docs/method.md §1). Node to node: the Dirichlet step's body, which
+    /// under the mortar discretisation is the non-mortar one. K u is formed on each rank's rows
+    /// and gathered on the Γc dofs alone (collective).
+    pub(super) fn reaction(&self, fixed: &[(usize, f64)]) -> Result<Vec<f64>, BodyError> {
+        let mut u = self.x.borrow().to_vec()?;
+        for (row, v) in self.owned(fixed) {
+            u[row] = v;
+        }
+        self.mult_k_local(&u)?;
         let ku = self.trace.borrow_mut().gather(&self.kx.borrow())?;
         Ok(self
             .gc
