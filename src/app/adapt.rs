@@ -160,13 +160,19 @@ impl AdaptSettings {
     }
 }
 
-/// The η^FE element maps of both bodies on world rank 0 (each body's from its group's first
-/// rank; empty elsewhere). `maps[k]` is η^FE_E on body k's ranks.
-pub fn eta_fe_on_root(layout: &Layout, maps: [&[f64]; 2], elements: [usize; 2]) -> [Vec<f64>; 2] {
+/// The η^FE element maps of both bodies on world rank 0 (each rank's block of its body's,
+/// [`Layout::block`]; empty elsewhere). `maps[k]` is η^FE_E on this rank's block of body k's
+/// elements, from element `first[k]` on.
+pub fn eta_fe_on_root(
+    layout: &Layout,
+    maps: [&[f64]; 2],
+    first: [usize; 2],
+    elements: [usize; 2],
+) -> [Vec<f64>; 2] {
     [0, 1].map(|k| {
         let mut m = vec![0.0; elements[k]];
-        if layout.owns(k + 1) && layout.group_rank() == 0 && maps[k].len() == elements[k] {
-            m.copy_from_slice(maps[k]);
+        if layout.owns(k + 1) {
+            m[first[k]..first[k] + maps[k].len()].copy_from_slice(maps[k]);
         }
         layout.world_sum(&mut m);
         if layout.is_root() {

@@ -177,7 +177,7 @@ fn next_meshes(
         .expect("a record has its estimate");
     let maps = [est.maps[0][1].as_slice(), est.maps[1][1].as_slice()];
     let elements = problems.map(|p| p.mesh.triangles.len());
-    let eta_fe = adapt::eta_fe_on_root(layout, maps, elements);
+    let eta_fe = adapt::eta_fe_on_root(layout, maps, est.map_first, elements);
     // The η^FE that makes η^glo meet ε ‖u_h‖_E if η^glo / η^FE stays as it is, with room.
     let target =
         adapt::AIM * adapt.tol * record.energy_norm * (record.eta_fe / record.eta_glo).min(1.0);

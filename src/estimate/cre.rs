@@ -21,9 +21,12 @@ use crate::fem::{element_dofs, element_stiffness, element_stress};
 use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 
-/// Squared element contributions of one body at one iteration.
+/// Squared element contributions of one body at one iteration, on the elements this rank
+/// estimates: `glo[s]`, `fe[s]`, `nndd[s]` are element `elements[s]`'s.
 #[derive(Clone, Debug, Default)]
 pub struct BodyEstimate {
+    /// The body's elements this rank estimates, in increasing order.
+    pub elements: Vec<u32>,
     pub glo: Vec<f64>,
     pub fe: Vec<f64>,
     pub nndd: Vec<f64>,
@@ -36,6 +39,11 @@ pub struct BodyEstimate {
 }
 
 impl BodyEstimate {
+    /// Where the body's element `e` is held here (`None`: another rank estimates it).
+    pub fn slot(&self, e: usize) -> Option<usize> {
+        self.elements.binary_search(&(e as u32)).ok()
+    }
+
     pub fn totals(&self) -> [f64; 3] {
         [
             self.glo.iter().sum(),
@@ -201,15 +209,6 @@ impl View<'_> {
             View::Idle(..) => (mesh, Vec::new()),
         }
     }
-
-    /// Whether this rank estimates the body element e.
-    fn estimates(&self, e: usize) -> bool {
-        match self {
-            View::Whole => true,
-            View::Overlap(o, ..) => o.elements.binary_search(&e).is_ok_and(|l| o.owned[l]),
-            View::Idle(..) => false,
-        }
-    }
 }
 
 /// The whole-body fields of one body's estimate: u^α_p and the Neumann re-solves with the
@@ -316,10 +315,11 @@ pub struct ElementWork<'a> {
     p: &'a BodyProblem,
     fields: &'a BodyFields<'a>,
     view: &'a View<'a>,
-    /// The mesh the recovery runs on, and the body element estimated at each of its
-    /// elements (`u32::MAX`: none).
+    /// The mesh the recovery runs on, and where the estimate holds each of its elements
+    /// (the slot of [`BodyEstimate::elements`]; `u32::MAX`: a ring of the overlap, not
+    /// estimated here).
     sub: &'a Mesh,
-    kept: Vec<u32>,
+    slots: Vec<u32>,
     /// η^glo's bubbles (body 2 along a curved Γc), and per element [a, b] of its
     /// [`BubbleTerms`] from the η^glo recovery.
     bubbles: HashMap<usize, ElementBubble>,
@@ -333,21 +333,34 @@ impl<'a> ElementWork<'a> {
         fields: &'a BodyFields<'a>,
         view: &'a View<'a>,
     ) -> ElementWork<'a> {
-        let mesh = &p.mesh;
-        let ne = mesh.triangles.len();
-        let (sub, kept) = view.kept(mesh);
+        let (sub, kept) = view.kept(&p.mesh);
+        // (the estimated elements come in increasing order: `View::kept`)
+        let elements: Vec<u32> = kept.iter().copied().filter(|&e| e != u32::MAX).collect();
+        let mut next = 0;
+        let slots = kept
+            .iter()
+            .map(|&e| match e {
+                u32::MAX => u32::MAX,
+                _ => {
+                    next += 1;
+                    next - 1
+                }
+            })
+            .collect();
+        let n = elements.len();
         ElementWork {
             p,
             fields,
             view,
             sub,
-            kept,
+            slots,
             bubbles: HashMap::new(),
             coupling: HashMap::new(),
             est: BodyEstimate {
-                glo: vec![0.0; ne],
-                fe: vec![0.0; ne],
-                nndd: vec![0.0; ne],
+                elements,
+                glo: vec![0.0; n],
+                fe: vec![0.0; n],
+                nndd: vec![0.0; n],
                 ..Default::default()
             },
         }
@@ -399,12 +412,13 @@ impl<'a> ElementWork<'a> {
         };
         let u_p: &[f64] = &self.fields.u_p;
         parts.run(Part::ElementSums, || {
-            for e in self.kept.iter().filter(|&&e| e != u32::MAX) {
-                let e = *e as usize;
+            let est = &mut self.est;
+            for (nndd, &e) in est.nndd.iter_mut().zip(&est.elements) {
+                let e = e as usize;
                 let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
                 let dofs = element_dofs(&mesh.triangles.get(e));
                 let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - u_p[dofs[r]]);
-                self.est.nndd[e] = energy(&ke, &d);
+                *nndd = energy(&ke, &d);
             }
         });
         Ok(())
@@ -475,7 +489,8 @@ impl<'a> ElementWork<'a> {
         let mut map = CreMap {
             sub: self.sub,
             mesh: &p.mesh,
-            kept: &self.kept,
+            slots: &self.slots,
+            elements: &self.est.elements,
             u_p: &fields.u_p,
             material: &p.material,
             bubbles,
@@ -570,13 +585,13 @@ impl<'a> ElementWork<'a> {
                 est.bubbles.sort_by_key(|t| t.element);
                 for k in 0..c_fe.len() {
                     let e = elements[k].expect("a Γc segment is an element's edge");
-                    if !self.view.estimates(e) {
+                    let Some(s) = est.slot(e) else {
                         continue;
-                    }
+                    };
                     if !data.fe_only {
-                        est.glo[e] += c_glo[k] + f_glo[k];
-                        est.nndd[e] += f_nndd[k];
-                        est.nndd[e] += match data.nndd_variant {
+                        est.glo[s] += c_glo[k] + f_glo[k];
+                        est.nndd[s] += f_nndd[k];
+                        est.nndd[s] += match data.nndd_variant {
                             NnddVariant::Density => c_glo[k],
                             // 2 μ̂_i (u²_n − λ)_i per node, half to each adjacent segment's
                             // element.
@@ -589,7 +604,7 @@ impl<'a> ElementWork<'a> {
                                 .sum::<f64>(),
                         };
                     }
-                    est.fe[e] += 2.0 * c_fe[k];
+                    est.fe[s] += 2.0 * c_fe[k];
                 }
             });
         }
@@ -627,12 +642,15 @@ fn relative_change(mesh: &Mesh, material: &crate::fem::Material, u: &[f64], v: &
     }
 }
 
-/// The element CREs ‖σ̂ − Kε(u_p)‖² of the fields a recovery visits: sub-mesh element l is
-/// body element `kept[l]` (`u32::MAX`: not estimated here), into `out` by body element.
+/// The element CREs ‖σ̂ − Kε(u_p)‖² of the fields a recovery visits, into `out` by the slot
+/// of the element this rank estimates ([`BodyEstimate::elements`]).
 struct CreMap<'a> {
     sub: &'a Mesh,
     mesh: &'a Mesh,
-    kept: &'a [u32],
+    /// Where each element of `sub` is held in `out` (`u32::MAX`: not estimated here), and
+    /// the body element of each slot.
+    slots: &'a [u32],
+    elements: &'a [u32],
     u_p: &'a [f64],
     material: &'a crate::fem::Material,
     /// The unit bubbles of û's correction on body 2's elements along a curved Γc
@@ -645,12 +663,13 @@ struct CreMap<'a> {
 
 impl CreMap<'_> {
     fn visit(&mut self, l: usize, coef: &[f64; NC]) {
-        let e = self.kept[l];
-        if e != u32::MAX {
-            let e = e as usize;
+        let s = self.slots[l];
+        if s != u32::MAX {
+            let s = s as usize;
+            let e = self.elements[s] as usize;
             let sigma_p = element_stress(self.mesh, e, self.material, self.u_p);
             let cre = element_cre(self.sub, l, coef, sigma_p, self.material);
-            self.out[e] = cre;
+            self.out[s] = cre;
             if let Some(b) = self.bubbles.get(&e) {
                 // C − 2b c + a c² at c = ±1.
                 let d = self.material.hooke();

@@ -48,9 +48,9 @@ pub struct EstimateRecord {
     pub e_ref: Option<f64>,
     pub effectivity: Option<f64>,
     pub residuals: Residuals,
-    /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] (on the body's ranks, empty elsewhere), from
-    /// the body's element `map_first[k]` on: whole (0) while the record is the newest, its
-    /// rank's block of elements alone once it is kept for the output ([`Self::keep_rows`]).
+    /// Per body: [η^glo_E, η^FE_E, η^NNDD_E] on the rank's block of the body's elements
+    /// ([`Layout::block`]: each element's values on one rank of the body's group, none on the
+    /// others), from the body's element `map_first[k]` on.
     pub maps: [[Vec<f64>; 3]; 2],
     pub map_first: [usize; 2],
     /// The iterate, with u^α_p on body α's ranks from dof `u_first[α − 1]` on (whole, 0, while
@@ -86,12 +86,13 @@ impl EstimateRecord {
             return;
         }
         self.contact_displacement = Some(contact(&self.iterate.u));
-        // (whole until now: held from 0)
+        // (the displacements whole until now: held from 0)
         for k in 0..2 {
+            let first = self.map_first[k];
             for m in self.maps[k].iter_mut().filter(|m| !m.is_empty()) {
-                *m = held::keep(m, 0, &cells[k]);
+                *m = held::keep(m, first, &cells[k]);
             }
-            self.map_first[k] = cells[k].start;
+            self.map_first[k] = cells[k].start.max(first);
             let u = &mut self.iterate.u[k];
             if !u.is_empty() {
                 *u = held::keep(u, 0, &dofs[k]);
@@ -474,15 +475,19 @@ impl<'a> Estimator<'a> {
         } else {
             0.0
         };
+        let layout = self.layout;
+        let mut parent_blocks: [Range<usize>; 2] = Default::default();
         for (k, maps) in rec.maps.iter_mut().enumerate() {
             if bodies[k].is_none() {
                 continue;
             }
-            // η^glo's and η^FE's maps (η^NNDD's is the run's own, below)
+            // η^glo's and η^FE's maps (η^NNDD's is the run's own, below): whole on the body's
+            // group for the sums onto the run's elements, then the rank's block of those.
+            let (ne, first) = (self.problems[k].mesh.triangles.len(), rec.map_first[k]);
             for (j, map) in maps.iter_mut().take(2).enumerate() {
-                let mut sq: Vec<f64> = map.iter().map(|v| v * v).collect();
-                if sq.is_empty() {
-                    continue;
+                let mut sq = held::whole_on_group(layout, ne, map, first);
+                for v in sq.iter_mut() {
+                    *v *= *v;
                 }
                 if j == 0 && theta > 0.0 {
                     for v in sq.iter_mut() {
@@ -492,8 +497,13 @@ impl<'a> Estimator<'a> {
                         *v += (1.0 + 1.0 / theta) * l;
                     }
                 }
-                *map = m.to_parents(k, &sq).iter().map(|v| v.sqrt()).collect();
+                let parents = m.to_parents(k, &sq);
+                parent_blocks[k] = layout.block(k + 1, parents.len());
+                *map = held::keep(&parents, 0, &parent_blocks[k]);
+                map.iter_mut().for_each(|v| *v = v.sqrt());
             }
+            maps[2] = vec![0.0; parent_blocks[k].len()];
+            rec.map_first[k] = parent_blocks[k].start;
         }
         if !fe_only {
             rec.eta_glo += lift2.sqrt();
@@ -504,7 +514,8 @@ impl<'a> Estimator<'a> {
             })?;
             for (k, map) in maps.into_iter().enumerate() {
                 if bodies[k].is_some() {
-                    rec.maps[k][2] = map.iter().map(|v| v.max(0.0).sqrt()).collect();
+                    let block = held::keep(&map, 0, &parent_blocks[k]);
+                    rec.maps[k][2] = block.iter().map(|v| v.max(0.0).sqrt()).collect();
                 }
             }
             rec.eta_nndd = total.max(0.0).sqrt();

@@ -340,11 +340,10 @@ pub fn shares(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<Share> {
     vec![bodies, contact]
 }
 
-/// This rank's block of the rows `r` of body k + 1 (its group's ranks split them evenly).
+/// This rank's block of the rows `r` of body k + 1 ([`Layout::block`]).
 fn block(layout: &Layout, k: usize, r: &std::ops::Range<usize>) -> std::ops::Range<usize> {
-    let (part, parts) = (layout.group_rank(), layout.group_sizes[k]);
-    let len = r.len();
-    r.start + len * part / parts..r.start + len * (part + 1) / parts
+    let b = layout.block(k + 1, r.len());
+    r.start + b.start..r.start + b.end
 }
 
 /// What a rank keeps of an estimated step for the output ([`kept_rows`]), per body in its

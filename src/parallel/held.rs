@@ -1,9 +1,12 @@
 //! A rank's part of a vector that is indexed like the whole: the entries from index `first`
 //! on (`first` = 0 and the whole length: the vector whole). What a rank keeps of an estimated
 //! step for the output (its η maps on the elements it writes, its displacement on the dofs
-//! they need) is held so.
+//! they need) is held so, and [`to_blocks`] sends values computed anywhere to the ranks that
+//! hold them so.
 
 use std::ops::Range;
+
+use crate::parallel::layout::Layout;
 
 /// Entry `i` of a vector held from index `first` on: 0 where it is not held.
 pub fn value_at(held: &[f64], first: usize, i: usize) -> f64 {
@@ -19,6 +22,55 @@ pub fn keep(held: &[f64], first: usize, keep: &Range<usize>) -> Vec<f64> {
     let start = keep.start.max(first);
     let hi = (keep.end.max(start) - first).min(held.len());
     held[(start - first).min(hi)..hi].to_vec()
+}
+
+/// `M` maps of the `len` items of body `alpha` (its elements), each item's values computed
+/// on one rank (`items`, with `values[j][s]` item `items[s]`'s value of map j), sent to the
+/// rank whose [`Layout::block`] holds the item: this rank's block of each map and the block's
+/// first item. No rank holds a whole map. Collective over all ranks when `world` (items
+/// computed outside the body's group), else over the body's group.
+pub fn to_blocks<const M: usize>(
+    layout: &Layout,
+    alpha: usize,
+    len: usize,
+    items: &[u32],
+    values: [&[f64]; M],
+    world: bool,
+) -> ([Vec<f64>; M], usize) {
+    let (first_rank, ranks) = match world {
+        true => (0, layout.size as usize),
+        false => (layout.group_ranks(alpha).start, layout.group_size()),
+    };
+    // (each item as M + 1 numbers: its index, exact in an f64, then its values)
+    let mut send = vec![Vec::new(); ranks];
+    for (s, &i) in items.iter().enumerate() {
+        let to = &mut send[layout.block_owner(alpha, len, i as usize) - first_rank];
+        to.push(i as f64);
+        to.extend(values.iter().map(|v| v[s]));
+    }
+    let received = layout.exchange(world, &send);
+    drop(send);
+    let block = layout.block(alpha, len);
+    let mut maps: [Vec<f64>; M] = std::array::from_fn(|_| vec![0.0; block.len()]);
+    let mut count = 0;
+    for item in received.iter().flat_map(|r| r.chunks_exact(M + 1)) {
+        let i = item[0] as usize - block.start;
+        for (m, &v) in maps.iter_mut().zip(&item[1..]) {
+            m[i] = v;
+        }
+        count += 1;
+    }
+    assert_eq!(count, block.len(), "each item of the block from one rank");
+    (maps, block.start)
+}
+
+/// A map of `len` items held as this rank's block `block` from item `first` on
+/// ([`to_blocks`]), whole on every rank of this rank's body group (collective over it).
+pub fn whole_on_group(layout: &Layout, len: usize, block: &[f64], first: usize) -> Vec<f64> {
+    let mut whole = vec![0.0; len];
+    whole[first..first + block.len()].copy_from_slice(block);
+    layout.group_sum(&mut whole);
+    whole
 }
 
 #[cfg(test)]

@@ -6,6 +6,8 @@
 //! partitioned over it by METIS (`partition.rs`). Interface data (λ, the Γc forces, the contact
 //! set) are small: each group's root broadcasts them to every rank.
 
+use std::ops::Range;
+
 use mpi::topology::{Color, Communicator, SimpleCommunicator};
 use mpi::traits::*;
 
@@ -295,6 +297,33 @@ impl Layout {
         }
         out
     }
+
+    /// This rank's block of `len` items of body `alpha` (its points, its elements): the
+    /// group's ranks split 0 .. len evenly and in order ([`block_of`]). What a rank writes of
+    /// the body and where the body's element estimates are held; empty outside the group.
+    pub fn block(&self, alpha: usize, len: usize) -> Range<usize> {
+        match self.owns(alpha) {
+            true => block_of(len, self.group_rank(), self.group_sizes[alpha - 1]),
+            false => 0..0,
+        }
+    }
+
+    /// The world rank whose [`Layout::block`] of body `alpha`'s `len` items holds item `i`.
+    pub fn block_owner(&self, alpha: usize, len: usize, i: usize) -> usize {
+        self.group_ranks(alpha).start + block_owner_of(len, self.group_sizes[alpha - 1], i)
+    }
+}
+
+/// Block `part` of `parts` of the items 0 .. len: len·part/parts .. len·(part + 1)/parts.
+pub fn block_of(len: usize, part: usize, parts: usize) -> Range<usize> {
+    len * part / parts..len * (part + 1) / parts
+}
+
+/// The block of [`block_of`] that holds item `i` < `len`: the last part whose block starts
+/// at or before i, ⌈(i + 1)·parts / len⌉ − 1.
+fn block_owner_of(len: usize, parts: usize, i: usize) -> usize {
+    debug_assert!(i < len, "item {i} of {len}");
+    (((i as u64 + 1) * parts as u64 - 1) / len as u64) as usize
 }
 
 /// [`Layout::exchange`] on the communicator `comm`.
@@ -327,4 +356,39 @@ fn exchange_on<T: Equivalence + Copy + Default>(
     (0..size)
         .map(|r| recv[rd[r] as usize..(rd[r] + recv_counts[r]) as usize].to_vec())
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_item_has_one_block_and_its_owner_finds_it() {
+        for (len, parts) in [
+            (1, 1),
+            (10, 3),
+            (7, 7),
+            (5, 8),
+            (1000, 16),
+            (2_101_250, 511),
+        ] {
+            let mut next = 0;
+            for part in 0..parts {
+                let b = block_of(len, part, parts);
+                assert_eq!(
+                    b.start, next,
+                    "blocks of {len} over {parts} follow each other"
+                );
+                for i in b.clone() {
+                    assert_eq!(
+                        block_owner_of(len, parts, i),
+                        part,
+                        "item {i} of {len}/{parts}"
+                    );
+                }
+                next = b.end;
+            }
+            assert_eq!(next, len, "the blocks of {len} over {parts} cover it");
+        }
+    }
 }

@@ -220,6 +220,7 @@ impl Estimator<'_> {
         let mut sums = [0.0; 3];
         let mut res = Residuals::default();
         let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
+        let mut map_first = [0; 2];
         let mut e_ref2 = 0.0;
         let crosses = self.crosses();
         self.stop_point()?;
@@ -327,8 +328,10 @@ impl Estimator<'_> {
                     }
                     for t in &est.bubbles {
                         let c = *chosen.next().expect("an amplitude per bubble");
-                        est.glo[t.element] += (1.0 + theta)
-                            * (t.a * c * c - 2.0 * t.b * c + t.l * c)
+                        let s = est
+                            .slot(t.element)
+                            .expect("a bubble on an estimated element");
+                        est.glo[s] += (1.0 + theta) * (t.a * c * c - 2.0 * t.b * c + t.l * c)
                             + (1.0 + 1.0 / theta) * t.a * c * c;
                     }
                 }
@@ -336,36 +339,32 @@ impl Estimator<'_> {
             delta2
         });
         for k in 0..2 {
-            let ne = self.problems[k].mesh.triangles.len();
             // (this rank is one of the body's group)
             let body = layout.owns(k + 1).then_some(());
-            let mut map: [Vec<f64>; 3] = Default::default();
-            if let Some(est) = done[k].take() {
-                let t = est.totals();
-                for c in 0..3 {
-                    sums[c] += t[c];
-                }
-                res = worst(res, est.residuals);
-                map = [est.glo, est.fe, est.nndd];
-                for v in map.iter_mut().flatten() {
-                    *v = v.max(0.0).sqrt();
-                }
+            let mut est = done[k].take().unwrap_or_default();
+            let t = est.totals();
+            for c in 0..3 {
+                sums[c] += t[c];
             }
-            // The element maps onto the body's ranks, each element from its estimating rank.
-            self.parts.run(Part::Reduction, || {
-                if crosses[k] {
-                    for m in map.iter_mut() {
-                        m.resize(ne, 0.0);
-                        layout.world_sum(m);
-                    }
-                } else if body.is_some() {
-                    for m in map.iter_mut() {
-                        layout.group_sum(m);
-                    }
+            res = worst(res, est.residuals);
+            for v in [&mut est.glo, &mut est.fe, &mut est.nndd]
+                .into_iter()
+                .flatten()
+            {
+                *v = v.max(0.0).sqrt();
+            }
+            // The element maps onto the body's ranks, each element from its estimating rank to
+            // the rank whose block of the body's elements holds it (`Layout::block`).
+            if crosses[k] || body.is_some() {
+                let ne = self.problems[k].mesh.triangles.len();
+                let (map, first) = self.parts.run(Part::Reduction, || {
+                    let values = [&est.glo[..], &est.fe[..], &est.nndd[..]];
+                    held::to_blocks(layout, k + 1, ne, &est.elements, values, crosses[k])
+                });
+                if body.is_some() {
+                    maps[k] = map;
+                    map_first[k] = first;
                 }
-            });
-            if body.is_some() {
-                maps[k] = map;
             }
             if let (Some(()), Some(r)) = (body, self.reference.as_ref().filter(|_| !fe_only)) {
                 // (each rank of the group sums its share of the fine elements)
@@ -410,7 +409,7 @@ impl Estimator<'_> {
             effectivity: e_ref.map(|e| eta_glo / e),
             residuals: res,
             maps,
-            map_first: [0, 0],
+            map_first,
             iterate,
             u_first: [0, 0],
             contact_displacement: None,
