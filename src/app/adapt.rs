@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use crate::estimate::size_field::{self, Limits, Strategy};
 use crate::fem::geo;
+use crate::parallel::held;
 use crate::parallel::layout::Layout;
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::{self, OptionsBlock};
@@ -160,27 +161,16 @@ impl AdaptSettings {
     }
 }
 
-/// The η^FE element maps of both bodies on world rank 0 (each rank's block of its body's,
-/// [`Layout::block`]; empty elsewhere). `maps[k]` is η^FE_E on this rank's block of body k's
-/// elements, from element `first[k]` on.
+/// The η^FE element maps of both bodies on world rank 0 (empty elsewhere), from each rank's
+/// block of its body's ([`Layout::block`]): `maps[k]`, η^FE_E on this rank's block of body
+/// k + 1's elements from element `first[k]` on.
 pub fn eta_fe_on_root(
     layout: &Layout,
     maps: [&[f64]; 2],
     first: [usize; 2],
     elements: [usize; 2],
 ) -> [Vec<f64>; 2] {
-    [0, 1].map(|k| {
-        let mut m = vec![0.0; elements[k]];
-        if layout.owns(k + 1) {
-            m[first[k]..first[k] + maps[k].len()].copy_from_slice(maps[k]);
-        }
-        layout.world_sum(&mut m);
-        if layout.is_root() {
-            m
-        } else {
-            Vec::new()
-        }
-    })
+    [0, 1].map(|k| held::whole_on_root(layout, k + 1, elements[k], maps[k], first[k]))
 }
 
 /// What the new sizes predict, for the cycle's record.

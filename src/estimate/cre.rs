@@ -105,9 +105,10 @@ pub enum View<'a> {
 }
 
 impl View<'_> {
-    /// Before a recovery of the data u: start it warm only from nearby data (a relative
-    /// change of at most `warm_change`, `-nndd_recovery_warm_change`, default
-    /// [`super::settings::WARM_CHANGE`]; every rank decides alike, from the whole-body displacement), and on a
+    /// Before a recovery of the data u (on this view, [`View::local`]): start it warm only
+    /// from nearby data (a relative change of at most `warm_change`,
+    /// `-nndd_recovery_warm_change`, default [`super::settings::WARM_CHANGE`]; every rank
+    /// decides alike, from the body's energy norms, [`View::relative_change`]), and on a
     /// split body refresh the warm start from the owners (collective over all ranks: the
     /// estimator prepares every body's recovery before making any, so that no rank waits for
     /// another's).
@@ -122,7 +123,7 @@ impl View<'_> {
         let near = operators
             .warm_data
             .as_ref()
-            .is_some_and(|prev| relative_change(&p.mesh, &p.material, u, prev) <= warm_change);
+            .is_some_and(|prev| self.relative_change(p, u, prev) <= warm_change);
         if !near {
             operators.forget_warm_start();
         }
@@ -169,7 +170,7 @@ impl View<'_> {
                 Some(equilibrate_restricted(
                     &o.mesh,
                     &p.material,
-                    &o.restrict_dofs(u),
+                    u,
                     &o.restrict_boundary(&b),
                     choice,
                     Some(&o.restriction_with(Some(&between))),
@@ -193,6 +194,53 @@ impl View<'_> {
         Ok(checked)
     }
 
+    /// What this view's recoveries read of a whole-body field (mesh dofs): all of it on the
+    /// whole body, its sub-mesh's dofs on an overlap ([`Overlap::restrict_dofs`]), nothing on
+    /// an idle rank (a field not made, empty, stays so).
+    pub fn local(&self, u: Vec<f64>) -> Vec<f64> {
+        match self {
+            _ if u.is_empty() => u,
+            View::Whole => u,
+            View::Overlap(o, ..) => o.restrict_dofs(&u),
+            View::Idle(..) => Vec::new(),
+        }
+    }
+
+    /// [`View::local`] of a field held whole elsewhere (borrowed on the whole body).
+    fn local_of<'b>(&self, u: &'b [f64]) -> std::borrow::Cow<'b, [f64]> {
+        match self {
+            View::Whole => std::borrow::Cow::Borrowed(u),
+            _ => std::borrow::Cow::Owned(self.local(u.to_vec())),
+        }
+    }
+
+    /// ‖u − v‖_E / ‖u‖_E on the body, of two fields on this view ([`View::local`]): the
+    /// element sums over the elements this rank estimates, added over the ranks that share
+    /// the body's recovery (collective over them; the same number on each).
+    fn relative_change(&self, p: &BodyProblem, u: &[f64], v: &[f64]) -> f64 {
+        let (mesh, kept) = self.kept(&p.mesh);
+        let mut sums = [0.0; 2];
+        for (l, _) in kept.iter().enumerate().filter(|(_, &e)| e != u32::MAX) {
+            let ke = element_stiffness(&mesh.triangle_points(l), &p.material);
+            let dofs = element_dofs(&mesh.triangles.get(l));
+            let a: [f64; 6] = std::array::from_fn(|r| u[dofs[r]]);
+            let d: [f64; 6] = std::array::from_fn(|r| u[dofs[r]] - v[dofs[r]]);
+            sums[0] += energy(&ke, &d);
+            sums[1] += energy(&ke, &a);
+        }
+        if let View::Overlap(_, halo, layout) | View::Idle(halo, layout) = self {
+            halo.sum(layout, &mut sums);
+        }
+        let [du, uu] = sums;
+        if uu > 0.0 {
+            (du / uu).sqrt()
+        } else if du > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        }
+    }
+
     /// The mesh the recovered stress lives on, and for each of its elements the body element
     /// this rank estimates there (`u32::MAX`: none, a ring of the overlap).
     fn kept<'b>(&'b self, mesh: &'b Mesh) -> (&'b Mesh, Vec<u32>) {
@@ -211,16 +259,31 @@ impl View<'_> {
     }
 }
 
-/// The whole-body fields of one body's estimate: u^α_p and the Neumann re-solves with the
-/// Γc data of η^glo (ũ^α), of the discrete η^NNDD (ũ^α_d) and, for body 2, of η^FE; made on
-/// the body's group ([`body_fields`]) and broadcast to the other ranks that estimate elements
-/// of the body (empty when not needed: `fe_only`, the density variant, body 1's η^FE).
+/// The fields of one body's estimate: u^α_p and the Neumann re-solves with the Γc data of
+/// η^glo (ũ^α), of the discrete η^NNDD (ũ^α_d) and, for body 2, of η^FE; made whole on the
+/// body's group ([`body_fields`]) and sent to the other ranks that estimate elements of the
+/// body, then the re-solves cut to the rank's view of the body for its recoveries
+/// ([`BodyFields::on_view`]; empty when not needed: `fe_only`, the density variant, body 1's
+/// η^FE).
 #[derive(Default)]
 pub struct BodyFields<'a> {
     pub u_p: std::borrow::Cow<'a, [f64]>,
     pub u_tilde: Vec<f64>,
     pub u_d: Vec<f64>,
     pub u_fe: Vec<f64>,
+}
+
+impl BodyFields<'_> {
+    /// These fields with the re-solves cut to `view` ([`View::local`]); u^α_p stays whole.
+    pub fn on_view(self, view: Option<&View>) -> Self {
+        let keep = |u: Vec<f64>| view.map_or(Vec::new(), |v| v.local(u));
+        BodyFields {
+            u_p: self.u_p,
+            u_tilde: keep(self.u_tilde),
+            u_d: keep(self.u_d),
+            u_fe: keep(self.u_fe),
+        }
+    }
 }
 
 /// The re-solves of body α (collective over its group); `u_p` is u^α_p.
@@ -314,6 +377,8 @@ fn along(p: &BodyProblem, normal: &[f64], tangential: &[f64], tau: [f64; 2]) -> 
 pub struct ElementWork<'a> {
     p: &'a BodyProblem,
     fields: &'a BodyFields<'a>,
+    /// u^α_p on the view ([`View::local`]).
+    u_p: std::borrow::Cow<'a, [f64]>,
     view: &'a View<'a>,
     /// The mesh the recovery runs on, and where the estimate holds each of its elements
     /// (the slot of [`BodyEstimate::elements`]; `u32::MAX`: a ring of the overlap, not
@@ -351,6 +416,7 @@ impl<'a> ElementWork<'a> {
         ElementWork {
             p,
             fields,
+            u_p: view.local_of(&fields.u_p),
             view,
             sub,
             slots,
@@ -383,7 +449,7 @@ impl<'a> ElementWork<'a> {
     /// The displacement the η^FE recovery starts from (u¹_p, or body 2's re-solve).
     pub fn fe_data(&self) -> &[f64] {
         if self.p.alpha == 1 && self.fields.u_fe.is_empty() {
-            &self.fields.u_p
+            &self.u_p
         } else {
             &self.fields.u_fe
         }
@@ -397,7 +463,7 @@ impl<'a> ElementWork<'a> {
         operators: &mut OperatorCache,
         parts: &Parts,
     ) -> Result<(), EstimateError> {
-        let (p, mesh) = (self.p, &self.p.mesh);
+        let (p, sub) = (self.p, self.sub);
         let sign = self.sign();
         let t_alpha: Vec<EdgeValues> = data
             .glo_edges
@@ -410,15 +476,19 @@ impl<'a> ElementWork<'a> {
             NnddVariant::Discrete => &self.fields.u_d,
             NnddVariant::Density => &self.fields.u_tilde,
         };
-        let u_p: &[f64] = &self.fields.u_p;
+        let u_p: &[f64] = &self.u_p;
         parts.run(Part::ElementSums, || {
-            let est = &mut self.est;
-            for (nndd, &e) in est.nndd.iter_mut().zip(&est.elements) {
-                let e = e as usize;
-                let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
-                let dofs = element_dofs(&mesh.triangles.get(e));
+            let nndd = &mut self.est.nndd;
+            for (l, &s) in self
+                .slots
+                .iter()
+                .enumerate()
+                .filter(|(_, &s)| s != u32::MAX)
+            {
+                let ke = element_stiffness(&sub.triangle_points(l), &p.material);
+                let dofs = element_dofs(&sub.triangles.get(l));
                 let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - u_p[dofs[r]]);
-                *nndd = energy(&ke, &d);
+                nndd[s as usize] = energy(&ke, &d);
             }
         });
         Ok(())
@@ -471,7 +541,7 @@ impl<'a> ElementWork<'a> {
         let (p, view, fields) = (self.p, self.view, self.fields);
         let u: &[f64] = match (which, p.alpha) {
             (Data::Glo, _) => &fields.u_tilde,
-            (Data::Fe, 1) if fields.u_fe.is_empty() => &fields.u_p,
+            (Data::Fe, 1) if fields.u_fe.is_empty() => &self.u_p,
             (Data::Fe, _) => &fields.u_fe,
         };
         if let (Data::Glo, 2) = (which, p.alpha) {
@@ -620,27 +690,6 @@ enum Data {
 }
 
 pub(super) use crate::fem::elasticity::element_energy as energy;
-
-/// ‖u − v‖_E / ‖u‖_E (the energy norms of the body, assembled element by element: the same
-/// number on every rank).
-fn relative_change(mesh: &Mesh, material: &crate::fem::Material, u: &[f64], v: &[f64]) -> f64 {
-    let (mut du, mut uu) = (0.0, 0.0);
-    for e in 0..mesh.triangles.len() {
-        let ke = element_stiffness(&mesh.triangle_points(e), material);
-        let dofs = element_dofs(&mesh.triangles.get(e));
-        let a: [f64; 6] = std::array::from_fn(|r| u[dofs[r]]);
-        let d: [f64; 6] = std::array::from_fn(|r| u[dofs[r]] - v[dofs[r]]);
-        uu += energy(&ke, &a);
-        du += energy(&ke, &d);
-    }
-    if uu > 0.0 {
-        (du / uu).sqrt()
-    } else if du > 0.0 {
-        f64::INFINITY
-    } else {
-        0.0
-    }
-}
 
 /// The element CREs ‖σ̂ − Kε(u_p)‖² of the fields a recovery visits, into `out` by the slot
 /// of the element this rank estimates ([`BodyEstimate::elements`]).

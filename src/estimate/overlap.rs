@@ -104,6 +104,15 @@ impl Halo {
         }
     }
 
+    /// Sum `data` element-wise over the ranks that share the body's recovery (the halo's
+    /// communicator; collective over it).
+    pub fn sum(&self, layout: &Layout, data: &mut [f64]) {
+        match self.world {
+            true => layout.world_sum(data),
+            false => layout.group_sum(data),
+        }
+    }
+
     /// Between two sweeps of a recovery on the sub-mesh: give the elements this rank holds
     /// but does not own their owners' current traction values (`values`: the recovery's;
     /// none on a rank that holds none of the body's elements, which only takes part).

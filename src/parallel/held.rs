@@ -73,6 +73,34 @@ pub fn whole_on_group(layout: &Layout, len: usize, block: &[f64], first: usize) 
     whole
 }
 
+/// A map of `len` items of body `alpha` held as blocks ([`to_blocks`]: this rank's `block`
+/// from item `first` on), whole on world rank 0 alone (empty elsewhere; collective over all
+/// ranks).
+pub fn whole_on_root(
+    layout: &Layout,
+    alpha: usize,
+    len: usize,
+    block: &[f64],
+    first: usize,
+) -> Vec<f64> {
+    let mut send = vec![Vec::new(); layout.size as usize];
+    if layout.owns(alpha) && !block.is_empty() {
+        send[0] = std::iter::once(first as f64)
+            .chain(block.iter().copied())
+            .collect();
+    }
+    let received = layout.exchange(true, &send);
+    if !layout.is_root() {
+        return Vec::new();
+    }
+    let mut whole = vec![0.0; len];
+    for part in received.iter().filter(|p| !p.is_empty()) {
+        let first = part[0] as usize;
+        whole[first..first + part.len() - 1].copy_from_slice(&part[1..]);
+    }
+    whole
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -207,6 +207,35 @@ impl Estimator<'_> {
         Ok(resolved)
     }
 
+    /// Who estimates which elements of each body, and the overlaps and halos of this rank's
+    /// ([`Share`]): made at the first estimate (collective), kept for the others.
+    fn shares(&self, crosses: [bool; 2]) -> [&Share; 2] {
+        // (each element's estimating rank, made for the shares and freed with them made:
+        // not held through the solve)
+        let owners = OnceCell::new();
+        [0, 1].map(|k| {
+            self.shares[k].get_or_init(|| {
+                self.parts.run(Part::Recovery, || {
+                    let p = &self.problems[k];
+                    let owners = owners.get_or_init(|| {
+                        estimate_owners(
+                            [&self.problems[0].mesh, &self.problems[1].mesh],
+                            self.layout.size as usize,
+                        )
+                    });
+                    Share::new(
+                        k + 1,
+                        &p.mesh,
+                        &owners[k],
+                        crosses[k],
+                        self.recovery,
+                        self.layout,
+                    )
+                })
+            })
+        })
+    }
+
     /// An estimate's second part, after [`Estimator::resolve`]: the recoveries, the element
     /// sums and e_ref (collective). It needs no body: a run may free the factorisations of
     /// its bodies between the two (docs/scaling.md, "Memory per rank").
@@ -216,7 +245,6 @@ impl Estimator<'_> {
         let data = resolved.data(self);
         let (it, fe_only) = (&resolved.it, resolved.fe_only);
         let plain = resolved.plain.as_ref().unwrap_or(&it.u);
-        let fields = [f1.on(&it.u[0]), f2.on(&it.u[1])];
         let mut sums = [0.0; 3];
         let mut res = Residuals::default();
         let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
@@ -227,32 +255,13 @@ impl Estimator<'_> {
         // The element work: each recovery prepared for both bodies before any is made (the
         // warm-start exchanges are the only collectives in it, so no rank waits for another
         // between them).
-        // (each element's estimating rank, made for the shares of the first estimate and
-        // freed with them made: not held through the solve)
-        let owners = OnceCell::new();
-        let shares = [0, 1].map(|k| {
-            self.shares[k].get_or_init(|| {
-                self.parts.run(Part::Recovery, || {
-                    let p = &self.problems[k];
-                    let owners = owners.get_or_init(|| {
-                        estimate_owners(
-                            [&self.problems[0].mesh, &self.problems[1].mesh],
-                            layout.size as usize,
-                        )
-                    });
-                    Share::new(
-                        k + 1,
-                        &p.mesh,
-                        &owners[k],
-                        crosses[k],
-                        self.recovery,
-                        layout,
-                    )
-                })
-            })
-        });
-        drop(owners);
+        let shares = self.shares(crosses);
         let views = shares.map(|s| s.view(layout));
+        // (the re-solves from here on what the rank's recoveries read of them alone)
+        let fields = [
+            f1.on(&it.u[0]).on_view(views[0].as_ref()),
+            f2.on(&it.u[1]).on_view(views[1].as_ref()),
+        ];
         let mut works: Vec<(usize, ElementWork)> = (0..2)
             .filter_map(|k| {
                 let view = views[k].as_ref()?;
