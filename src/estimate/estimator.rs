@@ -8,11 +8,10 @@ use std::rc::Rc;
 
 use crate::dd::body::Body;
 use crate::dd::nndd::Iterate;
-use crate::estimate::cre::{
-    body_fields, worst, BodyEstimate, BodyFields, ElementWork, IterationData, Reaction,
-};
+use crate::estimate::cre::{worst, BodyEstimate, ElementWork, IterationData, Reaction};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::mortar::MortarEstimates;
+use crate::estimate::resolves::{body_fields, BodyFields};
 use crate::estimate::share::{estimate_owners, estimating_ranks, Share};
 use crate::parallel::held;
 use crate::parallel::layout::Layout;
@@ -108,7 +107,7 @@ pub struct Estimator<'a> {
     qp: QpSettings,
     recovery: Recovery,
     /// `-nndd_recovery_warm_change`: the largest relative change of a body's displacement
-    /// for which a recovery starts warm ([`crate::estimate::cre::View::prepare`]).
+    /// for which a recovery starts warm ([`crate::estimate::view::View::prepare`]).
     warm_change: f64,
     nndd_variant: NnddVariant,
     layout: &'a Layout,

@@ -1,7 +1,8 @@
 //! Layer `estimate`: guaranteed a posteriori error estimates of an NNDD iterate (paper §4,
 //! `docs/method.md` §3). [`traction`]: the admissible contact traction on Γc; [`polygon`]:
 //! η^glo's traction and displacement correction on a curved Γc (§5); [`cre`]: one
-//! body's constitutive relation error element by element; [`equilibrate`]: strictly
+//! body's constitutive relation error element by element; [`view`]: where a rank's recoveries
+//! of a body run; [`resolves`]: the fields they read; [`equilibrate`]: strictly
 //! equilibrated stresses (EET + Johnson–Mercier, patch relaxation); [`overlap`]: a rank's
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
 //! elements; [`reference`]: the reference solution of (26); [`settings`]: the estimates'
@@ -45,10 +46,12 @@ pub mod overlap;
 pub mod parts;
 pub mod polygon;
 pub mod reference;
+pub mod resolves;
 pub mod settings;
 pub mod share;
 pub mod size_field;
 pub mod traction;
+pub mod view;
 
 pub use balanced::BalancedRule;
 pub use error::EstimateError;

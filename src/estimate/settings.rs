@@ -17,7 +17,7 @@ pub struct EstimateSettings {
     /// How the equilibrated stresses are recovered (see `estimate::equilibrate`).
     pub recovery: Recovery,
     /// Largest relative change of a body's displacement (energy norm) between two recoveries
-    /// for which the second starts warm (`estimate::cre::View::prepare`).
+    /// for which the second starts warm (`estimate::view::View::prepare`).
     pub warm_change: f64,
     /// The reference problem of η^NNDD (see `estimate`).
     pub nndd_variant: NnddVariant,

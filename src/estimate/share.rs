@@ -3,16 +3,16 @@
 //! two bodies: with one rank per body, a body twice the other's size would otherwise keep its
 //! rank busy while the other waits (Hertz level 6: 25 s of 40). The Neumann re-solves stay on
 //! each body's group; their fields go to the other ranks that estimate elements of the body
-//! (`cre::BodyFields`). Each rank recovers on its elements plus the overlap that makes the
+//! (`resolves::BodyFields`). Each rank recovers on its elements plus the overlap that makes the
 //! recovery there exactly the one-rank one ([`Overlap`], its values exchanged between sweeps,
 //! [`Halo::exchange_sweep`]), so the estimates do not depend on the assignment; the ranks
 //! that share a body recover it in step.
 
 use std::ops::Range;
 
-use crate::estimate::cre::View;
 use crate::estimate::equilibrate::{vertex_colours, Recovery};
 use crate::estimate::overlap::{colour_count, Halo, Overlap};
+use crate::estimate::view::View;
 use crate::fem::mesh::Mesh;
 use crate::parallel::layout::Layout;
 

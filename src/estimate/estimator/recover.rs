@@ -308,45 +308,9 @@ impl Estimator<'_> {
         for (k, w) in works {
             done[k] = Some(w.finish(&self.iface, &data, &self.parts));
         }
-        // The bubble amplitudes of û = u_p + δ and the bound of the answer's error,
-        // (1 + θ)Q + (1 + 1/θ)Δ ≥ (‖u − û‖ + ‖δ‖)² (docs/method.md §5): each element's η^glo
-        // term times (1 + θ), plus (1 + 1/θ) a c² on the elements of δ.
-        let delta2 = self.parts.run(Part::Reduction, || {
-            let q0 = layout.sum(
-                done.iter()
-                    .flatten()
-                    .map(|e| e.glo.iter().sum::<f64>())
-                    .sum(),
-            );
-            let terms: Vec<polygon::BubbleTerms> = done
-                .iter()
-                .flatten()
-                .flat_map(|e| e.bubbles.iter().copied())
-                .collect();
-            let sum = |mut x: [f64; 2]| {
-                layout.world_sum(&mut x);
-                x
-            };
-            let (c, [theta, _, delta2]) = polygon::choose_amplitudes(&terms, q0, &sum);
-            if theta > 0.0 {
-                // (`terms` lists the bodies' bubbles in this order)
-                let mut chosen = c.iter();
-                for est in done.iter_mut().flatten() {
-                    for g in est.glo.iter_mut() {
-                        *g *= 1.0 + theta;
-                    }
-                    for t in &est.bubbles {
-                        let c = *chosen.next().expect("an amplitude per bubble");
-                        let s = est
-                            .slot(t.element)
-                            .expect("a bubble on an estimated element");
-                        est.glo[s] += (1.0 + theta) * (t.a * c * c - 2.0 * t.b * c + t.l * c)
-                            + (1.0 + 1.0 / theta) * t.a * c * c;
-                    }
-                }
-            }
-            delta2
-        });
+        let delta2 = self
+            .parts
+            .run(Part::Reduction, || bubble_amplitudes(layout, &mut done));
         for k in 0..2 {
             // (this rank is one of the body's group)
             let body = layout.owns(k + 1).then_some(());
@@ -425,4 +389,45 @@ impl Estimator<'_> {
             t_hat: resolved.t_glo,
         })
     }
+}
+
+/// The bubble amplitudes of û = u_p + δ and the bound of the answer's error,
+/// (1 + θ)Q + (1 + 1/θ)Δ ≥ (‖u − û‖ + ‖δ‖)² (docs/method.md §5): each element's η^glo term of
+/// the bodies' estimates `done` times (1 + θ), plus (1 + 1/θ) a c² on the elements of δ;
+/// returns ‖δ‖² (collective over all ranks).
+fn bubble_amplitudes(layout: &Layout, done: &mut [Option<BodyEstimate>; 2]) -> f64 {
+    let q0 = layout.sum(
+        done.iter()
+            .flatten()
+            .map(|e| e.glo.iter().sum::<f64>())
+            .sum(),
+    );
+    let terms: Vec<polygon::BubbleTerms> = done
+        .iter()
+        .flatten()
+        .flat_map(|e| e.bubbles.iter().copied())
+        .collect();
+    let sum = |mut x: [f64; 2]| {
+        layout.world_sum(&mut x);
+        x
+    };
+    let (c, [theta, _, delta2]) = polygon::choose_amplitudes(&terms, q0, &sum);
+    if theta > 0.0 {
+        // (`terms` lists the bodies' bubbles in this order)
+        let mut chosen = c.iter();
+        for est in done.iter_mut().flatten() {
+            for g in est.glo.iter_mut() {
+                *g *= 1.0 + theta;
+            }
+            for t in &est.bubbles {
+                let c = *chosen.next().expect("an amplitude per bubble");
+                let s = est
+                    .slot(t.element)
+                    .expect("a bubble on an estimated element");
+                est.glo[s] += (1.0 + theta) * (t.a * c * c - 2.0 * t.b * c + t.l * c)
+                    + (1.0 + 1.0 / theta) * t.a * c * c;
+            }
+        }
+    }
+    delta2
 }

@@ -1,0 +1,123 @@
+//! The fields an estimate reads of one body ([`BodyFields`]): u^α_p and the Neumann re-solves
+//! with the Γc data of η^glo, η^NNDD and η^FE ([`body_fields`]), cut to the rank's view of the
+//! body for its recoveries.
+
+use super::cre::{IterationData, Reaction};
+use super::error::EstimateError;
+use super::parts::{Part, Parts};
+use super::settings::NnddVariant;
+use super::traction::Interface;
+use super::view::View;
+use crate::dd::body::{Body, GcForces};
+use crate::problem::BodyProblem;
+
+/// The fields of one body's estimate: u^α_p and the Neumann re-solves with the Γc data of
+/// η^glo (ũ^α), of the discrete η^NNDD (ũ^α_d) and, for body 2, of η^FE; made whole on the
+/// body's group ([`body_fields`]) and sent to the other ranks that estimate elements of the
+/// body, then the re-solves cut to the rank's view of the body for its recoveries
+/// ([`BodyFields::on_view`]; empty when not needed: `fe_only`, the density variant, body 1's
+/// η^FE).
+#[derive(Default)]
+pub struct BodyFields<'a> {
+    pub u_p: std::borrow::Cow<'a, [f64]>,
+    pub u_tilde: Vec<f64>,
+    pub u_d: Vec<f64>,
+    pub u_fe: Vec<f64>,
+}
+
+impl BodyFields<'_> {
+    /// These fields with the re-solves cut to `view` ([`View::local`]); u^α_p stays whole.
+    pub fn on_view(self, view: Option<&View>) -> Self {
+        let keep = |u: Vec<f64>| view.map_or(Vec::new(), |v| v.local(u));
+        BodyFields {
+            u_p: self.u_p,
+            u_tilde: keep(self.u_tilde),
+            u_d: keep(self.u_d),
+            u_fe: keep(self.u_fe),
+        }
+    }
+}
+
+/// The re-solves of body α (collective over its group); `u_p` is u^α_p.
+pub fn body_fields<'a>(
+    body: &Body,
+    u_p: &'a [f64],
+    iface: &Interface,
+    data: &IterationData,
+    parts: &Parts,
+) -> Result<BodyFields<'a>, EstimateError> {
+    let alpha = body.problem.alpha;
+    let sign = if alpha == 1 { 1.0 } else { -1.0 };
+    let mut f = BodyFields {
+        u_p: std::borrow::Cow::Borrowed(u_p),
+        ..Default::default()
+    };
+    // One multiple-right-hand-side solve for all of them.
+    parts.run(Part::Resolves, || {
+        let mut loads = Vec::with_capacity(3);
+        if !data.fe_only {
+            let f: Vec<[f64; 2]> = data
+                .glo_forces
+                .iter()
+                .map(|v| [sign * v[0], sign * v[1]])
+                .collect();
+            loads.push(GcForces::Vector(f));
+            if data.nndd_variant == NnddVariant::Discrete {
+                let normal: Vec<f64> = data.mu_hat.iter().map(|m| -sign * m).collect();
+                loads.push(match data.friction {
+                    None => GcForces::Normal(normal),
+                    Some(f) => {
+                        let tangential: Vec<f64> = f.mu_t.iter().map(|m| -sign * m).collect();
+                        along(&body.problem, &normal, &tangential, f.tau)
+                    }
+                });
+            }
+        }
+        let resolve1 = match data.reaction1 {
+            Reaction::Resolved(t1) if alpha == 1 => Some(t1),
+            _ => None,
+        };
+        if alpha == 2 {
+            let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
+            loads.push(match data.friction {
+                None => GcForces::Normal(iface.forces(&t2)),
+                Some(f) => {
+                    let t2t: Vec<f64> = f.fe_t.iter().map(|t| -t).collect();
+                    along(
+                        &body.problem,
+                        &iface.forces(&t2),
+                        &iface.forces(&t2t),
+                        f.tau,
+                    )
+                }
+            });
+        } else if let Some(t1) = resolve1 {
+            loads.push(GcForces::Normal(t1.to_vec()));
+        }
+        let mut solved = body.neumann_solve_many(&loads)?.into_iter();
+        if !data.fe_only {
+            f.u_tilde = solved.next().expect("ũ");
+            if data.nndd_variant == NnddVariant::Discrete {
+                f.u_d = solved.next().expect("ũ_d");
+            }
+        }
+        if alpha == 2 || resolve1.is_some() {
+            f.u_fe = solved.next().expect("ũ_FE");
+        }
+        Ok::<_, EstimateError>(())
+    })?;
+    Ok(f)
+}
+
+/// The Γc loads (x, y) of nodal forces `normal` along the pairs' normals and `tangential`
+/// along the tangent `tau` (friction, a straight Γc).
+fn along(p: &BodyProblem, normal: &[f64], tangential: &[f64], tau: [f64; 2]) -> GcForces {
+    GcForces::Vector(
+        normal
+            .iter()
+            .zip(tangential)
+            .zip(&p.contact_normals)
+            .map(|((a, b), n)| [a * n[0] + b * tau[0], a * n[1] + b * tau[1]])
+            .collect(),
+    )
+}
