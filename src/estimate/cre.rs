@@ -4,15 +4,12 @@
 
 use std::collections::HashMap;
 
-use super::equilibrate::{
-    element_cre, element_cre_varying, Boundary, BoundaryEdge, EdgeComponent, OperatorCache,
-    Recovery, Residuals, NC,
-};
+use super::equilibrate::{element_cre, element_cre_varying, OperatorCache, Residuals, NC};
 use super::error::EstimateError;
-use super::friction::{self, FrictionData};
+use super::friction;
+use super::iteration::{BodyFields, IterationData, Reaction};
 use super::parts::{Part, Parts};
-use super::polygon::{self, Bubble, BubbleTerms, EdgeValues, SegmentGap};
-use super::resolves::BodyFields;
+use super::polygon::{self, Bubble, BubbleTerms, EdgeValues};
 use super::settings::NnddVariant;
 use super::traction::Interface;
 use super::view::View;
@@ -50,45 +47,6 @@ impl BodyEstimate {
             self.nndd.iter().sum(),
         ]
     }
-}
-
-/// What the estimates of iteration p need beyond the bodies: λ_p, the Γc densities t̂^c (for
-/// η^glo, η^NNDD) and t̂^c_p (for η^FE), and T¹_p.
-pub struct IterationData<'a> {
-    pub lambda: &'a [f64],
-    pub t_glo: &'a [f64],
-    /// η^glo's traction on body 1, t̂¹ = s(t)m(t) per segment ([`polygon::factors`]): the
-    /// factors s, the edge values and the consistent nodal forces (x, y).
-    pub glo_factors: &'a [[f64; 2]],
-    pub glo_edges: &'a [EdgeValues],
-    pub glo_forces: &'a [[f64; 2]],
-    /// The iterate's gap along each segment ([`polygon::segment_gaps`]; empty with `fe_only`).
-    pub gaps: &'a [SegmentGap],
-    pub t_fe: &'a [f64],
-    pub reaction1: Reaction<'a>,
-    /// Nodal contact forces μ̂ ≥ 0 on body 2 (for the discrete η^NNDD).
-    pub mu_hat: &'a [f64],
-    /// With friction: the tangential halves of the above ([`FrictionData`]).
-    pub friction: Option<&'a FrictionData>,
-    pub nndd_variant: NnddVariant,
-    pub recovery: Recovery,
-    /// η^FE alone (the balanced rule's first check): no η^glo re-solve and recovery, no
-    /// η^NNDD; `glo` and `nndd` stay zero.
-    pub fe_only: bool,
-}
-
-/// Body 1's Γc forces T¹_p and what its η^FE recovery does with them.
-#[derive(Clone, Copy)]
-pub enum Reaction<'a> {
-    /// The NNDD's own iterate: T¹_p is u¹_p's reaction, and σ(u¹_p) is equilibrated with its
-    /// density M_Γ⁻¹T¹_p.
-    Own(&'a [f64]),
-    /// A mortar iterate carried to the matched meshes of its estimates: its reaction there is
-    /// the FE traction of each element at the inserted nodes plus the mortar forces at the
-    /// non-mortar nodes (a density that spikes at those), so body 1 is re-solved with the
-    /// forces T¹_p of its smooth density, as body 2 is with −t̂^c_p, and the re-solve is
-    /// equilibrated.
-    Resolved(&'a [f64]),
 }
 
 /// The element work of one body's estimate on this rank (the elements of its view): the η^glo
@@ -567,87 +525,6 @@ fn traction_carrying(n: &[[f64; 2]], lengths: &[f64], gc: &[f64]) -> Vec<[f64; 2
         }
     }
     c
-}
-
-/// The traction data of body α for the equilibration: Γ_N data, on Γc the traction `gc` per
-/// segment (per unit length of body 1's side), traction free elsewhere; components under
-/// Dirichlet conditions on both ends of an edge are free.
-pub fn boundary(p: &BodyProblem, gc: &[EdgeValues]) -> Boundary {
-    let mesh = &p.mesh;
-    let mut constrained = vec![false; mesh.num_dofs()];
-    for &(d, _) in &p.dirichlet {
-        constrained[d] = true;
-    }
-    let mut known: HashMap<(usize, usize), [[f64; 2]; 2]> = HashMap::new();
-    for e in &p.neumann {
-        let [a, b] = e.nodes;
-        // traction[node][component] → per component, values at (a, b)
-        known.insert(
-            (a, b),
-            [
-                [e.traction[0][0], e.traction[1][0]],
-                [e.traction[0][1], e.traction[1][1]],
-            ],
-        );
-    }
-    // The Γc densities are per unit length of body 1's side (M_Γ integrates along it). On an
-    // edge of the other side, of another length |Γ|, the same force is spread over |Γ|, so its
-    // density there is c·|Γ¹|/|Γ| (1 on body 1's side and where both sides are parallel).
-    for (k, [ca, cb]) in gc.iter().enumerate() {
-        let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
-        let (pa, pb) = (mesh.points[a], mesh.points[b]);
-        let scale = p.contact_lengths[k] / (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
-        known.insert(
-            (a, b),
-            [
-                [ca[0] * scale, cb[0] * scale],
-                [ca[1] * scale, cb[1] * scale],
-            ],
-        );
-    }
-    let sides = if mesh.is_structured() {
-        // The four sides, in the orientation of the benchmarks' data.
-        let (nx, ny) = (mesh.nx, mesh.ny);
-        let mut sides: Vec<[usize; 2]> = Vec::new();
-        for i in 0..nx {
-            sides.push([mesh.node(i, 0), mesh.node(i + 1, 0)]);
-            sides.push([mesh.node(i, ny), mesh.node(i + 1, ny)]);
-        }
-        for j in 0..ny {
-            sides.push([mesh.node(0, j), mesh.node(0, j + 1)]);
-            sides.push([mesh.node(nx, j), mesh.node(nx, j + 1)]);
-        }
-        sides
-    } else {
-        // Every edge of one triangle, oriented as in it; the data may run the other way.
-        let sides = mesh.boundary_edges();
-        for &[a, b] in &sides {
-            if !known.contains_key(&(a, b)) {
-                if let Some(v) = known.get(&(b, a)).copied() {
-                    known.insert((a, b), [[v[0][1], v[0][0]], [v[1][1], v[1][0]]]);
-                }
-            }
-        }
-        sides
-    };
-    let edges = sides
-        .into_iter()
-        .map(|[a, b]| {
-            let values = known.get(&(a, b)).copied();
-            let comps = [0, 1].map(|k| {
-                if constrained[2 * a + k] && constrained[2 * b + k] {
-                    EdgeComponent::Free
-                } else {
-                    EdgeComponent::Known(values.map_or([0.0, 0.0], |v| v[k]))
-                }
-            });
-            BoundaryEdge {
-                nodes: [a, b],
-                comps,
-            }
-        })
-        .collect();
-    Boundary { edges, constrained }
 }
 
 #[cfg(test)]

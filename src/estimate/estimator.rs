@@ -8,11 +8,11 @@ use std::rc::Rc;
 
 use crate::dd::body::Body;
 use crate::dd::nndd::Iterate;
-use crate::estimate::cre::{worst, BodyEstimate, ElementWork, IterationData, Reaction};
+use crate::estimate::cre::{worst, BodyEstimate, ElementWork};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
+use crate::estimate::iteration::{body_fields, BodyFields, IterationData, Reaction};
 use crate::estimate::mortar::MortarEstimates;
-use crate::estimate::resolves::{body_fields, BodyFields};
-use crate::estimate::share::{estimate_owners, estimating_ranks, Share};
+use crate::estimate::share::{estimate_owner, estimating_ranks, Share};
 use crate::parallel::held;
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;

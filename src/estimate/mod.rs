@@ -2,7 +2,8 @@
 //! `docs/method.md` §3). [`traction`]: the admissible contact traction on Γc; [`polygon`]:
 //! η^glo's traction and displacement correction on a curved Γc (§5); [`cre`]: one
 //! body's constitutive relation error element by element; [`view`]: where a rank's recoveries
-//! of a body run; [`resolves`]: the fields they read; [`equilibrate`]: strictly
+//! of a body run; [`iteration`]: what an estimate of one
+//! iteration reads; [`equilibrate`]: strictly
 //! equilibrated stresses (EET + Johnson–Mercier, patch relaxation); [`overlap`]: a rank's
 //! elements plus the rings its recovery needs; [`share`]: which rank estimates which
 //! elements; [`reference`]: the reference solution of (26); [`settings`]: the estimates'
@@ -41,12 +42,12 @@ pub mod equilibrate;
 pub mod error;
 pub mod estimator;
 pub mod friction;
+pub mod iteration;
 pub mod mortar;
 pub mod overlap;
 pub mod parts;
 pub mod polygon;
 pub mod reference;
-pub mod resolves;
 pub mod settings;
 pub mod share;
 pub mod size_field;

@@ -11,7 +11,7 @@
 //!   ‖u − u_p‖ ≤ ‖u − û‖ + ‖δ_n‖_E, so ‖δ_n‖_E is added to it;
 //! - the Γc forces T^α of each body as the target of the admissible traction: the consistent
 //!   P1 density of the mortar forces along the non-mortar chain, at the matched pairs (body
-//!   1's η^FE re-solves with its own, [`crate::estimate::cre::Reaction::Resolved`]).
+//!   1's η^FE re-solves with its own, [`crate::estimate::iteration::Reaction::Resolved`]).
 //!
 //! η^NNDD is the mortar-discrete one ([`MortarEstimates::nndd_maps`]): with the mortar
 //! operators, so that it vanishes at the mortar problem's solution.

@@ -3,7 +3,7 @@
 //! two bodies: with one rank per body, a body twice the other's size would otherwise keep its
 //! rank busy while the other waits (Hertz level 6: 25 s of 40). The Neumann re-solves stay on
 //! each body's group; their fields go to the other ranks that estimate elements of the body
-//! (`resolves::BodyFields`). Each rank recovers on its elements plus the overlap that makes the
+//! (`iteration::BodyFields`). Each rank recovers on its elements plus the overlap that makes the
 //! recovery there exactly the one-rank one ([`Overlap`], its values exchanged between sweeps,
 //! [`Halo::exchange_sweep`]), so the estimates do not depend on the assignment; the ranks
 //! that share a body recover it in step.
@@ -25,23 +25,27 @@ use crate::parallel::layout::Layout;
 /// so each must hold an equal part of it: a rank with parts of two bodies would keep the
 /// others of one body waiting while it recovers the other.
 pub fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
+    [0, 1].map(|k| estimate_owner(meshes, ranks, k))
+}
+
+/// Of [`estimate_owners`], body k + 1's alone (what a rank makes of a body it estimates: the
+/// other's sizes are all it reads of the other body).
+pub fn estimate_owner(meshes: [&Mesh; 2], ranks: usize, k: usize) -> Vec<u32> {
     let sizes = meshes.map(|m| m.triangles.len());
     let own = dealt_ranks(sizes, ranks).is_some();
     let total = (sizes[0] + sizes[1]).max(1);
-    let mut position = 0;
-    meshes.map(|mesh| {
-        let order = slab_order(mesh);
-        let len = order.len();
-        let mut owner = vec![0u32; len];
-        for (q, &e) in order.iter().enumerate() {
-            owner[e] = match own {
-                true => (position + q) * ranks / total,
-                false => q * ranks / len.max(1),
-            } as u32;
-        }
-        position += len;
-        owner
-    })
+    // (body 2's elements are dealt after body 1's)
+    let position = if k == 1 { sizes[0] } else { 0 };
+    let order = slab_order(meshes[k]);
+    let len = order.len();
+    let mut owner = vec![0u32; len];
+    for (q, &e) in order.iter().enumerate() {
+        owner[e] = match own {
+            true => (position + q) * ranks / total,
+            false => q * ranks / len.max(1),
+        } as u32;
+    }
+    owner
 }
 
 /// The world ranks that estimate elements of each body ([`estimate_owners`]), from the
@@ -105,7 +109,8 @@ impl Share {
     /// estimate. When they are all in the body's group (`crosses` false), its halo exchanges
     /// run on the group and the other ranks have nothing to do with it; else on all ranks
     /// (which then all have the body's fields). Collective over that communicator when the
-    /// body is split over several ranks.
+    /// body is split over several ranks. `owner` is not read on a rank that takes no part
+    /// (outside the group, `crosses` false).
     pub fn new(
         alpha: usize,
         mesh: &Mesh,

@@ -2,13 +2,16 @@
 //! elements plus the rings that make the recovery there the whole body's ([`Overlap`]), and
 //! what they read of the body's fields there.
 
-use super::cre::{boundary, energy};
+use std::collections::HashMap;
+
 use super::equilibrate::{
-    equilibrate_restricted, OperatorCache, Recovery, Residuals, SweepValues, NC,
+    equilibrate_restricted, Boundary, BoundaryEdge, EdgeComponent, OperatorCache, Recovery,
+    Residuals, SweepValues, NC,
 };
 use super::error::EstimateError;
 use super::overlap::{Halo, Overlap};
 use super::polygon::EdgeValues;
+use crate::fem::elasticity::element_energy as energy;
 use crate::fem::mesh::Mesh;
 use crate::fem::{element_dofs, element_stiffness};
 use crate::parallel::layout::Layout;
@@ -179,4 +182,85 @@ impl View<'_> {
             View::Idle(..) => (mesh, Vec::new()),
         }
     }
+}
+
+/// The traction data of body α for the equilibration: Γ_N data, on Γc the traction `gc` per
+/// segment (per unit length of body 1's side), traction free elsewhere; components under
+/// Dirichlet conditions on both ends of an edge are free.
+pub fn boundary(p: &BodyProblem, gc: &[EdgeValues]) -> Boundary {
+    let mesh = &p.mesh;
+    let mut constrained = vec![false; mesh.num_dofs()];
+    for &(d, _) in &p.dirichlet {
+        constrained[d] = true;
+    }
+    let mut known: HashMap<(usize, usize), [[f64; 2]; 2]> = HashMap::new();
+    for e in &p.neumann {
+        let [a, b] = e.nodes;
+        // traction[node][component] → per component, values at (a, b)
+        known.insert(
+            (a, b),
+            [
+                [e.traction[0][0], e.traction[1][0]],
+                [e.traction[0][1], e.traction[1][1]],
+            ],
+        );
+    }
+    // The Γc densities are per unit length of body 1's side (M_Γ integrates along it). On an
+    // edge of the other side, of another length |Γ|, the same force is spread over |Γ|, so its
+    // density there is c·|Γ¹|/|Γ| (1 on body 1's side and where both sides are parallel).
+    for (k, [ca, cb]) in gc.iter().enumerate() {
+        let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
+        let (pa, pb) = (mesh.points[a], mesh.points[b]);
+        let scale = p.contact_lengths[k] / (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
+        known.insert(
+            (a, b),
+            [
+                [ca[0] * scale, cb[0] * scale],
+                [ca[1] * scale, cb[1] * scale],
+            ],
+        );
+    }
+    let sides = if mesh.is_structured() {
+        // The four sides, in the orientation of the benchmarks' data.
+        let (nx, ny) = (mesh.nx, mesh.ny);
+        let mut sides: Vec<[usize; 2]> = Vec::new();
+        for i in 0..nx {
+            sides.push([mesh.node(i, 0), mesh.node(i + 1, 0)]);
+            sides.push([mesh.node(i, ny), mesh.node(i + 1, ny)]);
+        }
+        for j in 0..ny {
+            sides.push([mesh.node(0, j), mesh.node(0, j + 1)]);
+            sides.push([mesh.node(nx, j), mesh.node(nx, j + 1)]);
+        }
+        sides
+    } else {
+        // Every edge of one triangle, oriented as in it; the data may run the other way.
+        let sides = mesh.boundary_edges();
+        for &[a, b] in &sides {
+            if !known.contains_key(&(a, b)) {
+                if let Some(v) = known.get(&(b, a)).copied() {
+                    known.insert((a, b), [[v[0][1], v[0][0]], [v[1][1], v[1][0]]]);
+                }
+            }
+        }
+        sides
+    };
+    let edges = sides
+        .into_iter()
+        .map(|[a, b]| {
+            let values = known.get(&(a, b)).copied();
+            let comps = [0, 1].map(|k| {
+                if constrained[2 * a + k] && constrained[2 * b + k] {
+                    EdgeComponent::Free
+                } else {
+                    EdgeComponent::Known(values.map_or([0.0, 0.0], |v| v[k]))
+                }
+            });
+            BoundaryEdge {
+                nodes: [a, b],
+                comps,
+            }
+        })
+        .collect();
+    Boundary { edges, constrained }
 }

@@ -210,23 +210,22 @@ impl Estimator<'_> {
     /// Who estimates which elements of each body, and the overlaps and halos of this rank's
     /// ([`Share`]): made at the first estimate (collective), kept for the others.
     fn shares(&self, crosses: [bool; 2]) -> [&Share; 2] {
-        // (each element's estimating rank, made for the shares and freed with them made:
-        // not held through the solve)
-        let owners = OnceCell::new();
+        let meshes = [&self.problems[0].mesh, &self.problems[1].mesh];
         [0, 1].map(|k| {
             self.shares[k].get_or_init(|| {
                 self.parts.run(Part::Recovery, || {
-                    let p = &self.problems[k];
-                    let owners = owners.get_or_init(|| {
-                        estimate_owners(
-                            [&self.problems[0].mesh, &self.problems[1].mesh],
-                            self.layout.size as usize,
-                        )
-                    });
+                    // (the estimating rank of each of the body's elements, made where the
+                    // rank takes part in the body's estimates and freed with its share made:
+                    // not held through the solve)
+                    let takes_part = crosses[k] || self.layout.owns(k + 1);
+                    let owner = match takes_part {
+                        true => estimate_owner(meshes, self.layout.size as usize, k),
+                        false => Vec::new(),
+                    };
                     Share::new(
                         k + 1,
-                        &p.mesh,
-                        &owners[k],
+                        meshes[k],
+                        &owner,
                         crosses[k],
                         self.recovery,
                         self.layout,

@@ -1,15 +1,56 @@
-//! The fields an estimate reads of one body ([`BodyFields`]): u^α_p and the Neumann re-solves
-//! with the Γc data of η^glo, η^NNDD and η^FE ([`body_fields`]), cut to the rank's view of the
-//! body for its recoveries.
+//! What an estimate of iteration p reads: the iteration's Γc data ([`IterationData`]) and each
+//! body's fields ([`BodyFields`]): u^α_p and the Neumann re-solves with the Γc data of η^glo,
+//! η^NNDD and η^FE ([`body_fields`]), cut to the rank's view of the body for its recoveries.
 
-use super::cre::{IterationData, Reaction};
+use super::equilibrate::Recovery;
 use super::error::EstimateError;
+use super::friction::FrictionData;
 use super::parts::{Part, Parts};
+use super::polygon::{EdgeValues, SegmentGap};
 use super::settings::NnddVariant;
 use super::traction::Interface;
 use super::view::View;
 use crate::dd::body::{Body, GcForces};
 use crate::problem::BodyProblem;
+
+/// What the estimates of iteration p need beyond the bodies: λ_p, the Γc densities t̂^c (for
+/// η^glo, η^NNDD) and t̂^c_p (for η^FE), and T¹_p.
+pub struct IterationData<'a> {
+    pub lambda: &'a [f64],
+    pub t_glo: &'a [f64],
+    /// η^glo's traction on body 1, t̂¹ = s(t)m(t) per segment ([`crate::estimate::polygon::factors`]): the
+    /// factors s, the edge values and the consistent nodal forces (x, y).
+    pub glo_factors: &'a [[f64; 2]],
+    pub glo_edges: &'a [EdgeValues],
+    pub glo_forces: &'a [[f64; 2]],
+    /// The iterate's gap along each segment ([`crate::estimate::polygon::segment_gaps`]; empty with `fe_only`).
+    pub gaps: &'a [SegmentGap],
+    pub t_fe: &'a [f64],
+    pub reaction1: Reaction<'a>,
+    /// Nodal contact forces μ̂ ≥ 0 on body 2 (for the discrete η^NNDD).
+    pub mu_hat: &'a [f64],
+    /// With friction: the tangential halves of the above ([`FrictionData`]).
+    pub friction: Option<&'a FrictionData>,
+    pub nndd_variant: NnddVariant,
+    pub recovery: Recovery,
+    /// η^FE alone (the balanced rule's first check): no η^glo re-solve and recovery, no
+    /// η^NNDD; `glo` and `nndd` stay zero.
+    pub fe_only: bool,
+}
+
+/// Body 1's Γc forces T¹_p and what its η^FE recovery does with them.
+#[derive(Clone, Copy)]
+pub enum Reaction<'a> {
+    /// The NNDD's own iterate: T¹_p is u¹_p's reaction, and σ(u¹_p) is equilibrated with its
+    /// density M_Γ⁻¹T¹_p.
+    Own(&'a [f64]),
+    /// A mortar iterate carried to the matched meshes of its estimates: its reaction there is
+    /// the FE traction of each element at the inserted nodes plus the mortar forces at the
+    /// non-mortar nodes (a density that spikes at those), so body 1 is re-solved with the
+    /// forces T¹_p of its smooth density, as body 2 is with −t̂^c_p, and the re-solve is
+    /// equilibrated.
+    Resolved(&'a [f64]),
+}
 
 /// The fields of one body's estimate: u^α_p and the Neumann re-solves with the Γc data of
 /// η^glo (ũ^α), of the discrete η^NNDD (ũ^α_d) and, for body 2, of η^FE; made whole on the
