@@ -191,13 +191,21 @@ fn h5_contents(prefix: &std::path::Path) -> Vec<(String, Vec<f64>)> {
 #[test]
 fn four_ranks_write_the_file_one_rank_writes() {
     for every in ["10", "1"] {
-        four_ranks_write_what_one_writes(every);
+        ranks_write_what_one_writes(4, every, &[]);
     }
 }
 
-fn four_ranks_write_what_one_writes(every: &str) {
-    let dir = scratch(&format!("ranks-h5-{every}"));
-    let args = [
+/// Body 2 with four times body 1's elements on 3 ranks: its elements are estimated on ranks
+/// outside its group as well, and each element's η values go from there to the rank that
+/// writes it.
+#[test]
+fn three_ranks_write_the_file_one_rank_writes_with_unequal_bodies() {
+    ranks_write_what_one_writes(3, "10", &["-nndd_body2_ny", "48"]);
+}
+
+fn ranks_write_what_one_writes(ranks: usize, every: &str, extra: &[&str]) {
+    let dir = scratch(&format!("ranks-h5-{ranks}-{every}"));
+    let mut args = vec![
         "-nndd_problem",
         "paper",
         "-nndd_n",
@@ -207,9 +215,10 @@ fn four_ranks_write_what_one_writes(every: &str) {
         "-nndd_estimate_every",
         every,
     ];
+    args.extend(extra);
     solve(1, &dir.join("a"), &args);
-    let j = solve(4, &dir.join("b"), &args);
-    assert_eq!(j["ranks"], 4);
+    let j = solve(ranks, &dir.join("b"), &args);
+    assert_eq!(j["ranks"], ranks);
     let (a, b) = (h5_contents(&dir.join("a")), h5_contents(&dir.join("b")));
     let names = |c: &[(String, Vec<f64>)]| c.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
     assert_eq!(
@@ -217,7 +226,11 @@ fn four_ranks_write_what_one_writes(every: &str) {
         names(&b),
         "the same datasets, shapes and attributes"
     );
-    assert!(a.len() > 20, "every {every}: {} datasets", a.len());
+    assert!(
+        a.len() > 20,
+        "{ranks} ranks, every {every}: {} datasets",
+        a.len()
+    );
     for ((name, x), (_, y)) in a.iter().zip(&b) {
         if name.contains('@') || name.contains("/Mesh/") {
             assert_eq!(
