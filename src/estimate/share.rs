@@ -16,20 +16,15 @@ use crate::estimate::view::View;
 use crate::fem::mesh::Mesh;
 use crate::parallel::layout::Layout;
 
-/// The world rank estimating each element of each body. Each body's elements in slabs along
-/// the longer side of its bounding box (by barycentre, then index): the elements of body 1
-/// then body 2 dealt in order into `ranks` shares of equal size, when no rank gets elements
-/// of both bodies (two bodies of equal size on an even number of ranks: each body on its own
-/// ranks); else each body dealt over all `ranks` in equal shares. The ranks that share a body
-/// recover it in step (their overlaps exchange values between sweeps, `Halo::exchange_sweep`),
-/// so each must hold an equal part of it: a rank with parts of two bodies would keep the
-/// others of one body waiting while it recovers the other.
-pub fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
-    [0, 1].map(|k| estimate_owner(meshes, ranks, k))
-}
-
-/// Of [`estimate_owners`], body k + 1's alone (what a rank makes of a body it estimates: the
-/// other's sizes are all it reads of the other body).
+/// The world rank estimating each element of body k + 1 (what a rank makes of a body it estimates:
+/// the other's size is all it reads of the other body). Each body's elements in slabs along the
+/// longer side of its bounding box (by barycentre, then index): the elements of body 1 then body 2
+/// dealt in order into `ranks` shares of equal size, when no rank gets elements of both bodies (two
+/// bodies of equal size on an even number of ranks: each body on its own ranks); else each body
+/// dealt over all `ranks` in equal shares. The ranks that share a body recover it in step (their
+/// overlaps exchange values between sweeps, `Halo::exchange_sweep`), so each must hold an equal
+/// part of it: a rank with parts of two bodies would keep the others of one body waiting while it
+/// recovers the other.
 pub fn estimate_owner(meshes: [&Mesh; 2], ranks: usize, k: usize) -> Vec<u32> {
     let sizes = meshes.map(|m| m.triangles.len());
     let own = dealt_ranks(sizes, ranks).is_some();
@@ -48,7 +43,7 @@ pub fn estimate_owner(meshes: [&Mesh; 2], ranks: usize, k: usize) -> Vec<u32> {
     owner
 }
 
-/// The world ranks that estimate elements of each body ([`estimate_owners`]), from the
+/// The world ranks that estimate elements of each body ([`estimate_owner`]), from the
 /// bodies' element counts `sizes` alone: known before, and without, the owner of every
 /// element.
 pub fn estimating_ranks(sizes: [usize; 2], ranks: usize) -> [Range<usize>; 2] {
@@ -163,6 +158,10 @@ impl Share {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
+        [0, 1].map(|k| estimate_owner(meshes, ranks, k))
+    }
 
     #[test]
     fn equal_bodies_get_ranks_of_their_own_else_every_body_is_dealt_over_all_ranks() {

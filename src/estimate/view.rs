@@ -133,9 +133,12 @@ impl View<'_> {
 
     /// [`View::local`] of a field held whole elsewhere (borrowed on the whole body).
     pub(super) fn local_of<'b>(&self, u: &'b [f64]) -> std::borrow::Cow<'b, [f64]> {
+        use std::borrow::Cow;
         match self {
-            View::Whole => std::borrow::Cow::Borrowed(u),
-            _ => std::borrow::Cow::Owned(self.local(u.to_vec())),
+            _ if u.is_empty() => Cow::Borrowed(u),
+            View::Whole => Cow::Borrowed(u),
+            View::Overlap(o, ..) => Cow::Owned(o.restrict_dofs(u)),
+            View::Idle(..) => Cow::Owned(Vec::new()),
         }
     }
 
