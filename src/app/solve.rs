@@ -19,7 +19,9 @@ use crate::dd::nndd::{
     self, Iterate, IterationRecord, LoopState, LoopTimers, NnddError, NnddSettings, Relaxation,
     Status, Steps, StopRule,
 };
-use crate::estimate::{BalancedRule, EstimateError, EstimateRecord, Estimator, Reference};
+use crate::estimate::{
+    BalancedRule, EstimateError, EstimateRecord, Estimator, Reference, ReferencePart,
+};
 use crate::io::checkpoint::{self, Checkpoint, Identity};
 use crate::io::monitor;
 use crate::io::summary::Timings;
@@ -288,14 +290,29 @@ pub fn solve_reference(
             tried.join("; ")
         )));
     }
-    // The fine factorisations freed here: e_ref needs the fine problems and u_ref only.
+    // The fine factorisations, problems and whole fields freed here (a body's that this rank
+    // does not work on first): e_ref needs each rank's block of the fine elements and u_ref on
+    // their nodes only.
     drop(bodies);
+    let iterations = sol.iterations;
+    let u_ref = sol.last.u;
+    let mut problems = problems.map(Some);
+    for (k, p) in problems.iter_mut().enumerate() {
+        if !layout.owns(k + 1) {
+            *p = None;
+        }
+    }
+    let parts = [0, 1].map(|k| {
+        let p = problems[k].take()?;
+        let elements = layout.block(k + 1, p.mesh.triangles.len());
+        Some(ReferencePart::new(&p.mesh, p.material, &u_ref[k], elements))
+    });
+    drop(u_ref);
     crate::os::memory::release_free_memory(0);
     Ok(Ok(Reference {
         factor: r,
-        u: sol.last.u,
-        iterations: sol.iterations,
-        problems: [0, 1].map(|k| layout.owns(k + 1).then(|| Rc::clone(&problems[k]))),
+        parts,
+        iterations,
     }))
 }
 

@@ -58,6 +58,6 @@ pub use balanced::BalancedRule;
 pub use error::EstimateError;
 pub use estimator::{EstimateRecord, Estimator};
 pub use parts::{Part, Parts};
-pub use reference::Reference;
+pub use reference::{Reference, ReferencePart};
 pub use settings::{EstimateSettings, NnddVariant};
 pub use traction::Interface;

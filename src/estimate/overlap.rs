@@ -11,8 +11,6 @@ use crate::estimate::equilibrate::{
 use crate::fem::mesh::Mesh;
 use crate::parallel::layout::Layout;
 
-const NONE: usize = usize::MAX;
-
 /// A rank's own elements of a body mesh plus `rings` rings of neighbouring elements (elements
 /// sharing a vertex), as a sub-mesh whose elements keep increasing global order (so every
 /// edge's "plus" element — the first element containing it — is the same as in the full
@@ -186,25 +184,7 @@ impl Overlap {
             }
         }
         let elements: Vec<usize> = (0..nt).filter(|&e| inside[e]).collect();
-        let mut local = vec![NONE; nn];
-        for &e in &elements {
-            mesh.triangles.get(e).iter().for_each(|&v| local[v] = 0);
-        }
-        let nodes: Vec<usize> = (0..nn).filter(|&v| local[v] != NONE).collect();
-        for (k, &v) in nodes.iter().enumerate() {
-            local[v] = k;
-        }
-        let sub = Mesh {
-            nx: 0,
-            ny: 0,
-            origin: mesh.origin,
-            size: mesh.size,
-            points: nodes.iter().map(|&v| mesh.points[v]).collect(),
-            triangles: elements
-                .iter()
-                .map(|&e| mesh.triangles.get(e).map(|v| local[v]))
-                .collect(),
-        };
+        let (sub, nodes) = mesh.sub_mesh(elements.iter().copied());
         Overlap {
             mesh: sub,
             owned: elements.iter().map(|&e| own[e]).collect(),

@@ -1,49 +1,130 @@
-//! The reference solution of (26) and the exact transfer of a coarse P1 field to it (for
-//! e_ref and the effectivity).
+//! The reference solution of (26), each rank holding its part of it ([`ReferencePart`]), and
+//! the exact transfer of a coarse P1 field to the nested mesh (for e_ref and the
+//! effectivity).
 
-use std::rc::Rc;
+use std::ops::Range;
 
 use super::error::EstimateError;
 use crate::fem::energy_squared_on;
 use crate::fem::mesh::Mesh;
-use crate::problem::BodyProblem;
+use crate::fem::Material;
 
 /// The reference solution of (26): the same problem on the nested mesh r·n, solved by the
-/// NNDD to tol 1e−8, on the ranks owning each body. Its bodies' factorisations are freed once
-/// it is solved: e_ref needs only the fine problems and u_ref (element sums).
+/// NNDD to tol 1e−8, on the ranks owning each body. Its bodies' factorisations and its whole
+/// fields are freed once it is solved: e_ref is a sum over the fine elements, and each rank of
+/// a body's group keeps only its block of them and u_ref on their nodes.
 pub struct Reference {
     pub factor: usize,
-    /// The fine problems, on the ranks of each body's group (`None` elsewhere).
-    pub problems: [Option<Rc<BodyProblem>>; 2],
-    /// u_ref^α, on the ranks of each body's group.
-    pub u: [Vec<f64>; 2],
+    /// This rank's part of each body's reference solution (`None` outside the body's group).
+    pub parts: [Option<ReferencePart>; 2],
     pub iterations: usize,
 }
 
 impl Reference {
-    /// This rank's part of ‖u_ref^α − I u^α‖²_E, body α = `k + 1` (I: the exact P1 transfer
-    /// to the fine mesh, [`interpolate_nested`]): the sum of d_Eᵀ K_E d_E over the fine
-    /// elements E ≡ `part` (mod `parts`), so that the parts of a body's group add up to it
-    /// (the sum of (26) over the group, element by element, each counted once).
+    /// This rank's part of ‖u_ref^α − I u^α‖²_E, body α = `k + 1`, `u` the coarse field on
+    /// `coarse` ([`ReferencePart::error_squared`]): the parts of a body's group add up to it.
     pub fn error_squared_part(
         &self,
         k: usize,
         coarse: &Mesh,
         u: &[f64],
-        part: usize,
-        parts: usize,
     ) -> Result<f64, EstimateError> {
-        let fine = self.problems[k]
+        self.parts[k]
             .as_ref()
-            .expect("the reference problem on the body's ranks");
-        let iu = interpolate_nested(coarse, &fine.mesh, u)?;
-        let u_ref = &self.u[k];
-        let elements = (part..fine.mesh.triangles.len()).step_by(parts.max(1));
-        Ok(energy_squared_on(
-            &fine.mesh,
-            &fine.material,
+            .expect("the reference solution's part on the body's ranks")
+            .error_squared(coarse, u)
+    }
+}
+
+/// A rank's part of body α's reference solution: a block of the fine mesh's elements
+/// (`Layout::block`, consecutive element numbers: on a structured mesh a band of rows), as a
+/// sub-mesh, and u_ref^α on its nodes. Nothing of it is as long as the fine body.
+pub struct ReferencePart {
+    material: Material,
+    /// What the transfer from the coarse mesh reads of the whole fine mesh.
+    fine: FineMesh,
+    /// The fine elements of the block.
+    elements: Range<usize>,
+    /// The block's elements, their nodes numbered 0.. in the order of `nodes`.
+    mesh: Mesh,
+    /// The fine mesh's node of each of the block's nodes.
+    nodes: Vec<usize>,
+    /// u_ref^α on the block's nodes.
+    u: Vec<f64>,
+}
+
+/// The whole fine mesh's grid (a structured mesh: `nx > 0`) and its element count.
+#[derive(Clone, Copy)]
+struct FineMesh {
+    nx: usize,
+    ny: usize,
+    origin: [f64; 2],
+    size: [f64; 2],
+    elements: usize,
+}
+
+impl FineMesh {
+    fn of(mesh: &Mesh) -> FineMesh {
+        FineMesh {
+            nx: mesh.nx,
+            ny: mesh.ny,
+            origin: mesh.origin,
+            size: mesh.size,
+            elements: mesh.triangles.len(),
+        }
+    }
+}
+
+impl ReferencePart {
+    /// The part on the fine mesh's elements `elements` of the solution `u_ref` (whole) of the
+    /// fine problem (`fine`, of `material`).
+    pub fn new(
+        fine: &Mesh,
+        material: Material,
+        u_ref: &[f64],
+        elements: Range<usize>,
+    ) -> ReferencePart {
+        let (mesh, nodes) = fine.sub_mesh(elements.clone());
+        let u = nodes
+            .iter()
+            .flat_map(|&v| [u_ref[2 * v], u_ref[2 * v + 1]])
+            .collect();
+        ReferencePart {
+            material,
+            fine: FineMesh::of(fine),
             elements,
-            |i| u_ref[i] - iu[i],
+            mesh,
+            nodes,
+            u,
+        }
+    }
+
+    /// The fine elements this part holds.
+    pub fn elements(&self) -> Range<usize> {
+        self.elements.clone()
+    }
+
+    /// The fine nodes this part holds.
+    pub fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+
+    /// ‖u_ref^α − I u^α‖²_E over this part's fine elements (26): the sum of d_Eᵀ K_E d_E,
+    /// I the exact P1 transfer of the coarse field `u` on `coarse` to the block's nodes.
+    pub fn error_squared(&self, coarse: &Mesh, u: &[f64]) -> Result<f64, EstimateError> {
+        let iu = transfer(
+            coarse,
+            &self.fine,
+            &self.mesh,
+            &self.nodes,
+            self.elements.start,
+            u,
+        )?;
+        Ok(energy_squared_on(
+            &self.mesh,
+            &self.material,
+            0..self.mesh.triangles.len(),
+            |i| self.u[i] - iu[i],
         ))
     }
 }
@@ -57,9 +138,35 @@ pub fn interpolate_nested(
     fine: &Mesh,
     u: &[f64],
 ) -> Result<Vec<f64>, EstimateError> {
-    if !(coarse.is_structured() && fine.is_structured()) {
-        return interpolate_split(coarse, fine, u);
+    let nodes: Vec<usize> = (0..fine.num_nodes()).collect();
+    transfer(coarse, &FineMesh::of(fine), fine, &nodes, 0, u)
+}
+
+/// [`interpolate_nested`] onto a part of the fine mesh: `part` its elements `first ..` (their
+/// nodes numbered in the part), `nodes` the fine node of each of the part's nodes.
+fn transfer(
+    coarse: &Mesh,
+    fine: &FineMesh,
+    part: &Mesh,
+    nodes: &[usize],
+    first: usize,
+    u: &[f64],
+) -> Result<Vec<f64>, EstimateError> {
+    if coarse.is_structured() && fine.nx > 0 && fine.ny > 0 {
+        transfer_grid(coarse, fine, nodes, u)
+    } else {
+        transfer_split(coarse, fine, part, first, u)
     }
+}
+
+/// [`transfer`] between structured grids: each fine node from the corners of its coarse
+/// rectangle's triangle.
+fn transfer_grid(
+    coarse: &Mesh,
+    fine: &FineMesh,
+    nodes: &[usize],
+    u: &[f64],
+) -> Result<Vec<f64>, EstimateError> {
     let nested = fine.nx.is_multiple_of(coarse.nx)
         && fine.ny.is_multiple_of(coarse.ny)
         && fine.nx / coarse.nx == fine.ny / coarse.ny
@@ -72,56 +179,60 @@ pub fn interpolate_nested(
         });
     }
     let r = fine.nx / coarse.nx;
-    let mut out = vec![0.0; fine.num_dofs()];
-    for jf in 0..=fine.ny {
-        for if_ in 0..=fine.nx {
-            let (i, j) = ((if_ / r).min(coarse.nx - 1), (jf / r).min(coarse.ny - 1));
-            let xi = (if_ - i * r) as f64 / r as f64;
-            let eta = (jf - j * r) as f64 / r as f64;
-            let (a, b, c, d) = (
-                coarse.node(i, j),
-                coarse.node(i + 1, j),
-                coarse.node(i, j + 1),
-                coarse.node(i + 1, j + 1),
-            );
-            // Triangles (a, b, d) below the diagonal (ξ ≥ η) and (a, d, c) above it.
-            let w = if xi >= eta {
-                [(a, 1.0 - xi), (b, xi - eta), (d, eta)]
-            } else {
-                [(a, 1.0 - eta), (d, xi), (c, eta - xi)]
-            };
-            let n = fine.node(if_, jf);
-            for k in 0..2 {
-                out[2 * n + k] = w.iter().map(|&(node, wt)| wt * u[2 * node + k]).sum();
-            }
+    let mut out = vec![0.0; 2 * nodes.len()];
+    for (l, &n) in nodes.iter().enumerate() {
+        let (if_, jf) = (n % (fine.nx + 1), n / (fine.nx + 1));
+        let (i, j) = ((if_ / r).min(coarse.nx - 1), (jf / r).min(coarse.ny - 1));
+        let xi = (if_ - i * r) as f64 / r as f64;
+        let eta = (jf - j * r) as f64 / r as f64;
+        let (a, b, c, d) = (
+            coarse.node(i, j),
+            coarse.node(i + 1, j),
+            coarse.node(i, j + 1),
+            coarse.node(i + 1, j + 1),
+        );
+        // Triangles (a, b, d) below the diagonal (ξ ≥ η) and (a, d, c) above it.
+        let w = if xi >= eta {
+            [(a, 1.0 - xi), (b, xi - eta), (d, eta)]
+        } else {
+            [(a, 1.0 - eta), (d, xi), (c, eta - xi)]
+        };
+        for k in 0..2 {
+            out[2 * l + k] = w.iter().map(|&(node, wt)| wt * u[2 * node + k]).sum();
         }
     }
     Ok(out)
 }
 
-/// [`interpolate_nested`] for a mesh whose triangles were each split into r² (in order):
-/// every fine node is evaluated by its barycentric coordinates in its coarse triangle, which
-/// must contain it.
-fn interpolate_split(coarse: &Mesh, fine: &Mesh, u: &[f64]) -> Result<Vec<f64>, EstimateError> {
+/// [`transfer`] for a mesh whose triangles were each split into r² (in order): every fine
+/// node is evaluated by its barycentric coordinates in its coarse triangle, which must
+/// contain it.
+fn transfer_split(
+    coarse: &Mesh,
+    fine: &FineMesh,
+    part: &Mesh,
+    first: usize,
+    u: &[f64],
+) -> Result<Vec<f64>, EstimateError> {
     let not_nested = || EstimateError::NotNested {
         coarse: format!("of {} triangles", coarse.triangles.len()),
-        fine: format!("of {} triangles", fine.triangles.len()),
+        fine: format!("of {} triangles", fine.elements),
     };
-    let (nc, nf) = (coarse.triangles.len(), fine.triangles.len());
+    let (nc, nf) = (coarse.triangles.len(), fine.elements);
     let r2 = nf / nc.max(1);
     let r = (r2 as f64).sqrt().round() as usize;
     if nc == 0 || r * r != r2 || r2 * nc != nf {
         return Err(not_nested());
     }
-    let mut out = vec![0.0; fine.num_dofs()];
-    for (f, t) in fine.triangles.iter().enumerate() {
-        let c = f / r2;
+    let mut out = vec![0.0; part.num_dofs()];
+    for (l, t) in part.triangles.iter().enumerate() {
+        let c = (first + l) / r2;
         let q = coarse.triangle_points(c);
         let nodes = coarse.triangles.get(c);
         let det =
             (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (q[1][1] - q[0][1]);
         for n in t {
-            let p = fine.points[n];
+            let p = part.points[n];
             let l1 = ((p[0] - q[0][0]) * (q[2][1] - q[0][1])
                 - (q[2][0] - q[0][0]) * (p[1] - q[0][1]))
                 / det;
@@ -185,6 +296,76 @@ mod tests {
             interpolate_nested(&coarse, &Mesh::structured([0.0, 1.0], [1.0, 1.0], 5, 4), &u)
                 .is_err()
         );
+    }
+
+    /// A field on `mesh` that no P1 field of a coarser mesh is.
+    fn wavy(mesh: &Mesh) -> Vec<f64> {
+        let f = |p: [f64; 2]| [(4.0 * p[0]).sin() * p[1], p[0] * p[1] * p[1] - 0.3 * p[0]];
+        mesh.points.iter().flat_map(|&p| f(p)).collect()
+    }
+
+    /// e_ref² on the whole fine mesh, against which the parts are checked.
+    fn whole_error(coarse: &Mesh, fine: &Mesh, u_ref: &[f64], u: &[f64]) -> f64 {
+        let iu = interpolate_nested(coarse, fine, u).unwrap();
+        energy_squared_on(fine, &MATERIAL, 0..fine.triangles.len(), |i| {
+            u_ref[i] - iu[i]
+        })
+    }
+
+    const MATERIAL: Material = Material {
+        young: 2.0e5,
+        poisson: 0.3,
+    };
+
+    /// The parts on `parts` blocks of the fine elements add up to the whole mesh's e_ref², and
+    /// each holds its block's elements and no more nodes than `max_nodes(block)`.
+    fn check_parts(coarse: &Mesh, fine: &Mesh, parts: usize, max_nodes: impl Fn(usize) -> usize) {
+        let (u, u_ref) = (wavy(coarse), wavy(fine));
+        let whole = whole_error(coarse, fine, &u_ref, &u);
+        assert!(
+            whole > 1e-6,
+            "a field the coarse mesh does not hold: {whole}"
+        );
+        let ne = fine.triangles.len();
+        let mut sum = 0.0;
+        for part in 0..parts {
+            let block = crate::parallel::layout::block_of(ne, part, parts);
+            let p = ReferencePart::new(fine, MATERIAL, &u_ref, block.clone());
+            assert_eq!(p.elements(), block);
+            assert!(
+                p.nodes().len() <= max_nodes(block.len()),
+                "part {part}: {} nodes",
+                p.nodes().len()
+            );
+            sum += p.error_squared(coarse, &u).unwrap();
+        }
+        assert!(
+            (sum - whole).abs() <= 1e-12 * whole,
+            "{sum} against {whole}"
+        );
+    }
+
+    #[test]
+    fn the_parts_of_the_reference_add_up_to_the_whole_error() {
+        // Structured: a block of 2·nx·k elements spans k + 1 rows of nx + 1 nodes (and one
+        // more row where it starts or ends inside a row).
+        let coarse = Mesh::structured([0.0, 1.0], [1.0, 1.0], 4, 3);
+        let fine = Mesh::structured([0.0, 1.0], [1.0, 1.0], 16, 12);
+        check_parts(&coarse, &fine, 3, |ne| (ne / 32 + 3) * 17);
+        check_parts(&coarse, &fine, 1, |_| fine.num_nodes());
+        // Split (a Gmsh mesh refined): at most three nodes per element.
+        let gm = crate::fem::gmsh::GmshMesh {
+            path: "quad".into(),
+            points: vec![[0.0, 0.0], [1.0, 0.1], [1.2, 0.9], [0.1, 1.0]],
+            triangles: vec![([0, 1, 2], vec![1]), ([0, 2, 3], vec![1])],
+            triangle_tags: vec![],
+            lines: vec![],
+            names: [((2, 1), "body1".to_string())].into_iter().collect(),
+        };
+        let coarse = gm.body("body1").unwrap().mesh;
+        let fine = gm.refined(4).body("body1").unwrap().mesh;
+        check_parts(&coarse, &fine, 3, |ne| 3 * ne);
+        check_parts(&coarse, &fine, 5, |ne| 3 * ne);
     }
 
     #[test]

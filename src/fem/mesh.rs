@@ -247,6 +247,40 @@ impl Mesh {
         out
     }
 
+    /// The sub-mesh of the triangles `elements` (in this order) and the mesh's node of each of
+    /// its nodes (in increasing order, numbered 0.. in the sub-mesh); unstructured, its
+    /// `origin` and `size` the whole mesh's.
+    pub fn sub_mesh<I>(&self, elements: I) -> (Mesh, Vec<usize>)
+    where
+        I: IntoIterator<Item = usize> + Clone,
+    {
+        const NONE: u32 = u32::MAX;
+        let mut local = vec![NONE; self.num_nodes()];
+        for e in elements.clone() {
+            self.triangles.0[e]
+                .iter()
+                .for_each(|&v| local[v as usize] = 0);
+        }
+        let nodes: Vec<usize> = (0..local.len()).filter(|&v| local[v] != NONE).collect();
+        for (k, &v) in nodes.iter().enumerate() {
+            local[v] = k as u32;
+        }
+        let sub = Mesh {
+            nx: 0,
+            ny: 0,
+            origin: self.origin,
+            size: self.size,
+            points: nodes.iter().map(|&v| self.points[v]).collect(),
+            triangles: Triangles(
+                elements
+                    .into_iter()
+                    .map(|e| self.triangles.0[e].map(|v| local[v as usize]))
+                    .collect(),
+            ),
+        };
+        (sub, nodes)
+    }
+
     /// Sorted node neighbourhoods (each node with itself), the sparsity pattern of P1.
     pub fn node_neighbours(&self) -> Vec<Vec<usize>> {
         let mut nb: Vec<Vec<usize>> = (0..self.num_nodes()).map(|i| vec![i]).collect();

@@ -339,11 +339,10 @@ impl Estimator<'_> {
                 }
             }
             if let (Some(()), Some(r)) = (body, self.reference.as_ref().filter(|_| !fe_only)) {
-                // (each rank of the group sums its share of the fine elements)
-                let (part, parts) = (layout.group_rank(), layout.group_size());
+                // (each rank of the group sums its block of the fine elements)
                 let p = &self.problems[k];
                 e_ref2 += self.parts.run(Part::ReferenceError, || {
-                    r.error_squared_part(k, &p.mesh, &plain[k], part, parts)
+                    r.error_squared_part(k, &p.mesh, &plain[k])
                 })?;
             }
         }
