@@ -357,9 +357,9 @@ mod tests {
         let gm = crate::fem::gmsh::GmshMesh {
             path: "quad".into(),
             points: vec![[0.0, 0.0], [1.0, 0.1], [1.2, 0.9], [0.1, 1.0]],
-            triangles: vec![([0, 1, 2], vec![1]), ([0, 2, 3], vec![1])],
+            triangles: vec![([0, 1, 2], vec![1]), ([0, 2, 3], vec![1])].into(),
             triangle_tags: vec![],
-            lines: vec![],
+            lines: Default::default(),
             names: [((2, 1), "body1".to_string())].into_iter().collect(),
         };
         let coarse = gm.body("body1").unwrap().mesh;
@@ -375,9 +375,9 @@ mod tests {
         let gm = crate::fem::gmsh::GmshMesh {
             path: "quad".into(),
             points,
-            triangles: vec![([0, 1, 2], vec![1]), ([0, 3, 2], vec![1])],
+            triangles: vec![([0, 1, 2], vec![1]), ([0, 3, 2], vec![1])].into(),
             triangle_tags: vec![],
-            lines: vec![],
+            lines: Default::default(),
             names: [((2, 1), "body1".to_string())].into_iter().collect(),
         };
         let coarse = gm.body("body1").unwrap().mesh;

@@ -351,13 +351,13 @@ fn insert(
         made.push((p, normal));
         // The triangle on (from, to): [x, y, z] with {x, y} = {from, to} → [x, c, z], [c, y, z].
         let i = tri.remove(&key(from, to)).expect("a boundary triangle");
-        let (t3, phys) = g.triangles[i].clone();
+        let t3 = g.triangles.nodes(i);
         let e = (0..3)
             .find(|&e| key(t3[e], t3[(e + 1) % 3]) == key(from, to))
             .expect("the edge is the triangle's");
         let (x, y, z) = (t3[e], t3[(e + 1) % 3], t3[(e + 2) % 3]);
-        g.triangles[i].0 = [x, c, z];
-        g.triangles.push(([c, y, z], phys));
+        g.triangles.set_nodes(i, [x, c, z]);
+        g.triangles.push_like([c, y, z], i);
         if !g.triangle_tags.is_empty() {
             let tag = g.triangle_tags[i];
             g.triangle_tags.push(tag);
@@ -369,9 +369,9 @@ fn insert(
         // The lines on (from, to), each kept in its direction.
         let mut kept = Vec::new();
         for l in lines.remove(&key(from, to)).unwrap_or_default() {
-            let ([a, b], phys) = g.lines[l].clone();
-            g.lines[l].0 = [a, c];
-            g.lines.push(([c, b], phys));
+            let [a, b] = g.lines.nodes(l);
+            g.lines.set_nodes(l, [a, c]);
+            g.lines.push_like([c, b], l);
             let m = g.lines.len() - 1;
             let (l_from, l_to) = if a == from { (l, m) } else { (m, l) };
             lines.entry(key(from, c)).or_default().push(l_from);
@@ -416,12 +416,12 @@ mod tests {
                 g.points.len() - 1
             })
             .collect();
-        g.triangles.push(([0, 1, top[0]], vec![1]));
+        g.triangles.push([0, 1, top[0]], &[1]);
         for w in top.windows(2) {
-            g.triangles.push(([0, w[0], w[1]], vec![1]));
+            g.triangles.push([0, w[0], w[1]], &[1]);
         }
         for w in top.windows(2) {
-            g.lines.push(([w[0], w[1]], vec![3]));
+            g.lines.push([w[0], w[1]], &[3]);
         }
         // Body 2: (0, 1) with the bottom from x = 0 to 1, then (1, 1).
         let apex = g.points.len();
@@ -436,11 +436,11 @@ mod tests {
         g.points.push([1.0, 1.0]);
         let corner = g.points.len() - 1;
         for w in bottom.windows(2) {
-            g.triangles.push(([apex, w[0], w[1]], vec![2]));
-            g.lines.push(([w[0], w[1]], vec![4]));
+            g.triangles.push([apex, w[0], w[1]], &[2]);
+            g.lines.push([w[0], w[1]], &[4]);
         }
         g.triangles
-            .push(([apex, *bottom.last().unwrap(), corner], vec![2]));
+            .push([apex, *bottom.last().unwrap(), corner], &[2]);
         g
     }
 

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::GmshMesh;
+use super::{Cells, GmshMesh};
 
 impl GmshMesh {
     /// The mesh as bytes (little-endian counts, coordinates, nodes and tags, then the names):
@@ -32,7 +32,7 @@ impl GmshMesh {
         };
         int(&mut b, self.triangles.len() as u64);
         for (t, tags) in &self.triangles {
-            cells(&mut b, t, tags);
+            cells(&mut b, &t, tags);
         }
         int(&mut b, self.triangle_tags.len() as u64);
         for &t in &self.triangle_tags {
@@ -40,7 +40,7 @@ impl GmshMesh {
         }
         int(&mut b, self.lines.len() as u64);
         for (l, tags) in &self.lines {
-            cells(&mut b, l, tags);
+            cells(&mut b, &l, tags);
         }
         int(&mut b, self.names.len() as u64);
         for ((dim, tag), name) in &self.names {
@@ -58,15 +58,17 @@ impl GmshMesh {
         let points = (0..r.int()?)
             .map(|_| Some([r.f64()?, r.f64()?]))
             .collect::<Option<Vec<_>>>()?;
-        let triangles = (0..r.int()?)
-            .map(|_| Some(([r.int()?, r.int()?, r.int()?], r.tags()?)))
-            .collect::<Option<Vec<_>>>()?;
+        let mut triangles = Cells::default();
+        for _ in 0..r.int()? {
+            triangles.push([r.int()?, r.int()?, r.int()?], &r.tags()?);
+        }
         let triangle_tags = (0..r.int()?)
             .map(|_| Some(r.int()? as u64))
             .collect::<Option<Vec<_>>>()?;
-        let lines = (0..r.int()?)
-            .map(|_| Some(([r.int()?, r.int()?], r.tags()?)))
-            .collect::<Option<Vec<_>>>()?;
+        let mut lines = Cells::default();
+        for _ in 0..r.int()? {
+            lines.push([r.int()?, r.int()?], &r.tags()?);
+        }
         let names = (0..r.int()?)
             .map(|_| Some(((r.i32()?, r.i32()?), r.text()?)))
             .collect::<Option<BTreeMap<_, _>>>()?;

@@ -19,7 +19,10 @@ use crate::fem::checks;
 use crate::fem::mesh::Mesh;
 
 mod bytes;
+mod cells;
 mod refine;
+
+pub use cells::Cells;
 
 /// What is wrong with a mesh file, in the words the user needs (the caller names the option).
 #[derive(Debug, thiserror::Error)]
@@ -66,11 +69,11 @@ pub struct GmshMesh {
     pub path: String,
     pub points: Vec<[f64; 2]>,
     /// 3-node triangles and the physical surface tags of their entity.
-    pub triangles: Vec<([usize; 3], Vec<i32>)>,
+    pub triangles: Cells<3>,
     /// The Gmsh element tag of each triangle (empty when not known: a mesh built in code).
     pub triangle_tags: Vec<u64>,
     /// 2-node lines and the physical curve tags of their entity.
-    pub lines: Vec<([usize; 2], Vec<i32>)>,
+    pub lines: Cells<2>,
     /// Physical names by (dimension, tag).
     pub names: BTreeMap<(i32, i32), String>,
 }
@@ -257,9 +260,9 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
         .elements
         .as_ref()
         .ok_or_else(|| not_msh("no $Elements section".into()))?;
-    let mut triangles = Vec::new();
+    let mut triangles = Cells::default();
     let mut triangle_tags = Vec::new();
-    let mut lines = Vec::new();
+    let mut lines = Cells::default();
     let lookup = |tag: &u64| {
         index.get(tag).copied().ok_or_else(|| GmshError::Invalid {
             path: path.to_string(),
@@ -279,7 +282,7 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
                         lookup(&e.nodes[1])?,
                         lookup(&e.nodes[2])?,
                     ];
-                    triangles.push((t, phys.clone()));
+                    triangles.push(t, &phys);
                     triangle_tags.push(e.element_tag);
                 }
             }
@@ -289,7 +292,7 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
                     .cloned()
                     .unwrap_or_default();
                 for e in &block.elements {
-                    lines.push(([lookup(&e.nodes[0])?, lookup(&e.nodes[1])?], phys.clone()));
+                    lines.push([lookup(&e.nodes[0])?, lookup(&e.nodes[1])?], &phys);
                 }
             }
             ElementType::Pnt => {}
@@ -431,7 +434,7 @@ impl GmshMesh {
             self.lines
                 .iter()
                 .filter(|(_, phys)| phys.contains(&tag))
-                .map(|(l, _)| *l)
+                .map(|(l, _)| l)
                 .collect(),
         )
     }
@@ -450,7 +453,7 @@ impl GmshMesh {
 
     /// Triangle `i` for a message: "element TAG (x, y), (x, y), (x, y)".
     pub fn describe(&self, i: usize) -> String {
-        let p = self.triangles[i].0.map(|a| self.points[a]);
+        let p = self.triangles.nodes(i).map(|a| self.points[a]);
         format!(
             "element {} ({:.6e}, {:.6e}), ({:.6e}, {:.6e}), ({:.6e}, {:.6e})",
             self.element_tag(i),
@@ -507,7 +510,7 @@ impl GmshMesh {
         let mut tris = Vec::new();
         for (i, (t, phys)) in self.triangles.iter().enumerate() {
             if phys.contains(&tag) {
-                for &a in t {
+                for a in t {
                     if local[a] == NONE {
                         local[a] = 0;
                         used.push(a);
@@ -532,7 +535,7 @@ impl GmshMesh {
         let mut triangles = Vec::with_capacity(tris.len());
         let mut clockwise = Vec::with_capacity(tris.len());
         for &i in &tris {
-            let t = self.triangles[i].0;
+            let t = self.triangles.nodes(i);
             let mut l = t.map(|a| local[a]);
             let q = checks::quality(l.map(|a| points[a]));
             if checks::degenerate(q) {
@@ -557,8 +560,8 @@ impl GmshMesh {
         if let Some((e, f)) = checks::fold(&mesh) {
             let (a, b) = (tris[e], tris[f]);
             let same = {
-                let mut x = self.triangles[a].0;
-                let mut y = self.triangles[b].0;
+                let mut x = self.triangles.nodes(a);
+                let mut y = self.triangles.nodes(b);
                 x.sort_unstable();
                 y.sort_unstable();
                 x == y
@@ -623,7 +626,7 @@ mod tests {
             vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
         );
         assert_eq!(m.triangles.len(), 2);
-        assert_eq!(m.lines, vec![([0, 1], vec![7])]);
+        assert_eq!(m.lines, vec![([0, 1], vec![7])].into());
         assert_eq!(m.tag(2, "body1"), Some(3));
         assert_eq!(m.surface_node_count("body1"), 4);
         let b = m.body("body1").unwrap();
@@ -670,14 +673,17 @@ mod tests {
         };
         let pts = |pts: &[[f64; 2]], t: [usize; 3]| t.map(|a| pts[a]);
         for (c, (t, _)) in m.triangles.iter().enumerate() {
-            let a = area(pts(&m.points, *t));
-            let children = &f.triangles[r * r * c..r * r * (c + 1)];
-            let sum: f64 = children.iter().map(|(s, _)| area(pts(&f.points, *s))).sum();
+            let a = area(pts(&m.points, t));
+            let children = r * r * c..r * r * (c + 1);
+            let sum: f64 = children
+                .clone()
+                .map(|s| area(pts(&f.points, f.triangles.nodes(s))))
+                .sum();
             assert!((sum - a).abs() < 1e-14, "triangle {c}: areas {sum} vs {a}");
-            for (s, phys) in children {
-                let b = area(pts(&f.points, *s));
+            for s in children {
+                let b = area(pts(&f.points, f.triangles.nodes(s)));
                 assert!((b - a / (r * r) as f64).abs() < 1e-14 && b * a > 0.0);
-                assert_eq!(phys, &m.triangles[c].1);
+                assert_eq!(f.triangles.tags(s), m.triangles.tags(c));
             }
         }
         // The curve 'base' is the bottom edge split into r pieces, in order.

@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 
-use super::GmshMesh;
+use super::{Cells, GmshMesh};
 
 impl GmshMesh {
     /// The uniform refinement of the mesh by `r` (the reference mesh of (26) for a Gmsh
@@ -43,9 +43,8 @@ impl GmshMesh {
                 inner[r - k - 1]
             }
         };
-        let mut triangles = Vec::with_capacity(r * r * self.triangles.len());
-        for (t, phys) in &self.triangles {
-            let [v0, v1, v2] = *t;
+        let mut triangles = Cells::with_capacity(r * r * self.triangles.len());
+        for ([v0, v1, v2], phys) in &self.triangles {
             // Lattice point (i, j), i + j ≤ r, of the triangle.
             let mut lattice = vec![usize::MAX; (r + 1) * (r + 1)];
             for j in 0..=r {
@@ -70,23 +69,21 @@ impl GmshMesh {
             let at = |i: usize, j: usize| lattice[j * (r + 1) + i];
             for j in 0..r {
                 for i in 0..r - j {
-                    triangles.push(([at(i, j), at(i + 1, j), at(i, j + 1)], phys.clone()));
+                    triangles.push([at(i, j), at(i + 1, j), at(i, j + 1)], phys);
                     if i + j + 1 < r {
-                        triangles
-                            .push(([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], phys.clone()));
+                        triangles.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], phys);
                     }
                 }
             }
         }
-        let mut lines = Vec::with_capacity(r * self.lines.len());
-        for (l, phys) in &self.lines {
-            let [a, b] = *l;
+        let mut lines = Cells::with_capacity(r * self.lines.len());
+        for ([a, b], phys) in &self.lines {
             for k in 0..r {
                 let (p, q) = (
                     on_edge(&mut points, a, b, k),
                     on_edge(&mut points, a, b, k + 1),
                 );
-                lines.push(([p, q], phys.clone()));
+                lines.push([p, q], phys);
             }
         }
         // The r² triangles of triangle t keep its Gmsh tag.
