@@ -298,6 +298,18 @@ mod tests {
         );
     }
 
+    /// A quadrilateral in two triangles (one clockwise), the surface "body1" of a Gmsh mesh.
+    fn quad() -> crate::fem::gmsh::GmshMesh {
+        crate::fem::gmsh::GmshMesh {
+            path: "quad".into(),
+            points: vec![[0.0, 0.0], [1.0, 0.1], [1.2, 0.9], [0.1, 1.0]],
+            triangles: vec![([0, 1, 2], vec![1]), ([0, 3, 2], vec![1])].into(),
+            triangle_tags: vec![],
+            lines: Default::default(),
+            names: [((2, 1), "body1".to_string())].into_iter().collect(),
+        }
+    }
+
     /// A field on `mesh` that no P1 field of a coarser mesh is.
     fn wavy(mesh: &Mesh) -> Vec<f64> {
         let f = |p: [f64; 2]| [(4.0 * p[0]).sin() * p[1], p[0] * p[1] * p[1] - 0.3 * p[0]];
@@ -354,14 +366,7 @@ mod tests {
         check_parts(&coarse, &fine, 3, |ne| (ne / 32 + 3) * 17);
         check_parts(&coarse, &fine, 1, |_| fine.num_nodes());
         // Split (a Gmsh mesh refined): at most three nodes per element.
-        let gm = crate::fem::gmsh::GmshMesh {
-            path: "quad".into(),
-            points: vec![[0.0, 0.0], [1.0, 0.1], [1.2, 0.9], [0.1, 1.0]],
-            triangles: vec![([0, 1, 2], vec![1]), ([0, 2, 3], vec![1])].into(),
-            triangle_tags: vec![],
-            lines: Default::default(),
-            names: [((2, 1), "body1".to_string())].into_iter().collect(),
-        };
+        let gm = quad();
         let coarse = gm.body("body1").unwrap().mesh;
         let fine = gm.refined(4).body("body1").unwrap().mesh;
         check_parts(&coarse, &fine, 3, |ne| 3 * ne);
@@ -371,15 +376,7 @@ mod tests {
     #[test]
     fn split_interpolation_is_exact_for_p1_on_unstructured_meshes() {
         // A quadrilateral in two triangles (one clockwise), refined 4x through the Gmsh path.
-        let points = vec![[0.0, 0.0], [1.0, 0.1], [1.2, 0.9], [0.1, 1.0]];
-        let gm = crate::fem::gmsh::GmshMesh {
-            path: "quad".into(),
-            points,
-            triangles: vec![([0, 1, 2], vec![1]), ([0, 3, 2], vec![1])].into(),
-            triangle_tags: vec![],
-            lines: Default::default(),
-            names: [((2, 1), "body1".to_string())].into_iter().collect(),
-        };
+        let gm = quad();
         let coarse = gm.body("body1").unwrap().mesh;
         let fine = gm.refined(4).body("body1").unwrap().mesh;
         // A linear field is reproduced at every fine node; the coarse nodes keep their values.
