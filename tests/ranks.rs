@@ -5,6 +5,9 @@
 mod common;
 use common::*;
 
+const HERTZ_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hertz/hertz.geo");
+const HERTZ_OPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hertz/hertz.opts");
+
 #[test]
 fn one_and_two_ranks_agree() {
     let dir = scratch("ranks");
@@ -335,5 +338,66 @@ fn iterative_and_out_of_core_options_on_three_ranks_agree_with_mumps() {
         ((c - b) / b).abs() < 1e-12,
         "out of core {c} vs in core {b}"
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// e_ref against the reference solution (26), which each rank of a body's group holds as its
+/// block of the fine elements and u_ref on their nodes: the same on 1 to 4 ranks, on `paper`
+/// (a structured mesh refined 3 times) at every estimated iteration, and on Hertz level 1 (a
+/// Gmsh mesh, each triangle split into 4) at the converged iterate (its first iterations
+/// differ with the rank count: a contact pair at the edge of the contact set is decided by
+/// the solves' round-off there).
+#[test]
+fn the_reference_error_is_the_same_on_one_to_four_ranks() {
+    let dir = scratch("ranks-eref");
+    let msh = gmsh_level(HERTZ_GEO, &dir, "hertz", 1);
+    let paper = [
+        "-nndd_problem",
+        "paper",
+        "-nndd_n",
+        "8",
+        "-nndd_theta",
+        "0.25",
+        "-nndd_reference_factor",
+        "3",
+    ];
+    let hertz = ["-nndd_reference_factor", "2"];
+    let e_ref = |j: &serde_json::Value| -> Vec<f64> {
+        let e = j["estimates"].as_array().expect("estimates");
+        e.iter().map(|x| f(x, "e_ref")).collect()
+    };
+    for (name, extra) in [("paper", &paper[..]), ("hertz", &hertz[..])] {
+        let mut args = vec!["-nndd_estimate_every", "4", "-nndd_tol", "1e-10"];
+        args.extend_from_slice(extra);
+        let run = |n: usize| {
+            let prefix = dir.join(format!("{name}-n{n}"));
+            let j = match name {
+                "paper" => solve(n, &prefix, &args),
+                _ => solve_meshed(n, HERTZ_OPTS, &msh, &prefix, &args),
+            };
+            e_ref(&j)
+        };
+        // (Hertz: the converged iterate's alone)
+        let compared = |e: Vec<f64>| match name {
+            "paper" => e,
+            _ => e[e.len() - 1..].to_vec(),
+        };
+        let base = run(1);
+        assert!(
+            base.len() >= 2 && base.iter().all(|&e| e > 0.0),
+            "{name}: {base:?}"
+        );
+        let base = compared(base);
+        for n in [2, 3, 4] {
+            let e = compared(run(n));
+            assert_eq!(e.len(), base.len(), "{name} -n {n}");
+            for (a, b) in e.iter().zip(&base) {
+                assert!(
+                    (a - b).abs() <= 1e-10 * b,
+                    "{name} -n {n}: e_ref {a} against {b}"
+                );
+            }
+        }
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
