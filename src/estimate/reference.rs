@@ -304,7 +304,7 @@ mod tests {
             path: "quad".into(),
             points: vec![[0.0, 0.0], [1.0, 0.1], [1.2, 0.9], [0.1, 1.0]],
             triangles: vec![([0, 1, 2], vec![1]), ([0, 3, 2], vec![1])].into(),
-            triangle_tags: vec![],
+            triangle_tags: Default::default(),
             lines: Default::default(),
             names: [((2, 1), "body1".to_string())].into_iter().collect(),
         }

@@ -359,7 +359,7 @@ fn insert(
         g.triangles.set_nodes(i, [x, c, z]);
         g.triangles.push_like([c, y, z], i);
         if !g.triangle_tags.is_empty() {
-            let tag = g.triangle_tags[i];
+            let tag = g.triangle_tags.get(i);
             g.triangle_tags.push(tag);
         }
         let j = g.triangles.len() - 1;

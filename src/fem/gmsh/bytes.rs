@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{Cells, GmshMesh};
+use super::{Cells, ElementTags, GmshMesh};
 
 impl GmshMesh {
     /// The mesh as bytes (little-endian counts, coordinates, nodes and tags, then the names):
@@ -35,7 +35,7 @@ impl GmshMesh {
             cells(&mut b, &t, tags);
         }
         int(&mut b, self.triangle_tags.len() as u64);
-        for &t in &self.triangle_tags {
+        for t in self.triangle_tags.iter() {
             int(&mut b, t);
         }
         int(&mut b, self.lines.len() as u64);
@@ -64,7 +64,7 @@ impl GmshMesh {
         }
         let triangle_tags = (0..r.int()?)
             .map(|_| Some(r.int()? as u64))
-            .collect::<Option<Vec<_>>>()?;
+            .collect::<Option<ElementTags>>()?;
         let mut lines = Cells::default();
         for _ in 0..r.int()? {
             lines.push([r.int()?, r.int()?], &r.tags()?);

@@ -22,7 +22,7 @@ mod bytes;
 mod cells;
 mod refine;
 
-pub use cells::Cells;
+pub use cells::{Cells, ElementTags};
 
 /// What is wrong with a mesh file, in the words the user needs (the caller names the option).
 #[derive(Debug, thiserror::Error)]
@@ -71,7 +71,7 @@ pub struct GmshMesh {
     /// 3-node triangles and the physical surface tags of their entity.
     pub triangles: Cells<3>,
     /// The Gmsh element tag of each triangle (empty when not known: a mesh built in code).
-    pub triangle_tags: Vec<u64>,
+    pub triangle_tags: ElementTags,
     /// 2-node lines and the physical curve tags of their entity.
     pub lines: Cells<2>,
     /// Physical names by (dimension, tag).
@@ -261,7 +261,7 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
         .as_ref()
         .ok_or_else(|| not_msh("no $Elements section".into()))?;
     let mut triangles = Cells::default();
-    let mut triangle_tags = Vec::new();
+    let mut triangle_tags = ElementTags::default();
     let mut lines = Cells::default();
     let lookup = |tag: &u64| {
         index.get(tag).copied().ok_or_else(|| GmshError::Invalid {
@@ -448,7 +448,10 @@ impl GmshMesh {
 
     /// The Gmsh tag of triangle `i` (its number from 1 where the tags are not known).
     pub fn element_tag(&self, i: usize) -> u64 {
-        self.triangle_tags.get(i).copied().unwrap_or(i as u64 + 1)
+        match self.triangle_tags.is_empty() {
+            true => i as u64 + 1,
+            false => self.triangle_tags.get(i),
+        }
     }
 
     /// Triangle `i` for a message: "element TAG (x, y), (x, y), (x, y)".
@@ -702,7 +705,7 @@ mod tests {
     #[test]
     fn element_tags_nan_and_node_tags_given_twice() {
         let m = parse(SQUARE.as_bytes(), "x.msh").unwrap();
-        assert_eq!(m.triangle_tags, vec![2, 3]);
+        assert_eq!(m.triangle_tags.iter().collect::<Vec<_>>(), vec![2, 3]);
         assert!(m
             .describe(1)
             .starts_with("element 3 (0.000000e0, 0.000000e0)"));

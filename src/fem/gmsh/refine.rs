@@ -90,7 +90,7 @@ impl GmshMesh {
         let triangle_tags = self
             .triangle_tags
             .iter()
-            .flat_map(|&t| std::iter::repeat_n(t, r * r))
+            .flat_map(|t| std::iter::repeat_n(t, r * r))
             .collect();
         GmshMesh {
             path: format!("{} refined {r}x", self.path),
