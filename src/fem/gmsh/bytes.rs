@@ -6,42 +6,27 @@ use std::collections::BTreeMap;
 use super::{Cells, ElementTags, GmshMesh};
 
 impl GmshMesh {
-    /// The mesh as bytes (little-endian counts, coordinates, nodes and tags, then the names):
-    /// what one rank sends the others instead of their parsing the file again.
+    /// The mesh as bytes (little-endian: the path, the points, each kind of element's tag
+    /// lists then its nodes in 4 bytes and its list's index, the element tags' runs, the
+    /// names): what world rank 0 sends the others, 16 bytes per triangle and per node.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(16 * self.points.len() + 40 * self.triangles.len());
-        let int = |b: &mut Vec<u8>, v: u64| b.extend_from_slice(&v.to_le_bytes());
-        let text = |b: &mut Vec<u8>, t: &str| {
-            b.extend_from_slice(&(t.len() as u64).to_le_bytes());
-            b.extend_from_slice(t.as_bytes());
-        };
+        let mut b = Vec::with_capacity(16 * self.points.len() + 16 * self.triangles.len());
         text(&mut b, &self.path);
         int(&mut b, self.points.len() as u64);
         for p in &self.points {
             b.extend_from_slice(&p[0].to_le_bytes());
             b.extend_from_slice(&p[1].to_le_bytes());
         }
-        let cells = |b: &mut Vec<u8>, nodes: &[usize], tags: &[i32]| {
-            for &n in nodes {
-                int(b, n as u64);
-            }
-            int(b, tags.len() as u64);
-            for &t in tags {
-                b.extend_from_slice(&t.to_le_bytes());
-            }
-        };
-        int(&mut b, self.triangles.len() as u64);
-        for (t, tags) in &self.triangles {
-            cells(&mut b, &t, tags);
+        cells(&mut b, &self.triangles);
+        let (runs, len) = self.triangle_tags.runs();
+        int(&mut b, len as u64);
+        int(&mut b, runs.len() as u64);
+        for &(first, tag, step) in runs {
+            int(&mut b, first as u64);
+            int(&mut b, tag);
+            b.push(step);
         }
-        int(&mut b, self.triangle_tags.len() as u64);
-        for t in self.triangle_tags.iter() {
-            int(&mut b, t);
-        }
-        int(&mut b, self.lines.len() as u64);
-        for (l, tags) in &self.lines {
-            cells(&mut b, &l, tags);
-        }
+        cells(&mut b, &self.lines);
         int(&mut b, self.names.len() as u64);
         for ((dim, tag), name) in &self.names {
             b.extend_from_slice(&dim.to_le_bytes());
@@ -58,17 +43,13 @@ impl GmshMesh {
         let points = (0..r.int()?)
             .map(|_| Some([r.f64()?, r.f64()?]))
             .collect::<Option<Vec<_>>>()?;
-        let mut triangles = Cells::default();
-        for _ in 0..r.int()? {
-            triangles.push([r.int()?, r.int()?, r.int()?], &r.tags()?);
-        }
-        let triangle_tags = (0..r.int()?)
-            .map(|_| Some(r.int()? as u64))
-            .collect::<Option<ElementTags>>()?;
-        let mut lines = Cells::default();
-        for _ in 0..r.int()? {
-            lines.push([r.int()?, r.int()?], &r.tags()?);
-        }
+        let triangles = r.cells()?;
+        let len = r.int()?;
+        let runs = (0..r.int()?)
+            .map(|_| Some((r.int()?, r.int()? as u64, r.take::<1>()?[0])))
+            .collect::<Option<Vec<_>>>()?;
+        let triangle_tags = ElementTags::from_runs(runs, len)?;
+        let lines = r.cells()?;
         let names = (0..r.int()?)
             .map(|_| Some(((r.i32()?, r.i32()?), r.text()?)))
             .collect::<Option<BTreeMap<_, _>>>()?;
@@ -80,6 +61,35 @@ impl GmshMesh {
             lines,
             names,
         })
+    }
+}
+
+fn int(b: &mut Vec<u8>, v: u64) {
+    b.extend_from_slice(&v.to_le_bytes());
+}
+
+fn text(b: &mut Vec<u8>, t: &str) {
+    int(b, t.len() as u64);
+    b.extend_from_slice(t.as_bytes());
+}
+
+/// Elements as bytes: the tag lists, the count, then each element's nodes and list index in 4
+/// bytes each.
+fn cells<const N: usize>(b: &mut Vec<u8>, c: &Cells<N>) {
+    let (nodes, set, sets) = c.parts();
+    int(b, sets.len() as u64);
+    for tags in sets {
+        int(b, tags.len() as u64);
+        for &t in tags {
+            b.extend_from_slice(&t.to_le_bytes());
+        }
+    }
+    int(b, nodes.len() as u64);
+    for (n, &s) in nodes.iter().zip(set) {
+        for &v in n {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&s.to_le_bytes());
     }
 }
 
@@ -104,8 +114,33 @@ impl Reader<'_> {
     fn i32(&mut self) -> Option<i32> {
         Some(i32::from_le_bytes(self.take()?))
     }
+    fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take()?))
+    }
     fn tags(&mut self) -> Option<Vec<i32>> {
         (0..self.int()?).map(|_| self.i32()).collect()
+    }
+    /// What [`cells`] wrote.
+    fn cells<const N: usize>(&mut self) -> Option<Cells<N>> {
+        let sets = (0..self.int()?)
+            .map(|_| self.tags())
+            .collect::<Option<Vec<_>>>()?;
+        let n = self.int()?;
+        // (a count the bytes cannot hold is refused before anything is allocated for it)
+        if n > (self.bytes.len() - self.at) / (4 * (N + 1)) {
+            return None;
+        }
+        let mut nodes = Vec::with_capacity(n);
+        let mut set = Vec::with_capacity(n);
+        for _ in 0..n {
+            let mut v = [0u32; N];
+            for x in v.iter_mut() {
+                *x = self.u32()?;
+            }
+            nodes.push(v);
+            set.push(self.u32()?);
+        }
+        Cells::from_parts(nodes, set, sets)
     }
     fn text(&mut self) -> Option<String> {
         let n = self.int()?;

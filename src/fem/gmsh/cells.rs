@@ -69,6 +69,22 @@ impl<const N: usize> Cells<N> {
         &self.sets[self.set[i] as usize]
     }
 
+    /// What a [`Cells`] is made of: each element's nodes and index into the tag lists, and
+    /// the lists (for [`super::GmshMesh::to_bytes`]).
+    pub(super) fn parts(&self) -> (&[[u32; N]], &[u32], &[Vec<i32>]) {
+        (&self.nodes, &self.set, &self.sets)
+    }
+
+    /// The [`Cells`] of those parts, if they make one.
+    pub(super) fn from_parts(
+        nodes: Vec<[u32; N]>,
+        set: Vec<u32>,
+        sets: Vec<Vec<i32>>,
+    ) -> Option<Cells<N>> {
+        let fits = nodes.len() == set.len() && set.iter().all(|&s| (s as usize) < sets.len());
+        fits.then_some(Cells { nodes, set, sets })
+    }
+
     /// Each element's nodes and tags, in order.
     pub fn iter(&self) -> impl Iterator<Item = ([usize; N], &[i32])> + '_ {
         (0..self.len()).map(|i| (self.nodes(i), self.tags(i)))
@@ -148,6 +164,21 @@ impl ElementTags {
         let r = self.runs.partition_point(|&(first, _, _)| first <= i) - 1;
         let (first, start, step) = self.runs[r];
         start + (step % OPEN) as u64 * (i - first) as u64
+    }
+
+    /// The runs (first element, its tag, step) and the element count (for
+    /// [`super::GmshMesh::to_bytes`]).
+    pub(super) fn runs(&self) -> (&[(usize, u64, u8)], usize) {
+        (&self.runs, self.len)
+    }
+
+    /// The [`ElementTags`] of those runs, if they make one.
+    pub(super) fn from_runs(runs: Vec<(usize, u64, u8)>, len: usize) -> Option<ElementTags> {
+        let ordered = runs.windows(2).all(|w| w[0].0 < w[1].0)
+            && runs.first().is_none_or(|r| r.0 == 0)
+            && runs.last().is_none_or(|r| r.0 < len)
+            && runs.iter().all(|r| r.2 <= OPEN);
+        (ordered && (len == 0) == runs.is_empty()).then_some(ElementTags { runs, len })
     }
 
     /// Every element's tag, in order.

@@ -653,7 +653,12 @@ mod tests {
         assert_eq!(back.points, m.points);
         assert_eq!(back.triangles, m.triangles);
         assert_eq!(back.lines, m.lines);
+        assert_eq!(back.triangle_tags, m.triangle_tags);
+        assert!(!m.triangle_tags.is_empty());
         assert_eq!(back.names, m.names);
+        // 16 bytes per node and per triangle, and a little for the tag lists and names.
+        let size = 16 * (m.points.len() + m.triangles.len()) + 4 * 3 * m.lines.len();
+        assert!(b.len() < size + 400, "{} bytes for {size}", b.len());
         assert!(GmshMesh::from_bytes(&b[..b.len() - 1]).is_none());
         let mut longer = b.clone();
         longer.push(0);
