@@ -116,7 +116,7 @@ impl<const N: usize> From<Vec<([usize; N], Vec<i32>)>> for Cells<N> {
 
 /// The Gmsh element tag of each triangle, held as runs (Gmsh numbers a block's elements
 /// consecutively, and a refined triangle's r² children share its tag): a few runs where a tag
-/// per element cost 8 bytes each on every rank.
+/// per element would cost 8 bytes each on every rank.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ElementTags {
     /// (first element, its tag, the step from one element to the next: 0, 1, or [`OPEN`]
