@@ -1,7 +1,8 @@
 //! A Gmsh mesh's elements of one kind (triangles, lines) with the physical tags of their
-//! entity ([`Cells`]) and the triangles' element tags ([`ElementTags`]), held compactly: nodes in 4 bytes, and each element's tags as an index into the
-//! mesh's few distinct tag lists (an element's own list would cost a heap block each: about
-//! 80 bytes per triangle where this costs 16, on every rank that holds the mesh).
+//! entity ([`Cells`]) and the triangles' element tags ([`ElementTags`]), held compactly: nodes
+//! in 4 bytes, and each element's tags as an index into the mesh's few distinct tag lists (an
+//! element's own list would cost a heap block each: about 80 bytes per triangle where this
+//! costs 16, on every rank that holds the mesh).
 
 /// Elements of `N` nodes, each with the physical tags of its entity.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -86,8 +87,29 @@ impl<const N: usize> Cells<N> {
     }
 
     /// Each element's nodes and tags, in order.
-    pub fn iter(&self) -> impl Iterator<Item = ([usize; N], &[i32])> + '_ {
-        (0..self.len()).map(|i| (self.nodes(i), self.tags(i)))
+    pub fn iter(&self) -> CellIter<'_, N> {
+        CellIter { cells: self, i: 0 }
+    }
+}
+
+/// The iterator of [`Cells::iter`].
+pub struct CellIter<'a, const N: usize> {
+    cells: &'a Cells<N>,
+    i: usize,
+}
+
+impl<'a, const N: usize> Iterator for CellIter<'a, N> {
+    type Item = ([usize; N], &'a [i32]);
+    fn next(&mut self) -> Option<Self::Item> {
+        let i = self.i;
+        (i < self.cells.len()).then(|| {
+            self.i += 1;
+            (self.cells.nodes(i), self.cells.tags(i))
+        })
+    }
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let left = self.cells.len() - self.i;
+        (left, Some(left))
     }
 }
 
@@ -98,9 +120,9 @@ fn narrow<const N: usize>(nodes: [usize; N]) -> [u32; N] {
 
 impl<'a, const N: usize> IntoIterator for &'a Cells<N> {
     type Item = ([usize; N], &'a [i32]);
-    type IntoIter = Box<dyn Iterator<Item = ([usize; N], &'a [i32])> + 'a>;
-    fn into_iter(self) -> Self::IntoIter {
-        Box::new(self.iter())
+    type IntoIter = CellIter<'a, N>;
+    fn into_iter(self) -> CellIter<'a, N> {
+        self.iter()
     }
 }
 
