@@ -71,7 +71,8 @@ fn available(world: &SimpleCommunicator) -> f64 {
 /// for a Gmsh mesh (its uniform refinement, not built here).
 fn fine_dofs(settings: &Settings, r: usize) -> usize {
     match &settings.problem.mesh {
-        None => settings.problem.refined(r).dofs(),
+        // (a built-in problem refines without a file: never an error)
+        None => settings.problem.refined(r).map_or(0, |fine| fine.dofs()),
         Some(_) => settings.problem.dofs() * r * r,
     }
 }

@@ -102,7 +102,14 @@ pub fn run(
     for cycle in 1..=adapt.max_cycles {
         // Solve and estimate on this cycle's meshes (PREFIX-cycleK.*).
         settings.output.paths = cycle_paths(&base, cycle);
-        let solved = solve_cycle(world, &settings, stages, agreement, start, Instant::now())?;
+        let solved = solve_cycle(
+            world,
+            settings.clone(),
+            stages,
+            agreement,
+            start,
+            Instant::now(),
+        )?;
         let Some(mut record) = CycleRecord::of(cycle, &solved) else {
             // (interrupted, or not converged before an estimate: the cycle's files say so)
             finish(

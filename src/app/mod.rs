@@ -222,7 +222,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
         // One solve on the given mesh.
         None => {
             let start = Start::default();
-            Ok(solve_cycle(&world, &settings, &stages, agreement, start, t_start)?.outcome)
+            Ok(solve_cycle(&world, settings, &stages, agreement, start, t_start)?.outcome)
         }
         // Cycles of solve, estimate and remesh until η^glo ≤ ε ‖u_h‖_E (docs/method.md §8).
         Some(adapt) => cycles::run(&world, &settings, adapt, &stages, agreement),
@@ -259,17 +259,16 @@ pub(crate) struct Cycle {
 /// checks, and the output (PREFIX.h5, .xdmf, .json).
 pub(crate) fn solve_cycle(
     world: &SimpleCommunicator,
-    settings: &Settings,
+    mut settings: Settings,
     stages: &Stages,
     agreement: &Agreement,
     start: Start,
     t_start: Instant,
 ) -> Result<Cycle, AppError> {
-    let mut settings = settings.clone();
     // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
     // the whole geometry: the interface, the estimator's slabs and the output's blocks read it).
     let mut problems = build_problems(&settings, agreement, world.rank() == 0)?;
-    if let Some(why) = settings.problem.node_to_node_instead(&problems) {
+    if let Some(why) = settings.problem.node_to_node_instead(&problems)? {
         // (`-nndd_contact_discretisation auto` where mortar is not available)
         settings.warnings.push(why);
         problems = build_problems(&settings, agreement, world.rank() == 0)?;
@@ -284,6 +283,8 @@ pub(crate) fn solve_cycle(
             .and_then(|()| settings.friction_rules(&problems))
             .map_err(AppError::from),
     )?;
+    // The parsed Gmsh mesh freed before the bodies are set up, where nothing after reads it.
+    settings.release_mesh_unread_later();
     let settings = settings;
     say_warnings(world.rank() == 0, &settings.warnings);
     let mut timings = Timings {

@@ -21,6 +21,7 @@ use crate::parallel::fault::{Fault, Phase};
 use crate::petsc::readers::Bounds;
 pub use crate::petsc::readers::SettingsError;
 use crate::petsc::{self, Comm, OptionsBlock};
+use crate::problem::meshed::MeshedError;
 use crate::problem::settings::option_applies;
 use crate::problem::{BodyProblem, ContactDiscretisation, ProblemKind, ProblemSettings, Support};
 use crate::qp::QpSettings;
@@ -175,9 +176,9 @@ impl Settings {
 
     /// The same problem on the nested mesh refined `r` times, solved to tol 1e−8 without
     /// output, monitor or estimates (the reference of (26)).
-    pub fn refined(&self, r: usize) -> Settings {
+    pub fn refined(&self, r: usize) -> Result<Settings, MeshedError> {
         let mut s = self.clone();
-        s.problem = self.problem.refined(r);
+        s.problem = self.problem.refined(r)?;
         s.nndd = self.nndd.for_reference(&self.problem.materials);
         s.output.monitor = false;
         s.estimate.enabled = false;
@@ -186,7 +187,27 @@ impl Settings {
         s.checkpoint_every = 0;
         s.restart = None;
         s.adapt = None;
-        s
+        Ok(s)
+    }
+
+    /// Whether a phase after the bodies are built reads a Gmsh problem's parsed mesh: the
+    /// reference solution refines it, a mortar run's estimates match its curves
+    /// ([`ProblemSettings::for_estimates`]), an adaptive run's cycles remesh its geometry.
+    pub fn reads_mesh_after_build(&self) -> bool {
+        let mortar = self.problem.mesh.as_ref().map(|m| m.discretisation)
+            == Some(ContactDiscretisation::Mortar);
+        self.adapt.is_some()
+            || self.estimate.reference_factor > 0
+            || (mortar && self.estimate.enabled)
+    }
+
+    /// A Gmsh problem's parsed mesh let go where no later phase reads it (these settings' hold
+    /// on it: the run holds no other once its bodies are built).
+    pub fn release_mesh_unread_later(&mut self) {
+        let unread = !self.reads_mesh_after_build();
+        if let (Some(spec), true) = (self.problem.mesh.as_mut(), unread) {
+            spec.gmsh.release();
+        }
     }
 
     /// The choices the mortar discretisation decides (a body's trace
@@ -205,7 +226,12 @@ impl Settings {
                 format!("friction (-nndd_friction {}) is not available with the mortar discretisation yet; use node_to_node (the curves are then made to match)", self.friction.name()),
             ));
         }
-        let closed = self.problem.mesh.as_ref().and_then(|m| m.closed_contact());
+        let closed = match &self.problem.mesh {
+            Some(spec) => spec
+                .closed_contact()
+                .map_err(|e| SettingsError::named("-nndd_contact", e.to_string()))?,
+            None => None,
+        };
         if let (Some(curve), true) = (closed, self.estimate.enabled) {
             return Err(SettingsError::named(
                 "-nndd_contact",

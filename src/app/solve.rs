@@ -221,7 +221,7 @@ pub fn solve_reference(
     let t = Instant::now();
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
-    let fine = settings.refined(r);
+    let mut fine = settings.refined(r)?;
     if layout.is_root() && (settings.output.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
         // Word before the long phase: the reference mesh has r² times the dofs.
         println!(
@@ -235,6 +235,8 @@ pub fn solve_reference(
     let stages = &stages.all_in_reference();
     let _s = stages.reference.enter();
     let mut problems = problem::build(&fine.problem)?;
+    // (a Gmsh problem's refined mesh, r² times the user's, freed before the fine factorisations)
+    fine.release_mesh_unread_later();
     if let Some(g) = gaps {
         problems = g.apply(problems);
     }

@@ -88,14 +88,14 @@ impl<'a> Run<'a> {
         warnings: &mut Vec<String>,
     ) -> Result<Option<Estimator<'a>>, AppError> {
         let (settings, layout) = (self.settings, self.layout);
-        let matched = settings
-            .problem
-            .for_estimates()
-            .filter(|_| settings.estimate.enabled)
-            .map(|problem| Settings {
-                problem,
-                ..settings.clone()
-            });
+        let matched = match settings.estimate.enabled {
+            true => settings.problem.for_estimates()?,
+            false => None,
+        };
+        let matched = matched.map(|problem| Settings {
+            problem,
+            ..settings.clone()
+        });
         let on = matched.as_ref().unwrap_or(settings);
         let problems = [&*self.problems[0], &*self.problems[1]];
         let gaps = matched.as_ref().map(|_| GapField::new(problems));

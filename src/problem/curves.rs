@@ -15,6 +15,10 @@ pub enum MeshedError {
     Mesh(#[from] GmshError),
     #[error("{option}: {message}")]
     Option { option: String, message: String },
+    /// A phase read the parsed file after it was let go (a defect: the run keeps it where a
+    /// later phase reads it).
+    #[error("-nndd_mesh {path}: the parsed mesh was released once the bodies were built, and a later phase reads it")]
+    Released { path: String },
 }
 
 pub(super) fn opt_err(option: &str, message: String) -> MeshedError {

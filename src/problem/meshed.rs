@@ -21,11 +21,10 @@ use super::curves::{
 use super::sound::{check_pieces, overlap, shared_triangles};
 use super::{BodyProblem, ContactDiscretisation, GcTrace, NeumannEdge, Support};
 use crate::fem::checks;
-use crate::fem::gmsh::{GmshBody, GmshError, GmshMesh};
+use crate::fem::gmsh::{GmshBody, GmshError};
 use crate::fem::Material;
 
-/// The physical surface names of the two bodies.
-pub const BODY_NAMES: [&str; 2] = ["body1", "body2"];
+pub use super::parsed::BODY_NAMES;
 
 /// Conditions on one named physical curve (plain data, from the `-nndd_bc_NAME_…` options).
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -40,8 +39,9 @@ pub struct CurveCondition {
 /// The user's meshed problem (plain data, filled from the options by `app`).
 #[derive(Clone, Debug)]
 pub struct MeshSpec {
-    /// The parsed file (read once, when the options are read).
-    pub gmsh: Rc<GmshMesh>,
+    /// The parsed file (read once, when the options are read; its mesh released once the
+    /// bodies are built where no later phase reads it).
+    pub gmsh: super::parsed::ParsedFile,
     pub conditions: Vec<CurveCondition>,
     /// Γc: body 1's curve and body 2's curve.
     pub contact: [String; 2],
@@ -64,11 +64,13 @@ pub struct MeshSpec {
 
 impl MeshSpec {
     /// The first of the contact curves that closes on itself (a whole circle), if any.
-    pub fn closed_contact(&self) -> Option<&str> {
-        self.contact
+    pub fn closed_contact(&self) -> Result<Option<&str>, MeshedError> {
+        let gmsh = self.gmsh.mesh()?;
+        let closed = self
+            .contact
             .iter()
-            .find(|name| super::curves::is_closed(&self.gmsh, name))
-            .map(String::as_str)
+            .find(|name| super::curves::is_closed(gmsh, name));
+        Ok(closed.map(String::as_str))
     }
 }
 
@@ -105,12 +107,13 @@ fn made_by_matching(spec: &MeshSpec, e: GmshError) -> MeshedError {
 
 /// Both bodies of a meshed problem.
 pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 2], MeshedError> {
-    shared_triangles(&spec.gmsh, BODY_NAMES)?;
+    let gmsh = spec.gmsh.mesh()?;
+    shared_triangles(gmsh, BODY_NAMES)?;
     let bodies: Vec<GmshBody> = BODY_NAMES
         .iter()
-        .map(|n| spec.gmsh.body(n).map_err(|e| made_by_matching(spec, e)))
+        .map(|n| gmsh.body(n).map_err(|e| made_by_matching(spec, e)))
         .collect::<Result<_, _>>()?;
-    overlap(&spec.gmsh, &bodies)?;
+    overlap(gmsh, &bodies)?;
     // Every curve named by an option must lie on a body.
     for c in &spec.conditions {
         if !bodies.iter().any(|b| b.curves.contains_key(&c.curve)) {
@@ -119,7 +122,7 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
                 format!(
                     "no physical curve '{}' on body1 or body2 (physical curves: {})",
                     c.curve,
-                    spec.gmsh.group_names(1)
+                    gmsh.group_names(1)
                 ),
             ));
         }
@@ -137,7 +140,7 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
         let (dirichlet, neumann) = conditions(spec, &bodies[k], alpha)?;
         // (under mortar, body 2 meets each pair mostly at its row's heaviest node)
         let contact = (&pairing.nearest[k][..], &pairing.normals[..]);
-        let support = check_pieces(&spec.gmsh, &bodies[k], &dirichlet, contact, alpha)?;
+        let support = check_pieces(gmsh, &bodies[k], &dirichlet, contact, alpha)?;
         let trace = match &coupling {
             Some((c, mortar)) if *mortar == k => GcTrace::Mortar(c.clone()),
             _ => GcTrace::Nodes,
@@ -563,7 +566,7 @@ mod tests {
             .made
             .insert(super::super::matched::point_key(corners[2]));
         let spec = MeshSpec {
-            gmsh: Rc::new(GmshMesh::default()),
+            gmsh: super::super::parsed::ParsedFile::new(Default::default()),
             conditions: Vec::new(),
             contact: ["top1".into(), "bottom2".into()],
             discretisation: ContactDiscretisation::NodeToNode,

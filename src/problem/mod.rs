@@ -17,6 +17,7 @@ mod curves;
 pub mod matched;
 pub mod meshed;
 pub mod mortar;
+pub mod parsed;
 mod polyline;
 pub mod settings;
 mod sound;
@@ -72,17 +73,17 @@ impl ProblemSettings {
     }
 
     /// The same problem on the nested mesh refined `r` times.
-    pub fn refined(&self, r: usize) -> ProblemSettings {
+    pub fn refined(&self, r: usize) -> Result<ProblemSettings, meshed::MeshedError> {
         let mut s = self.clone();
         s.n *= r;
         for g in s.grids.iter_mut() {
             *g = (g.0 * r, g.1 * r);
         }
         if let Some(spec) = s.mesh.as_mut() {
-            spec.gmsh = Rc::new(spec.gmsh.refined(r));
+            spec.gmsh = parsed::ParsedFile::new(spec.gmsh.mesh()?.refined(r));
             spec.nested = Some(r);
         }
-        s
+        Ok(s)
     }
 
     /// The problem the estimates of a mortar run work on (`None` for any other run): the
@@ -91,39 +92,48 @@ impl ProblemSettings {
     /// estimates"). Every P1 field of the user's meshes is one of these meshes', so the mortar
     /// iterate carries over exactly ([`transfer::Transfer`]); its continuous problem is that of
     /// §6 on the user's polygons, and its nested refinements give the reference solution.
-    pub fn for_estimates(&self) -> Option<ProblemSettings> {
-        let spec = self.mesh.as_ref()?;
+    pub fn for_estimates(&self) -> Result<Option<ProblemSettings>, meshed::MeshedError> {
+        let Some(spec) = self.mesh.as_ref() else {
+            return Ok(None);
+        };
         if spec.discretisation != ContactDiscretisation::Mortar {
-            return None;
+            return Ok(None);
         }
         let (gmsh, matched) =
-            conform::conform_with(&spec.gmsh, &spec.contact, conform::Snap::InsertOnly);
+            conform::conform_with(spec.gmsh.mesh()?, &spec.contact, conform::Snap::InsertOnly);
         let mut s = self.clone();
         s.mesh = Some(meshed::MeshSpec {
-            gmsh: Rc::new(gmsh),
+            gmsh: parsed::ParsedFile::new(gmsh),
             discretisation: ContactDiscretisation::NodeToNode,
             matched: Rc::new(matched),
             ..spec.clone()
         });
-        Some(s)
+        Ok(Some(s))
     }
 
     /// Under `-nndd_contact_discretisation auto`, where it chose mortar for `problems` but a
     /// body is held only by contact (which mortar does not support yet): the problem switched to
     /// node to node, and why, in a line.
-    pub fn node_to_node_instead(&mut self, problems: &[Rc<BodyProblem>; 2]) -> Option<String> {
-        let spec = self.mesh.as_mut()?;
-        let held = problems.iter().find(|p| p.support == Support::Contact)?;
+    pub fn node_to_node_instead(
+        &mut self,
+        problems: &[Rc<BodyProblem>; 2],
+    ) -> Result<Option<String>, meshed::MeshedError> {
+        let Some(spec) = self.mesh.as_mut() else {
+            return Ok(None);
+        };
+        let Some(held) = problems.iter().find(|p| p.support == Support::Contact) else {
+            return Ok(None);
+        };
         if spec.choice != DiscretisationChoice::Auto
             || spec.discretisation != ContactDiscretisation::Mortar
         {
-            return None;
+            return Ok(None);
         }
-        *spec = spec.node_to_node();
-        Some(format!(
+        *spec = spec.node_to_node()?;
+        Ok(Some(format!(
             "the contact curves do not match, but body {} is held only by contact, which the mortar discretisation does not support yet: they are made to match and coupled node to node (-nndd_contact_discretisation auto)",
             held.alpha
-        ))
+        )))
     }
 
     /// Total number of dofs of both bodies.
@@ -134,7 +144,7 @@ impl ProblemSettings {
     /// Dofs of each body (they also size the rank groups).
     pub fn body_dofs(&self) -> [usize; 2] {
         match &self.mesh {
-            Some(spec) => meshed::BODY_NAMES.map(|n| 2 * spec.gmsh.surface_node_count(n)),
+            Some(spec) => spec.gmsh.body_dofs,
             None => self.grids.map(|(nx, ny)| 2 * (nx + 1) * (ny + 1)),
         }
     }

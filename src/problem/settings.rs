@@ -4,8 +4,9 @@
 use std::collections::BTreeSet;
 use std::rc::Rc;
 
-use super::meshed::{CurveCondition, MeshSpec, BODY_NAMES};
+use super::meshed::{CurveCondition, MeshSpec, MeshedError, BODY_NAMES};
 use super::mortar::GapGeometry;
+use super::parsed::ParsedFile;
 use super::{ContactDiscretisation, DiscretisationChoice, ProblemKind, ProblemSettings};
 use crate::fem::Material;
 use crate::fem::{geo, gmsh};
@@ -353,7 +354,7 @@ fn mesh_spec(
     let contact = [pair[0].to_string(), pair[1].to_string()];
     let (gmsh, discretisation, matched) = resolve(gmsh, &contact, choice);
     Ok(MeshSpec {
-        gmsh: Rc::new(gmsh),
+        gmsh: ParsedFile::new(gmsh),
         conditions,
         contact,
         discretisation,
@@ -407,7 +408,7 @@ impl MeshSpec {
     pub fn remeshed(&self, gmsh: gmsh::GmshMesh) -> MeshSpec {
         let (gmsh, discretisation, matched) = resolve(gmsh, &self.contact, self.choice);
         MeshSpec {
-            gmsh: Rc::new(gmsh),
+            gmsh: ParsedFile::new(gmsh),
             discretisation,
             matched: Rc::new(matched),
             ..self.clone()
@@ -416,17 +417,17 @@ impl MeshSpec {
 
     /// The same problem node to node (`auto`'s choice where mortar is not available): the
     /// user's curves made to match ([`super::conform`]).
-    pub fn node_to_node(&self) -> MeshSpec {
+    pub fn node_to_node(&self) -> Result<MeshSpec, MeshedError> {
         if self.discretisation == ContactDiscretisation::NodeToNode {
-            return self.clone();
+            return Ok(self.clone());
         }
-        let (gmsh, matched) = super::conform::conform(&self.gmsh, &self.contact);
-        MeshSpec {
-            gmsh: Rc::new(gmsh),
+        let (gmsh, matched) = super::conform::conform(self.gmsh.mesh()?, &self.contact);
+        Ok(MeshSpec {
+            gmsh: ParsedFile::new(gmsh),
             discretisation: ContactDiscretisation::NodeToNode,
             matched: Rc::new(matched),
             ..self.clone()
-        }
+        })
     }
 }
 
@@ -483,7 +484,8 @@ pub const PASCAL_MODULI: f64 = 1e8;
 /// (nndd reads coordinates in metres: a part drawn in mm is 1000 times too large, and a
 /// prescribed displacement strains it 1000 times too little).
 fn units_warning(mesh: &MeshSpec, materials: &[Material; 2]) -> Option<String> {
-    let [lo, hi] = crate::fem::checks::bbox(&mesh.gmsh.points);
+    // (read with the options: the mesh is held)
+    let [lo, hi] = crate::fem::checks::bbox(&mesh.gmsh.mesh().ok()?.points);
     let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
     let e = materials[0].young.max(materials[1].young);
     (size >= MILLIMETRE_MESH && e > PASCAL_MODULI).then(|| {
