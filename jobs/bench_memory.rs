@@ -2,7 +2,9 @@
 //! `paper` solved on 2 ranks at several n, the bodies factored (the built-in MUMPS Cholesky)
 //! or solved iteratively (CG + GAMG, n ≤ 256: the iterative bodies re-solve at every NNDD
 //! iteration, tens of minutes at n = 512 on 2 cores), and with the reference solution of `-nndd_reference_factor`
-//! (its factored bodies held with the mesh's). Per run one row: the dofs of the mesh (and of
+//! (its problems held with the mesh's, its factorisations freed before the mesh's are made:
+//! factor 8, where the reference dominates, and 2, where the mesh's factorisation is a quarter
+//! of the reference's). Per run one row: the dofs of the mesh (and of
 //! the reference mesh), the measured peak (the summary's `peak_memory_mib_per_rank`, summed
 //! over the ranks), the model's estimate and their ratio. The table goes to
 //! `results/bench-memory.txt`. Run through `jobs/bench-memory [--quick]`.
@@ -45,6 +47,8 @@ fn main() {
             (16, 8, false),
             (32, 8, false),
             (64, 8, false),
+            (128, 2, false),
+            (256, 2, false),
         ]
     };
     let ranks = 2;

@@ -386,3 +386,42 @@ fn method_md_eta_nndd_does_not_vanish_the_discrete_one_does() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The reference solution of e_ref is solved, and its fine factorisations freed, before the
+/// run's own bodies are set up: the two are never held together (its peak is the larger, not
+/// the sum; docs/scaling.md, "Memory per rank"). The monitor's reference line comes before
+/// the setup's, and the reference's e_ref is positive and below η^glo.
+#[test]
+fn the_reference_is_solved_before_the_bodies_are_set_up() {
+    let dir = scratch("estimates-reference-first");
+    let prefix = dir.join("run");
+    let p = prefix.to_str().unwrap();
+    let args = [
+        "-nndd_n",
+        "16",
+        "-nndd_estimate",
+        "-nndd_reference_factor",
+        "2",
+        "-nndd_monitor",
+        "-nndd_output",
+        p,
+    ];
+    let out = mpirun(2, &args);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    let reference = text
+        .find("nndd: solving the reference solution")
+        .expect("announced");
+    let setup = text
+        .find(" rank(s), Dirichlet step on body")
+        .expect("setup line");
+    assert!(reference < setup, "{text}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(format!("{p}.json")).unwrap()).unwrap();
+    let last = estimates(&j).pop().expect("an estimate");
+    assert!(
+        g(&last, "e_ref") > 0.0 && g(&last, "e_ref") <= g(&last, "eta_glo"),
+        "{last}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

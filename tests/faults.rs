@@ -574,12 +574,13 @@ fn sigterm_outside_the_nndd_loop_ends_the_run_at_once() {
         "-nndd_monitor",
     ];
     let setup_done = |l: &str| l.contains(" setup ");
+    let reference_begun = |l: &str| l.contains("solving the reference solution");
     let cases = [
-        // The reference solve takes seconds after the setup's monitor line.
+        // The reference solve takes seconds after its monitor line.
         PhaseCase {
             case: "reference solve",
             args: &reference,
-            at: setup_done,
+            at: reference_begun,
             delay_ms: 500,
             phases: &["the reference solve"],
             every_rank: true,
@@ -587,7 +588,7 @@ fn sigterm_outside_the_nndd_loop_ends_the_run_at_once() {
         PhaseCase {
             case: "reference solve, one rank signalled",
             args: &reference,
-            at: setup_done,
+            at: reference_begun,
             delay_ms: 500,
             phases: &["the reference solve"],
             every_rank: false,

@@ -299,15 +299,18 @@ pub(crate) fn solve_cycle(
     let carried = start.checkpoint(&settings, &restart, &problems);
     restart.from = restart.from.take().or(carried);
     let run = Run::new(&settings, &layout, &problems, stages, agreement);
+    // Estimate: the estimator (with the reference solution of (26) when asked), used by the
+    // solve at the estimated iterations and on the reported iterate; made first, so that the
+    // reference's fine factorisations are freed before the run's own are made.
+    let mut reference_warnings = Vec::new();
+    let estimator = run.estimator(&mut timings, &mut reference_warnings)?;
     // Setup: each rank's bodies (partition, assembly, factorisation); the ranks agree.
     let bodies = run.set_up_bodies(&mut timings)?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mut warnings = unused_solver_options(&settings, &layout)?;
     say_warnings(layout.is_root(), &warnings);
+    warnings.append(&mut reference_warnings);
     run.announce_setup(t_start);
-    // Estimate: the estimator (with the reference solution of (26) when asked), used by the
-    // solve at the estimated iterations and on the reported iterate.
-    let estimator = run.estimator(&mut timings, &mut warnings)?;
     // Solve: the NNDD (paper §3) or the monolithic check; the contact checked on the curves.
     let mut sol = run.solve(refs, estimator.as_ref(), &mut timings, &restart)?;
     sol.warnings.splice(0..0, warnings);

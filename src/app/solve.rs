@@ -64,10 +64,11 @@ pub struct Solution {
     pub pending: Option<Pending>,
 }
 
-/// Meshes, assembly and factorisation of the bodies this rank owns.
+/// Meshes, assembly and factorisation of the bodies this rank owns: `owned`, the problems of
+/// its group's bodies ([`owned`]; `None` for the others).
 pub fn setup_bodies(
     settings: &Settings,
-    problems: &[Rc<BodyProblem>; 2],
+    owned: [Option<&Rc<BodyProblem>>; 2],
     layout: &Layout,
     stages: &Stages,
     timings: &mut Timings,
@@ -75,16 +76,16 @@ pub fn setup_bodies(
     let nndd_run = settings.solver == SolverKind::Nndd;
     let mut bodies: [Option<Body>; 2] = [None, None];
     for alpha in [1, 2] {
-        if !layout.owns(alpha) {
+        let Some(problem) = owned[alpha - 1] else {
             continue;
-        }
+        };
         // Every body forms its interface operators where its factorisation gives them (MUMPS,
         // on any rank count), body 2 always (its contact step is condensed); with
         // SuperLU_DIST, `auto` condenses body 1's Dirichlet step (S¹ from back-solves) rather
         // than factor a second system on its communicator (`uses_superlu_dist`).
         let superlu_dist = uses_superlu_dist(alpha)?;
         let contact_body = settings.nndd.contact_body();
-        let held = problems[alpha - 1].support == Support::Conditions;
+        let held = problem.support == Support::Conditions;
         let schur = match (settings.solver, alpha, settings.nndd.dirichlet_step) {
             // A body held only by contact has no Neumann system to condense.
             _ if !held => SchurMode::None,
@@ -95,7 +96,7 @@ pub fn setup_bodies(
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
         };
-        let mut body = set_up_body(settings, &problems[alpha - 1], layout, schur, stages)?;
+        let mut body = set_up_body(settings, problem, layout, schur, stages)?;
         let system =
             settings.nndd.dirichlet_step == DirichletChoice::System || !body.has_condensed();
         // A body held only by contact takes the Dirichlet step, and the monolithic solve
@@ -110,6 +111,14 @@ pub fn setup_bodies(
         bodies[alpha - 1] = Some(body);
     }
     Ok(bodies)
+}
+
+/// The problems of the bodies this rank's group works on (`None` for the others).
+pub fn owned<'a>(
+    problems: &'a [Rc<BodyProblem>; 2],
+    layout: &Layout,
+) -> [Option<&'a Rc<BodyProblem>>; 2] {
+    [1, 2].map(|alpha| layout.owns(alpha).then(|| &problems[alpha - 1]))
 }
 
 /// The bodies of a mortar run's matched problems (its estimates' re-solves,
@@ -234,13 +243,23 @@ pub fn solve_reference(
     // All of it in the reference stage of -log_view.
     let stages = &stages.all_in_reference();
     let _s = stages.reference.enter();
-    let mut problems = problem::build(&fine.problem)?;
+    let mut both = problem::build(&fine.problem)?;
     // (a Gmsh problem's refined mesh, r² times the user's, freed before the fine factorisations)
     fine.release_mesh_unread_later();
     if let Some(g) = gaps {
-        problems = g.apply(problems);
+        both = g.apply(both);
     }
-    let bodies = setup_bodies(&fine, &problems, layout, stages, &mut scratch)?;
+    // The fine problem of a body this rank does not work on freed before the factorisations
+    // (the NNDD reads the bodies alone).
+    let mut problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
+    drop(both);
+    let bodies = setup_bodies(
+        &fine,
+        problems.each_ref().map(Option::as_ref),
+        layout,
+        stages,
+        &mut scratch,
+    )?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mesh = reference_mesh(&fine, r);
     // θ auto first; where it does not converge, the run's own fixed θ, then a small fixed θ
@@ -292,18 +311,11 @@ pub fn solve_reference(
             tried.join("; ")
         )));
     }
-    // The fine factorisations, problems and whole fields freed here (a body's that this rank
-    // does not work on first): e_ref needs each rank's block of the fine elements and u_ref on
-    // their nodes only.
+    // The fine factorisations, problems and whole fields freed here: e_ref needs each rank's
+    // block of the fine elements and u_ref on their nodes only.
     drop(bodies);
     let iterations = sol.iterations;
     let u_ref = sol.last.u;
-    let mut problems = problems.map(Some);
-    for (k, p) in problems.iter_mut().enumerate() {
-        if !layout.owns(k + 1) {
-            *p = None;
-        }
-    }
     let parts = [0, 1].map(|k| {
         let p = problems[k].take()?;
         let elements = layout.block(k + 1, p.mesh.triangles.len());

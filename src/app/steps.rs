@@ -46,7 +46,8 @@ impl<'a> Run<'a> {
         timings: &mut Timings,
     ) -> Result<[Option<Body>; 2], AppError> {
         let (settings, problems, layout) = (self.settings, self.problems, self.layout);
-        let bodies = solve::setup_bodies(settings, problems, layout, self.stages, timings);
+        let owned = solve::owned(problems, layout);
+        let bodies = solve::setup_bodies(settings, owned, layout, self.stages, timings);
         agreed(self.agreement, bodies)
     }
 
