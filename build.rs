@@ -33,6 +33,7 @@ const FUNCTIONS: &[&str] = &[
     "MatSeqAIJSetPreallocation",
     "MatMPIAIJSetPreallocation",
     "MatMumps(SetIcntl|GetIcntl|GetInfog|GetRinfog|GetInverseTranspose)",
+    "dmumps_c",
     "MatCreateAIJ",
     "MatCreate(MPIAIJWithSplitArrays|SeqAIJWithArrays)",
     "Mat(GetRow|RestoreRow)",
@@ -54,6 +55,10 @@ const TYPES: &[&str] = &[
     "ScatterMode",
     "MatReuse",
     "MatStructure",
+    // A MUMPS factor's instance (`Mat::data` starts with MUMPS's structure): the entries of K⁻¹
+    // asked of MUMPS directly (src/petsc/mumps.rs).
+    "_p_Mat",
+    "DMUMPS_STRUC_C",
 ];
 
 fn main() {
@@ -68,11 +73,16 @@ fn main() {
         // Find libpetsc at run time without LD_LIBRARY_PATH.
         println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib.display());
     }
+    // MUMPS itself (the library PETSc's factorisations use), and PETSc's private headers
+    // (Debian installs them apart from the public ones) for the factor's instance.
+    println!("cargo:rustc-link-lib=dmumps");
+    let private = private_include(&petsc);
 
     let mut builder = bindgen::Builder::default()
         .header_contents(
             "wrapper.h",
-            "#include <petscksp.h>\n#include <petscmat.h>\n#include <petscpc.h>\n",
+            "#include <petscksp.h>\n#include <petscmat.h>\n#include <petscpc.h>\n\
+             #include <petsc/private/matimpl.h>\n#include <dmumps_c.h>\n",
         )
         .parse_callbacks(Box::new(bindgen::CargoCallbacks::new()))
         .layout_tests(false)
@@ -82,6 +92,7 @@ fn main() {
     for p in petsc.include_paths.iter().chain(ompi.include_paths.iter()) {
         builder = builder.clang_arg(format!("-I{}", p.display()));
     }
+    builder = builder.clang_arg(format!("-I{}", private.display()));
     for f in FUNCTIONS {
         builder = builder.allowlist_function(f);
     }
@@ -96,4 +107,25 @@ fn main() {
         .expect("bindgen could not generate the PETSc bindings");
     let out = PathBuf::from(env::var("OUT_DIR").unwrap()).join("petsc_bindings.rs");
     bindings.write_to_file(out).expect("cannot write bindings");
+}
+
+/// The folder holding `petsc/private/matimpl.h`: beside the public headers, or where Debian
+/// puts PETSc's private ones (`/usr/share/petsc/<major.minor>/include`).
+fn private_include(petsc: &pkg_config::Library) -> PathBuf {
+    let has = |p: &PathBuf| p.join("petsc/private/matimpl.h").is_file();
+    if let Some(p) = petsc.include_paths.iter().find(|p| has(p)) {
+        return p.clone();
+    }
+    let minor: String = petsc
+        .version
+        .split('.')
+        .take(2)
+        .collect::<Vec<_>>()
+        .join(".");
+    let debian = PathBuf::from(format!("/usr/share/petsc/{minor}/include"));
+    assert!(
+        has(&debian),
+        "PETSc's private headers (petsc/private/matimpl.h) not found: install Debian's petsc-dev (see README)"
+    );
+    debian
 }

@@ -74,7 +74,7 @@ fn check(case: &Case, dir: &Path) {
     );
     let reference_ops = |alpha| operators(&dir.join(format!("{}-solves1", case.name)), alpha);
     // (tag, ranks, options, the expected sources of body 1 and body 2)
-    let runs: [(&str, usize, &[&str], [&str; 2]); 6] = [
+    let runs: [(&str, usize, &[&str], [&str; 2]); 7] = [
         ("schur1", 1, &[], ["mumps_schur", "mumps_schur"]),
         (
             "inverse1",
@@ -98,6 +98,13 @@ fn check(case: &Case, dir: &Path) {
             "both4",
             4,
             &["-nndd_body1_ranks", "2"],
+            ["mumps_inverse", "mumps_inverse"],
+        ),
+        (
+            // MUMPS's entries of K⁻¹ 7 columns at a time for body 2 (the user's ICNTL(27)).
+            "block7",
+            4,
+            &["-nndd_body1_ranks", "2", "-body2_mat_mumps_icntl_27", "7"],
             ["mumps_inverse", "mumps_inverse"],
         ),
         (

@@ -309,6 +309,35 @@ impl Ksp {
             return Ok(None);
         };
         let m = rows.len();
+        let mut distinct = rows.to_vec();
+        distinct.sort_unstable();
+        distinct.dedup();
+        // Up to INVERSE_BLOCK columns in one block (ICNTL(27), MUMPS's default is 32 at most):
+        // the pruned tree is then traversed once or twice (paper n = 256 on 2 ranks: all in one
+        // block 0.24 s against 0.50 s with 32), unless the user chose a block size.
+        let block = match option_present(&format!("-{}mat_mumps_icntl_27", self.prefix)) {
+            true => {
+                let mut b: Int = 0;
+                call!(MatMumpsGetIcntl(f, 27, &mut b))?;
+                b
+            }
+            false => (m as Int).clamp(1, INVERSE_BLOCK),
+        };
+        let block_of = |values: Vec<f64>| {
+            let at = |r: Int| distinct.binary_search(&r).expect("a row of the block");
+            let d = distinct.len();
+            let mut out = vec![0.0; m * m];
+            for (j, &c) in rows.iter().enumerate() {
+                for (i, &r) in rows.iter().enumerate() {
+                    out[j * m + i] = values[at(c) * d + at(r)];
+                }
+            }
+            out
+        };
+        if let Some(values) = super::mumps::inverse_entries(f, root, &distinct, block)? {
+            return Ok(root.then(|| block_of(values)));
+        }
+        // PETSc's way, where the factor's instance is not laid out as PETSc 3.18's.
         let (mut n, mut cols) = (0 as Int, 0 as Int);
         call!(MatGetSize(self._mat.0, &mut n, &mut cols))?;
         // The pattern (the transpose of the wanted entries, which is the same set) lives whole
@@ -317,9 +346,6 @@ impl Ksp {
         // pointers: 4 bytes per row of the body, besides PETSc's own per-row arrays of its
         // diagonal and off-diagonal blocks; docs/scaling.md, "Memory per rank").
         let local = if root { n } else { 0 };
-        let mut distinct = rows.to_vec();
-        distinct.sort_unstable();
-        distinct.dedup();
         let d = distinct.len();
         let mut starts = vec![0 as Int; local as usize + 1];
         if root {
@@ -378,12 +404,7 @@ impl Ksp {
         call!(MatMumpsGetIcntl(f, 21, &mut icntl21))?;
         call!(MatMumpsGetIcntl(f, 27, &mut icntl27))?;
         call!(MatMumpsGetIcntl(f, 30, &mut icntl30))?;
-        // Up to INVERSE_BLOCK columns in one block (ICNTL(27), MUMPS's default is 32 at most):
-        // the pruned tree is then traversed once or twice (paper n = 256 on 2 ranks: all in one
-        // block 0.24 s against 0.50 s with 32), unless the user chose a block size.
-        if !option_present(&format!("-{}mat_mumps_icntl_27", self.prefix)) {
-            call!(MatMumpsSetIcntl(f, 27, (m as Int).clamp(1, INVERSE_BLOCK)))?;
-        }
+        call!(MatMumpsSetIcntl(f, 27, block))?;
         let inverse = call!(MatMumpsGetInverseTranspose(f, bt.0));
         call!(MatMumpsSetIcntl(f, 21, icntl21))?;
         call!(MatMumpsSetIcntl(f, 27, icntl27))?;

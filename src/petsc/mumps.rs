@@ -9,6 +9,15 @@
 //! (docs/scaling.md, "Memory per rank"). nndd keeps MUMPS's default: with 5 % on a group of
 //! several ranks, `paper` n = 1024 on 8 ranks ended in MUMPS 5.5 with a Fortran runtime error
 //! (dfac_process_blocfacto_LDLT.F, line 983) instead of INFOG(1) = −9.
+//!
+//! [`inverse_entries`] asks MUMPS itself for selected entries of A⁻¹ (ICNTL(30)) with the
+//! factorisation PETSc made: MUMPS takes the wanted entries as a sparse right-hand side with
+//! one column per row of A (it refuses fewer, INFOG(1) = −47), and PETSc's
+//! MatMumpsGetInverseTranspose would take them as a matrix with as many rows on the first
+//! rank, its per-row arrays about 28 bytes per row (docs/scaling.md, "Memory per rank");
+//! given to MUMPS directly the pattern costs its column pointers alone, 4 bytes per row.
+
+use std::ptr;
 
 use super::error::{call, PetscError, Result, ERR_LIB};
 use super::{ffi, Int};
@@ -45,6 +54,137 @@ fn failure(prefix: &str, status: Int, detail: Int, relaxation: Int) -> PetscErro
             "-{prefix}pc_factor_mat_solver_type mumps: the factorisation failed (INFOG(1) = {status}, INFOG(2) = {detail}): {why}"
         ),
     }
+}
+
+/// MUMPS's instance of the factor `f`: PETSc's `Mat_MUMPS` (src/mat/impls/aij/mpi/mumps/mumps.c,
+/// not in a header) begins with MUMPS's `DMUMPS_STRUC_C`. `None` unless what it holds is what
+/// PETSc reports of the same factor (its size, ICNTL(1..=35) and INFOG(1..=3)), so that a
+/// PETSc laid out otherwise takes PETSc's own way.
+fn instance(f: ffi::Mat) -> Result<Option<*mut ffi::DMUMPS_STRUC_C>> {
+    // SAFETY: `f` is a live factor matrix, whose `data` PETSc's MUMPS interface set.
+    let id = unsafe { (*f).data } as *mut ffi::DMUMPS_STRUC_C;
+    if id.is_null() {
+        return Ok(None);
+    }
+    let (mut rows, mut cols) = (0 as Int, 0 as Int);
+    call!(MatGetSize(f, &mut rows, &mut cols))?;
+    // SAFETY: a Mat_MUMPS is larger than the structure it begins with; read only.
+    let (n, icntl, infog) = unsafe { ((*id).n, (*id).icntl, (*id).infog) };
+    if n != rows {
+        return Ok(None);
+    }
+    for k in 1..=35 {
+        let mut v: Int = 0;
+        call!(MatMumpsGetIcntl(f, k, &mut v))?;
+        if icntl[k as usize - 1] != v {
+            return Ok(None);
+        }
+    }
+    for k in 1..=3 {
+        let mut v: Int = 0;
+        call!(MatMumpsGetInfog(f, k, &mut v))?;
+        if infog[k as usize - 1] != v {
+            return Ok(None);
+        }
+    }
+    Ok(Some(id))
+}
+
+/// The entries (A⁻¹)[i, j] for i, j in `rows` (distinct, increasing) of the factored A in
+/// `f`, `block` right-hand sides at a time (ICNTL(27)), by MUMPS directly: column-major on the
+/// first rank (`root`), `Some(empty)` on the others; `None` everywhere where `f`'s instance is
+/// not MUMPS's as expected ([`instance`]: every rank of the group sees the same layout).
+/// Collective over the factor's communicator. MUMPS's controls and right-hand side are as
+/// before on return.
+pub(super) fn inverse_entries(
+    f: ffi::Mat,
+    root: bool,
+    rows: &[Int],
+    block: Int,
+) -> Result<Option<Vec<f64>>> {
+    let Some(id) = instance(f)? else {
+        return Ok(None);
+    };
+    let d = rows.len();
+    // SAFETY: `instance` checked the layout; MUMPS's size is the factor's.
+    let n = unsafe { (*id).n } as usize;
+    // Column j of the right-hand side (1-based pointers): the rows of column j's wanted
+    // entries, for the columns in `rows`, empty elsewhere.
+    let (mut pointers, mut indices, mut values) = (Vec::new(), Vec::new(), Vec::new());
+    if root {
+        pointers = vec![0 as Int; n + 1];
+        for &j in rows {
+            pointers[j as usize + 1] = d as Int;
+        }
+        pointers[0] = 1;
+        for j in 0..n {
+            pointers[j + 1] += pointers[j];
+        }
+        indices = (0..d).flat_map(|_| rows.iter().map(|&i| i + 1)).collect();
+        values = vec![0.0; d * d];
+    }
+    // SAFETY: `id` is MUMPS's instance, alive with `f`; the arrays outlive the call (MUMPS
+    // keeps no pointer to them: they are reset before this returns), and their lengths are
+    // NRHS + 1 and NZ_RHS as MUMPS reads them. The fields changed are put back.
+    let status = unsafe {
+        let s = &mut *id;
+        let saved = (
+            s.job,
+            s.nrhs,
+            s.lrhs,
+            s.rhs,
+            s.nz_rhs,
+            s.irhs_ptr,
+            s.irhs_sparse,
+            s.rhs_sparse,
+        );
+        let saved_icntl = [s.icntl[19], s.icntl[20], s.icntl[26], s.icntl[29]];
+        s.icntl[19] = 1; // ICNTL(20): a sparse right-hand side
+        s.icntl[20] = 0; // ICNTL(21): the solution centralised on the host
+        s.icntl[26] = block; // ICNTL(27)
+        s.icntl[29] = 1; // ICNTL(30): entries of A⁻¹
+        s.job = 3;
+        s.nrhs = n as Int;
+        s.lrhs = n as Int;
+        s.rhs = ptr::null_mut();
+        // (the right-hand side is the host's alone: none on the other ranks)
+        let on_root = |v: &mut [Int]| match root {
+            true => v.as_mut_ptr(),
+            false => ptr::null_mut(),
+        };
+        s.nz_rhs = if root { (d * d) as Int } else { 0 };
+        s.irhs_ptr = on_root(&mut pointers);
+        s.irhs_sparse = on_root(&mut indices);
+        s.rhs_sparse = match root {
+            true => values.as_mut_ptr(),
+            false => ptr::null_mut(),
+        };
+        ffi::dmumps_c(id);
+        let status = (s.infog[0], s.info[1]);
+        (
+            s.job,
+            s.nrhs,
+            s.lrhs,
+            s.rhs,
+            s.nz_rhs,
+            s.irhs_ptr,
+            s.irhs_sparse,
+            s.rhs_sparse,
+        ) = saved;
+        [s.icntl[19], s.icntl[20], s.icntl[26], s.icntl[29]] = saved_icntl;
+        status
+    };
+    if status.0 < 0 {
+        return Err(PetscError {
+            code: ERR_LIB,
+            call: "dmumps_c",
+            message: format!(
+                "MUMPS's entries of the inverse (ICNTL(30)) failed: INFOG(1) = {}, INFO(2) = {}",
+                status.0, status.1
+            ),
+        });
+    }
+    Ok(Some(values))
 }
 
 #[cfg(test)]
