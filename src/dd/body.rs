@@ -35,7 +35,10 @@ use std::rc::Rc;
 use crate::problem::{BodyProblem, Frames, GcTrace, Support};
 use crate::qp::dense::{DenseError, SymMatrix};
 
+mod fields;
 mod rows;
+
+pub use fields::FieldAt;
 
 #[derive(Debug, thiserror::Error)]
 pub enum BodyError {
@@ -610,29 +613,6 @@ impl Body {
         Ok(fixed)
     }
 
-    /// The last solution, whole (mesh order, global components), with the exact prescribed
-    /// values (the solve returns them to round-off).
-    fn solution(&self, fixed: &[(usize, f64)]) -> Result<Vec<f64>, BodyError> {
-        let mut u = self.gather_whole(&self.x.borrow())?;
-        for &(dof, v) in fixed {
-            u[dof] = v;
-        }
-        self.frames.to_global(&mut u);
-        Ok(u)
-    }
-
-    /// The whole vector `v` (mesh order) on every rank of the group. The scatter is made for
-    /// the call and freed after it: held, its index set, target vector and buffers would weigh
-    /// about 40 bytes per dof of the body on every rank (docs/scaling.md, "Memory per rank").
-    fn gather_whole(&self, v: &Vector) -> Result<Vec<f64>, BodyError> {
-        if self.partition.size == 1 {
-            // One rank: PETSc's order is the mesh's.
-            return Ok(v.to_vec()?);
-        }
-        let mut whole = Gather::new(v, &self.partition.rows_in_mesh_order())?;
-        Ok(whole.gather(v)?)
-    }
-
     /// `u` (global components) in the nodal frames.
     fn local(&self, u: &[f64]) -> Vec<f64> {
         let mut v = u.to_vec();
@@ -687,13 +667,17 @@ impl Body {
     /// [`Body::neumann_solve`] for several Γc loads at once, all with the body's data (the
     /// estimates' re-solves): one multiple-right-hand-side solve, which with a factorisation
     /// reads the factor once for all of them.
-    pub fn neumann_solve_many(&self, gc_forces: &[GcForces]) -> Result<Vec<Vec<f64>>, BodyError> {
+    pub fn neumann_solve_many(
+        &self,
+        gc_forces: &[GcForces],
+        at: FieldAt,
+    ) -> Result<Vec<Vec<f64>>, BodyError> {
         if gc_forces.len() < 2 {
             return gc_forces
                 .iter()
                 .map(|f| {
                     let fixed = self.solve(System::Neumann, &self.gc_load(f), false, None)?;
-                    self.solution(&fixed)
+                    self.solution_at(&fixed, at)
                 })
                 .collect();
         }
@@ -713,7 +697,7 @@ impl Body {
             .into_iter()
             .map(|x| {
                 self.x.borrow_mut().copy_from(&x)?;
-                self.solution(&fixed)
+                self.solution_at(&fixed, at)
             })
             .collect()
     }

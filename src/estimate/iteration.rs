@@ -10,7 +10,7 @@ use super::polygon::{EdgeValues, SegmentGap};
 use super::settings::NnddVariant;
 use super::traction::Interface;
 use super::view::View;
-use crate::dd::body::{Body, GcForces};
+use crate::dd::body::{Body, FieldAt, GcForces};
 use crate::problem::BodyProblem;
 
 /// What the estimates of iteration p need beyond the bodies: λ_p, the Γc densities t̂^c (for
@@ -79,13 +79,14 @@ impl BodyFields<'_> {
     }
 }
 
-/// The re-solves of body α (collective over its group); `u_p` is u^α_p.
+/// The re-solves of body α (collective over its group), on this rank at `at`; `u_p` is u^α_p.
 pub fn body_fields<'a>(
     body: &Body,
     u_p: &'a [f64],
     iface: &Interface,
     data: &IterationData,
     parts: &Parts,
+    at: FieldAt,
 ) -> Result<BodyFields<'a>, EstimateError> {
     let alpha = body.problem.alpha;
     let sign = if alpha == 1 { 1.0 } else { -1.0 };
@@ -135,7 +136,7 @@ pub fn body_fields<'a>(
         } else if let Some(t1) = resolve1 {
             loads.push(GcForces::Normal(t1.to_vec()));
         }
-        let mut solved = body.neumann_solve_many(&loads)?.into_iter();
+        let mut solved = body.neumann_solve_many(&loads, at)?.into_iter();
         if !data.fe_only {
             f.u_tilde = solved.next().expect("ũ");
             if data.nndd_variant == NnddVariant::Discrete {

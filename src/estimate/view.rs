@@ -11,6 +11,7 @@ use super::equilibrate::{
 use super::error::EstimateError;
 use super::overlap::{Halo, Overlap};
 use super::polygon::EdgeValues;
+use crate::dd::body::FieldAt;
 use crate::fem::elasticity::element_energy as energy;
 use crate::fem::mesh::Mesh;
 use crate::fem::{element_dofs, element_stiffness};
@@ -128,6 +129,16 @@ impl View<'_> {
             View::Whole => u,
             View::Overlap(o, ..) => o.restrict_dofs(&u),
             View::Idle(..) => Vec::new(),
+        }
+    }
+
+    /// Where a solve gathers a field that this view's recoveries read ([`View::local`]'s
+    /// entries, gathered there alone): whole, at the overlap's nodes, nowhere when idle.
+    pub fn field_at(&self) -> FieldAt<'_> {
+        match self {
+            View::Whole => FieldAt::Whole,
+            View::Overlap(o, ..) => FieldAt::Nodes(&o.nodes),
+            View::Idle(..) => FieldAt::Nodes(&[]),
         }
     }
 

@@ -552,6 +552,15 @@ impl Frames {
         }
     }
 
+    /// Node `node`'s two frame components `v` to global ones (R v), in place.
+    pub fn node_to_global(&self, node: usize, v: &mut [f64]) {
+        if let Some(n) = self.normal.get(&node) {
+            let (t, m) = (v[0], v[1]);
+            v[0] = n[1] * t + n[0] * m;
+            v[1] = -n[0] * t + n[1] * m;
+        }
+    }
+
     /// Frame components to global ones (R v), in place.
     pub fn to_global(&self, v: &mut [f64]) {
         for (&node, n) in &self.normal {

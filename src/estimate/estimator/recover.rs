@@ -7,6 +7,7 @@
 use std::borrow::Cow;
 
 use super::*;
+use crate::dd::body::FieldAt;
 use crate::estimate::polygon::{EdgeValues, SegmentGap};
 
 /// What body 1's Γc forces T¹_p are, for its η^FE recovery ([`Reaction`]).
@@ -186,12 +187,21 @@ impl Estimator<'_> {
         };
         let data = resolved.data(self);
         let crosses = self.crosses();
+        // Who estimates which elements (made at the first estimate): each rank gathers the
+        // re-solves where its recoveries read them, on its overlap of the body, with no whole
+        // field where the body's estimates stay on its group.
+        let views = self.shares(crosses).map(|s| s.view(layout));
         // The re-solves on each body's group, their fields to the other ranks estimating
         // elements of the body.
         let mut fields: [BodyFields; 2] = Default::default();
         for (k, body) in bodies.iter().enumerate() {
+            let at = match (crosses[k], &views[k]) {
+                (true, _) => FieldAt::Whole,
+                (false, Some(view)) => view.field_at(),
+                (false, None) => FieldAt::Nodes(&[]),
+            };
             if let Some(b) = body {
-                fields[k] = body_fields(b, &it.u[k], &self.iface, &data, &self.parts)?;
+                fields[k] = body_fields(b, &it.u[k], &self.iface, &data, &self.parts, at)?;
             }
             if crosses[k] {
                 let f = &mut fields[k];
@@ -201,6 +211,7 @@ impl Estimator<'_> {
                         layout.share_vec(k + 1, v);
                     }
                 });
+                fields[k] = std::mem::take(&mut fields[k]).on_view(views[k].as_ref());
             }
         }
         resolved.fields = fields.map(BodyFields::detached);
@@ -256,11 +267,8 @@ impl Estimator<'_> {
         // between them).
         let shares = self.shares(crosses);
         let views = shares.map(|s| s.view(layout));
-        // (the re-solves from here on what the rank's recoveries read of them alone)
-        let fields = [
-            f1.on(&it.u[0]).on_view(views[0].as_ref()),
-            f2.on(&it.u[1]).on_view(views[1].as_ref()),
-        ];
+        // (the re-solves are what the rank's recoveries read of them alone, `resolve`)
+        let fields = [f1.on(&it.u[0]), f2.on(&it.u[1])];
         let mut works: Vec<(usize, ElementWork)> = (0..2)
             .filter_map(|k| {
                 let view = views[k].as_ref()?;
