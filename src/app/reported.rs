@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use super::options::Settings;
 use super::{AppError, LONG_PHASE_DOFS};
-use crate::dd::nndd::{self, IterationRecord, NnddResult, Status};
+use crate::dd::nndd::{self, Iterate, IterationRecord, NnddResult, Status};
 use crate::estimate::estimator::InParts;
 use crate::estimate::{EstimateRecord, Estimator};
 use crate::io::{fields, monitor};
@@ -56,16 +56,18 @@ pub(super) fn resolve_reported(
     Ok((t.elapsed().as_secs_f64(), Some(pending)))
 }
 
-/// The rest of the reported iterate's estimate ([`resolve_reported`]), once the bodies'
-/// factorisations are freed: its recoveries, its record among the estimates and in the
+/// The rest of the reported iterate's estimate ([`resolve_reported`]) of `last`, once the
+/// bodies' factorisations are freed: its recoveries, its record among the estimates and in the
 /// history (a run's `Solution::estimates`, `history`), its monitor line. Its time (s;
 /// collective).
+#[allow(clippy::too_many_arguments)]
 pub fn finish_reported(
     settings: &Settings,
     layout: &Layout,
     stages: &Stages,
     estimator: Option<&Estimator>,
     pending: Option<Pending>,
+    last: &Iterate,
     estimates: &mut Vec<EstimateRecord>,
     history: &mut [IterationRecord],
 ) -> Result<f64, AppError> {
@@ -75,7 +77,7 @@ pub fn finish_reported(
     let t = Instant::now();
     let _s = stages.estimation.enter();
     let before = signals::enter(StopPhase::FinalEstimate);
-    let rec = est.finish_cold(pending.parts)?;
+    let rec = est.finish_cold(pending.parts, &last.u)?;
     signals::enter(before);
     if settings.output.monitor && layout.is_root() {
         let again = if pending.in_loop {

@@ -228,6 +228,7 @@ impl<'a> Run<'a> {
             self.stages,
             e,
             sol.pending.take(),
+            &sol.last,
             &mut sol.estimates,
             &mut sol.history,
         ))?;

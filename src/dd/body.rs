@@ -17,7 +17,8 @@
 //! into the distributed matrix (MPIAIJ) and owns a contiguous block of PETSc rows. Vectors cross
 //! this module's boundary in mesh numbering, whole, on every rank of the group: a solution is
 //! gathered from its owners (a `VecScatter`), or only its Γc normal entries when that is all the
-//! caller needs (the Neumann step by back-solves, the Delassus operator by back-solves).
+//! caller needs (the Neumann step by back-solves, the Delassus operator by back-solves), or only
+//! the nodes a rank's estimates read ([`FieldAt`]: the estimates' re-solves).
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -666,7 +667,7 @@ impl Body {
 
     /// [`Body::neumann_solve`] for several Γc loads at once, all with the body's data (the
     /// estimates' re-solves): one multiple-right-hand-side solve, which with a factorisation
-    /// reads the factor once for all of them.
+    /// reads the factor once for all of them; each field on this rank at `at`.
     pub fn neumann_solve_many(
         &self,
         gc_forces: &[GcForces],

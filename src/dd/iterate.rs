@@ -55,6 +55,25 @@ impl Iterate {
         }
     }
 
+    /// This iterate without its displacement fields (`u` empty): what an estimate carries from
+    /// its re-solves to its recoveries, which read the fields from the caller's iterate again,
+    /// so that no copy of them is held beside the bodies' factorisations.
+    pub fn without_fields(&self) -> Iterate {
+        Iterate {
+            lambda: self.lambda.clone(),
+            interface: self.interface.clone(),
+            u: Default::default(),
+            forces: self.forces.clone(),
+            contact_body: self.contact_body,
+            trace2: self.trace2.clone(),
+            active: self.active.clone(),
+            qp_kkt: self.qp_kkt,
+            iteration: self.iteration,
+            friction_bounds: self.friction_bounds.clone(),
+            tangential: self.tangential.clone(),
+        }
+    }
+
     /// λ_p whole: the normal rows, then with friction the tangential ones (the loop's
     /// variable; an adaptive run carries it to its next cycle).
     pub fn whole_interface(&self) -> Vec<f64> {

@@ -381,13 +381,18 @@ impl<'a> Estimator<'a> {
         Ok(InParts::Resolved(Box::new(resolved)))
     }
 
-    /// The rest of [`Estimator::resolve_cold`]'s estimate (collective; no body needed).
-    pub fn finish_cold(&self, parts: InParts) -> Result<EstimateRecord, EstimateError> {
+    /// The rest of [`Estimator::resolve_cold`]'s estimate of an iterate whose fields are `u`
+    /// (collective; no body needed).
+    pub fn finish_cold(
+        &self,
+        parts: InParts,
+        u: &[Vec<f64>; 2],
+    ) -> Result<EstimateRecord, EstimateError> {
         match parts {
             InParts::Done(rec) => Ok(*rec),
             InParts::Resolved(r) => {
                 self.cold.set(true);
-                let rec = self.recover(*r);
+                let rec = self.recover(*r, u);
                 self.cold.set(false);
                 rec
             }
@@ -440,7 +445,10 @@ impl<'a> Estimator<'a> {
         fe_only: bool,
     ) -> Result<EstimateRecord, EstimateError> {
         match &self.mortar {
-            None => self.recover(self.resolve(bodies, it, fe_only, ReactionOf::Own, None)?),
+            None => {
+                let resolved = self.resolve(bodies, it, fe_only, ReactionOf::Own, None)?;
+                self.recover(resolved, &it.u)
+            }
             Some(m) => self.run_mortar(m, bodies, it, fe_only),
         }
     }
@@ -466,7 +474,7 @@ impl<'a> Estimator<'a> {
             ReactionOf::Resolved,
             Some(carried.u_plain.clone()),
         )?;
-        let mut rec = self.recover(resolved)?;
+        let mut rec = self.recover(resolved, &carried.iterate.u)?;
         let q = rec.eta_glo * rec.eta_glo;
         let lift2 = carried.lift_elements.iter().flatten().sum::<f64>();
         let theta = if lift2 > 0.0 && q > 0.0 {

@@ -28,8 +28,8 @@ impl ReactionOf {
     }
 }
 
-/// An estimate after [`Estimator::resolve`]: the iterate, its Γc data and the bodies' fields
-/// (u^α_p itself not copied: taken from the iterate again by [`Estimator::recover`]).
+/// An estimate after [`Estimator::resolve`]: the iterate without its fields, its Γc data and
+/// the bodies' re-solves (u^α_p not copied: [`Estimator::recover`] takes it from the caller).
 pub struct Resolved {
     it: Iterate,
     fe_only: bool,
@@ -171,7 +171,7 @@ impl Estimator<'_> {
             polygon::segment_gaps(normals, &self.problems[0].gap, &jumps)
         };
         let mut resolved = Resolved {
-            it: it.clone(),
+            it: it.without_fields(),
             fe_only,
             reaction1,
             plain,
@@ -246,15 +246,20 @@ impl Estimator<'_> {
         })
     }
 
-    /// An estimate's second part, after [`Estimator::resolve`]: the recoveries, the element
-    /// sums and e_ref (collective). It needs no body: a run may free the factorisations of
-    /// its bodies between the two (docs/scaling.md, "Memory per rank").
-    pub(crate) fn recover(&self, mut resolved: Resolved) -> Result<EstimateRecord, EstimateError> {
+    /// An estimate's second part, after [`Estimator::resolve`] of an iterate whose fields are
+    /// `u`: the recoveries, the element sums and e_ref (collective). It needs no body: a run
+    /// may free the factorisations of its bodies between the two (docs/scaling.md, "Memory
+    /// per rank").
+    pub(crate) fn recover(
+        &self,
+        mut resolved: Resolved,
+        u: &[Vec<f64>; 2],
+    ) -> Result<EstimateRecord, EstimateError> {
         let layout = self.layout;
         let [f1, f2] = std::mem::take(&mut resolved.fields);
         let data = resolved.data(self);
-        let (it, fe_only) = (&resolved.it, resolved.fe_only);
-        let plain = resolved.plain.as_ref().unwrap_or(&it.u);
+        let fe_only = resolved.fe_only;
+        let plain = resolved.plain.as_ref().unwrap_or(u);
         let mut sums = [0.0; 3];
         let mut res = Residuals::default();
         let mut maps: [[Vec<f64>; 3]; 2] = Default::default();
@@ -268,7 +273,7 @@ impl Estimator<'_> {
         let shares = self.shares(crosses);
         let views = shares.map(|s| s.view(layout));
         // (the re-solves are what the rank's recoveries read of them alone, `resolve`)
-        let fields = [f1.on(&it.u[0]), f2.on(&it.u[1])];
+        let fields = [f1.on(&u[0]), f2.on(&u[1])];
         let mut works: Vec<(usize, ElementWork)> = (0..2)
             .filter_map(|k| {
                 let view = views[k].as_ref()?;
@@ -371,8 +376,9 @@ impl Estimator<'_> {
         });
         let [glo, fe, nndd] = sums;
         let eta_glo = glo.max(0.0).sqrt();
-        // (the iterate and its fields moved into the record, not copied)
-        let iterate = resolved.it;
+        // (the iterate into the record, its fields copied once the recoveries are made)
+        let mut iterate = resolved.it;
+        iterate.u = u.clone();
         Ok(EstimateRecord {
             iteration: iterate.iteration,
             eta_glo,
