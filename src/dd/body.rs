@@ -39,7 +39,7 @@ use crate::qp::dense::{DenseError, SymMatrix};
 mod fields;
 mod rows;
 
-pub use fields::FieldAt;
+pub use fields::{FieldAt, Solved};
 
 #[derive(Debug, thiserror::Error)]
 pub enum BodyError {
@@ -667,20 +667,16 @@ impl Body {
 
     /// [`Body::neumann_solve`] for several Γc loads at once, all with the body's data (the
     /// estimates' re-solves): one multiple-right-hand-side solve, which with a factorisation
-    /// reads the factor once for all of them; each field on this rank at `at`.
-    pub fn neumann_solve_many(
-        &self,
-        gc_forces: &[GcForces],
-        at: FieldAt,
-    ) -> Result<Vec<Vec<f64>>, BodyError> {
+    /// reads the factor once for all of them. The solutions stay on their owners until
+    /// [`Body::fields_at`] gathers them.
+    pub fn neumann_solve_many(&self, gc_forces: &[GcForces]) -> Result<Solved, BodyError> {
         if gc_forces.len() < 2 {
-            return gc_forces
-                .iter()
-                .map(|f| {
-                    let fixed = self.solve(System::Neumann, &self.gc_load(f), false, None)?;
-                    self.solution_at(&fixed, at)
-                })
-                .collect();
+            let (mut columns, mut fixed) = (Vec::new(), Vec::new());
+            for f in gc_forces {
+                fixed = self.solve(System::Neumann, &self.gc_load(f), false, None)?;
+                columns.push(self.x.borrow().to_vec()?);
+            }
+            return Ok(Solved { columns, fixed });
         }
         // (each column formed on this rank's rows alone)
         let mut columns = Vec::with_capacity(gc_forces.len());
@@ -694,13 +690,10 @@ impl Body {
         let (solved, reason, backward) = neumann.solve_many(self.comm, columns)?;
         self.solves.set(self.solves.get() + solved.len());
         self.check_solve(System::Neumann, reason, backward)?;
-        solved
-            .into_iter()
-            .map(|x| {
-                self.x.borrow_mut().copy_from(&x)?;
-                self.solution_at(&fixed, at)
-            })
-            .collect()
+        Ok(Solved {
+            columns: solved,
+            fixed,
+        })
     }
 
     /// The body's data plus the Γc loads `f`, in the nodal frames.

@@ -10,7 +10,7 @@ use crate::dd::body::Body;
 use crate::dd::nndd::Iterate;
 use crate::estimate::cre::{worst, BodyEstimate, ElementWork};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
-use crate::estimate::iteration::{body_fields, BodyFields, IterationData, Reaction};
+use crate::estimate::iteration::{body_fields, body_resolves, BodyFields, IterationData, Reaction};
 use crate::estimate::mortar::MortarEstimates;
 use crate::estimate::share::{estimate_owner, estimating_ranks, Share};
 use crate::parallel::held;

@@ -10,7 +10,7 @@ use super::polygon::{EdgeValues, SegmentGap};
 use super::settings::NnddVariant;
 use super::traction::Interface;
 use super::view::View;
-use crate::dd::body::{Body, FieldAt, GcForces};
+use crate::dd::body::{Body, FieldAt, GcForces, Solved};
 use crate::problem::BodyProblem;
 
 /// What the estimates of iteration p need beyond the bodies: λ_p, the Γc densities t̂^c (for
@@ -79,21 +79,17 @@ impl BodyFields<'_> {
     }
 }
 
-/// The re-solves of body α (collective over its group), on this rank at `at`; `u_p` is u^α_p.
-pub fn body_fields<'a>(
+/// The re-solves of body α (collective over its group), held on their owners until
+/// [`body_fields`] gathers them: ũ^α (η^glo's), ũ^α_d (the discrete η^NNDD's), ũ^α_FE (η^FE's),
+/// those the estimate needs, in that order.
+pub fn body_resolves(
     body: &Body,
-    u_p: &'a [f64],
     iface: &Interface,
     data: &IterationData,
     parts: &Parts,
-    at: FieldAt,
-) -> Result<BodyFields<'a>, EstimateError> {
+) -> Result<Solved, EstimateError> {
     let alpha = body.problem.alpha;
     let sign = if alpha == 1 { 1.0 } else { -1.0 };
-    let mut f = BodyFields {
-        u_p: std::borrow::Cow::Borrowed(u_p),
-        ..Default::default()
-    };
     // One multiple-right-hand-side solve for all of them.
     parts.run(Part::Resolves, || {
         let mut loads = Vec::with_capacity(3);
@@ -115,10 +111,6 @@ pub fn body_fields<'a>(
                 });
             }
         }
-        let resolve1 = match data.reaction1 {
-            Reaction::Resolved(t1) if alpha == 1 => Some(t1),
-            _ => None,
-        };
         if alpha == 2 {
             let t2: Vec<f64> = data.t_fe.iter().map(|t| -t).collect();
             loads.push(match data.friction {
@@ -133,17 +125,45 @@ pub fn body_fields<'a>(
                     )
                 }
             });
-        } else if let Some(t1) = resolve1 {
+        } else if let Some(t1) = resolved_reaction1(data, alpha) {
             loads.push(GcForces::Normal(t1.to_vec()));
         }
-        let mut solved = body.neumann_solve_many(&loads, at)?.into_iter();
+        Ok(body.neumann_solve_many(&loads)?)
+    })
+}
+
+/// Body 1's Γc forces where its η^FE data are re-solved with them (a mortar iterate's).
+fn resolved_reaction1<'d>(data: &IterationData<'d>, alpha: usize) -> Option<&'d [f64]> {
+    match data.reaction1 {
+        Reaction::Resolved(t1) if alpha == 1 => Some(t1),
+        _ => None,
+    }
+}
+
+/// Body α's re-solves ([`body_resolves`]) gathered on this rank at `at` (collective over its
+/// group); `u_p` is u^α_p.
+pub fn body_fields<'a>(
+    body: &Body,
+    solved: Solved,
+    u_p: &'a [f64],
+    data: &IterationData,
+    parts: &Parts,
+    at: FieldAt,
+) -> Result<BodyFields<'a>, EstimateError> {
+    let alpha = body.problem.alpha;
+    let mut f = BodyFields {
+        u_p: std::borrow::Cow::Borrowed(u_p),
+        ..Default::default()
+    };
+    parts.run(Part::Resolves, || {
+        let mut solved = body.fields_at(solved, at)?.into_iter();
         if !data.fe_only {
             f.u_tilde = solved.next().expect("ũ");
             if data.nndd_variant == NnddVariant::Discrete {
                 f.u_d = solved.next().expect("ũ_d");
             }
         }
-        if alpha == 2 || resolve1.is_some() {
+        if alpha == 2 || resolved_reaction1(data, alpha).is_some() {
             f.u_fe = solved.next().expect("ũ_FE");
         }
         Ok::<_, EstimateError>(())

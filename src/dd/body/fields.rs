@@ -1,6 +1,7 @@
 //! A solve's field where it is wanted: whole on every rank of the group (the reported
 //! iterate), or on an estimating rank at the nodes of its overlap of the body alone (the
-//! estimates' re-solves), gathered from the rows' owners (docs/scaling.md, "Memory per rank").
+//! estimates' re-solves, held on their owners until then), gathered from the rows' owners
+//! (docs/scaling.md, "Memory per rank").
 
 use super::{Body, BodyError};
 use crate::petsc::{self, Gather, Vector};
@@ -15,7 +16,26 @@ pub enum FieldAt<'a> {
     Nodes(&'a [usize]),
 }
 
+/// Solutions of one system held on their owners (each rank its rows, PETSc order), with the
+/// prescribed values of their solve ([`Body::neumann_solve_many`]).
+pub struct Solved {
+    pub(super) columns: Vec<Vec<f64>>,
+    pub(super) fixed: Vec<(usize, f64)>,
+}
+
 impl Body {
+    /// The solutions `solved` gathered at `at` (collective over the group).
+    pub fn fields_at(&self, solved: Solved, at: FieldAt) -> Result<Vec<Vec<f64>>, BodyError> {
+        let Solved { columns, fixed } = solved;
+        columns
+            .into_iter()
+            .map(|x| {
+                self.x.borrow_mut().copy_from(&x)?;
+                self.solution_at(&fixed, at)
+            })
+            .collect()
+    }
+
     /// The last solution, whole (mesh order, global components), with the exact prescribed
     /// values (the solve returns them to round-off).
     pub(super) fn solution(&self, fixed: &[(usize, f64)]) -> Result<Vec<f64>, BodyError> {

@@ -7,7 +7,7 @@
 use std::borrow::Cow;
 
 use super::*;
-use crate::dd::body::FieldAt;
+use crate::dd::body::{FieldAt, Solved};
 use crate::estimate::polygon::{EdgeValues, SegmentGap};
 
 /// What body 1's Γc forces T¹_p are, for its η^FE recovery ([`Reaction`]).
@@ -187,12 +187,18 @@ impl Estimator<'_> {
         };
         let data = resolved.data(self);
         let crosses = self.crosses();
-        // Who estimates which elements (made at the first estimate): each rank gathers the
-        // re-solves where its recoveries read them, on its overlap of the body, with no whole
-        // field where the body's estimates stay on its group.
+        // The re-solves on each body's group, held on their owners.
+        let mut solved: [Option<Solved>; 2] = [None, None];
+        for (k, body) in bodies.iter().enumerate() {
+            if let Some(b) = body {
+                solved[k] = Some(body_resolves(b, &self.iface, &data, &self.parts)?);
+            }
+        }
+        // Who estimates which elements (made at the first estimate, after the solves and
+        // their workspace): each rank gathers the re-solves where its recoveries read them, on
+        // its overlap of the body, with no whole field where the body's estimates stay on its
+        // group; the other ranks estimating elements of a body receive its fields whole.
         let views = self.shares(crosses).map(|s| s.view(layout));
-        // The re-solves on each body's group, their fields to the other ranks estimating
-        // elements of the body.
         let mut fields: [BodyFields; 2] = Default::default();
         for (k, body) in bodies.iter().enumerate() {
             let at = match (crosses[k], &views[k]) {
@@ -200,8 +206,8 @@ impl Estimator<'_> {
                 (false, Some(view)) => view.field_at(),
                 (false, None) => FieldAt::Nodes(&[]),
             };
-            if let Some(b) = body {
-                fields[k] = body_fields(b, &it.u[k], &self.iface, &data, &self.parts, at)?;
+            if let (Some(b), Some(s)) = (body, solved[k].take()) {
+                fields[k] = body_fields(b, s, &it.u[k], &data, &self.parts, at)?;
             }
             if crosses[k] {
                 let f = &mut fields[k];
