@@ -123,56 +123,37 @@ pub(super) fn inverse_entries(
         indices = (0..d).flat_map(|_| rows.iter().map(|&i| i + 1)).collect();
         values = vec![0.0; d * d];
     }
-    // SAFETY: `id` is MUMPS's instance, alive with `f`; the arrays outlive the call (MUMPS
-    // keeps no pointer to them: they are reset before this returns), and their lengths are
-    // NRHS + 1 and NZ_RHS as MUMPS reads them. The fields changed are put back.
-    let status = unsafe {
-        let s = &mut *id;
-        let saved = (
-            s.job,
-            s.nrhs,
-            s.lrhs,
-            s.rhs,
-            s.nz_rhs,
-            s.irhs_ptr,
-            s.irhs_sparse,
-            s.rhs_sparse,
-        );
-        let saved_icntl = [s.icntl[19], s.icntl[20], s.icntl[26], s.icntl[29]];
-        s.icntl[19] = 1; // ICNTL(20): a sparse right-hand side
-        s.icntl[20] = 0; // ICNTL(21): the solution centralised on the host
-        s.icntl[26] = block; // ICNTL(27)
-        s.icntl[29] = 1; // ICNTL(30): entries of A⁻¹
-        s.job = 3;
-        s.nrhs = n as Int;
-        s.lrhs = n as Int;
-        s.rhs = ptr::null_mut();
-        // (the right-hand side is the host's alone: none on the other ranks)
-        let on_root = |v: &mut [Int]| match root {
-            true => v.as_mut_ptr(),
-            false => ptr::null_mut(),
-        };
-        s.nz_rhs = if root { (d * d) as Int } else { 0 };
-        s.irhs_ptr = on_root(&mut pointers);
-        s.irhs_sparse = on_root(&mut indices);
-        s.rhs_sparse = match root {
+    // (the right-hand side is the host's alone: none on the other ranks)
+    let on_root = |v: &mut [Int]| match root {
+        true => v.as_mut_ptr(),
+        false => ptr::null_mut(),
+    };
+    let solve = SolveFields {
+        job: 3,
+        nrhs: n as Int,
+        lrhs: n as Int,
+        rhs: ptr::null_mut(),
+        nz_rhs: if root { (d * d) as Int } else { 0 },
+        irhs_ptr: on_root(&mut pointers),
+        irhs_sparse: on_root(&mut indices),
+        rhs_sparse: match root {
             true => values.as_mut_ptr(),
             false => ptr::null_mut(),
-        };
+        },
+        // ICNTL(20): a sparse right-hand side; (21): the solution centralised on the host;
+        // (27): the block; (30): entries of A⁻¹
+        icntl: [1, 0, block, 1],
+    };
+    // SAFETY: `id` is MUMPS's instance, alive with `f`; the arrays outlive the call (MUMPS
+    // keeps no pointer to them: the fields are put back before this returns), and their
+    // lengths are NRHS + 1 and NZ_RHS as MUMPS reads them.
+    let status = unsafe {
+        let s = &mut *id;
+        let saved = SolveFields::of(s);
+        solve.put(s);
         ffi::dmumps_c(id);
-        let status = (s.infog[0], s.info[1]);
-        (
-            s.job,
-            s.nrhs,
-            s.lrhs,
-            s.rhs,
-            s.nz_rhs,
-            s.irhs_ptr,
-            s.irhs_sparse,
-            s.rhs_sparse,
-        ) = saved;
-        [s.icntl[19], s.icntl[20], s.icntl[26], s.icntl[29]] = saved_icntl;
-        status
+        saved.put(s);
+        (s.infog[0], s.info[1])
     };
     if status.0 < 0 {
         return Err(PetscError {
@@ -185,6 +166,54 @@ pub(super) fn inverse_entries(
         });
     }
     Ok(Some(values))
+}
+
+/// The fields of MUMPS's instance that [`inverse_entries`] sets for its solve (and puts back).
+#[derive(Clone, Copy)]
+struct SolveFields {
+    job: Int,
+    nrhs: Int,
+    lrhs: Int,
+    rhs: *mut f64,
+    nz_rhs: Int,
+    irhs_ptr: *mut Int,
+    irhs_sparse: *mut Int,
+    rhs_sparse: *mut f64,
+    /// ICNTL(20), ICNTL(21), ICNTL(27), ICNTL(30).
+    icntl: [Int; 4],
+}
+
+/// The positions in MUMPS's ICNTL array of [`SolveFields::icntl`].
+const SOLVE_ICNTL: [usize; 4] = [19, 20, 26, 29];
+
+impl SolveFields {
+    fn of(s: &ffi::DMUMPS_STRUC_C) -> SolveFields {
+        SolveFields {
+            job: s.job,
+            nrhs: s.nrhs,
+            lrhs: s.lrhs,
+            rhs: s.rhs,
+            nz_rhs: s.nz_rhs,
+            irhs_ptr: s.irhs_ptr,
+            irhs_sparse: s.irhs_sparse,
+            rhs_sparse: s.rhs_sparse,
+            icntl: SOLVE_ICNTL.map(|i| s.icntl[i]),
+        }
+    }
+
+    fn put(self, s: &mut ffi::DMUMPS_STRUC_C) {
+        s.job = self.job;
+        s.nrhs = self.nrhs;
+        s.lrhs = self.lrhs;
+        s.rhs = self.rhs;
+        s.nz_rhs = self.nz_rhs;
+        s.irhs_ptr = self.irhs_ptr;
+        s.irhs_sparse = self.irhs_sparse;
+        s.rhs_sparse = self.rhs_sparse;
+        for (k, &i) in SOLVE_ICNTL.iter().enumerate() {
+            s.icntl[i] = self.icntl[k];
+        }
+    }
 }
 
 #[cfg(test)]
