@@ -89,8 +89,18 @@ pub fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// The command `mpirun -n np nndd args…` (oversubscribed when np exceeds the cores).
+/// The command `mpirun -n np nndd args…` (oversubscribed when np exceeds the cores), with a
+/// directory of its own for OpenMPI's files (`orte_tmpdir_base`): the tests of a file run at
+/// once, and two mpiruns that share OpenMPI's default (`/tmp/ompi.HOST.UID`) race, one removing
+/// it while the other starts in it ("A call to mkdir was unable to create the desired
+/// directory", orte_init fails).
 pub fn mpirun_command(np: usize, args: &[&str]) -> Command {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static RUNS: AtomicUsize = AtomicUsize::new(0);
+    let files = std::env::temp_dir()
+        .join(format!("nndd-test-ompi-{}", std::process::id()))
+        .join(RUNS.fetch_add(1, Ordering::Relaxed).to_string());
+    std::fs::create_dir_all(&files).expect("a directory for OpenMPI's files");
     let mut cmd = Command::new("mpirun");
     cmd.args([
         "-n",
@@ -103,7 +113,8 @@ pub fn mpirun_command(np: usize, args: &[&str]) -> Command {
     .args(args)
     .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
     .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-    .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
+    .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
+    .env("OMPI_MCA_orte_tmpdir_base", &files);
     cmd
 }
 
