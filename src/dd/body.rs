@@ -386,7 +386,7 @@ impl Body {
                 let root = self.is_root();
                 (
                     neumann
-                        .mumps_inverse_block(self.comm, root, &rows)?
+                        .mumps_inverse_block(root, &rows)?
                         .unwrap_or_default(),
                     false,
                 )

@@ -299,12 +299,7 @@ impl Ksp {
     /// right-hand sides and a pruned elimination tree, on any number of ranks. Collective;
     /// the block arrives on the communicator's first rank (`root`), `None` elsewhere, and
     /// `None` everywhere when the solver is not a MUMPS factorisation.
-    pub fn mumps_inverse_block(
-        &self,
-        comm: Comm,
-        root: bool,
-        rows: &[Int],
-    ) -> Result<Option<Vec<f64>>> {
+    pub fn mumps_inverse_block(&self, root: bool, rows: &[Int]) -> Result<Option<Vec<f64>>> {
         let Some(f) = self.mumps_factor()? else {
             return Ok(None);
         };
@@ -323,117 +318,18 @@ impl Ksp {
             }
             false => (m as Int).clamp(1, INVERSE_BLOCK),
         };
-        let block_of = |values: Vec<f64>| {
-            let at = |r: Int| distinct.binary_search(&r).expect("a row of the block");
-            let d = distinct.len();
-            let mut out = vec![0.0; m * m];
-            for (j, &c) in rows.iter().enumerate() {
-                for (i, &r) in rows.iter().enumerate() {
-                    out[j * m + i] = values[at(c) * d + at(r)];
-                }
-            }
-            out
-        };
-        if let Some(values) = super::mumps::inverse_entries(f, root, &distinct, block)? {
-            return Ok(root.then(|| block_of(values)));
-        }
-        // PETSc's way, where the factor's instance is not laid out as PETSc 3.18's.
-        let (mut n, mut cols) = (0 as Int, 0 as Int);
-        call!(MatGetSize(self._mat.0, &mut n, &mut cols))?;
-        // The pattern (the transpose of the wanted entries, which is the same set) lives whole
-        // in the first rank's diagonal block: PETSc hands that block's CSR to MUMPS. It is
-        // given as CSR arrays that PETSc takes without a copy (rows × rows ones, and the row
-        // pointers: 4 bytes per row of the body, besides PETSc's own per-row arrays of its
-        // diagonal and off-diagonal blocks; docs/scaling.md, "Memory per rank").
-        let local = if root { n } else { 0 };
-        let d = distinct.len();
-        let mut starts = vec![0 as Int; local as usize + 1];
-        if root {
-            for &r in &distinct {
-                starts[r as usize + 1] = d as Int;
-            }
-            for r in 0..local as usize {
-                starts[r + 1] += starts[r];
-            }
-        }
-        let mut columns: Vec<Int> = match root {
-            true => (0..d).flat_map(|_| distinct.iter().copied()).collect(),
-            false => vec![0],
-        };
-        let mut ones = vec![1.0; columns.len()];
-        // No off-diagonal block (on several ranks).
-        let mut off_starts: Vec<Int>;
-        let (mut off_cols, mut off_values) = ([0 as Int], [0.0]);
-        // One rank (the system's rows all its own): MUMPS takes the matrix itself, sequential.
-        let (mut own_rows, mut own_cols) = (0 as Int, 0 as Int);
-        call!(MatGetLocalSize(self._mat.0, &mut own_rows, &mut own_cols))?;
-        let mut bt: ffi::Mat = ptr::null_mut();
-        // SAFETY: the arrays outlive `bt` (declared before it, dropped after it), as PETSc
-        // requires of matrices made from arrays; their lengths are those it reads.
-        if own_rows == n {
-            call!(MatCreateSeqAIJWithArrays(
-                comm.0,
-                n,
-                n,
-                starts.as_mut_ptr(),
-                columns.as_mut_ptr(),
-                ones.as_mut_ptr(),
-                &mut bt
-            ))?;
-        } else {
-            off_starts = vec![0 as Int; local as usize + 1];
-            call!(MatCreateMPIAIJWithSplitArrays(
-                comm.0,
-                local,
-                local,
-                n,
-                n,
-                starts.as_mut_ptr(),
-                columns.as_mut_ptr(),
-                ones.as_mut_ptr(),
-                off_starts.as_mut_ptr(),
-                off_cols.as_mut_ptr(),
-                off_values.as_mut_ptr(),
-                &mut bt
-            ))?;
-        }
-        let bt = Matrix(bt);
-        // PETSc leaves ICNTL(30) = 1 (entries of the inverse) and ICNTL(21) = 0 (centralised
-        // solution) set after the call, and its solves set neither: restore both.
-        let (mut icntl21, mut icntl27, mut icntl30) = (0 as Int, 0 as Int, 0 as Int);
-        call!(MatMumpsGetIcntl(f, 21, &mut icntl21))?;
-        call!(MatMumpsGetIcntl(f, 27, &mut icntl27))?;
-        call!(MatMumpsGetIcntl(f, 30, &mut icntl30))?;
-        call!(MatMumpsSetIcntl(f, 27, block))?;
-        let inverse = call!(MatMumpsGetInverseTranspose(f, bt.0));
-        call!(MatMumpsSetIcntl(f, 21, icntl21))?;
-        call!(MatMumpsSetIcntl(f, 27, icntl27))?;
-        call!(MatMumpsSetIcntl(f, 30, icntl30))?;
-        inverse?;
+        let values = super::mumps::inverse_entries(f, root, &distinct, block, &self.prefix)?;
         if !root {
             return Ok(None);
         }
-        let position: std::collections::HashMap<Int, usize> =
-            rows.iter().enumerate().map(|(k, &r)| (r, k)).collect();
+        // (`rows` in their order, from the distinct ones MUMPS computed)
+        let at = |r: Int| distinct.binary_search(&r).expect("a row of the block");
+        let d = distinct.len();
         let mut out = vec![0.0; m * m];
-        for (j, &r) in rows.iter().enumerate() {
-            let mut len: Int = 0;
-            let mut idx: *const Int = ptr::null();
-            let mut vals: *const f64 = ptr::null();
-            call!(MatGetRow(bt.0, r, &mut len, &mut idx, &mut vals))?;
-            // SAFETY: PETSc gives `len` column indices and values until MatRestoreRow.
-            let (idx_s, vals_s) = unsafe {
-                (
-                    std::slice::from_raw_parts(idx, len as usize),
-                    std::slice::from_raw_parts(vals, len as usize),
-                )
-            };
-            for (c, v) in idx_s.iter().zip(vals_s) {
-                if let Some(&i) = position.get(c) {
-                    out[j * m + i] = *v;
-                }
+        for (j, &c) in rows.iter().enumerate() {
+            for (i, &r) in rows.iter().enumerate() {
+                out[j * m + i] = values[at(c) * d + at(r)];
             }
-            call!(MatRestoreRow(bt.0, r, &mut len, &mut idx, &mut vals))?;
         }
         Ok(Some(out))
     }

@@ -1,6 +1,6 @@
 //! The verdict of a MUMPS factorisation. PETSc records a failed MUMPS factorisation in the
-//! factor (INFOG(1) < 0) and goes on; the first solve or MatMumpsGetInverseTranspose then
-//! fails with MUMPS's "INFOG(1)=-3" (called in the wrong state), which says nothing of the
+//! factor (INFOG(1) < 0) and goes on; the first solve or the entries of K⁻¹ then
+//! fail with MUMPS's "INFOG(1)=-3" (called in the wrong state), which says nothing of the
 //! cause. [`verdict`] reads INFOG(1) and INFOG(2) at once and says in one line what failed
 //! and which option to change.
 //!
@@ -58,8 +58,7 @@ fn failure(prefix: &str, status: Int, detail: Int, relaxation: Int) -> PetscErro
 
 /// MUMPS's instance of the factor `f`: PETSc's `Mat_MUMPS` (src/mat/impls/aij/mpi/mumps/mumps.c,
 /// not in a header) begins with MUMPS's `DMUMPS_STRUC_C`. `None` unless what it holds is what
-/// PETSc reports of the same factor (its size, ICNTL(1..=35) and INFOG(1..=3)), so that a
-/// PETSc laid out otherwise takes PETSc's own way.
+/// PETSc reports of the same factor (its size, ICNTL(1..=35) and INFOG(1..=3)).
 fn instance(f: ffi::Mat) -> Result<Option<*mut ffi::DMUMPS_STRUC_C>> {
     // SAFETY: `f` is a live factor matrix, whose `data` PETSc's MUMPS interface set.
     let id = unsafe { (*f).data } as *mut ffi::DMUMPS_STRUC_C;
@@ -92,18 +91,25 @@ fn instance(f: ffi::Mat) -> Result<Option<*mut ffi::DMUMPS_STRUC_C>> {
 
 /// The entries (A⁻¹)[i, j] for i, j in `rows` (distinct, increasing) of the factored A in
 /// `f`, `block` right-hand sides at a time (ICNTL(27)), by MUMPS directly: column-major on the
-/// first rank (`root`), `Some(empty)` on the others; `None` everywhere where `f`'s instance is
-/// not MUMPS's as expected ([`instance`]: every rank of the group sees the same layout).
-/// Collective over the factor's communicator. MUMPS's controls and right-hand side are as
-/// before on return.
+/// first rank (`root`), empty on the others. Collective over the factor's communicator.
+/// MUMPS's controls and right-hand side are as before on return. An error naming
+/// `-nndd_schur solves` where `f`'s instance is not MUMPS's as expected ([`instance`]; every
+/// rank of the group sees the same layout).
 pub(super) fn inverse_entries(
     f: ffi::Mat,
     root: bool,
     rows: &[Int],
     block: Int,
-) -> Result<Option<Vec<f64>>> {
+    prefix: &str,
+) -> Result<Vec<f64>> {
     let Some(id) = instance(f)? else {
-        return Ok(None);
+        return Err(PetscError {
+            code: ERR_LIB,
+            call: "dmumps_c",
+            message: format!(
+                "-{prefix}pc_factor_mat_solver_type mumps: this PETSc's MUMPS factor is not laid out as PETSc 3.18's, so its entries of K⁻¹ cannot be asked of MUMPS; use -nndd_schur solves"
+            ),
+        });
     };
     let d = rows.len();
     // SAFETY: `instance` checked the layout; MUMPS's size is the factor's.
@@ -165,7 +171,7 @@ pub(super) fn inverse_entries(
             ),
         });
     }
-    Ok(Some(values))
+    Ok(values)
 }
 
 /// The fields of MUMPS's instance that [`inverse_entries`] sets for its solve (and puts back).
