@@ -35,7 +35,7 @@ pub fn estimate_owner(meshes: [&Mesh; 2], ranks: usize, k: usize) -> Vec<u32> {
     let len = order.len();
     let mut owner = vec![0u32; len];
     for (q, &e) in order.iter().enumerate() {
-        owner[e] = match own {
+        owner[e as usize] = match own {
             true => (position + q) * ranks / total,
             false => q * ranks / len.max(1),
         } as u32;
@@ -66,12 +66,9 @@ fn dealt_ranks(sizes: [usize; 2], ranks: usize) -> Option<[Range<usize>; 2]> {
 }
 
 /// The elements of `mesh` in slab order: by the barycentre's coordinate along the longer side
-/// of the bounding box, then by index.
-fn slab_order(mesh: &Mesh) -> Vec<usize> {
-    let centre = |e: usize| {
-        let p = mesh.triangle_points(e);
-        [0, 1].map(|c| (p[0][c] + p[1][c] + p[2][c]) / 3.0)
-    };
+/// of the bounding box, then by index (12 bytes per element of the body while it is sorted,
+/// made on every rank that estimates the body).
+fn slab_order(mesh: &Mesh) -> Vec<u32> {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for p in &mesh.points {
         for c in 0..2 {
@@ -80,11 +77,19 @@ fn slab_order(mesh: &Mesh) -> Vec<usize> {
         }
     }
     let axis = if hi[0] - lo[0] >= hi[1] - lo[1] { 0 } else { 1 };
-    let mut order: Vec<(f64, usize)> = (0..mesh.triangles.len())
-        .map(|e| (centre(e)[axis], e))
+    let centre: Vec<f64> = (0..mesh.triangles.len())
+        .map(|e| {
+            let p = mesh.triangle_points(e);
+            (p[0][axis] + p[1][axis] + p[2][axis]) / 3.0
+        })
         .collect();
-    order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    order.into_iter().map(|(_, e)| e).collect()
+    let mut order: Vec<u32> = (0..centre.len())
+        .map(|e| u32::try_from(e).expect("a body has fewer than 2^32 elements"))
+        .collect();
+    order.sort_unstable_by(|&a, &b| {
+        (centre[a as usize].total_cmp(&centre[b as usize])).then(a.cmp(&b))
+    });
+    order
 }
 
 /// This rank's part in the estimates of one body.
@@ -161,6 +166,22 @@ mod tests {
 
     fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
         [0, 1].map(|k| estimate_owner(meshes, ranks, k))
+    }
+
+    /// Slab order: by the barycentre along the longer side, ties by element index.
+    #[test]
+    fn slab_order_sorts_by_barycentre_then_index() {
+        // 2 × 1 cells, longer along x: cell 0's triangles (0, 1) have barycentres x = 2/3 and
+        // 1/3, cell 1's (2, 3) 5/3 and 4/3.
+        let mesh = Mesh::structured([0.0, 0.0], [2.0, 1.0], 2, 1);
+        assert_eq!(slab_order(&mesh), vec![1, 0, 3, 2]);
+        // 2 × 2 cells, still wider than tall: the rows' triangles share their barycentres'
+        // x two by two, ties by index.
+        let mesh = Mesh::structured([0.0, 0.0], [2.0, 1.9], 2, 2);
+        assert_eq!(slab_order(&mesh), vec![1, 5, 0, 4, 3, 7, 2, 6]);
+        // Taller than wide: along y.
+        let mesh = Mesh::structured([0.0, 0.0], [1.0, 2.0], 1, 2);
+        assert_eq!(slab_order(&mesh), vec![0, 1, 2, 3]);
     }
 
     #[test]

@@ -31,8 +31,9 @@ pub fn vertex_colours(mesh: &Mesh) -> Vec<u8> {
     if mesh.is_structured() {
         return natural;
     }
-    let neighbours = vertex_neighbours(mesh);
-    let smallest_last = greedy_colours(&neighbours, smallest_last_order(&neighbours).rev());
+    let neighbours = Neighbours::of(mesh);
+    let order = smallest_last_order(&neighbours);
+    let smallest_last = greedy_colours(&neighbours, order.iter().rev().map(|&i| i as usize));
     let count = |c: &[u8]| c.iter().max().map_or(0, |&m| m as usize + 1);
     if count(&smallest_last) < count(&natural) {
         smallest_last
@@ -42,16 +43,18 @@ pub fn vertex_colours(mesh: &Mesh) -> Vec<u8> {
 }
 
 /// Greedy colouring in vertex index order, straight from the vertex stars: on the
-/// structured meshes, where it is the only colouring made, no neighbour lists are built
-/// (a vector per vertex, made during the first recovery, when the memory peaks).
+/// structured meshes, where it is the only colouring made, no neighbour lists are built.
+/// The colouring is made on the whole body by every rank that estimates a part of it, for
+/// the estimate's shares, while the bodies' factorisations are still held
+/// (`share::Share::new`): its stars and lists are what a rank then holds beyond them.
 fn index_order_colours(mesh: &Mesh) -> Vec<u8> {
     let nn = mesh.num_nodes();
-    let (ptr, around) = vertex_stars(mesh);
+    let (ptr, around) = vertex_stars(mesh, |e, _| element_u32(e));
     let mut colour = vec![0u8; nn];
     for i in 0..nn {
         let mut used = [0u64; 4];
-        for &(e, _) in &around[ptr[i]..ptr[i + 1]] {
-            for &v in &mesh.triangles.get(e) {
+        for &e in &around[ptr[i]..ptr[i + 1]] {
+            for &v in &mesh.triangles.get(e as usize) {
                 if v < i {
                     let c = colour[v] as usize;
                     used[c / 64] |= 1 << (c % 64);
@@ -66,31 +69,56 @@ fn index_order_colours(mesh: &Mesh) -> Vec<u8> {
     colour
 }
 
-/// The distinct neighbours (vertices sharing an element) of every vertex, sorted.
-fn vertex_neighbours(mesh: &Mesh) -> Vec<Vec<u32>> {
-    let (ptr, around) = vertex_stars(mesh);
-    (0..mesh.num_nodes())
-        .map(|i| {
-            let mut n: Vec<u32> = around[ptr[i]..ptr[i + 1]]
-                .iter()
-                .flat_map(|&(e, _)| mesh.triangles.get(e))
-                .filter(|&v| v != i)
-                .map(|v| v as u32)
-                .collect();
-            n.sort_unstable();
-            n.dedup();
-            n
-        })
-        .collect()
+/// The distinct neighbours (vertices sharing an element) of every vertex, sorted, as a
+/// compressed list (8 bytes per vertex and 4 per neighbour).
+struct Neighbours {
+    ptr: Vec<usize>,
+    adjacent: Vec<u32>,
+}
+
+impl Neighbours {
+    fn of(mesh: &Mesh) -> Neighbours {
+        let (stars, elements) = vertex_stars(mesh, |e, _| element_u32(e));
+        let nn = mesh.num_nodes();
+        let mut ptr = Vec::with_capacity(nn + 1);
+        ptr.push(0);
+        // (a vertex whose elements form one fan has at most one neighbour more than elements:
+        // the list is allocated once)
+        let mut adjacent = Vec::with_capacity(elements.len() + nn);
+        let mut around = Vec::new();
+        for i in 0..nn {
+            around.clear();
+            around.extend(
+                (elements[stars[i]..stars[i + 1]].iter())
+                    .flat_map(|&e| mesh.triangles.get(e as usize))
+                    .filter(|&v| v != i)
+                    .map(|v| v as u32),
+            );
+            around.sort_unstable();
+            around.dedup();
+            adjacent.extend_from_slice(&around);
+            ptr.push(adjacent.len());
+        }
+        Neighbours { ptr, adjacent }
+    }
+
+    fn len(&self) -> usize {
+        self.ptr.len() - 1
+    }
+
+    /// The neighbours of vertex i.
+    fn at(&self, i: usize) -> &[u32] {
+        &self.adjacent[self.ptr[i]..self.ptr[i + 1]]
+    }
 }
 
 /// Greedy colouring in `order` (each vertex once).
-fn greedy_colours(neighbours: &[Vec<u32>], order: impl Iterator<Item = usize>) -> Vec<u8> {
+fn greedy_colours(neighbours: &Neighbours, order: impl Iterator<Item = usize>) -> Vec<u8> {
     const UNSET: u8 = u8::MAX;
     let mut colour = vec![UNSET; neighbours.len()];
     for i in order {
         let mut used = [0u64; 4];
-        for &v in &neighbours[i] {
+        for &v in neighbours.at(i) {
             let c = colour[v as usize];
             if c != UNSET {
                 used[c as usize / 64] |= 1 << (c % 64);
@@ -106,15 +134,15 @@ fn greedy_colours(neighbours: &[Vec<u32>], order: impl Iterator<Item = usize>) -
 
 /// The smallest-last removal order: each vertex removed has the least degree among the
 /// vertices left (ties: the lowest index of the lowest bucket entry; deterministic).
-fn smallest_last_order(neighbours: &[Vec<u32>]) -> std::vec::IntoIter<usize> {
+fn smallest_last_order(neighbours: &Neighbours) -> Vec<u32> {
     let nn = neighbours.len();
-    let mut degree: Vec<usize> = neighbours.iter().map(Vec::len).collect();
-    let max = degree.iter().copied().max().unwrap_or(0);
+    let mut degree: Vec<u32> = (0..nn).map(|i| neighbours.at(i).len() as u32).collect();
+    let max = degree.iter().copied().max().unwrap_or(0) as usize;
     // Buckets by degree with stale entries skipped (a vertex is pushed again when its
     // degree drops).
-    let mut buckets: Vec<Vec<usize>> = vec![Vec::new(); max + 1];
+    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); max + 1];
     for i in (0..nn).rev() {
-        buckets[degree[i]].push(i);
+        buckets[degree[i] as usize].push(i as u32);
     }
     let mut removed = vec![false; nn];
     let mut order = Vec::with_capacity(nn);
@@ -124,26 +152,28 @@ fn smallest_last_order(neighbours: &[Vec<u32>]) -> std::vec::IntoIter<usize> {
             low += 1;
             continue;
         };
-        if removed[i] || degree[i] != low {
+        let i = i as usize;
+        if removed[i] || degree[i] as usize != low {
             continue;
         }
         removed[i] = true;
-        order.push(i);
-        for &v in &neighbours[i] {
+        order.push(i as u32);
+        for &v in neighbours.at(i) {
             let v = v as usize;
             if !removed[v] {
                 degree[v] -= 1;
-                buckets[degree[v]].push(v);
-                low = low.min(degree[v]);
+                buckets[degree[v] as usize].push(v as u32);
+                low = low.min(degree[v] as usize);
             }
         }
     }
-    order.into_iter()
+    order
 }
 
-/// The elements around every vertex, (element, local vertex) in increasing element order,
-/// as a compressed list: vertex i has `around[ptr[i]..ptr[i + 1]]`.
-fn vertex_stars(mesh: &Mesh) -> (Vec<usize>, Vec<(usize, usize)>) {
+/// The elements around every vertex in increasing element order, each as `entry(e, local
+/// vertex)`, as a compressed list: vertex i has `entries[ptr[i]..ptr[i + 1]]` (8 bytes per
+/// vertex and 4 per entry, six entries per vertex of a triangulation).
+fn vertex_stars(mesh: &Mesh, entry: impl Fn(usize, usize) -> u32) -> (Vec<usize>, Vec<u32>) {
     let nn = mesh.num_nodes();
     let mut ptr = vec![0usize; nn + 1];
     for t in &mesh.triangles {
@@ -155,14 +185,20 @@ fn vertex_stars(mesh: &Mesh) -> (Vec<usize>, Vec<(usize, usize)>) {
         ptr[i + 1] += ptr[i];
     }
     let mut fill = ptr.clone();
-    let mut around = vec![(0, 0); 3 * mesh.triangles.len()];
+    let mut entries = vec![0u32; 3 * mesh.triangles.len()];
     for (e, t) in mesh.triangles.iter().enumerate() {
         for (a, &v) in t.iter().enumerate() {
-            around[fill[v]] = (e, a);
+            entries[fill[v]] = entry(e, a);
             fill[v] += 1;
         }
     }
-    (ptr, around)
+    (ptr, entries)
+}
+
+/// An element index as stored in a star: a body has fewer than 2³² elements (PETSc's 32-bit
+/// indices refuse far smaller ones).
+fn element_u32(e: usize) -> u32 {
+    u32::try_from(e).expect("a mesh has fewer than 2^32 elements")
 }
 
 /// Element e is owned (no restriction: every element is).
@@ -275,8 +311,8 @@ impl Topology {
                 }
             }
         }
-        let (vert_ptr, around) = vertex_stars(mesh);
-        let vert_elems = around.iter().map(|&(e, a)| (4 * e + a) as u32).collect();
+        // (nt < 2³⁰ above: 4 e + a fits)
+        let (vert_ptr, vert_elems) = vertex_stars(mesh, |e, a| (4 * e + a) as u32);
         Ok(Topology {
             edge_nodes,
             edge_elems,
@@ -361,6 +397,26 @@ impl Topology {
 mod tests {
     use super::*;
 
+    /// The compressed stars and neighbour lists hold what the triangles say: each vertex's
+    /// elements in increasing order, and its distinct neighbours sorted.
+    #[test]
+    fn stars_and_neighbours_are_the_triangles() {
+        let mesh = Mesh::unstructured(
+            vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [0.5, 1.0], [1.5, 1.0]],
+            vec![[0, 1, 3], [1, 4, 3], [1, 2, 4]],
+        );
+        let (ptr, packed) = vertex_stars(&mesh, |e, a| (4 * e + a) as u32);
+        let star = |i: usize| packed[ptr[i]..ptr[i + 1]].to_vec();
+        assert_eq!(star(1), vec![1, 4, 8]); // (0, 1), (1, 0), (2, 0)
+        assert_eq!(star(3), vec![2, 6]); // (0, 2), (1, 2)
+        assert_eq!(star(2), vec![9]);
+        let neighbours = Neighbours::of(&mesh);
+        assert_eq!(neighbours.len(), 5);
+        assert_eq!(neighbours.at(1), &[0, 2, 3, 4]);
+        assert_eq!(neighbours.at(0), &[1, 3]);
+        assert_eq!(neighbours.at(4), &[1, 2, 3]);
+    }
+
     #[test]
     fn vertex_colouring_is_proper() {
         for (nx, ny) in [(1, 1), (2, 2), (5, 3), (16, 12), (64, 48)] {
@@ -401,7 +457,7 @@ mod tests {
         mesh.points = points;
         (mesh.nx, mesh.ny) = (0, 0);
         mesh.triangles = mesh.triangles.iter().map(|t| t.map(|v| perm[v])).collect();
-        let neighbours = vertex_neighbours(&mesh);
+        let neighbours = Neighbours::of(&mesh);
         let count = |c: &[u8]| c.iter().max().map_or(0, |&m| m as usize + 1);
         let natural = count(&index_order_colours(&mesh));
         assert_eq!(
