@@ -23,6 +23,7 @@ const FUNCTIONS: &[&str] = &[
     "PetscMemoryGetMaximumUsage",
     "PetscMemorySetGetMaximumUsage",
     "PetscObjectSetName",
+    "PetscFreeA",
     "PetscOptionsGetAll",
     "ISCreateGeneral",
     "ISDestroy",

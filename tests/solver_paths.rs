@@ -94,6 +94,50 @@ fn neumann_step_solve_equals_condensed() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// PETSc's copy of each body's matrix for MUMPS (its triples i, j, a_ij of the upper triangle:
+/// (nonzeros + dofs) / 2 of them, 16 bytes each) is freed once MUMPS has factored it, on one
+/// rank and over a group of two, and kept where MUMPS's error analysis or iterative refinement
+/// reads it in every solve: the estimates' re-solves then run on it, and the solutions agree.
+#[test]
+fn mumps_copy_of_the_matrix_is_freed_once_factored_unless_a_solve_reads_it() {
+    let dir = scratch("paths-freed");
+    let args = [&BASE[..], &["-nndd_estimate_every", "5"]].concat();
+    for np in [1, 3] {
+        let a = solve(np, &dir.join(format!("a{np}")), &args);
+        let keep = [
+            "-body1_mat_mumps_icntl_11",
+            "1",
+            "-body2_mat_mumps_icntl_10",
+            "2",
+        ];
+        let b = solve(
+            np,
+            &dir.join(format!("b{np}")),
+            &[&args[..], &keep[..]].concat(),
+        );
+        for k in 0..2 {
+            let nonzeros = a["stiffness_nonzeros"][k].as_f64().unwrap();
+            let dofs = a["body_dofs"][k].as_f64().unwrap();
+            let expected = (nonzeros + dofs) / 2.0 * 16.0 / (1u64 << 20) as f64;
+            let freed = a["freed_matrix_copy_mib"][k].as_f64().unwrap();
+            assert!(
+                (freed - expected).abs() < 1e-9 * expected,
+                "{np} ranks, body {}: {freed} MiB freed, {expected} expected",
+                k + 1
+            );
+            assert_eq!(b["freed_matrix_copy_mib"][k].as_f64(), Some(0.0));
+        }
+        assert_eq!(a["dirichlet_step"], "condensed");
+        assert!(!b["estimates"].as_array().unwrap().is_empty());
+        same(
+            &dir.join(format!("a{np}")),
+            &dir.join(format!("b{np}")),
+            1e-10,
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn schur_complement_from_mumps_equals_back_solves() {
     // PETSc's own Cholesky has no Schur complement: body 2's S is formed from m back-solves,

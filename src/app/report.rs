@@ -124,6 +124,7 @@ pub fn summarise(
         dirichlet_step: sol.dirichlet_step.into(),
         neumann_step: solvers.each_ref().map(|s| s.neumann_step.to_string()),
         factorisation_flops: solvers.each_ref().map(|s| s.factorisation_flops),
+        freed_matrix_copy_mib: solvers.each_ref().map(|s| s.freed_copy_mib),
         stiffness_nonzeros: solvers.each_ref().map(|s| s.nonzeros),
         body_setup_seconds: solvers.each_ref().map(|s| s.setup_seconds),
         body_dofs: [body1.mesh.num_dofs(), body2.mesh.num_dofs()],

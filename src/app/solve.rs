@@ -734,6 +734,9 @@ pub struct BodySolver {
     pub nonzeros: f64,
     /// Assembly, factorisation and interface operators on the body's first rank (s).
     pub setup_seconds: f64,
+    /// PETSc's copies of the body's matrices for MUMPS freed once factored, over its group
+    /// (MiB; `Body::freed_copy_bytes`).
+    pub freed_copy_mib: f64,
 }
 
 /// Each body's [`BodySolver`], shared from its first rank to every rank (collective).
@@ -749,7 +752,10 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
         NeumannStep::Omitted,
     ];
     [1, 2].map(|alpha| {
-        let mut facts = [-1.0, -1.0, f64::NAN, 0.0, 0.0];
+        let mut facts = [-1.0, -1.0, f64::NAN, 0.0, 0.0, 0.0];
+        // (summed over the group first: each rank frees its own rows' copy)
+        let mut freed = [refs[alpha - 1].map_or(0.0, |b| b.freed_copy_bytes() as f64)];
+        layout.group_sum(&mut freed);
         if let Some(b) = refs[alpha - 1] {
             let source = b
                 .schur_source
@@ -762,6 +768,7 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
                 b.factorisation_flops.unwrap_or(f64::NAN),
                 a + f + i,
                 b.nonzeros,
+                freed[0] / (1u64 << 20) as f64,
             ];
         }
         layout.share(alpha, &mut facts);
@@ -778,6 +785,7 @@ pub fn body_solvers(layout: &Layout, refs: [Option<&Body>; 2], sol: &Solution) -
             factorisation_flops: facts[2].is_finite().then_some(facts[2]),
             setup_seconds: facts[3],
             nonzeros: facts[4],
+            freed_copy_mib: facts[5],
         }
     })
 }

@@ -313,6 +313,16 @@ impl Body {
         }))
     }
 
+    /// Bytes of PETSc's copies of the body's matrices for MUMPS freed on this rank once
+    /// factored (`Ksp::freed_copy_bytes`, both systems).
+    pub fn freed_copy_bytes(&self) -> usize {
+        [&self.neumann, &self.dirichlet]
+            .iter()
+            .filter_map(|k| k.as_ref())
+            .map(Ksp::freed_copy_bytes)
+            .sum()
+    }
+
     /// The first rank of the body's group: the one that counts the body's replicated totals
     /// (energy, e_ref) once, and solves the contact QP.
     pub fn is_root(&self) -> bool {

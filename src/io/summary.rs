@@ -189,6 +189,11 @@ pub struct Summary {
     pub neumann_step: [String; 2],
     /// MUMPS's count of each body's factorisation flops (RINFOG(3); null without MUMPS).
     pub factorisation_flops: [Option<f64>; 2],
+    /// MiB of PETSc's copies of each body's matrices for MUMPS (their triples i, j, a_ij)
+    /// freed once MUMPS factored them, over the body's group: 0 where MUMPS is asked for
+    /// iterative refinement or error analysis (`-bodyα_mat_mumps_icntl_10`, `_11`), which
+    /// read them in its solves, or does not factor the body.
+    pub freed_matrix_copy_mib: [f64; 2],
     /// The nonzeros of each body's stiffness K^α as assembled (its Γ_D rows and columns
     /// included), over its group's ranks; the preallocation is checked exact.
     pub stiffness_nonzeros: [f64; 2],

@@ -66,6 +66,9 @@ pub struct Ksp {
     a_norm: std::cell::Cell<Option<f64>>,
     /// Seconds spent computing backward errors.
     check_seconds: std::cell::Cell<f64>,
+    /// Bytes of PETSc's copy of the operator for MUMPS freed on this rank once factored
+    /// ([`mumps::release_triples`]).
+    freed_copy: usize,
 }
 
 impl Ksp {
@@ -87,6 +90,7 @@ impl Ksp {
             prefix: prefix.to_string(),
             a_norm: std::cell::Cell::new(None),
             check_seconds: std::cell::Cell::new(0.0),
+            freed_copy: 0,
         };
         call!(KSPSetOperators(solver.ksp, solver._mat.0, solver._mat.0))?;
         let p = cstr(prefix);
@@ -133,6 +137,9 @@ impl Ksp {
             let dense = unsafe { std::slice::from_raw_parts(a, m * m) }.to_vec();
             call!(MatDenseRestoreArrayRead(s.0, &mut a))?;
             solver.schur = Some(dense);
+        }
+        if mumps_factor {
+            solver.freed_copy = mumps::release_triples(factor)?;
         }
         Ok(solver)
     }
@@ -225,6 +232,12 @@ impl Ksp {
     fn add_check_time(&self, since: std::time::Instant) {
         self.check_seconds
             .set(self.check_seconds.get() + since.elapsed().as_secs_f64());
+    }
+
+    /// Bytes of PETSc's copy of the operator for MUMPS (its triples) freed on this rank once
+    /// MUMPS factored it; 0 where they are kept or the solver is no MUMPS factorisation.
+    pub fn freed_copy_bytes(&self) -> usize {
+        self.freed_copy
     }
 
     /// Seconds this solver spent computing the backward errors of its solves.

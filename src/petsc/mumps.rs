@@ -174,6 +174,90 @@ pub(super) fn inverse_entries(
     Ok(values)
 }
 
+/// PETSc 3.18's `Mat_MUMPS` up to the triples it gives MUMPS (src/mat/impls/aij/mpi/mumps/
+/// mumps.c: after MUMPS's structure, `MatStructure matstruc; PetscMPIInt myid, petsc_size;
+/// PetscMUMPSInt *irn, *jcn; PetscScalar *val, *val_alloc; PetscInt64 nnz;`).
+#[repr(C)]
+struct Triples {
+    id: ffi::DMUMPS_STRUC_C,
+    matstruc: ffi::MatStructure,
+    myid: ffi::PetscMPIInt,
+    petsc_size: ffi::PetscMPIInt,
+    irn: *mut Int,
+    jcn: *mut Int,
+    val: *mut f64,
+    val_alloc: *mut f64,
+    nnz: i64,
+}
+
+/// Free the copy of the matrix that PETSc made for MUMPS, its triples (i, j, a_ij) of this
+/// rank's entries (of the upper triangle for a Cholesky factorisation), once MUMPS has
+/// factored it: 16 bytes per entry, as much as the matrix itself, held through the run for a
+/// refactorisation nndd never makes (a body's matrices are not changed once factored: the
+/// [`super::Ksp`] owns its operator). MUMPS reads them again only for iterative refinement
+/// (ICNTL(10)) and error analysis (ICNTL(11)), so they are kept where either is asked for,
+/// and where the factor is not laid out as PETSc 3.18's: its pointers must be the ones
+/// MUMPS holds. Returns the bytes freed on this rank. PETSc frees the same pointers the
+/// same way (`PetscFree2(irn, jcn)`, `PetscFree(val_alloc)`) when the factor is destroyed,
+/// where they are then null.
+pub(super) fn release_triples(f: ffi::Mat) -> Result<usize> {
+    let Some(id) = instance(f)? else {
+        return Ok(0);
+    };
+    let t = id as *mut Triples;
+    // SAFETY: `instance` checked that `f`'s data is MUMPS's instance at the start of PETSc's
+    // Mat_MUMPS, which goes on with these fields; read only until they are found to hold
+    // exactly the triples MUMPS was given.
+    let (held, t) = unsafe {
+        let t = &mut *t;
+        let s = &t.id;
+        let distributed = s.icntl[17] == 3;
+        let given = match distributed {
+            true => (s.irn_loc, s.jcn_loc, s.a_loc, s.nnz_loc),
+            false => (s.irn, s.jcn, s.a, s.nnz),
+        };
+        let held = (distributed || t.petsc_size == 1)
+            && (0..t.petsc_size.max(1)).contains(&t.myid)
+            && given == (t.irn, t.jcn, t.val, t.nnz)
+            && !t.irn.is_null()
+            && (t.val_alloc.is_null() || t.val_alloc == t.val)
+            && s.icntl[9] == 0
+            && s.icntl[10] == 0;
+        (held, t)
+    };
+    if !held {
+        return Ok(0);
+    }
+    let copied = !t.val_alloc.is_null();
+    let bytes = t.nnz as usize * (2 * std::mem::size_of::<Int>() + if copied { 8 } else { 0 });
+    let (line, func, file) = (
+        line!() as i32,
+        c"release_triples".as_ptr(),
+        c"mumps.rs".as_ptr(),
+    );
+    // The pointers are PETSc's allocations (PetscMalloc2 for irn and jcn, PetscMalloc1 for
+    // val_alloc), freed here as PETSc frees them and nulled with MUMPS's copies of them, so
+    // that nothing reads them and the factor's destruction frees nothing twice.
+    let irn = &mut t.irn as *mut *mut Int;
+    call!(PetscFreeA(
+        2,
+        line,
+        func,
+        file,
+        irn.cast(),
+        &mut t.jcn as *mut *mut Int
+    ))?;
+    if copied {
+        let val = &mut t.val_alloc as *mut *mut f64;
+        call!(PetscFreeA(1, line, func, file, val.cast()))?;
+    }
+    t.val = ptr::null_mut();
+    let s = &mut t.id;
+    (s.irn_loc, s.jcn_loc, s.a_loc) = (ptr::null_mut(), ptr::null_mut(), ptr::null_mut());
+    (s.irn, s.jcn, s.a) = (ptr::null_mut(), ptr::null_mut(), ptr::null_mut());
+    Ok(bytes)
+}
+
 /// The fields of MUMPS's instance that [`inverse_entries`] sets for its solve (and puts back).
 #[derive(Clone, Copy)]
 struct SolveFields {
