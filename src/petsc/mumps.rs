@@ -16,6 +16,11 @@
 //! MatMumpsGetInverseTranspose would take them as a matrix with as many rows on the first
 //! rank, its per-row arrays about 28 bytes per row (docs/scaling.md, "Memory per rank");
 //! given to MUMPS directly the pattern costs its column pointers alone, 4 bytes per row.
+//!
+//! [`release_triples`] frees the copy of the matrix PETSc made for MUMPS (its triples
+//! i, j, a_ij, 16 bytes per entry of the upper triangle for a Cholesky factorisation: about
+//! 70 % of what the matrix itself takes) once MUMPS has factored it (docs/scaling.md, "Memory
+//! per rank").
 
 use std::ptr;
 
@@ -192,8 +197,8 @@ struct Triples {
 
 /// Free the copy of the matrix that PETSc made for MUMPS, its triples (i, j, a_ij) of this
 /// rank's entries (of the upper triangle for a Cholesky factorisation), once MUMPS has
-/// factored it: 16 bytes per entry, as much as the matrix itself, held through the run for a
-/// refactorisation nndd never makes (a body's matrices are not changed once factored: the
+/// factored it: 16 bytes per entry, held through the run for a refactorisation nndd never
+/// makes (a body's matrices are not changed once factored: the
 /// [`super::Ksp`] owns its operator). MUMPS reads them again only for iterative refinement
 /// (ICNTL(10)) and error analysis (ICNTL(11)), so they are kept where either is asked for,
 /// and where the factor is not laid out as PETSc 3.18's: its pointers must be the ones
