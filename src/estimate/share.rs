@@ -13,7 +13,7 @@ use std::ops::Range;
 use crate::estimate::equilibrate::{vertex_colours, Recovery};
 use crate::estimate::overlap::{colour_count, Halo, Overlap};
 use crate::estimate::view::View;
-use crate::fem::mesh::Mesh;
+use crate::fem::mesh::{element_u32, Mesh};
 use crate::parallel::layout::Layout;
 
 /// The world rank estimating each element of body k + 1 (what a rank makes of a body it estimates:
@@ -83,9 +83,7 @@ fn slab_order(mesh: &Mesh) -> Vec<u32> {
             (p[0][axis] + p[1][axis] + p[2][axis]) / 3.0
         })
         .collect();
-    let mut order: Vec<u32> = (0..centre.len())
-        .map(|e| u32::try_from(e).expect("a body has fewer than 2^32 elements"))
-        .collect();
+    let mut order: Vec<u32> = (0..centre.len()).map(element_u32).collect();
     order.sort_unstable_by(|&a, &b| {
         (centre[a as usize].total_cmp(&centre[b as usize])).then(a.cmp(&b))
     });

@@ -30,6 +30,13 @@ fn narrow(t: [usize; 3]) -> [u32; 3] {
     t.map(|v| u32::try_from(v).expect("a mesh has fewer than 2^32 nodes"))
 }
 
+/// An element number in 4 bytes (compact per-element lists: the estimate's vertex stars and
+/// slab order): a body has fewer than 2³² elements (PETSc's 32-bit indices refuse far smaller
+/// ones).
+pub fn element_u32(e: usize) -> u32 {
+    u32::try_from(e).expect("a mesh has fewer than 2^32 elements")
+}
+
 /// A stored triangle's nodes as indices.
 fn widen(t: &[u32; 3]) -> [usize; 3] {
     t.map(|v| v as usize)

@@ -188,8 +188,8 @@ struct Triples {
     matstruc: ffi::MatStructure,
     myid: ffi::PetscMPIInt,
     petsc_size: ffi::PetscMPIInt,
-    irn: *mut Int,
-    jcn: *mut Int,
+    irn: *mut std::os::raw::c_int,
+    jcn: *mut std::os::raw::c_int,
     val: *mut f64,
     val_alloc: *mut f64,
     nnz: i64,
@@ -222,7 +222,7 @@ pub(super) fn release_triples(f: ffi::Mat) -> Result<usize> {
             false => (s.irn, s.jcn, s.a, s.nnz),
         };
         let held = (distributed || t.petsc_size == 1)
-            && (0..t.petsc_size.max(1)).contains(&t.myid)
+            && (0..t.petsc_size).contains(&t.myid)
             && given == (t.irn, t.jcn, t.val, t.nnz)
             && !t.irn.is_null()
             && (t.val_alloc.is_null() || t.val_alloc == t.val)
@@ -234,7 +234,8 @@ pub(super) fn release_triples(f: ffi::Mat) -> Result<usize> {
         return Ok(0);
     }
     let copied = !t.val_alloc.is_null();
-    let bytes = t.nnz as usize * (2 * std::mem::size_of::<Int>() + if copied { 8 } else { 0 });
+    let index = std::mem::size_of::<std::os::raw::c_int>();
+    let bytes = t.nnz as usize * (2 * index + if copied { 8 } else { 0 });
     let (line, func, file) = (
         line!() as i32,
         c"release_triples".as_ptr(),
@@ -243,14 +244,14 @@ pub(super) fn release_triples(f: ffi::Mat) -> Result<usize> {
     // The pointers are PETSc's allocations (PetscMalloc2 for irn and jcn, PetscMalloc1 for
     // val_alloc), freed here as PETSc frees them and nulled with MUMPS's copies of them, so
     // that nothing reads them and the factor's destruction frees nothing twice.
-    let irn = &mut t.irn as *mut *mut Int;
+    let irn = &mut t.irn as *mut *mut std::os::raw::c_int;
     call!(PetscFreeA(
         2,
         line,
         func,
         file,
         irn.cast(),
-        &mut t.jcn as *mut *mut Int
+        &mut t.jcn as *mut *mut std::os::raw::c_int
     ))?;
     if copied {
         let val = &mut t.val_alloc as *mut *mut f64;

@@ -5,7 +5,7 @@
 use super::error::EquilibrationError;
 use super::sizes::NONE;
 use crate::fem::geometry::triangle_area;
-use crate::fem::mesh::Mesh;
+use crate::fem::mesh::{element_u32, Mesh};
 
 /// Sweep-order key of a vertex for `Recovery::PatchClassic`: colour in the high 32 bits, global
 /// vertex index in the low ones.
@@ -193,12 +193,6 @@ fn vertex_stars(mesh: &Mesh, entry: impl Fn(usize, usize) -> u32) -> (Vec<usize>
         }
     }
     (ptr, entries)
-}
-
-/// An element index as stored in a star: a body has fewer than 2³² elements (PETSc's 32-bit
-/// indices refuse far smaller ones).
-fn element_u32(e: usize) -> u32 {
-    u32::try_from(e).expect("a mesh has fewer than 2^32 elements")
 }
 
 /// Element e is owned (no restriction: every element is).
