@@ -284,8 +284,9 @@ fn a_failed_mumps_factorisation_names_its_cause() {
         ]
         .concat(),
         Some(2),
+        // (both bodies' factorisations fail: the one reported is whichever ends first)
         &[
-            "-body1_mat_mumps_icntl_14",
+            "_mat_mumps_icntl_14 (a percentage >= 0",
             "INFOG(1) = -9",
             "estimate + 0 %",
         ],
