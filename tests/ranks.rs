@@ -194,7 +194,8 @@ fn h5_contents(prefix: &std::path::Path) -> Vec<(String, Vec<f64>)> {
 #[test]
 fn four_ranks_write_the_file_one_rank_writes() {
     for every in ["10", "1"] {
-        ranks_write_what_one_writes(4, every, &[]);
+        // (each body 12 × 12 × 2 = 288 elements; a rank holds its group's body's mesh alone)
+        ranks_write_what_one_writes(4, every, &[], &[288; 4]);
     }
 }
 
@@ -203,10 +204,48 @@ fn four_ranks_write_the_file_one_rank_writes() {
 /// writes it.
 #[test]
 fn three_ranks_write_the_file_one_rank_writes_with_unequal_bodies() {
-    ranks_write_what_one_writes(3, "10", &["-nndd_body2_ny", "48"]);
+    // (body 2's 1152 elements dealt over all three ranks with body 1's 288: every rank holds
+    // both meshes)
+    ranks_write_what_one_writes(3, "10", &["-nndd_body2_ny", "48"], &[1440; 3]);
 }
 
-fn ranks_write_what_one_writes(ranks: usize, every: &str, extra: &[&str]) {
+/// Without estimates a rank holds the mesh of its group's body alone: body 1's 288 elements
+/// on its one rank, body 2's 1152 on each of its two; both on one rank. The solution is the
+/// one rank's.
+#[test]
+fn a_rank_holds_the_mesh_of_its_body_alone() {
+    let dir = scratch("ranks-held");
+    let args = [
+        "-nndd_problem",
+        "paper",
+        "-nndd_n",
+        "12",
+        "-nndd_body2_ny",
+        "48",
+        "-nndd_tol",
+        "1e-12",
+    ];
+    let j1 = solve(1, &dir.join("a"), &args);
+    let j3 = solve(3, &dir.join("b"), &args);
+    let held = |j: &serde_json::Value| j["held_mesh_elements_per_rank"].clone();
+    assert_eq!(held(&j1), serde_json::json!([1440]));
+    assert_eq!(j3["body_ranks"], serde_json::json!([1, 2]));
+    assert_eq!(held(&j3), serde_json::json!([288, 1152, 1152]));
+    // The final check's rays and Γc's ends read the other body's outline alone.
+    assert_eq!(j1["iterations"], j3["iterations"]);
+    assert_eq!(
+        j1["contact_curves"]["max_penetration"],
+        j3["contact_curves"]["max_penetration"]
+    );
+    for body in ["body1", "body2"] {
+        let u = |name| field(&dir.join(name), body, "displacement");
+        let d = rel_max_diff(&u("b"), &u("a"));
+        assert!(d < 1e-10, "{body}: -n 1 and -n 3 differ by {d:e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn ranks_write_what_one_writes(ranks: usize, every: &str, extra: &[&str], held: &[usize]) {
     let dir = scratch(&format!("ranks-h5-{ranks}-{every}"));
     let mut args = vec![
         "-nndd_problem",
@@ -222,6 +261,7 @@ fn ranks_write_what_one_writes(ranks: usize, every: &str, extra: &[&str]) {
     solve(1, &dir.join("a"), &args);
     let j = solve(ranks, &dir.join("b"), &args);
     assert_eq!(j["ranks"], ranks);
+    assert_eq!(j["held_mesh_elements_per_rank"], serde_json::json!(held));
     let (a, b) = (h5_contents(&dir.join("a")), h5_contents(&dir.join("b")));
     let names = |c: &[(String, Vec<f64>)]| c.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
     assert_eq!(

@@ -199,10 +199,10 @@ pub fn write_size_field(
     let mut sizes = Vec::new();
     for (p, eta) in problems.iter().zip(eta_fe) {
         let offset = points.len();
-        points.extend_from_slice(&p.mesh.points);
-        for (e, t) in p.mesh.triangles.iter().enumerate() {
+        points.extend_from_slice(&p.mesh().points);
+        for (e, t) in p.mesh().triangles.iter().enumerate() {
             triangles.push(t.map(|v| v + offset));
-            sizes.push(size_field::triangle_size(p.mesh.triangle_points(e)));
+            sizes.push(size_field::triangle_size(p.mesh().triangle_points(e)));
             squares.push(eta.get(e).map_or(0.0, |v| v * v));
         }
     }
@@ -216,7 +216,7 @@ pub fn write_size_field(
         let offset = if side == 0 {
             0
         } else {
-            problems[0].mesh.points.len()
+            problems[0].num_nodes()
         };
         for &n in &problems[side].contact_candidates {
             nodal[offset + n] *= MORTAR_COARSER;
@@ -306,7 +306,10 @@ pub fn carry_over(from: &[[f64; 2]], lambda: &[f64], to: &[[f64; 2]]) -> Vec<f64
 /// The points of Γc's pairs, in pair order (the pair side's nodes).
 pub fn pair_points(problems: [&BodyProblem; 2]) -> Vec<[f64; 2]> {
     let p = problems[crate::problem::pair_side(problems)];
-    p.contact_nodes.iter().map(|&n| p.mesh.points[n]).collect()
+    p.contact_nodes
+        .iter()
+        .map(|&n| p.boundary_point(n))
+        .collect()
 }
 
 #[cfg(test)]

@@ -55,8 +55,8 @@ impl CycleRecord {
         (est.iteration == sol.last.iteration).then_some(())?;
         Some(CycleRecord {
             cycle,
-            dofs: c.problems.iter().map(|p| p.mesh.num_dofs()).sum(),
-            elements: c.problems.iter().map(|p| p.mesh.triangles.len()).sum(),
+            dofs: c.problems.iter().map(|p| p.num_dofs()).sum(),
+            elements: c.problems.iter().map(|p| p.num_elements()).sum(),
             iterations: sol.iterations,
             stop_reason: sol.stop_reason.to_string(),
             eta_glo: est.eta_glo,
@@ -183,7 +183,7 @@ fn next_meshes(
         .last()
         .expect("a record has its estimate");
     let maps = [est.maps[0][1].as_slice(), est.maps[1][1].as_slice()];
-    let elements = problems.map(|p| p.mesh.triangles.len());
+    let elements = problems.map(|p| p.num_elements());
     let eta_fe = adapt::eta_fe_on_root(layout, maps, est.map_first, elements);
     // The η^FE that makes η^glo meet ε ‖u_h‖_E if η^glo / η^FE stays as it is, with room.
     let target =

@@ -265,8 +265,8 @@ pub(crate) fn solve_cycle(
     start: Start,
     t_start: Instant,
 ) -> Result<Cycle, AppError> {
-    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank knows
-    // the whole geometry: the interface, the estimator's slabs and the output's blocks read it).
+    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank builds
+    // the whole geometry; after the layout a rank keeps the meshes its phases read).
     let mut problems = build_problems(&settings, agreement, world.rank() == 0)?;
     if let Some(why) = settings.problem.node_to_node_instead(&problems)? {
         // (`-nndd_contact_discretisation auto` where mortar is not available)
@@ -298,6 +298,7 @@ pub(crate) fn solve_cycle(
     let mut restart = restart_point(&settings, &problems, agreement)?;
     let carried = start.checkpoint(&settings, &restart, &problems);
     restart.from = restart.from.take().or(carried);
+    let problems = release_unread_meshes(problems, &settings, &layout);
     let run = Run::new(&settings, &layout, &problems, stages, agreement);
     // Estimate: the estimator (with the reference solution of (26) when asked), used by the
     // solve at the estimated iterations and on the reported iterate; made first, so that the
@@ -406,6 +407,32 @@ fn say_warnings(root: bool, warnings: &[String]) {
     }
 }
 
+/// Each body's problem as this rank keeps it through the run: whole where a phase on this
+/// rank reads the body's mesh (the body of the rank's group, a body some of whose elements
+/// are estimated outside its group, every body of a mortar or an adaptive run), else with
+/// its mesh released ([`BodyProblem::released`]: its outline, O(√N), and its counts), so
+/// that a rank holds one body's mesh where it used to hold both.
+fn release_unread_meshes(
+    problems: [Rc<BodyProblem>; 2],
+    settings: &Settings,
+    layout: &Layout,
+) -> [Rc<BodyProblem>; 2] {
+    let pair = [&*problems[0], &*problems[1]];
+    let mortar = problem::discretisation(pair) == ContactDiscretisation::Mortar;
+    if mortar || settings.adapt.is_some() {
+        return problems;
+    }
+    let sizes = pair.map(|p| p.num_elements());
+    let outside = crate::estimate::share::estimated_outside_group(sizes, layout);
+    problems.map(|p| {
+        let estimated_here = settings.estimate.enabled && outside[p.alpha - 1];
+        match layout.owns(p.alpha) || estimated_here {
+            true => p,
+            false => Rc::new(p.released()),
+        }
+    })
+}
+
 /// Both bodies' problems (the ranks agree); a Gmsh problem's contact curves, made to match,
 /// reported.
 fn build_problems(
@@ -456,7 +483,7 @@ fn lay_out(
     settings: &Settings,
     problems: &[Rc<BodyProblem>; 2],
 ) -> Result<Layout, AppError> {
-    let dofs = problems.each_ref().map(|p| p.mesh.num_dofs());
+    let dofs = problems.each_ref().map(|p| p.num_dofs());
     let layout = Layout::new(world, settings.body1_ranks, dofs)?;
     check_recovery(settings, &layout)?;
     settings.schur.check(layout.group_sizes)?;

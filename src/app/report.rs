@@ -25,6 +25,8 @@ pub struct Measured<'a> {
     pub results: &'a Results,
     pub timings: Timings,
     pub peaks: &'a [f64],
+    /// The elements of the meshes each rank holds ([`held_mesh_elements_per_rank`]).
+    pub held_elements: &'a [usize],
 }
 
 pub fn summarise(
@@ -46,6 +48,7 @@ pub fn summarise(
         results,
         timings,
         peaks,
+        held_elements,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
@@ -127,7 +130,7 @@ pub fn summarise(
         freed_matrix_copy_mib: solvers.each_ref().map(|s| s.freed_copy_mib),
         stiffness_nonzeros: solvers.each_ref().map(|s| s.nonzeros),
         body_setup_seconds: solvers.each_ref().map(|s| s.setup_seconds),
-        body_dofs: [body1.mesh.num_dofs(), body2.mesh.num_dofs()],
+        body_dofs: [body1.num_dofs(), body2.num_dofs()],
         logged_flops,
         qp_kkt_residual: sol.last.qp_kkt,
         estimates: sol.estimates.iter().map(summary_estimate).collect(),
@@ -137,6 +140,7 @@ pub fn summarise(
         timings,
         peak_memory_mib: peaks.iter().cloned().fold(0.0, f64::max),
         peak_memory_mib_per_rank: peaks.to_vec(),
+        held_mesh_elements_per_rank: held_elements.to_vec(),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),
         xdmf: paths.xdmf().display().to_string(),
@@ -257,6 +261,19 @@ pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
     all
 }
 
+/// The elements of the bodies' meshes each rank holds through the run, by world rank (a
+/// body's whole where the rank keeps its mesh, none where it released it; collective).
+pub fn held_mesh_elements_per_rank(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<usize> {
+    use mpi::traits::*;
+    let mine: u64 = (problems.iter())
+        .filter(|p| p.holds_mesh())
+        .map(|p| p.num_elements() as u64)
+        .sum();
+    let mut all = vec![0u64; layout.size as usize];
+    layout.world.all_gather_into(&mine, &mut all[..]);
+    all.into_iter().map(|n| n as usize).collect()
+}
+
 /// Each phase's time: the maximum over ranks.
 pub fn max_over_ranks(layout: &Layout, t: &mut Timings) {
     for x in [
@@ -307,7 +324,7 @@ fn contact_of(problems: [&BodyProblem; 2], last: &Iterate, law: FrictionLaw) -> 
     for k in 1..m {
         arc[k] = arc[k - 1] + p1.contact_lengths[k - 1];
     }
-    let point = |k: usize| p1.mesh.points[p1.contact_nodes[k]];
+    let point = |k: usize| p1.boundary_point(p1.contact_nodes[k]);
     // The lumped nodal pressure, as the output's `pressure`.
     let share = crate::problem::pair_shares(problems);
     let force = last.contact_forces();

@@ -155,7 +155,7 @@ fn set_up_body(
 ) -> Result<Body, AppError> {
     let alpha = problem.alpha;
     announce_setup(alpha, problem, layout)?;
-    let partition = Partition::on_group(&problem.mesh, alpha, layout)?;
+    let partition = Partition::on_group(problem.mesh(), alpha, layout)?;
     // METIS's work arrays (on the group's first rank) back to the system before the assembly
     // and the factorisation allocate theirs.
     crate::os::memory::release_free_memory(0);
@@ -195,7 +195,7 @@ pub(super) fn unknown_type(e: BodyError, alpha: usize) -> AppError {
 /// iterative solver's setup with the interface operators from m solves), from its group's
 /// first rank.
 fn announce_setup(alpha: usize, problem: &BodyProblem, layout: &Layout) -> Result<(), AppError> {
-    let dofs = problem.mesh.num_dofs();
+    let dofs = problem.num_dofs();
     if dofs < LONG_PHASE_DOFS || layout.group_rank() != 0 {
         return Ok(());
     }
@@ -318,8 +318,13 @@ pub fn solve_reference(
     let u_ref = sol.last.u;
     let parts = [0, 1].map(|k| {
         let p = problems[k].take()?;
-        let elements = layout.block(k + 1, p.mesh.triangles.len());
-        Some(ReferencePart::new(&p.mesh, p.material, &u_ref[k], elements))
+        let elements = layout.block(k + 1, p.num_elements());
+        Some(ReferencePart::new(
+            p.mesh(),
+            p.material,
+            &u_ref[k],
+            elements,
+        ))
     });
     drop(u_ref);
     crate::os::memory::release_free_memory(0);

@@ -71,7 +71,7 @@ impl<'a> Run<'a> {
             (SolverKind::Nndd, _) => ", Dirichlet step on body 2, contact step on body 1",
             _ => "",
         };
-        let dofs: usize = self.problems.iter().map(|p| p.mesh.num_dofs()).sum();
+        let dofs: usize = self.problems.iter().map(|p| p.num_dofs()).sum();
         println!(
             "nndd: {problem}, {dofs} dofs, {} rank(s){roles}: setup {:.3} s",
             layout.size,
@@ -265,12 +265,15 @@ impl<'a> Run<'a> {
         timings.total = t_start.elapsed().as_secs_f64();
         // The high-water marks of the whole run, the output's fields included.
         let peaks = report::peak_memory_per_rank(layout);
+        let held_elements =
+            report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let mut written = Ok(());
         if layout.is_root() {
             let measured = report::Measured {
                 results: &results,
                 timings,
                 peaks: &peaks,
+                held_elements: &held_elements,
             };
             let problems = [&*problems[0], &*problems[1]];
             let summary = report::summarise(settings, problems, layout, sol, post, measured);
@@ -318,10 +321,10 @@ pub(super) fn energy_norm(layout: &Layout, problems: &[Rc<BodyProblem>; 2], sol:
     let mut sum = 0.0;
     for (k, p) in problems.iter().enumerate() {
         let u = &sol.last.u[k];
-        if !(layout.owns(k + 1) && layout.group_rank() == 0) || u.len() != p.mesh.num_dofs() {
+        if !(layout.owns(k + 1) && layout.group_rank() == 0) || u.len() != p.num_dofs() {
             continue;
         }
-        sum += crate::fem::elasticity::energy_squared(&p.mesh, &p.material, u);
+        sum += crate::fem::elasticity::energy_squared(p.mesh(), &p.material, u);
     }
     layout.sum(sum).max(0.0).sqrt()
 }
@@ -350,8 +353,8 @@ pub(super) fn results_of(
     // Each body's rows of the `bodies` grid: body 1's points and cells first.
     for p in problems.iter() {
         let at = |what: &str| format!("body{}_{what}", p.alpha);
-        attributes.push((at("points"), p.mesh.points.len() as f64));
-        attributes.push((at("cells"), p.mesh.triangles.len() as f64));
+        attributes.push((at("points"), p.num_nodes() as f64));
+        attributes.push((at("cells"), p.num_elements() as f64));
     }
     let mesh = settings.problem.mesh.as_ref();
     let physical_names = mesh.map_or(String::new(), |m| {

@@ -4,8 +4,6 @@
 //! contact conditions against body 1's (no penetration, no tension, complementarity). What the iteration computed by condensed
 //! algebra (S^α, D^α, the contact QP) is thus checked against the bodies' own systems.
 
-use std::collections::HashMap;
-
 use crate::dd::body::{Body, BodyError};
 use crate::dd::iterate::Iterate;
 use crate::parallel::layout::Layout;
@@ -162,21 +160,14 @@ fn continuation(p: &BodyProblem, end: usize) -> Option<[f64; 2]> {
         0 => (nodes[0], nodes.get(1)),
         _ => (nodes[last], last.checked_sub(1).map(|i| &nodes[i])),
     };
-    let mut count: HashMap<[usize; 2], u32> = HashMap::new();
-    for t in &p.mesh.triangles {
-        for i in 0..3 {
-            let (a, b) = (t[i], t[(i + 1) % 3]);
-            if a == node || b == node {
-                *count.entry([a.min(b), a.max(b)]).or_default() += 1;
-            }
-        }
-    }
-    let other = count
-        .iter()
-        .filter(|(_, &c)| c == 1)
-        .map(|(e, _)| if e[0] == node { e[1] } else { e[0] })
+    let other = (p.outline().edges.iter())
+        .filter_map(|&[a, b]| match (a == node, b == node) {
+            (true, _) => Some(b),
+            (_, true) => Some(a),
+            _ => None,
+        })
         .find(|o| Some(o) != inner)?;
-    let (a, b) = (p.mesh.points[node], p.mesh.points[other]);
+    let (a, b) = (p.boundary_point(node), p.boundary_point(other));
     let d = [b[0] - a[0], b[1] - a[1]];
     let l = d[0].hypot(d[1]);
     (l > 0.0).then(|| [d[0] / l, d[1] / l])
@@ -184,7 +175,7 @@ fn continuation(p: &BodyProblem, end: usize) -> Option<[f64; 2]> {
 
 /// The warning of a contact zone that reaches an end of Γc where the bodies go on side by side
 /// (so that the contact may extend beyond the named contact curves, unconstrained there), with
-/// where; `None` otherwise. Every rank finds the same (Γc data and the meshes are everywhere).
+/// where; `None` otherwise. Every rank finds the same (Γc data and both bodies' outlines are everywhere).
 pub fn zone_reaches_open_end(problems: [&BodyProblem; 2], it: &Iterate) -> Option<String> {
     // (a closed Γc has no end: its pairs run from a cut that the constraints span)
     let closed = problems.iter().any(|p| match &p.trace {
@@ -202,7 +193,7 @@ pub fn zone_reaches_open_end(problems: [&BodyProblem; 2], it: &Iterate) -> Optio
         let open = d1[0] * d2[0] + d1[1] * d2[1] > side_by_side;
         (it.active[end] && open).then(|| {
             let ps = problems[crate::problem::pair_side(problems)];
-            let p = ps.mesh.points[ps.contact_nodes[end]];
+            let p = ps.boundary_point(ps.contact_nodes[end]);
             format!(
                 "the contact zone reaches the end of the contact curves at ({:.6e}, {:.6e}), where the bodies go on side by side: contact may extend beyond it, where nothing keeps them apart (extend the contact curves, -nndd_contact)",
                 p[0], p[1]

@@ -4,13 +4,11 @@
 //! Γc's pairs only; this check finds where the bodies meet beyond them (contact curves named
 //! shorter than the contact zone, a body pushed into a part of the other that no curve names).
 
-use std::collections::HashMap;
-
 use crate::dd::check::CONTACT_LIMIT;
 use crate::dd::iterate::Iterate;
 use crate::fem::checks::{bbox, BBox, Grid};
 use crate::parallel::layout::Layout;
-use crate::problem::BodyProblem;
+use crate::problem::{BodyProblem, Outline};
 
 /// Where the deepest penetration is.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -73,32 +71,30 @@ impl Penetration {
 /// A body's boundary: its edges (counter-clockwise, the body on the left), its nodes with
 /// their outward unit normals (the mean of their two edges'), and the displacement of each
 /// node shared from the body's owners.
-struct Boundary {
-    edges: Vec<[usize; 2]>,
-    /// Boundary node → its index in `normals` and `u`.
-    index: HashMap<usize, usize>,
-    nodes: Vec<usize>,
+struct Boundary<'a> {
+    /// The body's outline: its boundary edges, nodes and their points.
+    outline: &'a Outline,
+    /// Per boundary node (in the outline's order).
     normals: Vec<[f64; 2]>,
     /// [ux, uy] per boundary node.
     u: Vec<f64>,
 }
 
-impl Boundary {
+impl<'a> Boundary<'a> {
     /// Body `p`'s boundary, with its displacement `u` (empty off the body's ranks) shared
     /// with every rank (collective).
-    fn of(layout: &Layout, p: &BodyProblem, u: &[f64]) -> Boundary {
-        let edges = p.mesh.boundary_edges();
-        let mut nodes: Vec<usize> = edges.iter().flatten().copied().collect();
-        nodes.sort_unstable();
-        nodes.dedup();
-        let index: HashMap<usize, usize> = nodes.iter().enumerate().map(|(k, &n)| (n, k)).collect();
+    fn of(layout: &Layout, p: &'a BodyProblem, u: &[f64]) -> Boundary<'a> {
+        let outline = p.outline();
+        let nodes = outline.nodes();
         let mut normals = vec![[0.0; 2]; nodes.len()];
-        for &[a, b] in &edges {
-            let (pa, pb) = (p.mesh.points[a], p.mesh.points[b]);
+        for &[a, b] in &outline.edges {
+            let (pa, pb) = (outline.point(a), outline.point(b));
             let l = (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
             let nu = [(pb[1] - pa[1]) / l, -(pb[0] - pa[0]) / l];
             for n in [a, b] {
-                let v = &mut normals[index[&n]];
+                let v = &mut normals[outline
+                    .index(n)
+                    .expect("an edge's ends are on the boundary")];
                 v[0] += nu[0];
                 v[1] += nu[1];
             }
@@ -118,16 +114,14 @@ impl Boundary {
         }
         layout.share(p.alpha, &mut values);
         Boundary {
-            edges,
-            index,
-            nodes,
+            outline,
             normals,
             u: values,
         }
     }
 
     fn disp(&self, node: usize) -> [f64; 2] {
-        let i = self.index[&node];
+        let i = self.outline.index(node).expect("a boundary node");
         [self.u[2 * i], self.u[2 * i + 1]]
     }
 
@@ -139,28 +133,25 @@ impl Boundary {
 
 /// The boundary edges of a body in a bucket grid, for the rays of the other body's nodes.
 struct EdgeGrid<'a> {
-    problem: &'a BodyProblem,
-    boundary: &'a Boundary,
+    boundary: &'a Boundary<'a>,
     grid: Grid,
 }
 
 impl<'a> EdgeGrid<'a> {
-    fn new(problem: &'a BodyProblem, boundary: &'a Boundary, reach: f64) -> EdgeGrid<'a> {
-        let pts = &problem.mesh.points;
-        let boxes: Vec<(u32, BBox)> = boundary
-            .edges
-            .iter()
+    fn new(boundary: &'a Boundary<'a>, reach: f64) -> EdgeGrid<'a> {
+        let outline = boundary.outline;
+        let pts = |ns: &[usize]| ns.iter().map(|&n| outline.point(n)).collect::<Vec<_>>();
+        let boxes: Vec<(u32, BBox)> = (outline.edges.iter())
             .enumerate()
-            .map(|(e, &[a, b])| (e as u32, bbox(&[pts[a], pts[b]])))
+            .map(|(e, ends)| (e as u32, bbox(&pts(ends))))
             .collect();
-        let mut area = bbox(&boundary.nodes.iter().map(|&n| pts[n]).collect::<Vec<_>>());
+        let mut area = bbox(&pts(outline.nodes()));
         let [lo, hi] = &mut area;
         for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
             *l -= reach;
             *h += reach;
         }
         EdgeGrid {
-            problem,
             boundary,
             grid: Grid::new(area, boxes.len(), &boxes),
         }
@@ -169,12 +160,12 @@ impl<'a> EdgeGrid<'a> {
     /// The first point ahead (distance s ∈ [0, reach]) where the ray x + sν meets the
     /// boundary, with the boundary's displacement there.
     fn hit(&self, x: [f64; 2], nu: [f64; 2], reach: f64) -> Option<(f64, [f64; 2])> {
-        let pts = &self.problem.mesh.points;
+        let outline = self.boundary.outline;
         let end = [x[0] + reach * nu[0], x[1] + reach * nu[1]];
         let mut best: Option<(f64, [f64; 2])> = None;
         self.grid.query(bbox(&[x, end]), |e| {
-            let [ea, eb] = self.boundary.edges[e as usize];
-            let (pa, pb) = (pts[ea], pts[eb]);
+            let [ea, eb] = outline.edges[e as usize];
+            let (pa, pb) = (outline.point(ea), outline.point(eb));
             let w = [pb[0] - pa[0], pb[1] - pa[1]];
             let r = [pa[0] - x[0], pa[1] - x[1]];
             let det = nu[0] * w[1] - nu[1] * w[0];
@@ -211,7 +202,7 @@ pub fn penetration(layout: &Layout, problems: [&BodyProblem; 2], it: &Iterate) -
     let mut worst = Penetration::default();
     let mut consider = |depth: f64, body: usize, node: usize, site: Site| {
         if depth > worst.depth || depth.is_nan() {
-            let at = problems[body - 1].mesh.points[node];
+            let at = problems[body - 1].boundary_point(node);
             worst = Penetration {
                 depth,
                 relative: 0.0,
@@ -233,15 +224,15 @@ pub fn penetration(layout: &Layout, problems: [&BodyProblem; 2], it: &Iterate) -
     if reach > 0.0 {
         for a in 0..2 {
             let (p, own) = (problems[a], &boundaries[a]);
-            let other = EdgeGrid::new(problems[1 - a], &boundaries[1 - a], reach);
+            let other = EdgeGrid::new(&boundaries[1 - a], reach);
             let on_gc: std::collections::HashSet<usize> = p.contact_nodes.iter().copied().collect();
             let on_curve: std::collections::HashSet<usize> =
                 p.contact_candidates.iter().copied().collect();
-            for (k, &node) in own.nodes.iter().enumerate() {
+            for (k, &node) in own.outline.nodes().iter().enumerate() {
                 if on_gc.contains(&node) {
                     continue;
                 }
-                let (x, nu) = (p.mesh.points[node], own.normals[k]);
+                let (x, nu) = (own.outline.point(node), own.normals[k]);
                 if let Some((s, uq)) = other.hit(x, nu, reach) {
                     let ux = own.disp(node);
                     let gap = s + (uq[0] - ux[0]) * nu[0] + (uq[1] - ux[1]) * nu[1];

@@ -44,7 +44,7 @@ pub(super) fn assemble(
     part: &Partition,
     eliminate: bool,
 ) -> Result<Assembled, PetscError> {
-    let mesh = &problem.mesh;
+    let mesh = problem.mesh();
     // Whether each dof is on Γ_D (one bit per dof, for the time of the assembly).
     let words = if eliminate {
         mesh.num_dofs().div_ceil(64)
@@ -269,7 +269,7 @@ pub(super) fn rigid_modes(
     part: &Partition,
     comm: &OwnComm,
 ) -> Vec<Vec<f64>> {
-    let pts = &problem.mesh.points;
+    let pts = &problem.mesh().points;
     let nodes: Vec<usize> = part.owned_mesh_nodes().collect();
     let mut sums = [0.0, 0.0, nodes.len() as f64];
     for &i in &nodes {

@@ -77,7 +77,7 @@ impl<'a> ElementWork<'a> {
         fields: &'a BodyFields<'a>,
         view: &'a View<'a>,
     ) -> ElementWork<'a> {
-        let (sub, kept) = view.kept(&p.mesh);
+        let (sub, kept) = view.kept(p.mesh());
         // (the estimated elements come in increasing order: `View::kept`)
         let elements: Vec<u32> = kept.iter().copied().filter(|&e| e != u32::MAX).collect();
         let mut next = 0;
@@ -237,7 +237,7 @@ impl<'a> ElementWork<'a> {
         };
         let mut map = CreMap {
             sub: self.sub,
-            mesh: &p.mesh,
+            mesh: p.mesh(),
             slots: &self.slots,
             elements: &self.est.elements,
             u_p: &fields.u_p,
@@ -261,7 +261,7 @@ impl<'a> ElementWork<'a> {
         data: &IterationData,
         parts: &Parts,
     ) -> BodyEstimate {
-        let (p, mesh) = (self.p, &self.p.mesh);
+        let (p, mesh) = (self.p, self.p.mesh());
         if p.alpha == 2 {
             parts.run(Part::ElementSums, || {
                 let u2n = p.normal_trace(&self.fields.u_p);
@@ -435,7 +435,7 @@ fn bubbles(p: &BodyProblem, data: &IterationData) -> HashMap<usize, ElementBubbl
     if data.gaps.iter().all(|g| !g.turns) {
         return HashMap::new();
     }
-    let elements = p.mesh.chain_elements(&p.contact_nodes);
+    let elements = p.mesh().chain_elements(&p.contact_nodes);
     for (k, gap) in data.gaps.iter().enumerate() {
         if gap.turns {
             segments
@@ -446,9 +446,9 @@ fn bubbles(p: &BodyProblem, data: &IterationData) -> HashMap<usize, ElementBubbl
     }
     let mut out = HashMap::new();
     for (e, ks) in segments {
-        let t = p.mesh.triangles.get(e);
+        let t = p.mesh().triangles.get(e);
         let local = |n: usize| t.iter().position(|&v| v == n).expect("the edge's node");
-        let points = p.mesh.triangle_points(e);
+        let points = p.mesh().triangle_points(e);
         let least = |k: usize| data.gaps[k].least_amplitude();
         let weight = |k: usize| {
             if ks.len() == 1 {

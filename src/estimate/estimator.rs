@@ -12,7 +12,7 @@ use crate::estimate::cre::{worst, BodyEstimate, ElementWork};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::iteration::{body_fields, body_resolves, BodyFields, IterationData, Reaction};
 use crate::estimate::mortar::MortarEstimates;
-use crate::estimate::share::{estimate_owner, estimating_ranks, Share};
+use crate::estimate::share::{estimate_owner, estimated_outside_group, Share};
 use crate::parallel::held;
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
@@ -415,12 +415,8 @@ impl<'a> Estimator<'a> {
     /// then travel to those ranks), from the element counts alone
     /// ([`crate::estimate::share::estimating_ranks`]).
     fn crosses(&self) -> [bool; 2] {
-        let sizes = self.problems.each_ref().map(|p| p.mesh.triangles.len());
-        let ranks = estimating_ranks(sizes, self.layout.size as usize);
-        [0, 1].map(|k| {
-            let group = self.layout.group_ranks(k + 1);
-            ranks[k].start < group.start || ranks[k].end > group.end
-        })
+        let sizes = self.problems.each_ref().map(|p| p.num_elements());
+        estimated_outside_group(sizes, self.layout)
     }
 
     /// Whether a stop signal arrived on any rank (`Err(Stopped)` on every rank then): one
@@ -490,7 +486,7 @@ impl<'a> Estimator<'a> {
             }
             // η^glo's and η^FE's maps (η^NNDD's is the run's own, below): whole on the body's
             // group for the sums onto the run's elements, then the rank's block of those.
-            let (ne, first) = (self.problems[k].mesh.triangles.len(), rec.map_first[k]);
+            let (ne, first) = (self.problems[k].num_elements(), rec.map_first[k]);
             for (j, map) in maps.iter_mut().take(2).enumerate() {
                 let mut sq = held::whole_on_group(layout, ne, map, first);
                 for v in sq.iter_mut() {

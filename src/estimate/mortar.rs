@@ -73,13 +73,13 @@ impl MortarEstimates {
         let pts: Vec<[f64; 2]> = nm
             .contact_nodes
             .iter()
-            .map(|&n| nm.mesh.points[n])
+            .map(|&n| nm.mesh().points[n])
             .collect();
         let ms = &matched[side];
         let places = ms
             .contact_nodes
             .iter()
-            .map(|&n| place(&pts, ms.mesh.points[n]))
+            .map(|&n| place(&pts, ms.mesh().points[n]))
             .collect();
         let fine_of = transfers[side].fine_node_of();
         let index: HashMap<usize, usize> = ms
@@ -227,10 +227,10 @@ impl MortarEstimates {
             let sign = if k == 0 { 1.0 } else { -1.0 };
             let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
             let u_d = b.neumann_solve(&f, true)?;
-            let mut map: Vec<f64> = (0..p.mesh.triangles.len())
+            let mut map: Vec<f64> = (0..p.num_elements())
                 .map(|e| {
-                    let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
-                    let dofs = element_dofs(&p.mesh.triangles.get(e));
+                    let ke = element_stiffness(&p.mesh().triangle_points(e), &p.material);
+                    let dofs = element_dofs(&p.mesh().triangles.get(e));
                     let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - it.u[k][dofs[r]]);
                     energy(&ke, &d)
                 })
@@ -238,7 +238,7 @@ impl MortarEstimates {
             if k == self.side {
                 let obstacle = p.obstacle(&it.lambda);
                 let nodes = &p.contact_nodes;
-                let elements = p.mesh.chain_elements(nodes);
+                let elements = p.mesh().chain_elements(nodes);
                 let m = nodes.len();
                 for i in 0..m {
                     let term = 2.0 * mu_hat[i] * (it.trace2[i] - obstacle[i]).abs();
@@ -279,12 +279,12 @@ fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
             .map(|(i, &n)| (n, i))
             .collect();
         let mut a = vec![0.0; m];
-        for e in 0..p.mesh.triangles.len() {
-            let t = p.mesh.triangles.get(e);
+        for e in 0..p.num_elements() {
+            let t = p.mesh().triangles.get(e);
             if !t.iter().any(|n| at.contains_key(n)) {
                 continue;
             }
-            let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
+            let ke = element_stiffness(&p.mesh().triangle_points(e), &p.material);
             for (j, n) in t.iter().enumerate() {
                 if let Some(&i) = at.get(n) {
                     let v = p.contact_normals[i];
@@ -327,14 +327,14 @@ fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
 /// ‖δ_n‖²_E per element of the lift `lift` (along the pairs' normals) at a body's matched Γc
 /// nodes.
 fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<f64> {
-    let mut delta = vec![0.0; p.mesh.num_dofs()];
+    let mut delta = vec![0.0; p.num_dofs()];
     for (i, &n) in p.contact_nodes.iter().enumerate() {
         delta[2 * n] = lift[i] * p.contact_normals[i][0];
         delta[2 * n + 1] = lift[i] * p.contact_normals[i][1];
     }
-    (0..p.mesh.triangles.len())
+    (0..p.num_elements())
         .map(|e| {
-            if p.mesh
+            if p.mesh()
                 .triangles
                 .get(e)
                 .iter()
@@ -342,8 +342,8 @@ fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<f64> {
             {
                 return 0.0;
             }
-            let ke = element_stiffness(&p.mesh.triangle_points(e), &p.material);
-            let dofs = element_dofs(&p.mesh.triangles.get(e));
+            let ke = element_stiffness(&p.mesh().triangle_points(e), &p.material);
+            let dofs = element_dofs(&p.mesh().triangles.get(e));
             let d: [f64; 6] = std::array::from_fn(|r| delta[dofs[r]]);
             energy(&ke, &d)
         })

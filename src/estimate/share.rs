@@ -25,13 +25,13 @@ use crate::parallel::layout::Layout;
 /// overlaps exchange values between sweeps, `Halo::exchange_sweep`), so each must hold an equal
 /// part of it: a rank with parts of two bodies would keep the others of one body waiting while it
 /// recovers the other.
-pub fn estimate_owner(meshes: [&Mesh; 2], ranks: usize, k: usize) -> Vec<u32> {
-    let sizes = meshes.map(|m| m.triangles.len());
+/// `sizes` are both bodies' element counts, `mesh` body k + 1's.
+pub fn estimate_owner(sizes: [usize; 2], mesh: &Mesh, ranks: usize, k: usize) -> Vec<u32> {
     let own = dealt_ranks(sizes, ranks).is_some();
     let total = (sizes[0] + sizes[1]).max(1);
     // (body 2's elements are dealt after body 1's)
     let position = if k == 1 { sizes[0] } else { 0 };
-    let order = slab_order(meshes[k]);
+    let order = slab_order(mesh);
     let len = order.len();
     let mut owner = vec![0u32; len];
     for (q, &e) in order.iter().enumerate() {
@@ -48,6 +48,17 @@ pub fn estimate_owner(meshes: [&Mesh; 2], ranks: usize, k: usize) -> Vec<u32> {
 /// element.
 pub fn estimating_ranks(sizes: [usize; 2], ranks: usize) -> [Range<usize>; 2] {
     dealt_ranks(sizes, ranks).unwrap_or([0..ranks, 0..ranks])
+}
+
+/// Whether some of each body's elements are estimated outside its group (then on every
+/// rank: each makes the estimating rank of every element of the body, [`estimate_owner`]),
+/// from the bodies' element counts `sizes`.
+pub fn estimated_outside_group(sizes: [usize; 2], layout: &Layout) -> [bool; 2] {
+    let ranks = estimating_ranks(sizes, layout.size as usize);
+    [0, 1].map(|k| {
+        let group = layout.group_ranks(k + 1);
+        ranks[k].start < group.start || ranks[k].end > group.end
+    })
 }
 
 /// The ranks of each body when the elements of body 1 then body 2 are dealt in order into
@@ -111,7 +122,7 @@ impl Share {
     /// (outside the group, `crosses` false).
     pub fn new(
         alpha: usize,
-        mesh: &Mesh,
+        mesh: Option<&Mesh>,
         owner: &[u32],
         crosses: bool,
         recovery: Recovery,
@@ -136,6 +147,7 @@ impl Share {
             (false, false) => Share::Elsewhere,
             (true, false) => Share::Idle(Halo::new(None, &scoped, crosses, layout)),
             (true, true) => {
+                let mesh = mesh.expect("a rank that estimates a body's elements holds its mesh");
                 let colours = vertex_colours(mesh);
                 let own: Vec<bool> = owner.iter().map(|&r| r as usize == me).collect();
                 // The recovery exchanges the overlap's values between sweeps.
@@ -163,7 +175,8 @@ mod tests {
     use super::*;
 
     fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
-        [0, 1].map(|k| estimate_owner(meshes, ranks, k))
+        let sizes = meshes.map(|m| m.triangles.len());
+        [0, 1].map(|k| estimate_owner(sizes, meshes[k], ranks, k))
     }
 
     /// Slab order: by the barycentre along the longer side, ties by element index.

@@ -81,7 +81,7 @@ impl View<'_> {
         let s = match self {
             View::Idle(..) => None,
             View::Whole => Some(equilibrate_restricted(
-                &p.mesh,
+                p.mesh(),
                 &p.material,
                 u,
                 &b,
@@ -157,7 +157,7 @@ impl View<'_> {
     /// element sums over the elements this rank estimates, added over the ranks that share
     /// the body's recovery (collective over them; the same number on each).
     fn relative_change(&self, p: &BodyProblem, u: &[f64], v: &[f64]) -> f64 {
-        let (mesh, kept) = self.kept(&p.mesh);
+        let (mesh, kept) = self.kept(p.mesh());
         let mut sums = [0.0; 2];
         for (l, _) in kept.iter().enumerate().filter(|(_, &e)| e != u32::MAX) {
             let ke = element_stiffness(&mesh.triangle_points(l), &p.material);
@@ -202,7 +202,7 @@ impl View<'_> {
 /// segment (per unit length of body 1's side), traction free elsewhere; components under
 /// Dirichlet conditions on both ends of an edge are free.
 pub fn boundary(p: &BodyProblem, gc: &[EdgeValues]) -> Boundary {
-    let mesh = &p.mesh;
+    let mesh = p.mesh();
     let mut constrained = vec![false; mesh.num_dofs()];
     for &(d, _) in &p.dirichlet {
         constrained[d] = true;

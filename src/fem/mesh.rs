@@ -19,8 +19,8 @@ pub struct Mesh {
     pub triangles: Triangles,
 }
 
-/// A mesh's triangles, their nodes stored as `u32` (half the memory of `usize`: 12 MiB less
-/// per rank at `paper` n = 512, where every rank holds both bodies' meshes) and handed out as
+/// A mesh's triangles, their nodes stored as `u32` (half the memory of `usize`: 6 MiB less
+/// per body at `paper` n = 512, on every rank that holds the body's mesh) and handed out as
 /// `usize`. A body has fewer than 2³² nodes: the size check refuses meshes far smaller.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Triangles(Vec<[u32; 3]>);

@@ -141,9 +141,9 @@ impl BodyIdentity {
         }
 
         BodyIdentity {
-            nodes: b.mesh.points.len(),
-            elements: b.mesh.triangles.len(),
-            mesh: b.mesh.fingerprint(),
+            nodes: b.num_nodes(),
+            elements: b.num_elements(),
+            mesh: b.mesh().fingerprint(),
             young: b.material.young,
             poisson: b.material.poisson,
             loads,

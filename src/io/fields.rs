@@ -43,7 +43,7 @@ pub fn results(
         Grid::whole(
             "contact",
             (problems[side].contact_nodes.iter())
-                .map(|&n| problems[side].mesh.points[n])
+                .map(|&n| problems[side].boundary_point(n))
                 .collect(),
             Topology::Segment(contact_segments(problems)),
             Vec::new(),
@@ -154,14 +154,14 @@ pub fn results(
 /// indices of the whole grid: body 2's after body 1's) and the constant cell field `body`.
 fn bodies_grid(problems: [&BodyProblem; 2], rows: [&Share; 2], mine: &Share) -> Grid {
     let points = on_share(rows, mine, Center::Node, 2, |k, n, out| {
-        out.extend(problems[k].mesh.points[n])
+        out.extend(problems[k].mesh().points[n])
     });
     let mut triangles = Vec::with_capacity(mine.cells.len());
     let body = on_share(rows, mine, Center::Cell, 1, |k, e, out| {
         let offset = rows[k].points.start;
         triangles.push(
             problems[k]
-                .mesh
+                .mesh()
                 .triangles
                 .get(e)
                 .map(|v| (v + offset) as u32),
@@ -187,13 +187,12 @@ fn bodies_grid(problems: [&BodyProblem; 2], rows: [&Share; 2], mine: &Share) -> 
 
 /// Each body's rows of the `bodies` grid: body 1's points and cells, then body 2's.
 pub fn body_rows(problems: [&BodyProblem; 2]) -> [Share; 2] {
-    grid_rows(problems.map(|p| &p.mesh))
+    grid_rows(problems.map(|p| [p.num_nodes(), p.num_elements()]))
 }
 
-/// [`body_rows`] of the meshes.
-fn grid_rows(meshes: [&Mesh; 2]) -> [Share; 2] {
-    let [n1, n2] = meshes.map(|m| m.points.len());
-    let [m1, m2] = meshes.map(|m| m.triangles.len());
+/// [`body_rows`] of bodies of `sizes`, each its nodes and its elements.
+fn grid_rows(sizes: [[usize; 2]; 2]) -> [Share; 2] {
+    let [[n1, m1], [n2, m2]] = sizes;
     [
         Share {
             points: 0..n1,
@@ -252,7 +251,7 @@ fn body_fields(
     let stress = |k: usize, e: usize| {
         let p = problems[k];
         (!u[k].values.is_empty())
-            .then(|| fem::element_stress_with(&p.mesh, e, &p.material, |d| u[k].at(d)))
+            .then(|| fem::element_stress_with(p.mesh(), e, &p.material, |d| u[k].at(d)))
     };
     let displacement = on_share(rows, mine, Center::Node, 2, |k, n, out| {
         out.extend([0, 1].map(|c| u[k].at(2 * n + c)))
@@ -358,12 +357,19 @@ pub struct KeptRows {
 /// its group, none elsewhere.
 pub fn kept_rows(layout: &Layout, problems: [&BodyProblem; 2]) -> KeptRows {
     let mine = shares(layout, problems).swap_remove(0);
-    kept_on(&mine, problems.map(|p| &p.mesh))
+    let sizes = problems.map(|p| [p.num_nodes(), p.num_elements()]);
+    kept_on(
+        &mine,
+        sizes,
+        problems.map(|p| p.holds_mesh().then(|| p.mesh())),
+    )
 }
 
-/// The [`KeptRows`] of the rows `mine` of the `bodies` grid of `meshes`.
-fn kept_on(mine: &Share, meshes: [&Mesh; 2]) -> KeptRows {
-    let rows = grid_rows(meshes);
+/// The [`KeptRows`] of the rows `mine` of the `bodies` grid of bodies of `sizes` (nodes,
+/// elements), from the meshes of those whose cells it writes (`None` where the rank does
+/// not hold a body's mesh: it writes none of its rows).
+fn kept_on(mine: &Share, sizes: [[usize; 2]; 2], meshes: [Option<&Mesh>; 2]) -> KeptRows {
+    let rows = grid_rows(sizes);
     let local = |r: &Range<usize>, body: &Range<usize>| {
         let (lo, hi) = (r.start.max(body.start), r.end.min(body.end));
         match lo < hi {
@@ -374,8 +380,9 @@ fn kept_on(mine: &Share, meshes: [&Mesh; 2]) -> KeptRows {
     let cells = [0, 1].map(|k| local(&mine.cells, &rows[k].cells));
     let dofs = [0, 1].map(|k| {
         let points = local(&mine.points, &rows[k].points);
+        let mesh = || meshes[k].expect("a rank holds the mesh of the bodies it writes");
         let nodes = (cells[k].clone())
-            .flat_map(|e| meshes[k].triangles.get(e))
+            .flat_map(|e| mesh().triangles.get(e))
             .chain(points);
         let (lo, hi) = nodes.fold((usize::MAX, 0), |(lo, hi), n| (lo.min(n), hi.max(n + 1)));
         match lo < hi {
@@ -439,14 +446,18 @@ mod tests {
             Mesh::structured([0.0, 0.0], [1.0, 1.0], nx, ny),
             Mesh::structured([0.0, 1.0], [1.0, 1.0], nx, ny),
         ];
-        let [r1, r2] = grid_rows([&meshes[0], &meshes[1]]);
+        let sizes = meshes
+            .each_ref()
+            .map(|m| [m.num_nodes(), m.triangles.len()]);
+        let [r1, r2] = grid_rows(sizes);
         // Body 2's second of three blocks, as its group's middle rank writes it.
         let third = |r: &Range<usize>| r.start + r.len() / 3..r.start + 2 * r.len() / 3;
         let mine = Share {
             points: third(&r2.points),
             cells: third(&r2.cells),
         };
-        let kept = kept_on(&mine, [&meshes[0], &meshes[1]]);
+        // (body 1's mesh not held: none of its rows is written)
+        let kept = kept_on(&mine, sizes, [None, Some(&meshes[1])]);
         assert_eq!(kept.cells[0], 0..0);
         assert_eq!(kept.dofs[0], 0..0);
         let cells = &kept.cells[1];
@@ -472,7 +483,7 @@ mod tests {
             points: 0..r2.points.end,
             cells: 0..r2.cells.end,
         };
-        let kept = kept_on(&all, [&meshes[0], &meshes[1]]);
+        let kept = kept_on(&all, sizes, [Some(&meshes[0]), Some(&meshes[1])]);
         assert_eq!(kept.cells, [0..r1.cells.end, 0..r2.cells.len()]);
         assert_eq!(
             kept.dofs,

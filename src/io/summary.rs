@@ -213,6 +213,10 @@ pub struct Summary {
     pub peak_memory_mib: f64,
     /// Peak resident memory of every rank (MiB), by world rank.
     pub peak_memory_mib_per_rank: Vec<f64>,
+    /// The elements of the bodies' meshes each rank holds through the run, by world rank: its
+    /// group's body (and a body it estimates outside that body's group, or both in a mortar
+    /// or an adaptive run); the other's mesh released after the layout.
+    pub held_mesh_elements_per_rank: Vec<usize>,
     /// Ranks of each body's group.
     pub body_ranks: [usize; 2],
     /// Largest equilibrium residuals of the recovered stresses over the estimated iterations

@@ -66,7 +66,8 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
     let contact_normals = vec![UP; contact_nodes.len()];
     BodyProblem {
         alpha,
-        mesh,
+        mesh: super::BodyMesh::Whole(mesh),
+        outline: Default::default(),
         material,
         dirichlet,
         neumann,

@@ -176,7 +176,8 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
         }
         Ok(BodyProblem {
             alpha,
-            mesh: bodies[k].mesh.clone(),
+            mesh: super::BodyMesh::Whole(bodies[k].mesh.clone()),
+            outline: Default::default(),
             material: materials[k],
             dirichlet,
             neumann,

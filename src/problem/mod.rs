@@ -17,6 +17,7 @@ mod curves;
 pub mod matched;
 pub mod meshed;
 pub mod mortar;
+pub mod outline;
 pub mod parsed;
 mod polyline;
 pub mod settings;
@@ -27,6 +28,7 @@ use std::rc::Rc;
 
 use crate::fem::mesh::Mesh;
 use crate::fem::{edge_load, Material};
+pub use outline::Outline;
 
 /// The built-in problems (`-nndd_problem`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,7 +172,7 @@ fn check_meshes(bodies: &[Rc<BodyProblem>; 2]) -> Result<(), meshed::MeshedError
     use crate::fem::checks;
     let err = |option: String, message: String| meshed::MeshedError::Option { option, message };
     for b in bodies {
-        let mesh = &b.mesh;
+        let mesh = b.mesh();
         let q = (0..mesh.triangles.len())
             .map(|e| (e, checks::quality(mesh.triangle_points(e))))
             .min_by(|x, y| x.1.total_cmp(&y.1));
@@ -185,7 +187,7 @@ fn check_meshes(bodies: &[Rc<BodyProblem>; 2]) -> Result<(), meshed::MeshedError
             ));
         }
     }
-    if let Some(o) = checks::overlap([&bodies[0].mesh, &bodies[1].mesh]) {
+    if let Some(o) = checks::overlap([bodies[0].mesh(), bodies[1].mesh()]) {
         return Err(err(
             "-nndd_problem".into(),
             format!("the bodies' meshes overlap ({o:?})"),
@@ -206,7 +208,11 @@ pub struct NeumannEdge {
 pub struct BodyProblem {
     /// 1 (lower body Ω¹) or 2 (upper body Ω²).
     pub alpha: usize,
-    pub mesh: Mesh,
+    /// Its mesh: whole, or released on a rank that reads the body's outline alone
+    /// ([`BodyProblem::mesh`], [`BodyProblem::released`]).
+    mesh: BodyMesh,
+    /// Its boundary, made from the mesh when first read and kept where the mesh is released.
+    outline: std::cell::OnceCell<Outline>,
     pub material: Material,
     /// Γ_D: prescribed dofs and their values, sorted by dof.
     pub dirichlet: Vec<(usize, f64)>,
@@ -236,6 +242,19 @@ pub struct BodyProblem {
     pub candidate_normals: Vec<[f64; 2]>,
     /// What holds the body against rigid motion.
     pub support: Support,
+}
+
+/// A body's mesh as a rank holds it.
+#[derive(Clone, Debug)]
+enum BodyMesh {
+    Whole(Mesh),
+    /// Released on a rank outside the body's group that does not estimate it (its counts
+    /// kept: the output's rows and the summary read them): the rank reads the body's
+    /// [`Outline`] alone.
+    Released {
+        nodes: usize,
+        elements: usize,
+    },
 }
 
 /// How a body meets Γc's pairs (`-nndd_contact_discretisation`).
@@ -348,14 +367,95 @@ pub enum Support {
 pub const UP: [f64; 2] = [0.0, 1.0];
 
 impl BodyProblem {
+    /// The body's mesh.
+    ///
+    /// # Panics
+    /// Where this rank released it ([`BodyProblem::released`]): a rank releases the mesh of a
+    /// body only where nothing after reads it there (`app::release_unread_meshes`).
+    pub fn mesh(&self) -> &Mesh {
+        match &self.mesh {
+            BodyMesh::Whole(m) => m,
+            BodyMesh::Released { .. } => {
+                panic!(
+                    "body {}'s mesh is read on a rank that released it",
+                    self.alpha
+                )
+            }
+        }
+    }
+
+    /// Whether this rank holds the body's mesh.
+    pub fn holds_mesh(&self) -> bool {
+        matches!(self.mesh, BodyMesh::Whole(_))
+    }
+
+    /// The body's nodes (held or released).
+    pub fn num_nodes(&self) -> usize {
+        match &self.mesh {
+            BodyMesh::Whole(m) => m.num_nodes(),
+            BodyMesh::Released { nodes, .. } => *nodes,
+        }
+    }
+
+    /// The body's dofs, two per node.
+    pub fn num_dofs(&self) -> usize {
+        2 * self.num_nodes()
+    }
+
+    /// The body's elements (held or released).
+    pub fn num_elements(&self) -> usize {
+        match &self.mesh {
+            BodyMesh::Whole(m) => m.triangles.len(),
+            BodyMesh::Released { elements, .. } => *elements,
+        }
+    }
+
+    /// The body's boundary ([`Outline`]), made from its mesh when first read.
+    pub fn outline(&self) -> &Outline {
+        self.outline.get_or_init(|| Outline::of(self.mesh()))
+    }
+
+    /// The point of Γc node or boundary node `node`, from the mesh where held, else from the
+    /// outline.
+    pub fn boundary_point(&self, node: usize) -> [f64; 2] {
+        match &self.mesh {
+            BodyMesh::Whole(m) => m.points[node],
+            BodyMesh::Released { .. } => self.outline().point(node),
+        }
+    }
+
+    /// This problem with its mesh released, its outline and its counts kept: what a rank
+    /// holds of a body whose mesh nothing there reads after the layout.
+    pub fn released(&self) -> BodyProblem {
+        BodyProblem {
+            alpha: self.alpha,
+            mesh: BodyMesh::Released {
+                nodes: self.num_nodes(),
+                elements: self.num_elements(),
+            },
+            outline: std::cell::OnceCell::from(self.outline().clone()),
+            material: self.material,
+            dirichlet: self.dirichlet.clone(),
+            neumann: self.neumann.clone(),
+            contact_nodes: self.contact_nodes.clone(),
+            trace: self.trace.clone(),
+            gap: self.gap.clone(),
+            contact_normals: self.contact_normals.clone(),
+            contact_lengths: self.contact_lengths.clone(),
+            contact_candidates: self.contact_candidates.clone(),
+            candidate_normals: self.candidate_normals.clone(),
+            support: self.support,
+        }
+    }
+
     /// The Neumann load vector f^α (exact for the linear tractions).
     pub fn load(&self) -> Vec<f64> {
-        let mut f = vec![0.0; self.mesh.num_dofs()];
+        let mut f = vec![0.0; self.num_dofs()];
         for e in &self.neumann {
             let [a, b] = e.nodes;
             let (fa, fb) = edge_load(
-                self.mesh.points[a],
-                self.mesh.points[b],
+                self.mesh().points[a],
+                self.mesh().points[b],
                 e.traction[0],
                 e.traction[1],
             );
@@ -495,7 +595,7 @@ impl BodyProblem {
     pub fn contact_x(&self) -> Vec<f64> {
         self.contact_nodes
             .iter()
-            .map(|&n| self.mesh.points[n][0])
+            .map(|&n| self.boundary_point(n)[0])
             .collect()
     }
 }

@@ -40,7 +40,7 @@ const ON_SEGMENT: f64 = 1e-9;
 impl Transfer {
     /// The transfer from body `from`'s mesh to `to`'s, its matched refinement (the same body).
     pub fn new(from: &BodyProblem, to: &BodyProblem) -> Result<Transfer, MeshedError> {
-        let (coarse, fine) = (&from.mesh, &to.mesh);
+        let (coarse, fine) = (from.mesh(), to.mesh());
         let invalid = |what: String| {
             MeshedError::Option {
             option: "-nndd_contact_discretisation mortar".into(),
@@ -150,7 +150,7 @@ impl GapField {
             points: nm
                 .contact_nodes
                 .iter()
-                .map(|&n| nm.mesh.points[n])
+                .map(|&n| nm.mesh().points[n])
                 .collect(),
             values: nm.gap.clone(),
         }
@@ -172,7 +172,7 @@ impl GapField {
         let gap: Vec<f64> = p
             .contact_nodes
             .iter()
-            .map(|&n| self.at(p.mesh.points[n]))
+            .map(|&n| self.at(p.mesh().points[n]))
             .collect();
         problems.map(|b| {
             Rc::new(BodyProblem {
@@ -284,7 +284,8 @@ mod tests {
         );
         let body = |mesh: Mesh| BodyProblem {
             alpha: 1,
-            mesh,
+            mesh: super::super::BodyMesh::Whole(mesh),
+            outline: Default::default(),
             material: crate::fem::Material {
                 young: 1.0,
                 poisson: 0.3,

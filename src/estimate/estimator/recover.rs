@@ -227,7 +227,7 @@ impl Estimator<'_> {
     /// Who estimates which elements of each body, and the overlaps and halos of this rank's
     /// ([`Share`]): made at the first estimate (collective), kept for the others.
     fn shares(&self, crosses: [bool; 2]) -> [&Share; 2] {
-        let meshes = [&self.problems[0].mesh, &self.problems[1].mesh];
+        let sizes = self.problems.each_ref().map(|p| p.num_elements());
         [0, 1].map(|k| {
             self.shares[k].get_or_init(|| {
                 self.parts.run(Part::Recovery, || {
@@ -235,18 +235,12 @@ impl Estimator<'_> {
                     // rank takes part in the body's estimates and freed with its share made:
                     // not held through the solve)
                     let takes_part = crosses[k] || self.layout.owns(k + 1);
-                    let owner = match takes_part {
-                        true => estimate_owner(meshes, self.layout.size as usize, k),
-                        false => Vec::new(),
+                    let mesh = takes_part.then(|| self.problems[k].mesh());
+                    let owner = match mesh {
+                        Some(m) => estimate_owner(sizes, m, self.layout.size as usize, k),
+                        None => Vec::new(),
                     };
-                    Share::new(
-                        k + 1,
-                        meshes[k],
-                        &owner,
-                        crosses[k],
-                        self.recovery,
-                        self.layout,
-                    )
+                    Share::new(k + 1, mesh, &owner, crosses[k], self.recovery, self.layout)
                 })
             })
         })
@@ -347,7 +341,7 @@ impl Estimator<'_> {
             // The element maps onto the body's ranks, each element from its estimating rank to
             // the rank whose block of the body's elements holds it (`Layout::block`).
             if crosses[k] || body.is_some() {
-                let ne = self.problems[k].mesh.triangles.len();
+                let ne = self.problems[k].num_elements();
                 let (map, first) = self.parts.run(Part::Reduction, || {
                     let values = [&est.glo[..], &est.fe[..], &est.nndd[..]];
                     held::to_blocks(layout, k + 1, ne, &est.elements, values, crosses[k])
@@ -361,7 +355,7 @@ impl Estimator<'_> {
                 // (each rank of the group sums its block of the fine elements)
                 let p = &self.problems[k];
                 e_ref2 += self.parts.run(Part::ReferenceError, || {
-                    r.error_squared_part(k, &p.mesh, &plain[k])
+                    r.error_squared_part(k, p.mesh(), &plain[k])
                 })?;
             }
         }
