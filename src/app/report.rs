@@ -254,9 +254,13 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
 
 /// Peak memory of every rank (MiB), on every rank.
 pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
+    per_rank(layout, memory::peak_memory() / (1024.0 * 1024.0))
+}
+
+/// Every rank's `mine`, by world rank, on every rank (collective).
+fn per_rank<T: mpi::datatype::Equivalence + Copy + Default>(layout: &Layout, mine: T) -> Vec<T> {
     use mpi::traits::*;
-    let mine = memory::peak_memory() / (1024.0 * 1024.0);
-    let mut all = vec![0.0; layout.size as usize];
+    let mut all = vec![T::default(); layout.size as usize];
     layout.world.all_gather_into(&mine, &mut all[..]);
     all
 }
@@ -264,14 +268,14 @@ pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
 /// The elements of the bodies' meshes each rank holds through the run, by world rank (a
 /// body's whole where the rank keeps its mesh, none where it released it; collective).
 pub fn held_mesh_elements_per_rank(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<usize> {
-    use mpi::traits::*;
     let mine: u64 = (problems.iter())
         .filter(|p| p.holds_mesh())
         .map(|p| p.num_elements() as u64)
         .sum();
-    let mut all = vec![0u64; layout.size as usize];
-    layout.world.all_gather_into(&mine, &mut all[..]);
-    all.into_iter().map(|n| n as usize).collect()
+    per_rank(layout, mine)
+        .into_iter()
+        .map(|n| n as usize)
+        .collect()
 }
 
 /// Each phase's time: the maximum over ranks.

@@ -175,7 +175,8 @@ fn continuation(p: &BodyProblem, end: usize) -> Option<[f64; 2]> {
 
 /// The warning of a contact zone that reaches an end of Γc where the bodies go on side by side
 /// (so that the contact may extend beyond the named contact curves, unconstrained there), with
-/// where; `None` otherwise. Every rank finds the same (Γc data and both bodies' outlines are everywhere).
+/// where; `None` otherwise. Every rank finds the same (Γc data and both bodies' outlines are
+/// everywhere).
 pub fn zone_reaches_open_end(problems: [&BodyProblem; 2], it: &Iterate) -> Option<String> {
     // (a closed Γc has no end: its pairs run from a cut that the constraints span)
     let closed = problems.iter().any(|p| match &p.trace {

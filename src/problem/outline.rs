@@ -1,7 +1,8 @@
 //! A body's outline: its boundary edges, and its boundary nodes with their points, in the
 //! mesh's numbering. O(√N) of a body of N dofs, it is what the ranks outside the body's group
 //! read of the body (the final check's rays and Γc's ends, the output's Γc grid, the
-//! summary's contact zone), so that they need not hold its mesh ([`super::BodyMesh`]).
+//! summary's contact zone), so that they need not hold its mesh
+//! ([`super::BodyProblem::released`]).
 
 use crate::fem::mesh::Mesh;
 
