@@ -9,7 +9,8 @@
 //! cores run oversubscribed: their memory is what is measured, not their speed. The table goes
 //! to `results/bench-memory-ranks.txt`. `--every K` estimates every K-th iteration instead
 //! (`-nndd_estimate_every K`: many estimated steps, each kept for the output). Run through
-//! `jobs/bench-memory-ranks [--quick] [--every K]`.
+//! `jobs/bench-memory-ranks [--quick] [--every K] [--ranks LIST] [n …]`: `--ranks` runs every n
+//! on each rank count of LIST, and levels n replace the default ones.
 
 #[path = "runner.rs"]
 mod runner;
@@ -31,17 +32,14 @@ fn main() {
         None => 0,
     };
     let dir = runner::scratch("bench-memory-ranks");
-    let cases: Vec<(usize, usize)> = if quick {
-        vec![(128, 2), (128, 4), (128, 8), (256, 2), (256, 8)]
-    } else {
-        vec![(512, 2), (512, 4), (512, 8), (1024, 2), (1024, 8)]
-    };
+    let cases = cases(&args, quick);
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let mut binaries = vec![("this", "target/release/nndd".to_string())];
     if let Ok(before) = std::env::var("NNDD_BEFORE") {
         binaries.push(("before", before));
     }
     let mut lines = vec![
-        format!("# jobs/bench-memory-ranks: paper, -nndd_estimate -nndd_estimate_every {every} ({}), solve to tol 1e-8; MiB per rank (peak resident), oversubscribed above 2 ranks", match every {
+        format!("# jobs/bench-memory-ranks: paper, -nndd_estimate -nndd_estimate_every {every} ({}), solve to tol 1e-8; MiB per rank (peak resident), oversubscribed above {cores} ranks", match every {
             0 => "one estimate".to_string(),
             k => format!("an estimate every {k} iterations"),
         }),
@@ -67,12 +65,17 @@ fn main() {
                 "-nndd_reference_factor",
                 "0",
             ];
-            let mpirun: &[&str] = if ranks > 2 { &["--oversubscribe"] } else { &[] };
+            let mpirun: &[&str] = if ranks > cores {
+                &["--oversubscribe"]
+            } else {
+                &[]
+            };
             let (j, wall) =
                 match runner::try_run(ranks, "petsc-options/paper.opts", mpirun, &prefix, &args) {
                     Ok(r) => r,
                     Err(e) => {
                         lines.push(format!("{name:>7} {n:>5} {ranks:>5} failed: {e}"));
+                        write_table(&lines);
                         continue;
                     }
                 };
@@ -104,13 +107,78 @@ fn main() {
                 runner::solve_seconds(&j),
             ));
             eprintln!("{}", lines.last().expect("a row"));
+            // (the table so far: a run stopped part-way keeps its finished rows)
+            write_table(&lines);
         }
     }
+    write_table(&lines);
+    print!("{}", lines.join("\n") + "\n");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `results/bench-memory-ranks.txt`: the header and the rows so far.
+fn write_table(lines: &[String]) {
     let table = lines.join("\n") + "\n";
-    print!("{table}");
     std::fs::create_dir_all("results").ok();
     std::fs::File::create("results/bench-memory-ranks.txt")
         .and_then(|mut f| f.write_all(table.as_bytes()))
         .expect("write results/bench-memory-ranks.txt");
-    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The (n, ranks) cases: `--ranks LIST` runs each n on every rank count of LIST; levels n given
+/// on the command line replace the default ones (512 and 1024; `--quick`: 128 and 256), whose
+/// default rank counts are 2, 4, 8 for the first and 2, 8 for the second.
+fn cases(args: &[String], quick: bool) -> Vec<(usize, usize)> {
+    let fail = |msg: String| -> ! {
+        eprintln!("bench-memory-ranks: {msg}");
+        std::process::exit(2);
+    };
+    let mut ranks: Option<Vec<usize>> = None;
+    let mut levels = Vec::new();
+    let mut it = args.iter().skip(1);
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--quick" => {}
+            "--every" => {
+                it.next();
+            }
+            "--ranks" => {
+                let list = it
+                    .next()
+                    .unwrap_or_else(|| fail("--ranks needs a list, e.g. 2,4,8".into()));
+                let parsed = list.split(',').map(|s| match s.trim().parse::<usize>() {
+                    Ok(v) if v > 0 => v,
+                    _ => fail(format!("--ranks: '{s}' is not a positive integer")),
+                });
+                ranks = Some(parsed.collect());
+            }
+            _ => match a.parse::<usize>() {
+                Ok(n) if n > 0 => levels.push(n),
+                _ => fail(format!(
+                    "unknown argument '{a}' (--quick, --every K, --ranks LIST, n …)"
+                )),
+            },
+        }
+    }
+    if levels.is_empty() {
+        levels = if quick {
+            vec![128, 256]
+        } else {
+            vec![512, 1024]
+        };
+    }
+    match ranks {
+        Some(r) => levels
+            .iter()
+            .flat_map(|&n| r.iter().map(move |&p| (n, p)))
+            .collect(),
+        None => levels
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &n)| {
+                let r: &[usize] = if i == 0 { &[2, 4, 8] } else { &[2, 8] };
+                r.iter().map(move |&p| (n, p))
+            })
+            .collect(),
+    }
 }

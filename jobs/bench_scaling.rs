@@ -8,7 +8,8 @@
 //! contact steps' share of the loop, NNDD / monolithic, and the peak memory. The table goes
 //! to `results/bench-scaling.txt` (`--hertz`: `results/bench-scaling-hertz.txt`), and a
 //! strong-scaling chart of the wall time to the PNG beside it.
-//! Run through `jobs/bench-scaling [--ranks 1,2,4,8] [--hertz] [--estimate] [--quick] [level …]`.
+//! Run through `jobs/bench-scaling [--ranks 1,2,4,8] [--hertz] [--estimate] [--no-monolithic]
+//! [--quick] [level …]`.
 
 #[path = "plot.rs"]
 mod plot;
@@ -20,13 +21,15 @@ use std::io::Write;
 use serde_json::Value;
 
 const USAGE: &str =
-    "usage: jobs/bench-scaling [--ranks 1,2,4,8] [--hertz] [--estimate] [--quick] [level …]
+    "usage: jobs/bench-scaling [--ranks 1,2,4,8] [--hertz] [--estimate] [--no-monolithic] [--quick] [level …]
   level …       paper: n (default 256 512; --quick: 64 128); --hertz: the Gmsh level L
                 (default 5 6; --quick: 3 4)
   --ranks LIST  MPI rank counts (default 1,2,4,8; mpirun --oversubscribe above the cores)
   --hertz       the Hertz example (examples/hertz) instead of paper
   --estimate    each NNDD run also estimates its final iterate
-  The monolithic solve runs once per level on 2 ranks. NNDD=path picks the binary.";
+  --no-monolithic  skip the monolithic solve (n/mono: -), for levels too large for it
+  The monolithic solve runs once per level on 2 ranks. NNDD=path picks the binary;
+  NNDD_SUMMARIES=dir keeps each run's JSON summary there.";
 
 /// One mesh level of the benchmark: its options file and arguments.
 struct Case {
@@ -74,7 +77,13 @@ impl Case {
 type Outcome = Result<(Value, f64), String>;
 
 fn main() {
-    let (levels, ranks, hertz, estimate) = parse_args();
+    let Args {
+        levels,
+        ranks,
+        hertz,
+        estimate,
+        monolithic,
+    } = parse_args();
     plot::register_font();
     let dir = runner::scratch("scaling");
     std::fs::create_dir_all("results").expect("results/ directory");
@@ -105,12 +114,17 @@ fn main() {
     let mut curves: Vec<(usize, Vec<(f64, f64)>)> = Vec::new();
     for &level in &levels {
         let case = Case::new(hertz, level, &dir);
-        eprintln!(
-            "bench-scaling {}: level {level}, monolithic on 2 ranks …",
-            now()
-        );
-        let mono = case.run(2, &dir.join("mono"), &["-nndd_solver", "monolithic"]);
-        if let Err(e) = &mono {
+        let mono = match monolithic {
+            Monolithic::Run => {
+                eprintln!(
+                    "bench-scaling {}: level {level}, monolithic on 2 ranks …",
+                    now()
+                );
+                case.run(2, &dir.join("mono"), &["-nndd_solver", "monolithic"])
+            }
+            Monolithic::Skip => Err("skipped (--no-monolithic)".into()),
+        };
+        if let (Monolithic::Run, Err(e)) = (monolithic, &mono) {
             eprintln!("bench-scaling: level {level}, monolithic failed: {e}");
         }
         let mut runs: Vec<(usize, Outcome)> = Vec::new();
@@ -212,10 +226,27 @@ fn chart(
     )
 }
 
-fn parse_args() -> (Vec<usize>, Vec<usize>, bool, bool) {
+/// Whether each level also runs the monolithic solve (the `n/mono` column).
+#[derive(Clone, Copy)]
+enum Monolithic {
+    Run,
+    Skip,
+}
+
+/// The command line: levels, rank counts and what each level runs.
+struct Args {
+    levels: Vec<usize>,
+    ranks: Vec<usize>,
+    hertz: bool,
+    estimate: bool,
+    monolithic: Monolithic,
+}
+
+fn parse_args() -> Args {
     let mut levels = Vec::new();
     let mut ranks = vec![1, 2, 4, 8];
     let (mut quick, mut hertz, mut estimate) = (false, false, false);
+    let mut monolithic = Monolithic::Run;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -226,6 +257,7 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool, bool) {
             "--quick" => quick = true,
             "--hertz" => hertz = true,
             "--estimate" => estimate = true,
+            "--no-monolithic" => monolithic = Monolithic::Skip,
             "--ranks" => {
                 let list = args
                     .next()
@@ -256,7 +288,13 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool, bool) {
     levels.dedup();
     ranks.sort_unstable();
     ranks.dedup();
-    (levels, ranks, hertz, estimate)
+    Args {
+        levels,
+        ranks,
+        hertz,
+        estimate,
+        monolithic,
+    }
 }
 
 fn usage(msg: &str) -> ! {

@@ -141,6 +141,16 @@ pub fn try_run(
     let path = format!("{}.json", prefix.display());
     let text = std::fs::read_to_string(&path).map_err(|e| format!("{path}: {e}"))?;
     let summary = serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?;
+    // NNDD_SUMMARIES=dir keeps a copy of every run's summary (the benchmarks delete theirs).
+    if let Ok(dir) = std::env::var("NNDD_SUMMARIES") {
+        let name = prefix
+            .file_name()
+            .map_or("run".into(), |n| n.to_string_lossy());
+        let keep = Path::new(&dir).join(format!("{name}-{ranks}.json"));
+        std::fs::create_dir_all(&dir)
+            .and_then(|_| std::fs::write(&keep, &text))
+            .map_err(|e| format!("{}: {e}", keep.display()))?;
+    }
     Ok((summary, wall))
 }
 

@@ -14,12 +14,23 @@ use super::options::{option_default, option_present, option_string};
 use super::vec::{Gather, Vector, PETSC_DETERMINE};
 use super::{ffi, Int};
 
-/// The largest block of right-hand sides of [`Ksp::mumps_inverse_block`] (MUMPS's ICNTL(27)).
+/// The target block of right-hand sides of [`Ksp::mumps_inverse_block`] (MUMPS's ICNTL(27)).
 /// MUMPS's solve workspace on the first rank grows with it: `paper` n = 512 on 8 ranks, the
 /// group's first rank held 97 MiB of it with all 513 columns in one block, 49 with 256, and
-/// that was its peak (docs/scaling.md, "Memory per rank"); 256 columns still traverse the
-/// pruned tree in two passes at most on m ≤ 512.
-const INVERSE_BLOCK: Int = 256;
+/// that was its peak (docs/scaling.md, "Memory per rank"). Each block is one traversal of the
+/// pruned tree, which on several ranks costs about as much as its columns' arithmetic
+/// ([`inverse_block`]).
+const INVERSE_BLOCK: usize = 256;
+
+/// The block of ICNTL(27) for `columns` columns of K⁻¹: as many blocks as INVERSE_BLOCK goes
+/// into `columns`, rounded to the nearest (one at least), of equal width, so that no traversal
+/// of the pruned tree is spent on a few leftover columns (513 columns: two blocks of 257, not
+/// 256, 256 and 1; a block is at most 1.5 × INVERSE_BLOCK wide). `paper` n = 512 on 8 ranks
+/// per body: each traversal more cost about 0.8 s (docs/results.md, "On 16 cores").
+fn inverse_block(columns: usize) -> Int {
+    let blocks = ((columns + INVERSE_BLOCK / 2) / INVERSE_BLOCK).max(1);
+    columns.div_ceil(blocks).max(1) as Int
+}
 
 /// The solver options whose value PETSc may not know, each with the error code that says so
 /// and the words of PETSc's message before the value ("Unable to find requested KSP type foo").
@@ -320,8 +331,8 @@ impl Ksp {
         let mut distinct = rows.to_vec();
         distinct.sort_unstable();
         distinct.dedup();
-        // Up to INVERSE_BLOCK columns in one block (ICNTL(27), MUMPS's default is 32 at most):
-        // the pruned tree is then traversed once or twice (paper n = 256 on 2 ranks: all in one
+        // Blocks of about INVERSE_BLOCK columns (ICNTL(27), MUMPS's default is 32 at most):
+        // the pruned tree is traversed once per block (paper n = 256 on 2 ranks: all in one
         // block 0.24 s against 0.50 s with 32), unless the user chose a block size.
         let block = match option_present(&format!("-{}mat_mumps_icntl_27", self.prefix)) {
             true => {
@@ -329,7 +340,7 @@ impl Ksp {
                 call!(MatMumpsGetIcntl(f, 27, &mut b))?;
                 b
             }
-            false => (m as Int).clamp(1, INVERSE_BLOCK),
+            false => inverse_block(distinct.len()),
         };
         let values = super::mumps::inverse_entries(f, root, &distinct, block, &self.prefix)?;
         if !root {
@@ -561,5 +572,37 @@ fn worst(a: f64, b: f64) -> f64 {
 impl Drop for Ksp {
     fn drop(&mut self) {
         unsafe { ffi::KSPDestroy(&mut self.ksp) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::inverse_block;
+
+    #[test]
+    fn inverse_blocks_are_equal_and_leave_no_few_columns_over() {
+        // (columns, block): one block up to 1.5 × 256 − 1, then the nearest count of blocks
+        let cases = [
+            (1, 1),
+            (257, 257),
+            (383, 383),
+            (384, 192),
+            (513, 257),
+            (1025, 257),
+        ];
+        for (columns, block) in cases {
+            assert_eq!(inverse_block(columns), block, "{columns} columns");
+        }
+        for columns in 1..5000 {
+            let b = inverse_block(columns) as usize;
+            let blocks = columns.div_ceil(b);
+            // equal widths: the last block is no narrower than the others by more than one
+            // column per block, and no block is wider than 1.5 × 256
+            assert!(
+                columns >= (blocks - 1) * b + b.saturating_sub(blocks),
+                "{columns}: {b}"
+            );
+            assert!(2 * b <= 3 * 256, "{columns}: {b}");
+        }
     }
 }
