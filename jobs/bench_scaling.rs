@@ -120,7 +120,11 @@ fn main() {
                     "bench-scaling {}: level {level}, monolithic on 2 ranks …",
                     now()
                 );
-                case.run(2, &dir.join("mono"), &["-nndd_solver", "monolithic"])
+                case.run(
+                    2,
+                    &dir.join(format!("mono-{level}")),
+                    &["-nndd_solver", "monolithic"],
+                )
             }
             Monolithic::Skip => Err("skipped (--no-monolithic)".into()),
         };
@@ -135,7 +139,7 @@ fn main() {
                 if np > cores { " (oversubscribed)" } else { "" }
             );
             let extra: &[&str] = if estimate { &["-nndd_estimate"] } else { &[] };
-            let res = case.run(np, &dir.join(format!("nndd{np}")), extra);
+            let res = case.run(np, &dir.join(format!("nndd-{level}-{np}")), extra);
             if let Err(e) = &res {
                 eprintln!("bench-scaling: level {level}, N = {np} failed: {e}");
             }

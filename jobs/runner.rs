@@ -146,7 +146,7 @@ pub fn try_run(
         let name = prefix
             .file_name()
             .map_or("run".into(), |n| n.to_string_lossy());
-        let keep = Path::new(&dir).join(format!("{name}-{ranks}.json"));
+        let keep = Path::new(&dir).join(format!("{name}-ranks{ranks}.json"));
         std::fs::create_dir_all(&dir)
             .and_then(|_| std::fs::write(&keep, &text))
             .map_err(|e| format!("{}: {e}", keep.display()))?;
