@@ -18,15 +18,15 @@ use super::{ffi, Int};
 /// MUMPS's solve workspace on the first rank grows with it: `paper` n = 512 on 8 ranks, the
 /// group's first rank held 97 MiB of it with all 513 columns in one block, 49 with 256, and
 /// that was its peak (docs/scaling.md, "Memory per rank"). Each block is one traversal of the
-/// pruned tree, which on several ranks costs about as much as its columns' arithmetic
-/// ([`inverse_block`]).
+/// pruned tree, whose cost on several ranks hardly depends on its width ([`inverse_block`]).
 const INVERSE_BLOCK: usize = 256;
 
 /// The block of ICNTL(27) for `columns` columns of K⁻¹: as many blocks as INVERSE_BLOCK goes
 /// into `columns`, rounded to the nearest (one at least), of equal width, so that no traversal
 /// of the pruned tree is spent on a few leftover columns (513 columns: two blocks of 257, not
 /// 256, 256 and 1; a block is at most 1.5 × INVERSE_BLOCK wide). `paper` n = 512 on 8 ranks
-/// per body: each traversal more cost about 0.8 s (docs/results.md, "On 16 cores").
+/// per body (16 cores): 17, 9, 3 and 1 blocks took 18.4, 8.6, 4.1 and 2.5 s, about 0.8 s per
+/// block more (docs/results.md, "On 16 cores").
 fn inverse_block(columns: usize) -> Int {
     let blocks = ((columns + INVERSE_BLOCK / 2) / INVERSE_BLOCK).max(1);
     columns.div_ceil(blocks).max(1) as Int
