@@ -19,20 +19,8 @@ use std::collections::HashMap;
 use std::io::Write;
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let quick = args.iter().any(|a| a == "--quick");
-    let every = match args.iter().position(|a| a == "--every") {
-        Some(i) => match args.get(i + 1).and_then(|v| v.parse::<usize>().ok()) {
-            Some(k) => k,
-            None => {
-                eprintln!("bench-memory-ranks: --every takes a whole number of iterations (0: the reported iterate alone)");
-                std::process::exit(2);
-            }
-        },
-        None => 0,
-    };
+    let Args { every, cases } = parse_args();
     let dir = runner::scratch("bench-memory-ranks");
-    let cases = cases(&args, quick);
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let mut binaries = vec![("this", "target/release/nndd".to_string())];
     if let Ok(before) = std::env::var("NNDD_BEFORE") {
@@ -125,32 +113,43 @@ fn write_table(lines: &[String]) {
         .expect("write results/bench-memory-ranks.txt");
 }
 
-/// The (n, ranks) cases: `--ranks LIST` runs each n on every rank count of LIST; levels n given
-/// on the command line replace the default ones (512 and 1024; `--quick`: 128 and 256), whose
+/// The command line: the estimate's frequency and the (n, ranks) cases.
+struct Args {
+    /// `-nndd_estimate_every` (0: the reported iterate alone).
+    every: usize,
+    cases: Vec<(usize, usize)>,
+}
+
+/// `[--quick] [--every K] [--ranks LIST] [n …]`: `--ranks LIST` runs each n on every rank count
+/// of LIST; levels n replace the default ones (512 and 1024; `--quick`: 128 and 256), whose
 /// default rank counts are 2, 4, 8 for the first and 2, 8 for the second.
-fn cases(args: &[String], quick: bool) -> Vec<(usize, usize)> {
+fn parse_args() -> Args {
     let fail = |msg: String| -> ! {
         eprintln!("bench-memory-ranks: {msg}");
         std::process::exit(2);
     };
+    let (mut quick, mut every) = (false, 0);
     let mut ranks: Option<Vec<usize>> = None;
     let mut levels = Vec::new();
-    let mut it = args.iter().skip(1);
+    let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
-            "--quick" => {}
+            "--quick" => quick = true,
             "--every" => {
-                it.next();
+                every = it.next().and_then(|v| v.parse().ok()).unwrap_or_else(|| {
+                    fail(
+                    "--every takes a whole number of iterations (0: the reported iterate alone)"
+                        .into(),
+                )
+                })
             }
             "--ranks" => {
                 let list = it
                     .next()
                     .unwrap_or_else(|| fail("--ranks needs a list, e.g. 2,4,8".into()));
-                let parsed = list.split(',').map(|s| match s.trim().parse::<usize>() {
-                    Ok(v) if v > 0 => v,
-                    _ => fail(format!("--ranks: '{s}' is not a positive integer")),
-                });
-                ranks = Some(parsed.collect());
+                ranks = Some(
+                    runner::positive_list(&list).unwrap_or_else(|e| fail(format!("--ranks: {e}"))),
+                );
             }
             _ => match a.parse::<usize>() {
                 Ok(n) if n > 0 => levels.push(n),
@@ -167,7 +166,7 @@ fn cases(args: &[String], quick: bool) -> Vec<(usize, usize)> {
             vec![512, 1024]
         };
     }
-    match ranks {
+    let cases = match ranks {
         Some(r) => levels
             .iter()
             .flat_map(|&n| r.iter().map(move |&p| (n, p)))
@@ -180,5 +179,6 @@ fn cases(args: &[String], quick: bool) -> Vec<(usize, usize)> {
                 r.iter().map(move |&p| (n, p))
             })
             .collect(),
-    }
+    };
+    Args { every, cases }
 }

@@ -266,13 +266,8 @@ fn parse_args() -> Args {
                 let list = args
                     .next()
                     .unwrap_or_else(|| usage("--ranks needs a list, e.g. 1,2,4,8"));
-                ranks = list
-                    .split(',')
-                    .map(|s| match s.trim().parse::<usize>() {
-                        Ok(v) if v > 0 => v,
-                        _ => usage(&format!("--ranks: '{s}' is not a positive integer")),
-                    })
-                    .collect();
+                ranks = runner::positive_list(&list)
+                    .unwrap_or_else(|e| usage(&format!("--ranks: {e}")));
             }
             _ => match a.parse::<usize>() {
                 Ok(v) if v > 0 => levels.push(v),

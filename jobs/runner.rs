@@ -168,6 +168,16 @@ pub fn gmsh_level(geo: &str, level: usize, out: &Path) {
     assert!(st.success(), "gmsh failed on {geo}, level {level}");
 }
 
+/// A comma-separated list of positive whole numbers (`--ranks 1,2,4,8`), or the item that is not.
+pub fn positive_list(list: &str) -> Result<Vec<usize>, String> {
+    list.split(',')
+        .map(|s| match s.trim().parse::<usize>() {
+            Ok(v) if v > 0 => Ok(v),
+            _ => Err(format!("'{s}' is not a positive integer")),
+        })
+        .collect()
+}
+
 /// The arguments of the mesh-level jobs (jobs/hertz, jobs/pin):
 /// `[--levels 1,2,3,4] [--estimate-up-to L] [--reference-factor r]`.
 pub struct LevelArgs {

@@ -596,13 +596,16 @@ mod tests {
         for columns in 1..5000 {
             let b = inverse_block(columns) as usize;
             let blocks = columns.div_ceil(b);
-            // equal widths: the last block is no narrower than the others by more than one
-            // column per block, and no block is wider than 1.5 × 256
+            // the nearest count of 256-column blocks, one at least
+            let nearest = ((columns as f64 / 256.0).round() as usize).max(1);
+            assert_eq!(blocks, nearest, "{columns} columns in blocks of {b}");
+            // equal widths: the last block is short of the others by fewer columns than there
+            // are blocks
+            let last = columns - (blocks - 1) * b;
             assert!(
-                columns >= (blocks - 1) * b + b.saturating_sub(blocks),
-                "{columns}: {b}"
+                last <= b && last + blocks > b,
+                "{columns}: {b}, last {last}"
             );
-            assert!(2 * b <= 3 * 256, "{columns}: {b}");
         }
     }
 }
