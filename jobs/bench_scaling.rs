@@ -29,7 +29,8 @@ const USAGE: &str =
   --estimate    each NNDD run also estimates its final iterate
   --no-monolithic  skip the monolithic solve (n/mono: -), for levels too large for it
   The monolithic solve runs once per level on 2 ranks. NNDD=path picks the binary;
-  NNDD_SUMMARIES=dir keeps each run's JSON summary there.";
+  NNDD_SUMMARIES=dir keeps each run's JSON summary there, and its output with the monitor
+  (a .log, written as the run goes).";
 
 /// One mesh level of the benchmark: its options file and arguments.
 struct Case {

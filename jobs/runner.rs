@@ -88,7 +88,9 @@ pub fn solve_seconds(summary: &serde_json::Value) -> f64 {
 /// Like [`run`], with another options file and extra mpirun arguments (e.g. `--oversubscribe`),
 /// and a failed run (bad input, solver failure, killed for lack of memory …) is an `Err` with
 /// its exit status and one line of its stderr (nndd's error, else mpirun's) instead of ending
-/// the job.
+/// the job. With `NNDD_SUMMARIES=dir` the run keeps its summary there and writes its output,
+/// with the monitor, to a log beside it as it goes (`{name}-ranks{N}.log`), so that a run the
+/// job's time limit kills still says how far it got.
 pub fn try_run(
     ranks: usize,
     options_file: &str,
@@ -97,9 +99,14 @@ pub fn try_run(
     args: &[&str],
 ) -> Result<(serde_json::Value, f64), String> {
     let exe = std::env::var("NNDD").unwrap_or_else(|_| "target/release/nndd".into());
-    let t = std::time::Instant::now();
-    let out = Command::new("mpirun")
-        .args(mpirun_args)
+    let kept = std::env::var("NNDD_SUMMARIES").ok().map(|dir| {
+        let name = prefix
+            .file_name()
+            .map_or("run".into(), |n| n.to_string_lossy());
+        Path::new(&dir).join(format!("{name}-ranks{ranks}"))
+    });
+    let mut cmd = Command::new("mpirun");
+    cmd.args(mpirun_args)
         .args([
             "-n",
             &ranks.to_string(),
@@ -107,51 +114,72 @@ pub fn try_run(
             "-options_file",
             options_file,
         ])
-        .args(["-nndd_monitor", "0"])
+        .args(["-nndd_monitor", if kept.is_some() { "1" } else { "0" }])
         .args(args)
-        .args(["-nndd_output", prefix.to_str().expect("utf-8 path")])
-        .output()
-        .map_err(|e| format!("mpirun: {e}"))?;
+        .args(["-nndd_output", prefix.to_str().expect("utf-8 path")]);
+    let t = std::time::Instant::now();
+    let (status, stderr) = match &kept {
+        Some(keep) => {
+            let log = keep.with_extension("log");
+            let file = std::fs::create_dir_all(keep.parent().expect("a directory"))
+                .and_then(|_| std::fs::File::create(&log))
+                .map_err(|e| format!("{}: {e}", log.display()))?;
+            let copy = file
+                .try_clone()
+                .map_err(|e| format!("{}: {e}", log.display()))?;
+            let status = cmd
+                .stdout(file)
+                .stderr(copy)
+                .status()
+                .map_err(|e| format!("mpirun: {e}"))?;
+            (status, std::fs::read_to_string(&log).unwrap_or_default())
+        }
+        None => {
+            let out = cmd.output().map_err(|e| format!("mpirun: {e}"))?;
+            (
+                out.status,
+                String::from_utf8_lossy(&out.stderr).into_owned(),
+            )
+        }
+    };
     let wall = t.elapsed().as_secs_f64();
-    if !out.status.success() {
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        // Our own error line ("nndd: …") if any, else mpirun's note of a signal (e.g. the
-        // kernel's out-of-memory kill), else the last line.
-        let lines: Vec<&str> = stderr
-            .lines()
-            .map(str::trim)
-            .filter(|l| !l.is_empty() && !l.chars().all(|c| c == '-'))
-            .collect();
-        let last = lines
-            .iter()
-            .find(|l| l.starts_with("nndd"))
-            .or_else(|| lines.iter().find(|l| l.contains("signal")))
-            .or_else(|| lines.last())
-            .copied()
-            .unwrap_or("")
-            .to_string();
-        let status = match out.status.code() {
-            Some(137) => "exit 137: signal 9, killed (out of memory?)".to_string(),
-            Some(c) if c > 128 => format!("exit {c}: signal {}", c - 128),
-            Some(c) => format!("exit {c}"),
-            None => "killed by a signal".to_string(),
-        };
-        return Err(format!("{status}: {last}"));
+    if !status.success() {
+        return Err(failure(status, &stderr));
     }
     let path = format!("{}.json", prefix.display());
     let text = std::fs::read_to_string(&path).map_err(|e| format!("{path}: {e}"))?;
     let summary = serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?;
-    // NNDD_SUMMARIES=dir keeps a copy of every run's summary (the benchmarks delete theirs).
-    if let Ok(dir) = std::env::var("NNDD_SUMMARIES") {
-        let name = prefix
-            .file_name()
-            .map_or("run".into(), |n| n.to_string_lossy());
-        let keep = Path::new(&dir).join(format!("{name}-ranks{ranks}.json"));
-        std::fs::create_dir_all(&dir)
-            .and_then(|_| std::fs::write(&keep, &text))
-            .map_err(|e| format!("{}: {e}", keep.display()))?;
+    if let Some(keep) = kept {
+        // (the benchmarks delete their scratch summaries)
+        let keep = keep.with_extension("json");
+        std::fs::write(&keep, &text).map_err(|e| format!("{}: {e}", keep.display()))?;
     }
     Ok((summary, wall))
+}
+
+/// A failed run's exit status and one line of its output `stderr`: our own error line
+/// ("nndd: error…"; the other "nndd: " lines are progress) if any, else mpirun's note of a
+/// signal (e.g. the kernel's out-of-memory kill), else the last line.
+fn failure(status: std::process::ExitStatus, stderr: &str) -> String {
+    let lines: Vec<&str> = stderr
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.chars().all(|c| c == '-'))
+        .collect();
+    let last = lines
+        .iter()
+        .find(|l| l.starts_with("nndd: error"))
+        .or_else(|| lines.iter().find(|l| l.contains("signal")))
+        .or_else(|| lines.last())
+        .copied()
+        .unwrap_or("");
+    let status = match status.code() {
+        Some(137) => "exit 137: signal 9, killed (out of memory?)".to_string(),
+        Some(c) if c > 128 => format!("exit {c}: signal {}", c - 128),
+        Some(c) => format!("exit {c}"),
+        None => "killed by a signal".to_string(),
+    };
+    format!("{status}: {last}")
 }
 
 /// `gmsh -2 -format msh41 -setnumber level LEVEL GEO -o OUT` (Gmsh is installed by jobs/setup).
