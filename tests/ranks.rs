@@ -237,6 +237,66 @@ fn a_rank_holds_the_mesh_of_its_body_alone() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A rank holds the reported displacement at the nodes it reads alone (its rows, its block of
+/// the output, the outline with Γc), with and without estimates (theirs gather each rank's
+/// overlap from the owners): over body 2's group (13 × 49 = 637 nodes, 120 on its outline)
+/// the body once plus 10 % and each rank's outline, on 2 and 4 ranks; body 1 whole on its
+/// one rank; both on one rank. The solution and the estimates are the one rank's.
+#[test]
+fn a_rank_holds_the_displacement_at_its_nodes_alone() {
+    let dir = scratch("ranks-held-u");
+    let args = [
+        "-nndd_problem",
+        "paper",
+        "-nndd_n",
+        "12",
+        "-nndd_body2_ny",
+        "48",
+        "-nndd_tol",
+        "1e-12",
+    ];
+    let estimated = [&args[..], &["-nndd_estimate", "-nndd_estimate_every", "0"]].concat();
+    for (what, args) in [("solve", &args[..]), ("estimate", &estimated[..])] {
+        let held = |j: &serde_json::Value| -> Vec<usize> {
+            serde_json::from_value(j["held_displacement_nodes_per_rank"].clone()).unwrap()
+        };
+        let base = solve(1, &dir.join("a"), args);
+        assert_eq!(held(&base), [169 + 637], "{what}");
+        for ranks in [3, 5] {
+            let prefix = dir.join(format!("b{ranks}"));
+            let j = solve(ranks, &prefix, args);
+            assert_eq!(j["body_ranks"], serde_json::json!([1, ranks - 1]), "{what}");
+            let h = held(&j);
+            assert_eq!(h[0], 169, "{what}: body 1 on its one rank");
+            let group = &h[1..];
+            let sum: usize = group.iter().sum();
+            assert!(
+                group.iter().all(|&n| n < 637),
+                "{what}, {ranks} ranks: {h:?}"
+            );
+            assert!(
+                sum as f64 <= 1.1 * 637.0 + 120.0 * group.len() as f64,
+                "{what}, {ranks} ranks: {h:?}"
+            );
+            if what == "estimate" {
+                compare(&j, &base, &format!("{what}, {ranks} ranks"));
+            } else {
+                assert_eq!(j["iterations"], base["iterations"]);
+                for key in ["potential_energy", "energy_norm"] {
+                    let d = (f(&j, key) - f(&base, key)).abs() / f(&base, key).abs();
+                    assert!(d < 1e-9, "{ranks} ranks: {key} differs by {d:e}");
+                }
+            }
+            same_displacements(
+                &dir.join("a"),
+                &prefix,
+                &format!("{what}, -n 1 and -n {ranks}"),
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Both bodies' displacements of two runs agree to 1e-10 (relative, largest entry).
 fn same_displacements(one: &std::path::Path, other: &std::path::Path, what: &str) {
     for body in ["body1", "body2"] {

@@ -27,6 +27,8 @@ pub struct Measured<'a> {
     pub peaks: &'a [f64],
     /// The elements of the meshes each rank holds ([`held_mesh_elements_per_rank`]).
     pub held_elements: &'a [usize],
+    /// The nodes of the reported displacement each rank holds ([`held_field_nodes_per_rank`]).
+    pub held_nodes: &'a [usize],
 }
 
 pub fn summarise(
@@ -49,6 +51,7 @@ pub fn summarise(
         timings,
         peaks,
         held_elements,
+        held_nodes,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
@@ -141,6 +144,7 @@ pub fn summarise(
         peak_memory_mib: peaks.iter().cloned().fold(0.0, f64::max),
         peak_memory_mib_per_rank: peaks.to_vec(),
         held_mesh_elements_per_rank: held_elements.to_vec(),
+        held_displacement_nodes_per_rank: held_nodes.to_vec(),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),
         xdmf: paths.xdmf().display().to_string(),
@@ -272,6 +276,16 @@ pub fn held_mesh_elements_per_rank(layout: &Layout, problems: [&BodyProblem; 2])
         .filter(|p| p.holds_mesh())
         .map(|p| p.num_elements() as u64)
         .sum();
+    per_rank(layout, mine)
+        .into_iter()
+        .map(|n| n as usize)
+        .collect()
+}
+
+/// The nodes at which each rank holds the reported iterate's displacement, both bodies', by
+/// world rank (a body's every node where it holds it whole; collective).
+pub fn held_field_nodes_per_rank(layout: &Layout, sol: &Solution) -> Vec<usize> {
+    let mine: u64 = sol.last.u.iter().map(|u| (u.len() / 2) as u64).sum();
     per_rank(layout, mine)
         .into_iter()
         .map(|n| n as usize)

@@ -3,6 +3,7 @@
 //! element sums ([`finish_reported`]), so that the run's peak memory is the larger of the two
 //! phases, not their sum (docs/scaling.md, "Memory per rank").
 
+use crate::dd::displacement::Displacement;
 use std::time::Instant;
 
 use super::options::Settings;
@@ -104,8 +105,8 @@ pub(super) fn keep_for_output(estimates: &mut [EstimateRecord], layout: &Layout,
     if let Some(last) = estimates.last_mut() {
         let problems = est.run_problems();
         let kept = fields::kept_rows(layout, problems);
-        let contact = |u: &[Vec<f64>; 2]| fields::contact_displacement(problems, u);
-        last.keep_rows(&kept.cells, &kept.dofs, contact);
+        let contact = |u: &[Displacement; 2]| fields::contact_displacement(problems, u);
+        last.keep_rows(&kept.cells, &kept.nodes, contact);
     }
 }
 

@@ -322,7 +322,7 @@ pub fn solve_reference(
         Some(ReferencePart::new(
             p.mesh(),
             p.material,
-            &u_ref[k],
+            u_ref[k].whole_values(),
             elements,
         ))
     });

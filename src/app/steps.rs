@@ -40,7 +40,11 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// Each rank's bodies (partition, assembly, factorisation); the ranks agree.
+    /// Each rank's bodies (partition, assembly, factorisation); the ranks agree. Each rank
+    /// keeps the bodies' fields at the nodes it reads alone: its rows, Γc, the outline and its
+    /// rows of the output ([`Body::keep_fields_at`]; the estimates gather their overlaps from
+    /// the owners), but whole where e_ref (`-nndd_reference_factor`) or a mortar run's
+    /// estimates carry them to other meshes.
     pub(super) fn set_up_bodies(
         &self,
         timings: &mut Timings,
@@ -48,7 +52,21 @@ impl<'a> Run<'a> {
         let (settings, problems, layout) = (self.settings, self.problems, self.layout);
         let owned = solve::owned(problems, layout);
         let bodies = solve::setup_bodies(settings, owned, layout, self.stages, timings);
-        agreed(self.agreement, bodies)
+        let bodies = agreed(self.agreement, bodies)?;
+        let carried = settings.estimate.enabled
+            && (settings.estimate.reference_factor > 0
+                || problems
+                    .iter()
+                    .any(|p| p.trace != crate::problem::GcTrace::Nodes));
+        if !carried {
+            let kept = crate::io::fields::kept_rows(layout, [&*problems[0], &*problems[1]]);
+            for (b, nodes) in bodies.iter().zip(kept.nodes) {
+                if let Some(b) = b {
+                    b.keep_fields_at(nodes);
+                }
+            }
+        }
+        Ok(bodies)
     }
 
     /// With `-nndd_monitor`: the problem, its size, the ranks and the steps' bodies, and the
@@ -267,6 +285,7 @@ impl<'a> Run<'a> {
         let peaks = report::peak_memory_per_rank(layout);
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
+        let held_nodes = report::held_field_nodes_per_rank(layout, sol);
         let mut written = Ok(());
         if layout.is_root() {
             let measured = report::Measured {
@@ -274,6 +293,7 @@ impl<'a> Run<'a> {
                 timings,
                 peaks: &peaks,
                 held_elements: &held_elements,
+                held_nodes: &held_nodes,
             };
             let problems = [&*problems[0], &*problems[1]];
             let summary = report::summarise(settings, problems, layout, sol, post, measured);
@@ -315,16 +335,18 @@ pub(super) fn potential_energy(
     Ok(layout.sum(e))
 }
 
-/// ‖u_h‖_E = (Σ_α Σ_E u_Eᵀ K_E u_E)^½ of the reported iterate, each body's from its group's
-/// first rank (every rank gets it).
+/// ‖u_h‖_E = (Σ_α Σ_E u_Eᵀ K_E u_E)^½ of the reported iterate, each body's elements summed on
+/// the ranks of its group whose output blocks ([`Layout::block`]) hold them (every rank gets
+/// it).
 pub(super) fn energy_norm(layout: &Layout, problems: &[Rc<BodyProblem>; 2], sol: &Solution) -> f64 {
     let mut sum = 0.0;
     for (k, p) in problems.iter().enumerate() {
         let u = &sol.last.u[k];
-        if !(layout.owns(k + 1) && layout.group_rank() == 0) || u.len() != p.num_dofs() {
+        if u.is_empty() {
             continue;
         }
-        sum += crate::fem::elasticity::energy_squared(p.mesh(), &p.material, u);
+        let block = layout.block(k + 1, p.num_elements());
+        sum += crate::fem::energy_squared_on(p.mesh(), &p.material, block, |d| u[d]);
     }
     layout.sum(sum).max(0.0).sqrt()
 }

@@ -22,7 +22,9 @@
 
 use std::cell::RefCell;
 use std::collections::HashMap;
+use std::sync::Arc;
 
+use crate::dd::displacement::Displacement;
 use crate::dd::friction::Interface;
 use crate::dd::load::{Load, Loading};
 pub use crate::dd::schur::{uses_mumps, uses_superlu_dist, SchurChoice, SchurMode, SchurSource};
@@ -33,6 +35,7 @@ use crate::parallel::partition::Partition;
 use crate::petsc::{self, Comm, Gather, Ksp, Vector};
 use std::rc::Rc;
 
+use crate::fem::{Dofs, DofsMut};
 use crate::problem::{BodyProblem, Frames, GcTrace, Support};
 use crate::qp::dense::{DenseError, SymMatrix};
 
@@ -175,6 +178,9 @@ pub struct Body {
     b: RefCell<Vector>,
     kx: RefCell<Vector>,
     trace: RefCell<Gather>,
+    /// Where this rank keeps the body's displacement fields ([`Body::keep_fields_at`]):
+    /// `None`, whole; else at these mesh nodes alone, ascending.
+    field_nodes: RefCell<Option<Arc<[u32]>>>,
     /// The body's own communicator (`comm`): the last field, so that it is freed after
     /// every PETSc object on it.
     own_comm: OwnComm,
@@ -266,6 +272,7 @@ impl Body {
             b: RefCell::new(b),
             kx: RefCell::new(kx),
             trace: RefCell::new(trace),
+            field_nodes: RefCell::new(None),
             own_comm,
         };
         drop(factorisation);
@@ -624,18 +631,12 @@ impl Body {
         Ok(fixed)
     }
 
-    /// `u` (global components) in the nodal frames.
-    fn local(&self, u: &[f64]) -> Vec<f64> {
-        let mut v = u.to_vec();
-        self.frames.to_local(&mut v);
-        v
-    }
-
     /// Solve the Dirichlet system: u = u_D on Γ_D, u_n = λ on Γc, tangential Γc free.
     /// Returns the displacement and the reaction T = K u − f on the Γc normal dofs.
-    pub fn dirichlet_solve(&self, lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), BodyError> {
+    /// The displacement is held as [`Body::keep_fields_at`] says.
+    pub fn dirichlet_solve(&self, lambda: &[f64]) -> Result<(Displacement, Vec<f64>), BodyError> {
         let fixed = self.solve_dirichlet(lambda)?;
-        let u = self.solution(&fixed)?;
+        let u = self.field(&fixed)?;
         let t = self.reaction(&fixed)?;
         Ok((u, t))
     }
@@ -673,6 +674,18 @@ impl Body {
         let load = self.neumann_load(gc_forces, with_data);
         let fixed = self.solve(System::Neumann, &load, !with_data, None)?;
         self.solution(&fixed)
+    }
+
+    /// [`Body::neumann_solve`]'s solution as a field of the body, held as
+    /// [`Body::keep_fields_at`] says (an iterate's u^α).
+    pub fn neumann_field(
+        &self,
+        gc_forces: &[f64],
+        with_data: bool,
+    ) -> Result<Displacement, BodyError> {
+        let load = self.neumann_load(gc_forces, with_data);
+        let fixed = self.solve(System::Neumann, &load, !with_data, None)?;
+        self.field(&fixed)
     }
 
     /// [`Body::neumann_solve`] for several Γc loads at once, all with the body's data (the
@@ -742,13 +755,13 @@ impl Body {
     }
 
     /// Normal Γc displacements B u.
-    pub fn normal_trace(&self, u: &[f64]) -> Vec<f64> {
+    pub fn normal_trace<U: Dofs + ?Sized>(&self, u: &U) -> Vec<f64> {
         self.problem.normal_trace(u)
     }
 
     /// The interface trace of `u`: its normal Γc displacements, and with friction its
     /// tangential ones after them.
-    pub fn trace(&self, u: &[f64]) -> Vec<f64> {
+    pub fn trace<U: Dofs + ?Sized>(&self, u: &U) -> Vec<f64> {
         let mut v = self.problem.normal_trace(u);
         if self.interface == Interface::Frictional {
             v.extend(self.problem.tangential_trace(u));
@@ -758,7 +771,7 @@ impl Body {
 
     /// Set row `row` of the interface trace of `u` to `value` (a normal row, or with friction
     /// a tangential one), keeping the other component.
-    pub fn set_trace(&self, u: &mut [f64], row: usize, value: f64) {
+    pub fn set_trace<U: DofsMut + ?Sized>(&self, u: &mut U, row: usize, value: f64) {
         let m = self.problem.pairs();
         if row < m {
             self.problem.set_normal_trace(u, row, value);

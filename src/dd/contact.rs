@@ -28,6 +28,7 @@
 //! records, per step, which method gave the answer and its iterations.
 
 use crate::dd::body::{Body, BodyError};
+use crate::dd::displacement::Displacement;
 use crate::dd::friction::{Friction, Solved};
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::OptionsBlock;
@@ -200,8 +201,8 @@ impl ContactStep {
         forces: &[f64],
         lambda: &[f64],
         active: &[bool],
-    ) -> Result<Vec<f64>, ContactError> {
-        let mut u = body.neumann_solve(forces, true)?;
+    ) -> Result<Displacement, ContactError> {
+        let mut u = body.neumann_field(forces, true)?;
         let sigma = side(body);
         let gap = &body.problem.gap;
         for (i, l) in lambda.iter().enumerate() {

@@ -13,6 +13,7 @@
 //!   second factorisation and a back-solve per iteration.
 
 use crate::dd::body::{Body, BodyError};
+use crate::dd::displacement::Displacement;
 
 /// How the Dirichlet step is solved (`-nndd_dirichlet_step`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,7 +84,7 @@ impl DirichletStep {
         body: &Body,
         lambda: &[f64],
         wanted: Wanted,
-    ) -> Result<(Option<Vec<f64>>, Vec<f64>), BodyError> {
+    ) -> Result<(Option<Displacement>, Vec<f64>), BodyError> {
         match self {
             DirichletStep::System => match wanted {
                 Wanted::ForcesAndField => {
@@ -109,12 +110,12 @@ impl DirichletStep {
         body: &Body,
         lambda: &[f64],
         forces: &[f64],
-    ) -> Result<Vec<f64>, BodyError> {
+    ) -> Result<Displacement, BodyError> {
         match self {
             DirichletStep::System => Ok(body.dirichlet_solve(lambda)?.0),
             DirichletStep::Condensed { .. } => {
                 // u¹₀ + K⁻¹BᵀT¹_p: the Neumann solve with the body's data and T¹_p.
-                let mut u = body.neumann_solve(forces, true)?;
+                let mut u = body.neumann_field(forces, true)?;
                 for (k, &l) in lambda.iter().enumerate() {
                     // equal to round-off; make the prescribed trace exact
                     body.set_trace(&mut u, k, l);

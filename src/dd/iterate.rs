@@ -1,6 +1,7 @@
 //! An iterate of the NNDD (or the monolithic solve's solution): the fields of a step 1 and
 //! its Γc data, what the final check, the estimates and the output read.
 
+use crate::dd::displacement::Displacement;
 use crate::dd::friction::Tangential;
 
 /// The state the loop ends in: the fields of the last step 1 (at λ_p) and their data.
@@ -13,7 +14,7 @@ pub struct Iterate {
     pub interface: Vec<f64>,
     /// u¹_p on body 1's ranks, u²_p on body 2's (empty elsewhere; formed after the loop, for
     /// the reported step, where the steps did not produce them).
-    pub u: [Vec<f64>; 2],
+    pub u: [Displacement; 2],
     /// T¹_p, T²_p on the Γc normal dofs (known on every rank).
     pub forces: [Vec<f64>; 2],
     /// The body whose contact step gave its forces (2, or 1 with the Dirichlet step on body 2;

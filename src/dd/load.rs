@@ -32,11 +32,6 @@ impl Load {
         }
     }
 
-    /// fᵀu.
-    pub(super) fn dot(&self, u: &[f64]) -> f64 {
-        self.entries.iter().map(|&(d, f)| f * u[d]).sum()
-    }
-
     /// ‖f‖∞.
     pub(super) fn norm_inf(&self) -> f64 {
         self.entries.iter().fold(0.0, |m, e| m.max(e.1.abs()))
@@ -86,9 +81,6 @@ mod tests {
         for (d, &w) in whole.iter().enumerate() {
             assert_eq!(load.at(d), w);
         }
-        let u: Vec<f64> = (0..8).map(|i| 1.0 + i as f64).collect();
-        let dot: f64 = whole.iter().zip(&u).map(|(a, b)| a * b).sum();
-        assert_eq!(load.dot(&u), dot);
         assert_eq!(load.norm_inf(), 2.0);
         // With contributions: each dof's summed in order onto f.
         let mut loading = Loading::new(Some(&load));

@@ -4,7 +4,7 @@
 //! [`dirichlet`] (step 1 on the Dirichlet body, Ω¹ in the paper, (8)–(10)), [`contact`] (step 1
 //! on the other body, (11)–(14)), [`neumann`] (step 2, (15)–(16)); [`nndd`]: the loop and its
 //! update of λ; [`secant`]: the self-tuning update of `-nndd_theta auto`; [`iterate`]: an
-//! iterate's fields and Γc data; [`monolithic`]: the discrete global contact problem solved at
+//! iterate's fields and Γc data ([`displacement`]: a field as a rank holds it); [`monolithic`]: the discrete global contact problem solved at
 //! once, the check of the NNDD; [`check`]: the final check of a reported solution; [`penetration`]: that the bodies do not
 //! pass through each other anywhere.
 //!
@@ -14,6 +14,7 @@ pub mod body;
 pub mod check;
 pub mod contact;
 pub mod dirichlet;
+pub mod displacement;
 pub mod friction;
 pub mod iterate;
 mod load;

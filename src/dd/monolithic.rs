@@ -20,6 +20,7 @@
 //! μ = T² = S²v² + c² ≥ 0 and v¹ = −M⁻¹(c¹ + c² + S²(z − g₀)) ([`held_by_contact`]).
 
 use crate::dd::body::{Body, BodyError};
+use crate::dd::displacement::Displacement;
 use crate::dd::friction::{Friction, Solved};
 use crate::parallel::layout::Layout;
 use crate::problem::Support;
@@ -36,7 +37,7 @@ pub enum MonolithicError {
 
 pub struct MonolithicResult {
     /// u^α on the ranks owning body α (empty elsewhere).
-    pub u: [Vec<f64>; 2],
+    pub u: [Displacement; 2],
     /// Contact forces μ on the Γc pairs (known on every rank).
     pub forces: Vec<f64>,
     pub active: Vec<bool>,
@@ -169,13 +170,13 @@ pub fn solve(
     layout.share(1, &mut act);
     layout.share(1, &mut stats);
     layout.share(1, &mut bounds);
-    let mut u = [Vec::new(), Vec::new()];
+    let mut u: [Displacement; 2] = Default::default();
     for (k, body) in bodies.iter().enumerate() {
         if let Some(b) = body {
             let sign = if k == 0 { -1.0 } else { 1.0 };
             let load: Vec<f64> = mu.iter().map(|x| sign * x).collect();
             let w = b.neumann_solve(&load, false)?;
-            u[k] = free[k].iter().zip(&w).map(|(a, b)| a + b).collect();
+            u[k] = Displacement::whole(free[k].iter().zip(&w).map(|(a, b)| a + b).collect());
         }
     }
     Ok(MonolithicResult {
@@ -323,7 +324,7 @@ fn held_by_contact(
         out[4 * m + 2..].copy_from_slice(&sol.bounds);
     }
     layout.share(1, &mut out);
-    let mut u = [Vec::new(), Vec::new()];
+    let mut u: [Displacement; 2] = Default::default();
     for (k, body) in bodies.iter().enumerate() {
         let Some(b) = body else { continue };
         let trace = &out[k * m..(k + 1) * m];
@@ -332,7 +333,7 @@ fn held_by_contact(
         } else {
             let sign = if k == 0 { -1.0 } else { 1.0 };
             let load: Vec<f64> = out[2 * m..3 * m].iter().map(|x| sign * x).collect();
-            b.neumann_solve(&load, true)?
+            b.neumann_field(&load, true)?
         };
     }
     Ok(MonolithicResult {

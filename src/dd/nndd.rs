@@ -13,6 +13,7 @@ use crate::dd::body::{uses_superlu_dist, Body, BodyError};
 use crate::dd::check::{check_solution, force_balance, SolutionCheck};
 use crate::dd::contact::{ContactError, ContactSolution, ContactStep};
 use crate::dd::dirichlet::{DirichletChoice, DirichletStep, Wanted};
+use crate::dd::displacement::Displacement;
 use crate::dd::friction::Interface;
 pub use crate::dd::iterate::Iterate;
 use crate::dd::neumann::{NeumannBodies, NeumannChoice, NeumannStep};
@@ -640,7 +641,12 @@ impl ContactShare {
 
 /// u²_n, the normal Γc trace of body 2's field `u2` (on its ranks), broadcast to every rank
 /// (collective).
-pub fn shared_trace2(layout: &Layout, body2: Option<&Body>, u2: &[f64], m: usize) -> Vec<f64> {
+pub fn shared_trace2(
+    layout: &Layout,
+    body2: Option<&Body>,
+    u2: &Displacement,
+    m: usize,
+) -> Vec<f64> {
     let mut trace = body2.map_or(vec![0.0; m], |b| b.trace(u2));
     layout.share(2, &mut trace);
     trace
@@ -729,7 +735,7 @@ pub struct Context<'a> {
 /// formed it, and the contact step's results.
 struct StepOne {
     forces: [Vec<f64>; 2],
-    u_dirichlet: Vec<f64>,
+    u_dirichlet: Displacement,
     contact: ContactShare,
 }
 
@@ -828,7 +834,7 @@ impl Context<'_> {
     ) -> Result<StepOne, NnddError> {
         let (di, ci) = self.steps.indices();
         let mut forces = [vec![0.0; self.m], vec![0.0; self.m]];
-        let mut u_dirichlet = Vec::new();
+        let mut u_dirichlet = Displacement::default();
         if let (Some(b), Some(d)) = (self.bodies[di], self.steps.dirichlet) {
             let _s = self.stages.dirichlet_step.enter();
             let (u, f) = timers.dirichlet_step.time(|| d.solve(b, lambda, wanted))?;
@@ -1020,7 +1026,7 @@ impl StepOne {
     /// step's where it gave it.
     fn into_iterate(self, steps: &Steps, p: usize, lambda: &[f64]) -> Iterate {
         let (di, ci) = steps.indices();
-        let mut u = [Vec::new(), Vec::new()];
+        let mut u: [Displacement; 2] = Default::default();
         u[di] = self.u_dirichlet;
         let (trace1, trace2) = if di == 0 {
             (lambda.to_vec(), Vec::new())

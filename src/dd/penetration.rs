@@ -5,6 +5,7 @@
 //! shorter than the contact zone, a body pushed into a part of the other that no curve names).
 
 use crate::dd::check::CONTACT_LIMIT;
+use crate::dd::displacement::Displacement;
 use crate::dd::iterate::Iterate;
 use crate::fem::checks::{bbox, BBox, Grid};
 use crate::parallel::layout::Layout;
@@ -83,7 +84,7 @@ struct Boundary<'a> {
 impl<'a> Boundary<'a> {
     /// Body `p`'s boundary, with its displacement `u` (empty off the body's ranks) shared
     /// with every rank (collective).
-    fn of(layout: &Layout, p: &'a BodyProblem, u: &[f64]) -> Boundary<'a> {
+    fn of(layout: &Layout, p: &'a BodyProblem, u: &Displacement) -> Boundary<'a> {
         let outline = p.outline();
         let nodes = outline.nodes();
         let mut normals = vec![[0.0; 2]; nodes.len()];

@@ -13,8 +13,9 @@ use super::polygon::{self, Bubble, BubbleTerms, EdgeValues};
 use super::settings::NnddVariant;
 use super::traction::Interface;
 use super::view::View;
+use crate::dd::displacement::Displacement;
 use crate::fem::mesh::Mesh;
-use crate::fem::{element_dofs, element_stiffness, element_stress};
+use crate::fem::{element_dofs, element_stiffness, element_stress_with};
 use crate::problem::BodyProblem;
 
 /// Squared element contributions of one body at one iteration, on the elements this rank
@@ -264,7 +265,7 @@ impl<'a> ElementWork<'a> {
         let (p, mesh) = (self.p, self.p.mesh());
         if p.alpha == 2 {
             parts.run(Part::ElementSums, || {
-                let u2n = p.normal_trace(&self.fields.u_p);
+                let u2n = p.normal_trace(&*self.fields.u_p);
                 let obstacle = p.obstacle(data.lambda);
                 let gap: Vec<f64> = obstacle.iter().zip(&u2n).map(|(o, u)| o - u).collect();
                 // (at bubble amplitude 0: the amplitudes are chosen after the recovery)
@@ -283,7 +284,7 @@ impl<'a> ElementWork<'a> {
                 let mut f_glo = vec![0.0; c_fe.len()];
                 let mut f_nndd = vec![0.0; c_fe.len()];
                 if let Some(f) = data.friction {
-                    let u2t = p.tangential_trace(&self.fields.u_p);
+                    let u2t = p.tangential_trace(&*self.fields.u_p);
                     let w_fe: Vec<f64> = f.lambda_t.iter().zip(&u2t).map(|(l, u)| l - u).collect();
                     let m = w_fe.len();
                     for (k, c) in c_fe.iter_mut().enumerate() {
@@ -379,7 +380,7 @@ struct CreMap<'a> {
     /// the body element of each slot.
     slots: &'a [u32],
     elements: &'a [u32],
-    u_p: &'a [f64],
+    u_p: &'a Displacement,
     material: &'a crate::fem::Material,
     /// The unit bubbles of û's correction on body 2's elements along a curved Γc
     /// ([`polygon::Bubble`]): their CRE at amplitude c is C − 2bc + ac², C = ‖σ̂ − Kε(u_p)‖²
@@ -395,7 +396,8 @@ impl CreMap<'_> {
         if s != u32::MAX {
             let s = s as usize;
             let e = self.elements[s] as usize;
-            let sigma_p = element_stress(self.mesh, e, self.material, self.u_p);
+            let u_p = self.u_p;
+            let sigma_p = element_stress_with(self.mesh, e, self.material, |d| u_p[d]);
             let cre = element_cre(self.sub, l, coef, sigma_p, self.material);
             self.out[s] = cre;
             if let Some(b) = self.bubbles.get(&e) {

@@ -7,6 +7,7 @@ use std::ops::Range;
 use std::rc::Rc;
 
 use crate::dd::body::Body;
+use crate::dd::displacement::Displacement;
 use crate::dd::nndd::Iterate;
 use crate::estimate::cre::{worst, BodyEstimate, ElementWork};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
@@ -52,10 +53,9 @@ pub struct EstimateRecord {
     /// others), from the body's element `map_first[k]` on.
     pub maps: [[Vec<f64>; 3]; 2],
     pub map_first: [usize; 2],
-    /// The iterate, with u^α_p on body α's ranks from dof `u_first[α − 1]` on (whole, 0, while
-    /// the record is the newest), and t̂^c.
+    /// The iterate, with u^α_p on body α's ranks (whole while the record is the newest, then
+    /// at the nodes of the rank's rows of the output, [`EstimateRecord::keep_rows`]), and t̂^c.
     pub iterate: Iterate,
-    pub u_first: [usize; 2],
     /// The pair side's displacement at its Γc nodes (x, y per pair; empty on the ranks
     /// without that body's field) once the record is kept for the output, its iterate's
     /// displacement no longer holding them; `None` before.
@@ -71,21 +71,20 @@ impl EstimateRecord {
     }
 
     /// Keep what this rank writes of the record in the output alone (`io::fields::kept_rows`):
-    /// each body's maps on its elements `cells[k]`, its displacement on its dofs `dofs[k]`,
+    /// each body's maps on its elements `cells[k]`, its displacement at its nodes `nodes[k]`,
     /// and the pair side's displacement at Γc (`contact` of the bodies' whole displacements,
     /// taken before they are cut), rather than the whole bodies' for every estimated step. A
     /// record kept already is left as it is.
     pub fn keep_rows(
         &mut self,
         cells: &[Range<usize>; 2],
-        dofs: &[Range<usize>; 2],
-        contact: impl FnOnce(&[Vec<f64>; 2]) -> Vec<f64>,
+        nodes: &[Vec<usize>; 2],
+        contact: impl FnOnce(&[Displacement; 2]) -> Vec<f64>,
     ) {
         if self.contact_displacement.is_some() {
             return;
         }
         self.contact_displacement = Some(contact(&self.iterate.u));
-        // (the displacements whole until now: held from 0)
         for k in 0..2 {
             let first = self.map_first[k];
             for m in self.maps[k].iter_mut().filter(|m| !m.is_empty()) {
@@ -94,8 +93,7 @@ impl EstimateRecord {
             self.map_first[k] = cells[k].start.max(first);
             let u = &mut self.iterate.u[k];
             if !u.is_empty() {
-                *u = held::keep(u, 0, &dofs[k]);
-                self.u_first[k] = dofs[k].start;
+                *u = u.keep(&nodes[k]);
             }
         }
     }
@@ -316,7 +314,7 @@ impl<'a> Estimator<'a> {
                         let u_d = self
                             .parts
                             .run(Part::Resolves, || b.neumann_solve(&f, true))?;
-                        let d: Vec<f64> = u_d.iter().zip(&it.u[k]).map(|(a, b)| a - b).collect();
+                        let d = it.u[k].subtracted_from(&u_d);
                         self.parts.run(Part::ElementSums, || b.quadratic(&d))?
                     }
                 };
@@ -386,7 +384,7 @@ impl<'a> Estimator<'a> {
     pub fn finish_cold(
         &self,
         parts: InParts,
-        u: &[Vec<f64>; 2],
+        u: &[Displacement; 2],
     ) -> Result<EstimateRecord, EstimateError> {
         match parts {
             InParts::Done(rec) => Ok(*rec),

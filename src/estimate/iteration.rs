@@ -11,6 +11,7 @@ use super::settings::NnddVariant;
 use super::traction::Interface;
 use super::view::View;
 use crate::dd::body::{Body, FieldAt, GcForces, Solved};
+use crate::dd::displacement::Displacement;
 use crate::problem::BodyProblem;
 
 /// What the estimates of iteration p need beyond the bodies: λ_p, the Γc densities t̂^c (for
@@ -60,14 +61,17 @@ pub enum Reaction<'a> {
 /// η^FE).
 #[derive(Default)]
 pub struct BodyFields<'a> {
-    pub u_p: std::borrow::Cow<'a, [f64]>,
+    /// u^α_p where this rank's recoveries and contact terms read it: the caller's iterate's
+    /// where that is whole, else gathered at the rank's overlap of the body and Γc
+    /// ([`Body::displacement_at`]).
+    pub u_p: std::borrow::Cow<'a, Displacement>,
     pub u_tilde: Vec<f64>,
     pub u_d: Vec<f64>,
     pub u_fe: Vec<f64>,
 }
 
 impl BodyFields<'_> {
-    /// These fields with the re-solves cut to `view` ([`View::local`]); u^α_p stays whole.
+    /// These fields with the re-solves cut to `view` ([`View::local`]); u^α_p stays as it is.
     pub fn on_view(self, view: Option<&View>) -> Self {
         let keep = |u: Vec<f64>| view.map_or(Vec::new(), |v| v.local(u));
         BodyFields {
@@ -140,22 +144,23 @@ fn resolved_reaction1<'d>(data: &IterationData<'d>, alpha: usize) -> Option<&'d 
     }
 }
 
-/// Body α's re-solves ([`body_resolves`]) gathered on this rank at `at` (collective over its
-/// group); `u_p` is u^α_p.
+/// Body α's re-solves ([`body_resolves`]) gathered on this rank at `at`, and u^α_p (`u_p`)
+/// where it is not whole (collective over its group).
 pub fn body_fields<'a>(
     body: &Body,
     solved: Solved,
-    u_p: &'a [f64],
+    u_p: &'a Displacement,
     data: &IterationData,
     parts: &Parts,
     at: FieldAt,
 ) -> Result<BodyFields<'a>, EstimateError> {
     let alpha = body.problem.alpha;
-    let mut f = BodyFields {
-        u_p: std::borrow::Cow::Borrowed(u_p),
-        ..Default::default()
-    };
+    let mut f = BodyFields::default();
     parts.run(Part::Resolves, || {
+        f.u_p = match u_p.as_whole() {
+            Some(_) => std::borrow::Cow::Borrowed(u_p),
+            None => std::borrow::Cow::Owned(body.displacement_at(u_p, at)?),
+        };
         let mut solved = body.fields_at(solved, at)?.into_iter();
         if !data.fe_only {
             f.u_tilde = solved.next().expect("ũ");

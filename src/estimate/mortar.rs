@@ -16,6 +16,7 @@
 //! η^NNDD is the mortar-discrete one ([`MortarEstimates::nndd_maps`]): with the mortar
 //! operators, so that it vanishes at the mortar problem's solution.
 
+use crate::dd::displacement::Displacement;
 use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;
 
@@ -51,7 +52,7 @@ pub struct Carried {
     /// The iterate with û² = u²_p + δ_n (its trace and gaps with it).
     pub iterate: Iterate,
     /// u^α_p on the matched meshes, without δ_n (for e_ref).
-    pub u_plain: [Vec<f64>; 2],
+    pub u_plain: [Displacement; 2],
     /// ‖δ_n‖²_E per element of each body's matched mesh.
     pub lift_elements: [Vec<f64>; 2],
 }
@@ -132,11 +133,11 @@ impl MortarEstimates {
         iface: &Interface,
         it: &Iterate,
     ) -> Result<Carried, EstimateError> {
-        let u_plain: [Vec<f64>; 2] = [0, 1].map(|k| {
+        let u_plain: [Displacement; 2] = [0, 1].map(|k| {
             if it.u[k].is_empty() {
-                Vec::new()
+                Displacement::default()
             } else {
-                self.transfers[k].interpolate(&it.u[k])
+                Displacement::whole(self.transfers[k].interpolate(it.u[k].whole_values()))
             }
         });
         let m = matched[0].pairs();

@@ -266,8 +266,10 @@ impl Overlap {
     }
 
     /// The sub-mesh dofs (2 node + k) of a full-mesh dof vector.
-    pub fn restrict_dofs(&self, u: &[f64]) -> Vec<f64> {
-        self.per_dof(u)
+    pub fn restrict_dofs<U: crate::fem::Dofs + ?Sized>(&self, u: &U) -> Vec<f64> {
+        (self.nodes.iter())
+            .flat_map(|&g| [u[2 * g], u[2 * g + 1]])
+            .collect()
     }
 
     /// The sub-mesh entries of any per-dof vector of the full mesh.

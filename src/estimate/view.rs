@@ -12,6 +12,7 @@ use super::error::EstimateError;
 use super::overlap::{Halo, Overlap};
 use super::polygon::EdgeValues;
 use crate::dd::body::FieldAt;
+use crate::dd::displacement::Displacement;
 use crate::fem::elasticity::element_energy as energy;
 use crate::fem::mesh::Mesh;
 use crate::fem::{element_dofs, element_stiffness};
@@ -142,12 +143,13 @@ impl View<'_> {
         }
     }
 
-    /// [`View::local`] of a field held whole elsewhere (borrowed on the whole body).
-    pub(super) fn local_of<'b>(&self, u: &'b [f64]) -> std::borrow::Cow<'b, [f64]> {
+    /// [`View::local`] of a field held elsewhere, whole or at the view's nodes at least
+    /// (borrowed on the whole body).
+    pub(super) fn local_of<'b>(&self, u: &'b Displacement) -> std::borrow::Cow<'b, [f64]> {
         use std::borrow::Cow;
         match self {
-            _ if u.is_empty() => Cow::Borrowed(u),
-            View::Whole => Cow::Borrowed(u),
+            _ if u.is_empty() => Cow::Borrowed(&[]),
+            View::Whole => Cow::Borrowed(u.whole_values()),
             View::Overlap(o, ..) => Cow::Owned(o.restrict_dofs(u)),
             View::Idle(..) => Cow::Owned(Vec::new()),
         }

@@ -19,3 +19,14 @@ pub use elasticity::{
     element_stress_with, energy_squared_on, strain_displacement, Csr, Material,
 };
 pub use mesh::Mesh;
+
+/// Values indexed by mesh dof (2 n + c for node n, component c): a whole vector, or a field a
+/// rank holds at some nodes alone (`dd::displacement::Displacement`).
+pub trait Dofs: std::ops::Index<usize, Output = f64> {}
+
+impl<T: std::ops::Index<usize, Output = f64> + ?Sized> Dofs for T {}
+
+/// [`Dofs`] that can be written.
+pub trait DofsMut: Dofs + std::ops::IndexMut<usize> {}
+
+impl<T: std::ops::IndexMut<usize, Output = f64> + ?Sized> DofsMut for T {}

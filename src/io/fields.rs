@@ -2,6 +2,7 @@
 //! an iterate (displacements, stresses, Γc quantities) with the estimates' element maps. Built
 //! here from the solver's and the estimator's data, written by [`super::output`].
 
+use crate::dd::displacement::Displacement;
 use std::ops::Range;
 
 use crate::dd::nndd::Iterate;
@@ -11,7 +12,6 @@ use crate::io::output::{
     function_path, Center, Extent, Field, Grid, GridFields, Kind, Results, Share, Step, Topology,
 };
 use crate::io::summary::FieldInfo;
-use crate::parallel::held;
 use crate::parallel::layout::Layout;
 use crate::problem::BodyProblem;
 
@@ -50,12 +50,7 @@ pub fn results(
         ),
     ];
     let step = |it: &Iterate, est: Option<&EstimateRecord>| {
-        let first = est.map_or([0, 0], |e| e.u_first);
-        let u = [0, 1].map(|k| Held {
-            values: &it.u[k],
-            first: first[k],
-        });
-        let mut fields = body_fields(problems, rows, mine, u);
+        let mut fields = body_fields(problems, rows, mine, [&it.u[0], &it.u[1]]);
         if let Some(e) = est {
             for (j, name) in ["eta_glo", "eta_fe", "eta_nndd"].iter().enumerate() {
                 fields.push(Field {
@@ -226,35 +221,22 @@ fn on_share(
     out
 }
 
-/// A body's displacement as a step holds it: its dofs from `first` on (whole: 0; `values`
-/// empty where this rank does not have the body's field).
-#[derive(Clone, Copy)]
-struct Held<'a> {
-    values: &'a [f64],
-    first: usize,
-}
-
-impl Held<'_> {
-    fn at(self, dof: usize) -> f64 {
-        held::value_at(self.values, self.first, dof)
-    }
-}
-
 /// Displacement (node vector), stress (cell tensor, plane strain σ_zz) and von Mises stress
 /// at this rank's rows `mine` of the `bodies` grid, from the fields `u` of the bodies.
 fn body_fields(
     problems: [&BodyProblem; 2],
     rows: [&Share; 2],
     mine: &Share,
-    u: [Held; 2],
+    u: [&Displacement; 2],
 ) -> Vec<Field> {
+    // (0 where this rank holds none of the body's field)
+    let at = |k: usize, dof: usize| u[k].get(dof).unwrap_or(0.0);
     let stress = |k: usize, e: usize| {
         let p = problems[k];
-        (!u[k].values.is_empty())
-            .then(|| fem::element_stress_with(p.mesh(), e, &p.material, |d| u[k].at(d)))
+        (!u[k].is_empty()).then(|| fem::element_stress_with(p.mesh(), e, &p.material, |d| at(k, d)))
     };
     let displacement = on_share(rows, mine, Center::Node, 2, |k, n, out| {
-        out.extend([0, 1].map(|c| u[k].at(2 * n + c)))
+        out.extend([0, 1].map(|c| at(k, 2 * n + c)))
     });
     let tensor = on_share(rows, mine, Center::Cell, 6, |k, e, out| {
         match stress(k, e) {
@@ -347,10 +329,11 @@ fn block(layout: &Layout, k: usize, r: &std::ops::Range<usize>) -> std::ops::Ran
 
 /// What a rank keeps of an estimated step for the output ([`kept_rows`]), per body in its
 /// own numbering: the elements whose rows of the `bodies` grid it writes ([`shares`]), and the
-/// dofs that its points and those elements' nodes span.
+/// nodes whose displacement those rows read (its points and those elements' nodes,
+/// ascending).
 pub struct KeptRows {
     pub cells: [Range<usize>; 2],
-    pub dofs: [Range<usize>; 2],
+    pub nodes: [Vec<usize>; 2],
 }
 
 /// This rank's [`KeptRows`]: all of a body on a rank that holds both, its block on a rank of
@@ -378,24 +361,23 @@ fn kept_on(mine: &Share, sizes: [[usize; 2]; 2], meshes: [Option<&Mesh>; 2]) -> 
         }
     };
     let cells = [0, 1].map(|k| local(&mine.cells, &rows[k].cells));
-    let dofs = [0, 1].map(|k| {
+    let nodes = [0, 1].map(|k| {
         let points = local(&mine.points, &rows[k].points);
         let mesh = || meshes[k].expect("a rank holds the mesh of the bodies it writes");
-        let nodes = (cells[k].clone())
+        let mut nodes: Vec<usize> = (cells[k].clone())
             .flat_map(|e| mesh().triangles.get(e))
-            .chain(points);
-        let (lo, hi) = nodes.fold((usize::MAX, 0), |(lo, hi), n| (lo.min(n), hi.max(n + 1)));
-        match lo < hi {
-            true => 2 * lo..2 * hi,
-            false => 0..0,
-        }
+            .chain(points)
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        nodes
     });
-    KeptRows { cells, dofs }
+    KeptRows { cells, nodes }
 }
 
-/// The pair side's displacement at its Γc nodes, x and y per pair, from the bodies' whole
-/// fields `u` (empty where this rank does not have that body's).
-pub fn contact_displacement(problems: [&BodyProblem; 2], u: &[Vec<f64>; 2]) -> Vec<f64> {
+/// The pair side's displacement at its Γc nodes, x and y per pair, from the bodies' fields
+/// `u` (empty where this rank does not have that body's).
+pub fn contact_displacement(problems: [&BodyProblem; 2], u: &[Displacement; 2]) -> Vec<f64> {
     let side = crate::problem::pair_side(problems);
     match u[side].is_empty() {
         true => Vec::new(),
@@ -459,25 +441,25 @@ mod tests {
         // (body 1's mesh not held: none of its rows is written)
         let kept = kept_on(&mine, sizes, [None, Some(&meshes[1])]);
         assert_eq!(kept.cells[0], 0..0);
-        assert_eq!(kept.dofs[0], 0..0);
+        assert!(kept.nodes[0].is_empty());
         let cells = &kept.cells[1];
         assert_eq!(cells.len(), mine.cells.len());
         assert_eq!(cells.start, mine.cells.start - r1.cells.end);
-        let dofs = &kept.dofs[1];
-        for e in cells.clone() {
-            for n in meshes[1].triangles.get(e) {
-                assert!(
-                    dofs.contains(&(2 * n)) && dofs.contains(&(2 * n + 1)),
-                    "{n}"
-                );
-            }
-        }
-        for p in mine.points.clone() {
-            assert!(dofs.contains(&(2 * (p - r1.points.end))), "{p}");
-        }
+        let nodes = &kept.nodes[1];
+        assert!(
+            nodes.windows(2).all(|w| w[0] < w[1]),
+            "ascending, once each"
+        );
+        let mut read: Vec<usize> = (cells.clone())
+            .flat_map(|e| meshes[1].triangles.get(e))
+            .chain(mine.points.clone().map(|p| p - r1.points.end))
+            .collect();
+        read.sort_unstable();
+        read.dedup();
+        assert_eq!(nodes, &read);
         let rows_of_nodes = cells.len().div_ceil(2 * nx) + 1;
-        assert!(dofs.len() <= 2 * (nx + 1) * (rows_of_nodes + 1), "{dofs:?}");
-        assert!(dofs.len() < meshes[1].num_dofs() / 2, "{dofs:?}");
+        assert!(nodes.len() <= (nx + 1) * (rows_of_nodes + 1), "{nodes:?}");
+        assert!(nodes.len() < meshes[1].num_nodes() / 2, "{nodes:?}");
         // A rank holding both bodies keeps them whole.
         let all = Share {
             points: 0..r2.points.end,
@@ -486,8 +468,8 @@ mod tests {
         let kept = kept_on(&all, sizes, [Some(&meshes[0]), Some(&meshes[1])]);
         assert_eq!(kept.cells, [0..r1.cells.end, 0..r2.cells.len()]);
         assert_eq!(
-            kept.dofs,
-            [0..meshes[0].num_dofs(), 0..meshes[1].num_dofs()]
+            kept.nodes,
+            [0, 1].map(|k| (0..meshes[k].num_nodes()).collect::<Vec<_>>())
         );
     }
 }

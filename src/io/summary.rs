@@ -217,6 +217,10 @@ pub struct Summary {
     /// group's body (and a body it estimates outside that body's group, or both in a mortar
     /// or an adaptive run); the other's mesh released after the layout.
     pub held_mesh_elements_per_rank: Vec<usize>,
+    /// The nodes at which each rank holds the reported iterate's displacement, by world rank:
+    /// its rows, Γc, the outline and its rows of the output (both bodies' whole on one rank,
+    /// and where e_ref or a mortar run's estimates read them).
+    pub held_displacement_nodes_per_rank: Vec<usize>,
     /// Ranks of each body's group.
     pub body_ranks: [usize; 2],
     /// Largest equilibrium residuals of the recovered stresses over the estimated iterations

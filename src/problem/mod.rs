@@ -27,7 +27,7 @@ pub mod transfer;
 use std::rc::Rc;
 
 use crate::fem::mesh::Mesh;
-use crate::fem::{edge_load, Material};
+use crate::fem::{edge_load, Dofs, DofsMut, Material};
 pub use outline::Outline;
 
 /// The built-in problems (`-nndd_problem`).
@@ -539,7 +539,7 @@ impl BodyProblem {
     }
 
     /// Normal Γc displacements u_n = n_k · u (global components) in pair order.
-    pub fn normal_trace(&self, u: &[f64]) -> Vec<f64> {
+    pub fn normal_trace<U: Dofs + ?Sized>(&self, u: &U) -> Vec<f64> {
         if let GcTrace::Mortar(c) = &self.trace {
             return c.mortar_trace(u);
         }
@@ -558,7 +558,7 @@ impl BodyProblem {
 
     /// Set the normal component of pair k's node to `value`, keeping its tangential one
     /// (node to node; a mortar trace is a mean over nodes, left as solved).
-    pub fn set_normal_trace(&self, u: &mut [f64], k: usize, value: f64) {
+    pub fn set_normal_trace<U: DofsMut + ?Sized>(&self, u: &mut U, k: usize, value: f64) {
         if let GcTrace::Mortar(_) = self.trace {
             return;
         }
@@ -574,7 +574,7 @@ impl BodyProblem {
 
     /// Tangential Γc displacements u_t = τ_k · u, τ_k = (n_y, −n_x) (node to node; with n =
     /// (0, 1), u_x), in pair order: the frictional interface's second half.
-    pub fn tangential_trace(&self, u: &[f64]) -> Vec<f64> {
+    pub fn tangential_trace<U: Dofs + ?Sized>(&self, u: &U) -> Vec<f64> {
         self.contact_nodes
             .iter()
             .zip(&self.contact_normals)
@@ -583,7 +583,7 @@ impl BodyProblem {
     }
 
     /// Set the tangential component of pair k's node to `value`, keeping its normal one.
-    pub fn set_tangential_trace(&self, u: &mut [f64], k: usize, value: f64) {
+    pub fn set_tangential_trace<U: DofsMut + ?Sized>(&self, u: &mut U, k: usize, value: f64) {
         let (node, n) = (self.contact_nodes[k], self.contact_normals[k]);
         let tau = [n[1], -n[0]];
         let c = value - (tau[0] * u[2 * node] + tau[1] * u[2 * node + 1]);
@@ -649,6 +649,15 @@ impl Frames {
             let (x, y) = (v[2 * node], v[2 * node + 1]);
             v[2 * node] = n[1] * x - n[0] * y;
             v[2 * node + 1] = n[0] * x + n[1] * y;
+        }
+    }
+
+    /// Node `node`'s two global components `v` to frame ones (Rᵀ v), in place.
+    pub fn node_to_local(&self, node: usize, v: &mut [f64]) {
+        if let Some(n) = self.normal.get(&node) {
+            let (x, y) = (v[0], v[1]);
+            v[0] = n[1] * x - n[0] * y;
+            v[1] = n[0] * x + n[1] * y;
         }
     }
 

@@ -160,7 +160,7 @@ impl Coupling {
     }
 
     /// M's normal trace n_j·Σ_k P_jk u_k at each constraint (u in global components).
-    pub fn mortar_trace(&self, u2: &[f64]) -> Vec<f64> {
+    pub fn mortar_trace<U: crate::fem::Dofs + ?Sized>(&self, u2: &U) -> Vec<f64> {
         self.rows
             .iter()
             .zip(&self.normals)

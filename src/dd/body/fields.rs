@@ -3,7 +3,10 @@
 //! estimates' re-solves, held on their owners until then), gathered from the rows' owners
 //! (docs/scaling.md, "Memory per rank").
 
+use std::sync::Arc;
+
 use super::{Body, BodyError};
+use crate::dd::displacement::Displacement;
 use crate::petsc::{self, Gather, Vector};
 
 /// Where a solve's field is wanted on each rank of the group.
@@ -34,6 +37,76 @@ impl Body {
                 self.solution_at(&fixed, at)
             })
             .collect()
+    }
+
+    /// Keep this body's fields on this rank ([`Body::field`]) at the mesh nodes `extra` (the
+    /// rank's block of the output), its own rows' nodes, Γc's and the outline's alone, rather
+    /// than whole: what the final check, the output, the energies and the penetration check
+    /// read; the estimates gather what their recoveries read from the owners
+    /// ([`Body::displacement_at`]). Whole where that is every node. Not collective.
+    pub fn keep_fields_at(&self, extra: impl IntoIterator<Item = usize>) {
+        let p = &self.problem;
+        let mut nodes: Vec<u32> = (self.partition.owned_mesh_nodes())
+            .chain(p.contact_nodes.iter().copied())
+            .chain(p.outline().nodes().iter().copied())
+            .chain(extra)
+            .map(|n| u32::try_from(n).expect("a mesh node fits 32 bits"))
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        *self.field_nodes.borrow_mut() = (nodes.len() < p.num_nodes()).then(|| nodes.into());
+    }
+
+    /// The body's field `u` (held on this rank as [`Body::keep_fields_at`] says, this rank's
+    /// rows among it) gathered at `at` from the ranks that own its rows: whole, or at the
+    /// nodes `at` names and Γc's (an estimating rank's overlap of the body, whose contact
+    /// terms read Γc). Collective over the group.
+    pub fn displacement_at(
+        &self,
+        u: &Displacement,
+        at: FieldAt,
+    ) -> Result<Displacement, BodyError> {
+        let own: Vec<f64> = self.owned_dofs().into_iter().map(|d| u[d]).collect();
+        let mut x = self.x.borrow_mut();
+        x.copy_from(&own)?;
+        match at {
+            FieldAt::Whole => Ok(Displacement::whole(self.gather_whole(&x)?)),
+            FieldAt::Nodes(view) => {
+                let mut nodes: Vec<u32> = (view.iter().chain(&self.problem.contact_nodes))
+                    .map(|&n| n as u32)
+                    .collect();
+                nodes.sort_unstable();
+                nodes.dedup();
+                let values = match self.partition.size {
+                    // One rank: PETSc's order is the mesh's.
+                    1 => nodes
+                        .iter()
+                        .flat_map(|&n| [u[2 * n as usize], u[2 * n as usize + 1]])
+                        .collect(),
+                    _ => {
+                        let rows: Vec<petsc::Int> = (nodes.iter())
+                            .flat_map(|&n| [0, 1].map(|c| self.partition.row(2 * n as usize + c)))
+                            .collect();
+                        Gather::new(&x, &rows)?.gather(&x)?
+                    }
+                };
+                Ok(Displacement::at_nodes(nodes.into(), values))
+            }
+        }
+    }
+
+    /// The last solution as a field of the body on this rank: whole, or at the nodes
+    /// [`Body::keep_fields_at`] gave, gathered from their owners alone (collective).
+    pub(super) fn field(&self, fixed: &[(usize, f64)]) -> Result<Displacement, BodyError> {
+        let nodes = self.field_nodes.borrow().clone();
+        match nodes {
+            None => Ok(Displacement::whole(self.solution(fixed)?)),
+            Some(nodes) => {
+                let at: Vec<usize> = nodes.iter().map(|&n| n as usize).collect();
+                let values = self.solution_at(fixed, FieldAt::Nodes(&at))?;
+                Ok(Displacement::at_nodes(Arc::clone(&nodes), values))
+            }
+        }
     }
 
     /// The last solution, whole (mesh order, global components), with the exact prescribed

@@ -6,13 +6,9 @@ use std::collections::HashSet;
 
 use super::{Body, BodyError, System};
 use crate::dd::stiffness::Stiffness;
+use crate::fem::Dofs;
 
 impl Body {
-    /// K u into `kx`, this rank's rows (`u` whole, in the nodal frames; collective).
-    pub(super) fn mult_k(&self, u: &[f64]) -> Result<(), BodyError> {
-        self.mult_k_local(&self.partition.local_part(u))
-    }
-
     /// K v into `kx`, `v` this rank's entries of a vector (PETSc order, nodal frames): no
     /// whole vector (collective).
     pub(super) fn mult_k_local(&self, v: &[f64]) -> Result<(), BodyError> {
@@ -51,12 +47,22 @@ impl Body {
             .map(move |&(dof, v)| (self.partition.row(dof) as usize - first, v))
     }
 
-    /// K u (`u` whole, in the nodal frames) on this rank's rows alone, with each row's mesh
-    /// dof ([`Body::owned_dofs`]): no gather (collective).
-    pub(super) fn apply_k_rows(&self, u: &[f64]) -> Result<(Vec<usize>, Vec<f64>), BodyError> {
-        self.mult_k(u)?;
+    /// `u` (global components) on this rank's rows, in PETSc order and the nodal frames, with
+    /// K applied to it on those rows and each row's mesh dof ([`Body::owned_dofs`]): no whole
+    /// vector, `u` read at this rank's nodes alone (collective).
+    fn apply_k_rows<U: Dofs + ?Sized>(&self, u: &U) -> Result<Rows, BodyError> {
+        let dofs = self.owned_dofs();
+        let mut values: Vec<f64> = dofs.iter().map(|&d| u[d]).collect();
+        for (node, v) in self
+            .partition
+            .owned_mesh_nodes()
+            .zip(values.chunks_exact_mut(2))
+        {
+            self.frames.node_to_local(node, v);
+        }
+        self.mult_k_local(&values)?;
         let ku = self.kx.borrow().to_vec()?;
-        Ok((self.owned_dofs(), ku))
+        Ok(Rows { dofs, values, ku })
     }
 
     /// The mesh dof of each of this rank's rows, in PETSc order.
@@ -66,28 +72,41 @@ impl Body {
             .collect()
     }
 
-    /// uᵀK u (K without boundary conditions, `u` whole in global components), from each
-    /// rank's rows summed over the group: no whole K u (collective).
-    pub fn quadratic(&self, u: &[f64]) -> Result<f64, BodyError> {
-        let u = self.local(u);
-        let (dofs, ku) = self.apply_k_rows(&u)?;
-        let mut sum = [dofs.iter().zip(&ku).map(|(&d, k)| u[d] * k).sum::<f64>()];
+    /// uᵀK u (K without boundary conditions, `u` in global components, read at this rank's
+    /// nodes), from each rank's rows summed over the group: no whole K u (collective).
+    pub fn quadratic<U: Dofs + ?Sized>(&self, u: &U) -> Result<f64, BodyError> {
+        let rows = self.apply_k_rows(u)?;
+        let mut sum = [rows
+            .values
+            .iter()
+            .zip(&rows.ku)
+            .map(|(u, k)| u * k)
+            .sum::<f64>()];
         self.own_comm.sum(&mut sum);
         Ok(sum[0])
     }
 
-    /// The discrete equilibrium of `u` (global components, whole) with the Γc nodal forces
-    /// `gc_forces` as a normwise backward error: ‖K u − f − Bᵀt‖∞ over the dofs not on Γ_D,
-    /// over ‖K‖∞ ‖u‖∞ + ‖f‖∞ + ‖t‖∞; round-off (1e−16) for a field solved with these forces.
-    /// Each rank measures its own rows (no whole K u). Collective over the body's group.
-    pub fn equilibrium_residual(&self, u: &[f64], gc_forces: &[f64]) -> Result<f64, BodyError> {
-        let u = self.local(u);
-        let (dofs, ku) = self.apply_k_rows(&u)?;
+    /// The discrete equilibrium of `u` (global components, read at this rank's nodes) with the
+    /// Γc nodal forces `gc_forces` as a normwise backward error: ‖K u − f − Bᵀt‖∞ over the dofs
+    /// not on Γ_D, over ‖K‖∞ ‖u‖∞ + ‖f‖∞ + ‖t‖∞; round-off (1e−16) for a field solved with
+    /// these forces. Each rank measures its own rows (no whole K u). Collective over the
+    /// body's group.
+    pub fn equilibrium_residual<U: Dofs + ?Sized>(
+        &self,
+        u: &U,
+        gc_forces: &[f64],
+    ) -> Result<f64, BodyError> {
+        let rows = self.apply_k_rows(u)?;
         // f + Bᵀt: the body's data and the Γc forces, as a Neumann solve's load.
         let load = self.neumann_load(gc_forces, true);
         let fixed: HashSet<usize> = self.problem.dirichlet.iter().map(|d| d.0).collect();
         let mut num = 0.0_f64;
-        for (&d, &k) in dofs.iter().zip(&ku).filter(|(d, _)| !fixed.contains(d)) {
+        for (&d, &k) in rows
+            .dofs
+            .iter()
+            .zip(&rows.ku)
+            .filter(|(d, _)| !fixed.contains(d))
+        {
             let r = k - load.at(d);
             // (a NaN row makes the residual NaN, as the whole vector's maximum did)
             num = if r.is_nan() {
@@ -96,9 +115,9 @@ impl Body {
                 num.max(r.abs())
             };
         }
-        let num = self.own_comm.max(num);
         let inf = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-        let scale = self.k_norm * inf(&u) + self.load.norm_inf() + inf(gc_forces);
+        let [num, u_inf] = [num, inf(&rows.values)].map(|v| self.own_comm.max(v));
+        let scale = self.k_norm * u_inf + self.load.norm_inf() + inf(gc_forces);
         Ok(if !(num.is_finite() && scale.is_finite()) {
             f64::NAN
         } else if scale > 0.0 {
@@ -128,17 +147,22 @@ impl Body {
             .collect())
     }
 
-    /// Potential energy ½ uᵀK u − fᵀu (uᵀK u from each rank's rows, summed over the group:
-    /// no whole K u). Collective over the body's group.
-    pub fn potential_energy(&self, u: &[f64]) -> Result<f64, BodyError> {
-        let u = self.local(u);
-        let (dofs, ku) = self.apply_k_rows(&u)?;
-        let mut half = [dofs
-            .iter()
-            .zip(&ku)
-            .map(|(&d, k)| 0.5 * u[d] * k)
+    /// Potential energy ½ uᵀK u − fᵀu (`u` read at this rank's nodes; both terms from each
+    /// rank's rows, summed over the group: no whole K u). Collective over the body's group.
+    pub fn potential_energy<U: Dofs + ?Sized>(&self, u: &U) -> Result<f64, BodyError> {
+        let rows = self.apply_k_rows(u)?;
+        let mut sum = [(rows.dofs.iter().zip(&rows.values).zip(&rows.ku))
+            .map(|((&d, &u), k)| 0.5 * u * k - self.load.at(d) * u)
             .sum::<f64>()];
-        self.own_comm.sum(&mut half);
-        Ok(half[0] - self.load.dot(&u))
+        self.own_comm.sum(&mut sum);
+        Ok(sum[0])
     }
+}
+
+/// A field on this rank's rows of a body ([`Body::apply_k_rows`]): each row's mesh dof, the
+/// field's value there (nodal frames) and K times the field there.
+struct Rows {
+    dofs: Vec<usize>,
+    values: Vec<f64>,
+    ku: Vec<f64>,
 }

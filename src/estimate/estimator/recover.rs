@@ -4,6 +4,7 @@
 //! release of the factorisations: its peak memory is then the larger of the two phases',
 //! not their sum (docs/scaling.md, "Memory per rank").
 
+use crate::dd::displacement::{self, Displacement};
 use std::borrow::Cow;
 
 use super::*;
@@ -34,7 +35,7 @@ pub struct Resolved {
     it: Iterate,
     fe_only: bool,
     reaction1: ReactionOf,
-    plain: Option<[Vec<f64>; 2]>,
+    plain: Option<[Displacement; 2]>,
     t_glo: Vec<f64>,
     t_fe: Vec<f64>,
     mu_hat: Vec<f64>,
@@ -81,7 +82,7 @@ impl BodyFields<'_> {
         BodyFields {
             u_p: match self.u_p {
                 Cow::Owned(v) => Cow::Owned(v),
-                Cow::Borrowed(_) => Cow::Borrowed(&[]),
+                Cow::Borrowed(_) => Cow::Borrowed(&displacement::NONE),
             },
             u_tilde: self.u_tilde,
             u_d: self.u_d,
@@ -92,7 +93,7 @@ impl BodyFields<'_> {
 
 impl BodyFields<'static> {
     /// These fields with u^α_p borrowed from `u` where it was not kept.
-    fn on(self, u: &[f64]) -> BodyFields<'_> {
+    fn on(self, u: &Displacement) -> BodyFields<'_> {
         BodyFields {
             u_p: match self.u_p {
                 Cow::Owned(v) => Cow::Owned(v),
@@ -116,7 +117,7 @@ impl Estimator<'_> {
         it: &Iterate,
         fe_only: bool,
         reaction1: ReactionOf,
-        plain: Option<[Vec<f64>; 2]>,
+        plain: Option<[Displacement; 2]>,
     ) -> Result<Resolved, EstimateError> {
         crate::parallel::fault::check(crate::parallel::fault::Phase::Estimate)?;
         self.stop_point()?;
@@ -212,7 +213,9 @@ impl Estimator<'_> {
             if crosses[k] {
                 let f = &mut fields[k];
                 self.parts.run(Part::Reduction, || {
-                    layout.share_vec(k + 1, f.u_p.to_mut());
+                    let mut u = f.u_p.as_whole().map(<[f64]>::to_vec).unwrap_or_default();
+                    layout.share_vec(k + 1, &mut u);
+                    f.u_p = Cow::Owned(Displacement::whole(u));
                     for v in [&mut f.u_tilde, &mut f.u_d, &mut f.u_fe] {
                         layout.share_vec(k + 1, v);
                     }
@@ -253,7 +256,7 @@ impl Estimator<'_> {
     pub(crate) fn recover(
         &self,
         mut resolved: Resolved,
-        u: &[Vec<f64>; 2],
+        u: &[Displacement; 2],
     ) -> Result<EstimateRecord, EstimateError> {
         let layout = self.layout;
         let [f1, f2] = std::mem::take(&mut resolved.fields);
@@ -355,7 +358,7 @@ impl Estimator<'_> {
                 // (each rank of the group sums its block of the fine elements)
                 let p = &self.problems[k];
                 e_ref2 += self.parts.run(Part::ReferenceError, || {
-                    r.error_squared_part(k, p.mesh(), &plain[k])
+                    r.error_squared_part(k, p.mesh(), plain[k].whole_values())
                 })?;
             }
         }
@@ -396,7 +399,6 @@ impl Estimator<'_> {
             maps,
             map_first,
             iterate,
-            u_first: [0, 0],
             contact_displacement: None,
             t_hat: resolved.t_glo,
         })
