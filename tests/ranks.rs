@@ -205,22 +205,26 @@ fn three_ranks_write_the_file_one_rank_writes_with_unequal_bodies() {
     ranks_write_what_one_writes(3, "10", &["-nndd_body2_ny", "48"], &[1440; 3]);
 }
 
+/// `paper` n = 12 with body 2 four times as tall (48 rows of cells): on 3 ranks one for body 1,
+/// two for body 2.
+const UNEQUAL: [&str; 8] = [
+    "-nndd_problem",
+    "paper",
+    "-nndd_n",
+    "12",
+    "-nndd_body2_ny",
+    "48",
+    "-nndd_tol",
+    "1e-12",
+];
+
 /// Without estimates a rank holds the mesh of its group's body alone: body 1's 288 elements
 /// on its one rank, body 2's 1152 on each of its two; both on one rank. The solution is the
 /// one rank's.
 #[test]
 fn a_rank_holds_the_mesh_of_its_body_alone() {
     let dir = scratch("ranks-held");
-    let args = [
-        "-nndd_problem",
-        "paper",
-        "-nndd_n",
-        "12",
-        "-nndd_body2_ny",
-        "48",
-        "-nndd_tol",
-        "1e-12",
-    ];
+    let args = UNEQUAL;
     let j1 = solve(1, &dir.join("a"), &args);
     let j3 = solve(3, &dir.join("b"), &args);
     let held = |j: &serde_json::Value| j["held_mesh_elements_per_rank"].clone();
@@ -245,16 +249,7 @@ fn a_rank_holds_the_mesh_of_its_body_alone() {
 #[test]
 fn a_rank_holds_the_displacement_at_its_nodes_alone() {
     let dir = scratch("ranks-held-u");
-    let args = [
-        "-nndd_problem",
-        "paper",
-        "-nndd_n",
-        "12",
-        "-nndd_body2_ny",
-        "48",
-        "-nndd_tol",
-        "1e-12",
-    ];
+    let args = UNEQUAL;
     let estimated = [&args[..], &["-nndd_estimate", "-nndd_estimate_every", "0"]].concat();
     for (what, args) in [("solve", &args[..]), ("estimate", &estimated[..])] {
         let held = |j: &serde_json::Value| -> Vec<usize> {

@@ -55,8 +55,9 @@ impl Displacement {
         self.nodes.is_none().then_some(self.values.as_slice())
     }
 
-    /// The whole field's values. Panics where only some nodes are held: the callers are the
-    /// estimates and the reference solution, whose runs form their fields whole
+    /// The whole field's values. Panics where only some nodes are held: the callers are a
+    /// recovery on the whole body (its field gathered whole), e_ref and a mortar run's
+    /// estimates, whose runs keep their fields whole
     /// ([`crate::dd::body::Body::keep_fields_at`]).
     pub fn whole_values(&self) -> &[f64] {
         self.as_whole().expect(

@@ -12,7 +12,8 @@ pub struct Iterate {
     pub lambda: Vec<f64>,
     /// λ_p, the Dirichlet body's normal Γc displacement (the loop's variable).
     pub interface: Vec<f64>,
-    /// u¹_p on body 1's ranks, u²_p on body 2's (empty elsewhere; formed after the loop, for
+    /// u¹_p on body 1's ranks, u²_p on body 2's, each rank's at the nodes it reads
+    /// ([`crate::dd::body::Body::keep_fields_at`]; empty elsewhere; formed after the loop, for
     /// the reported step, where the steps did not produce them).
     pub u: [Displacement; 2],
     /// T¹_p, T²_p on the Γc normal dofs (known on every rank).

@@ -72,8 +72,8 @@ impl EstimateRecord {
 
     /// Keep what this rank writes of the record in the output alone (`io::fields::kept_rows`):
     /// each body's maps on its elements `cells[k]`, its displacement at its nodes `nodes[k]`,
-    /// and the pair side's displacement at Γc (`contact` of the bodies' whole displacements,
-    /// taken before they are cut), rather than the whole bodies' for every estimated step. A
+    /// and the pair side's displacement at Γc (`contact` of the bodies' displacements, taken
+    /// before they are cut), rather than the whole bodies' for every estimated step. A
     /// record kept already is left as it is.
     pub fn keep_rows(
         &mut self,

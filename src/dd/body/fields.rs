@@ -1,7 +1,9 @@
-//! A solve's field where it is wanted: whole on every rank of the group (the reported
-//! iterate), or on an estimating rank at the nodes of its overlap of the body alone (the
-//! estimates' re-solves, held on their owners until then), gathered from the rows' owners
-//! (docs/scaling.md, "Memory per rank").
+//! A solve's field where it is wanted: an iterate's on each rank of the group at the nodes it
+//! reads ([`Body::keep_fields_at`]; whole where a run's estimates carry it to another mesh), or
+//! on an estimating rank at the nodes of its overlap of the body alone (the estimates'
+//! re-solves, held on their owners until then, and the iterate's field,
+//! [`Body::displacement_at`]), gathered from the rows' owners (docs/scaling.md, "Memory per
+//! rank").
 
 use std::sync::Arc;
 

@@ -196,9 +196,10 @@ impl Estimator<'_> {
             }
         }
         // Who estimates which elements (made at the first estimate, after the solves and
-        // their workspace): each rank gathers the re-solves where its recoveries read them, on
-        // its overlap of the body, with no whole field where the body's estimates stay on its
-        // group; the other ranks estimating elements of a body receive its fields whole.
+        // their workspace): each rank gathers the re-solves and the iterate's field where its
+        // recoveries read them, on its overlap of the body, with no whole field where the
+        // body's estimates stay on its group; the other ranks estimating elements of a body
+        // receive its fields whole.
         let views = self.shares(crosses).map(|s| s.view(layout));
         let mut fields: [BodyFields; 2] = Default::default();
         for (k, body) in bodies.iter().enumerate() {
