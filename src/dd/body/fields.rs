@@ -45,7 +45,8 @@ impl Body {
     /// rank's block of the output), its own rows' nodes, Γc's and the outline's alone, rather
     /// than whole: what the final check, the output, the energies and the penetration check
     /// read; the estimates gather what their recoveries read from the owners
-    /// ([`Body::displacement_at`]). Whole where that is every node. Not collective.
+    /// ([`Body::displacement_at`]). Whole on a group of one rank, which owns every node. Not
+    /// collective.
     pub fn keep_fields_at(&self, extra: impl IntoIterator<Item = usize>) {
         let p = &self.problem;
         let mut nodes: Vec<u32> = (self.partition.owned_mesh_nodes())
@@ -56,7 +57,9 @@ impl Body {
             .collect();
         nodes.sort_unstable();
         nodes.dedup();
-        *self.field_nodes.borrow_mut() = (nodes.len() < p.num_nodes()).then(|| nodes.into());
+        // (on several ranks held at nodes on every rank alike, even where they are all the
+        // body's: whether a field is whole decides which collectives gather from it)
+        *self.field_nodes.borrow_mut() = (self.partition.size > 1).then(|| nodes.into());
     }
 
     /// The body's field `u` (held on this rank as [`Body::keep_fields_at`] says, this rank's
