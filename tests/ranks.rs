@@ -241,11 +241,12 @@ fn a_rank_holds_the_mesh_of_its_body_alone() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A rank holds the reported displacement at the nodes it reads alone (its rows, its block of
-/// the output, the outline with Γc), with and without estimates (theirs gather each rank's
-/// overlap from the owners): over body 2's group (13 × 49 = 637 nodes, 120 on its outline)
-/// the body once plus 10 % and each rank's outline, on 2 and 4 ranks; body 1 whole on its
-/// one rank; both on one rank. The solution and the estimates are the one rank's.
+/// A rank holds the reported displacement at the nodes it reads alone (its block of the
+/// output, the outline with Γc), with and without estimates (the checks gather its rows and
+/// the estimates its overlap from the blocks): on each rank of body 2's group (13 × 49 = 637
+/// nodes, 120 on its outline) its share plus 20 %, a row of 13 and the outline, on 2 and 4
+/// ranks; body 1 whole on its one rank; both on one rank. The solution and the estimates
+/// are the one rank's.
 #[test]
 fn a_rank_holds_the_displacement_at_its_nodes_alone() {
     let dir = scratch("ranks-held-u");
@@ -264,13 +265,11 @@ fn a_rank_holds_the_displacement_at_its_nodes_alone() {
             let h = held(&j);
             assert_eq!(h[0], 169, "{what}: body 1 on its one rank");
             let group = &h[1..];
-            let sum: usize = group.iter().sum();
+            let share = 637.0 / group.len() as f64;
             assert!(
-                group.iter().all(|&n| n < 637),
-                "{what}, {ranks} ranks: {h:?}"
-            );
-            assert!(
-                sum as f64 <= 1.1 * 637.0 + 120.0 * group.len() as f64,
+                group
+                    .iter()
+                    .all(|&n| n as f64 <= 1.2 * share + 13.0 + 120.0),
                 "{what}, {ranks} ranks: {h:?}"
             );
             if what == "estimate" {

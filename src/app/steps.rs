@@ -41,10 +41,11 @@ impl<'a> Run<'a> {
     }
 
     /// Each rank's bodies (partition, assembly, factorisation); the ranks agree. Each rank
-    /// keeps the bodies' fields at the nodes it reads alone: its rows, Γc, the outline and its
-    /// rows of the output ([`Body::keep_fields_at`]; the estimates gather their overlaps from
-    /// the owners), but whole where e_ref (`-nndd_reference_factor`) or a mortar run's
-    /// estimates carry them to other meshes.
+    /// keeps the bodies' fields at the nodes it reads alone: its rows of the output (its block
+    /// of the body's nodes and its cells' nodes), Γc and the outline ([`Body::keep_fields_at`];
+    /// the checks gather its rows and the estimates their overlaps from the blocks), but whole
+    /// where e_ref (`-nndd_reference_factor`) or a mortar run's estimates carry them to other
+    /// meshes.
     pub(super) fn set_up_bodies(
         &self,
         timings: &mut Timings,
@@ -60,9 +61,9 @@ impl<'a> Run<'a> {
                     .any(|p| p.trace != crate::problem::GcTrace::Nodes));
         if !carried {
             let kept = crate::io::fields::kept_rows(layout, [&*problems[0], &*problems[1]]);
-            for (b, nodes) in bodies.iter().zip(kept.nodes) {
+            for (k, (b, nodes)) in bodies.iter().zip(kept.nodes).enumerate() {
                 if let Some(b) = b {
-                    b.keep_fields_at(nodes);
+                    b.keep_fields_at(layout.block(k + 1, problems[k].num_nodes()), nodes);
                 }
             }
         }

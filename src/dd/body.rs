@@ -22,7 +22,6 @@
 
 use std::cell::RefCell;
 use std::collections::HashMap;
-use std::sync::Arc;
 
 use crate::dd::displacement::Displacement;
 use crate::dd::friction::Interface;
@@ -179,8 +178,8 @@ pub struct Body {
     kx: RefCell<Vector>,
     trace: RefCell<Gather>,
     /// Where this rank keeps the body's displacement fields ([`Body::keep_fields_at`]):
-    /// `None`, whole; else at these mesh nodes alone, ascending.
-    field_nodes: RefCell<Option<Arc<[u32]>>>,
+    /// `None`, whole.
+    field_nodes: RefCell<Option<fields::FieldNodes>>,
     /// The body's own communicator (`comm`): the last field, so that it is freed after
     /// every PETSc object on it.
     own_comm: OwnComm,

@@ -218,7 +218,8 @@ pub struct Summary {
     /// or an adaptive run); the other's mesh released after the layout.
     pub held_mesh_elements_per_rank: Vec<usize>,
     /// The nodes at which each rank holds the reported iterate's displacement, by world rank:
-    /// its rows, Γc, the outline and its rows of the output (both bodies' whole on one rank,
+    /// its rows of the output (its block of the body's nodes and its cells' nodes), Γc and the
+    /// outline (a body's whole on the body's only rank,
     /// and where e_ref or a mortar run's estimates read them).
     pub held_displacement_nodes_per_rank: Vec<usize>,
     /// Ranks of each body's group.

@@ -5,6 +5,7 @@
 //! [`Body::displacement_at`]), gathered from the rows' owners (docs/scaling.md, "Memory per
 //! rank").
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use super::{Body, BodyError};
@@ -19,6 +20,14 @@ pub enum FieldAt<'a> {
     /// At these mesh nodes alone, their two dofs each in that order (an estimating rank's
     /// overlap of the body): no whole vector on any rank.
     Nodes(&'a [usize]),
+}
+
+/// Where a rank keeps a body's fields ([`Body::keep_fields_at`]).
+pub(super) struct FieldNodes {
+    /// The mesh nodes, ascending.
+    nodes: Arc<[u32]>,
+    /// Among them, the rank's block of the body's nodes (the group's blocks tile the body).
+    block: Range<usize>,
 }
 
 /// Solutions of one system held on their owners (each rank its rows, PETSc order), with the
@@ -41,15 +50,16 @@ impl Body {
             .collect()
     }
 
-    /// Keep this body's fields on this rank ([`Body::field`]) at the mesh nodes `extra` (the
-    /// rank's block of the output), its own rows' nodes, Γc's and the outline's alone, rather
-    /// than whole: what the final check, the output, the energies and the penetration check
-    /// read; the estimates gather what their recoveries read from the owners
-    /// ([`Body::displacement_at`]). Whole on a group of one rank, which owns every node. Not
-    /// collective.
-    pub fn keep_fields_at(&self, extra: impl IntoIterator<Item = usize>) {
+    /// Keep this body's fields on this rank ([`Body::field`]) at its `block` of the body's
+    /// nodes (its points of the output; the group's blocks tile the body in rank order), the
+    /// mesh nodes `extra` (its output cells' nodes), Γc's and the outline's alone, rather
+    /// than whole: what the output, the energies and the penetration check read; the checks
+    /// gather the rank's rows from the blocks ([`Body::rows_of`]) and the estimates what their
+    /// recoveries read ([`Body::displacement_at`]). Whole on a group of one rank, which owns
+    /// every node. Not collective.
+    pub fn keep_fields_at(&self, block: Range<usize>, extra: impl IntoIterator<Item = usize>) {
         let p = &self.problem;
-        let mut nodes: Vec<u32> = (self.partition.owned_mesh_nodes())
+        let mut nodes: Vec<u32> = (block.clone())
             .chain(p.contact_nodes.iter().copied())
             .chain(p.outline().nodes().iter().copied())
             .chain(extra)
@@ -59,51 +69,80 @@ impl Body {
         nodes.dedup();
         // (on several ranks held at nodes on every rank alike, even where they are all the
         // body's: whether a field is whole decides which collectives gather from it)
-        *self.field_nodes.borrow_mut() = (self.partition.size > 1).then(|| nodes.into());
+        *self.field_nodes.borrow_mut() = (self.partition.size > 1).then(|| FieldNodes {
+            nodes: nodes.into(),
+            block,
+        });
     }
 
-    /// The body's field `u` (held on this rank as [`Body::keep_fields_at`] says, this rank's
-    /// rows among it) gathered at `at` from the ranks that own its rows: whole, or at the
-    /// nodes `at` names and Γc's (an estimating rank's overlap of the body, whose contact
-    /// terms read Γc). Collective over the group.
+    /// The body's field `u` (held on this rank as [`Body::keep_fields_at`] says) gathered at
+    /// `at` from the ranks whose blocks hold it: whole, or at the nodes `at` names and Γc's
+    /// (an estimating rank's overlap of the body, whose contact terms read Γc). Collective
+    /// over the group.
     pub fn displacement_at(
         &self,
         u: &Displacement,
         at: FieldAt,
     ) -> Result<Displacement, BodyError> {
-        let own: Vec<f64> = self.owned_dofs().into_iter().map(|d| u[d]).collect();
-        let mut x = self.x.borrow_mut();
-        x.copy_from(&own)?;
+        let n = self.problem.num_nodes();
         match at {
-            FieldAt::Whole => Ok(Displacement::whole(self.gather_whole(&x)?)),
+            FieldAt::Whole => {
+                let rows: Vec<petsc::Int> = (0..2 * n as petsc::Int).collect();
+                Ok(Displacement::whole(self.gather_from_blocks(u, &rows)?))
+            }
             FieldAt::Nodes(view) => {
                 let mut nodes: Vec<u32> = (view.iter().chain(&self.problem.contact_nodes))
                     .map(|&n| n as u32)
                     .collect();
                 nodes.sort_unstable();
                 nodes.dedup();
-                let values = match self.partition.size {
-                    // One rank: PETSc's order is the mesh's.
-                    1 => nodes
-                        .iter()
-                        .flat_map(|&n| [u[2 * n as usize], u[2 * n as usize + 1]])
-                        .collect(),
-                    _ => {
-                        let rows: Vec<petsc::Int> = (nodes.iter())
-                            .flat_map(|&n| [0, 1].map(|c| self.partition.row(2 * n as usize + c)))
-                            .collect();
-                        Gather::new(&x, &rows)?.gather(&x)?
-                    }
-                };
+                let rows: Vec<petsc::Int> = (nodes.iter())
+                    .flat_map(|&n| [0, 1].map(|c| (2 * n + c) as petsc::Int))
+                    .collect();
+                let values = self.gather_from_blocks(u, &rows)?;
                 Ok(Displacement::at_nodes(nodes.into(), values))
             }
         }
     }
 
+    /// The body's field `u` at this rank's rows, in PETSc order and global components: from
+    /// `u` where it is whole, else gathered from the ranks whose blocks hold them (collective
+    /// over the group where `u` is held at nodes).
+    pub(super) fn rows_of(&self, u: &Displacement) -> Result<Vec<f64>, BodyError> {
+        let dofs = self.owned_dofs();
+        if u.as_whole().is_some() {
+            return Ok(dofs.into_iter().map(|d| u[d]).collect());
+        }
+        let rows: Vec<petsc::Int> = dofs.into_iter().map(|d| d as petsc::Int).collect();
+        self.gather_from_blocks(u, &rows)
+    }
+
+    /// The mesh dofs `rows` of the field `u`, held at nodes on every rank of the group with
+    /// each rank's block among them: the blocks laid out as a PETSc vector in mesh order, one
+    /// block per rank, and gathered from (collective over the group).
+    fn gather_from_blocks(
+        &self,
+        u: &Displacement,
+        rows: &[petsc::Int],
+    ) -> Result<Vec<f64>, BodyError> {
+        let block = match &*self.field_nodes.borrow() {
+            Some(f) => f.block.clone(),
+            None => 0..self.problem.num_nodes(),
+        };
+        let mine: Vec<f64> = block.flat_map(|n| [u[2 * n], u[2 * n + 1]]).collect();
+        let mut blocks = Vector::new(self.comm, mine.len())?;
+        blocks.copy_from(&mine)?;
+        Ok(Gather::new(&blocks, rows)?.gather(&blocks)?)
+    }
+
     /// The last solution as a field of the body on this rank: whole, or at the nodes
     /// [`Body::keep_fields_at`] gave, gathered from their owners alone (collective).
     pub(super) fn field(&self, fixed: &[(usize, f64)]) -> Result<Displacement, BodyError> {
-        let nodes = self.field_nodes.borrow().clone();
+        let nodes = self
+            .field_nodes
+            .borrow()
+            .as_ref()
+            .map(|f| Arc::clone(&f.nodes));
         match nodes {
             None => Ok(Displacement::whole(self.solution(fixed)?)),
             Some(nodes) => {

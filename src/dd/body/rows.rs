@@ -5,8 +5,8 @@
 use std::collections::HashSet;
 
 use super::{Body, BodyError, System};
+use crate::dd::displacement::Displacement;
 use crate::dd::stiffness::Stiffness;
-use crate::fem::Dofs;
 
 impl Body {
     /// K v into `kx`, `v` this rank's entries of a vector (PETSc order, nodal frames): no
@@ -47,12 +47,12 @@ impl Body {
             .map(move |&(dof, v)| (self.partition.row(dof) as usize - first, v))
     }
 
-    /// `u` (global components) on this rank's rows, in PETSc order and the nodal frames, with
-    /// K applied to it on those rows and each row's mesh dof ([`Body::owned_dofs`]): no whole
-    /// vector, `u` read at this rank's nodes alone (collective).
-    fn apply_k_rows<U: Dofs + ?Sized>(&self, u: &U) -> Result<Rows, BodyError> {
+    /// `u` (global components) on this rank's rows, in PETSc order and the nodal frames
+    /// ([`Body::rows_of`]), with K applied to it on those rows and each row's mesh dof
+    /// ([`Body::owned_dofs`]): no whole vector (collective).
+    fn apply_k_rows(&self, u: &Displacement) -> Result<Rows, BodyError> {
         let dofs = self.owned_dofs();
-        let mut values: Vec<f64> = dofs.iter().map(|&d| u[d]).collect();
+        let mut values = self.rows_of(u)?;
         for (node, v) in self
             .partition
             .owned_mesh_nodes()
@@ -72,9 +72,9 @@ impl Body {
             .collect()
     }
 
-    /// uᵀK u (K without boundary conditions, `u` in global components, read at this rank's
-    /// nodes), from each rank's rows summed over the group: no whole K u (collective).
-    pub fn quadratic<U: Dofs + ?Sized>(&self, u: &U) -> Result<f64, BodyError> {
+    /// uᵀK u (K without boundary conditions, `u` in global components), from each rank's
+    /// rows summed over the group: no whole K u (collective).
+    pub fn quadratic(&self, u: &Displacement) -> Result<f64, BodyError> {
         let rows = self.apply_k_rows(u)?;
         let mut sum = [rows
             .values
@@ -86,14 +86,14 @@ impl Body {
         Ok(sum[0])
     }
 
-    /// The discrete equilibrium of `u` (global components, read at this rank's nodes) with the
+    /// The discrete equilibrium of `u` (global components, read at this rank's rows) with the
     /// Γc nodal forces `gc_forces` as a normwise backward error: ‖K u − f − Bᵀt‖∞ over the dofs
     /// not on Γ_D, over ‖K‖∞ ‖u‖∞ + ‖f‖∞ + ‖t‖∞; round-off (1e−16) for a field solved with
     /// these forces. Each rank measures its own rows (no whole K u). Collective over the
     /// body's group.
-    pub fn equilibrium_residual<U: Dofs + ?Sized>(
+    pub fn equilibrium_residual(
         &self,
-        u: &U,
+        u: &Displacement,
         gc_forces: &[f64],
     ) -> Result<f64, BodyError> {
         let rows = self.apply_k_rows(u)?;
@@ -147,9 +147,9 @@ impl Body {
             .collect())
     }
 
-    /// Potential energy ½ uᵀK u − fᵀu (`u` read at this rank's nodes; both terms from each
-    /// rank's rows, summed over the group: no whole K u). Collective over the body's group.
-    pub fn potential_energy<U: Dofs + ?Sized>(&self, u: &U) -> Result<f64, BodyError> {
+    /// Potential energy ½ uᵀK u − fᵀu (both terms from each rank's rows, summed over the
+    /// group: no whole K u). Collective over the body's group.
+    pub fn potential_energy(&self, u: &Displacement) -> Result<f64, BodyError> {
         let rows = self.apply_k_rows(u)?;
         let mut sum = [(rows.dofs.iter().zip(&rows.values).zip(&rows.ku))
             .map(|((&d, &u), k)| 0.5 * u * k - self.load.at(d) * u)
