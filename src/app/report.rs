@@ -276,16 +276,18 @@ pub fn held_mesh_elements_per_rank(layout: &Layout, problems: [&BodyProblem; 2])
         .filter(|p| p.holds_mesh())
         .map(|p| p.num_elements() as u64)
         .sum();
-    per_rank(layout, mine)
-        .into_iter()
-        .map(|n| n as usize)
-        .collect()
+    counts_per_rank(layout, mine)
 }
 
 /// The nodes at which each rank holds the reported iterate's displacement, both bodies', by
 /// world rank (a body's every node where it holds it whole; collective).
 pub fn held_field_nodes_per_rank(layout: &Layout, sol: &Solution) -> Vec<usize> {
     let mine: u64 = sol.last.u.iter().map(|u| (u.len() / 2) as u64).sum();
+    counts_per_rank(layout, mine)
+}
+
+/// This rank's count `mine` and every other's, by world rank (collective).
+fn counts_per_rank(layout: &Layout, mine: u64) -> Vec<usize> {
     per_rank(layout, mine)
         .into_iter()
         .map(|n| n as usize)

@@ -3,11 +3,11 @@
 //! element sums ([`finish_reported`]), so that the run's peak memory is the larger of the two
 //! phases, not their sum (docs/scaling.md, "Memory per rank").
 
-use crate::dd::displacement::Displacement;
 use std::time::Instant;
 
 use super::options::Settings;
 use super::{AppError, LONG_PHASE_DOFS};
+use crate::dd::displacement::Displacement;
 use crate::dd::nndd::{self, Iterate, IterationRecord, NnddResult, Status};
 use crate::estimate::estimator::InParts;
 use crate::estimate::{EstimateRecord, Estimator};

@@ -16,7 +16,6 @@
 //! η^NNDD is the mortar-discrete one ([`MortarEstimates::nndd_maps`]): with the mortar
 //! operators, so that it vanishes at the mortar problem's solution.
 
-use crate::dd::displacement::Displacement;
 use std::collections::{BTreeSet, HashMap};
 use std::rc::Rc;
 
@@ -24,6 +23,7 @@ use super::cre::energy;
 use super::error::EstimateError;
 use super::traction::Interface;
 use crate::dd::body::Body;
+use crate::dd::displacement::Displacement;
 use crate::dd::nndd::Iterate;
 use crate::fem::{element_dofs, element_stiffness};
 use crate::parallel::layout::Layout;

@@ -267,13 +267,11 @@ impl Overlap {
 
     /// The sub-mesh dofs (2 node + k) of a full-mesh dof vector.
     pub fn restrict_dofs<U: crate::fem::Dofs + ?Sized>(&self, u: &U) -> Vec<f64> {
-        (self.nodes.iter())
-            .flat_map(|&g| [u[2 * g], u[2 * g + 1]])
-            .collect()
+        self.per_dof(u)
     }
 
     /// The sub-mesh entries of any per-dof vector of the full mesh.
-    fn per_dof<T: Copy>(&self, v: &[T]) -> Vec<T> {
+    fn per_dof<T: Copy, V: std::ops::Index<usize, Output = T> + ?Sized>(&self, v: &V) -> Vec<T> {
         self.nodes
             .iter()
             .flat_map(|&g| [v[2 * g], v[2 * g + 1]])

@@ -2,9 +2,9 @@
 //! an iterate (displacements, stresses, Γc quantities) with the estimates' element maps. Built
 //! here from the solver's and the estimator's data, written by [`super::output`].
 
-use crate::dd::displacement::Displacement;
 use std::ops::Range;
 
+use crate::dd::displacement::Displacement;
 use crate::dd::nndd::Iterate;
 use crate::estimate::{EstimateRecord, Interface};
 use crate::fem::{self, Mesh};

@@ -4,11 +4,11 @@
 //! release of the factorisations: its peak memory is then the larger of the two phases',
 //! not their sum (docs/scaling.md, "Memory per rank").
 
-use crate::dd::displacement::{self, Displacement};
 use std::borrow::Cow;
 
 use super::*;
 use crate::dd::body::{FieldAt, Solved};
+use crate::dd::displacement::{self, Displacement};
 use crate::estimate::polygon::{EdgeValues, SegmentGap};
 
 /// What body 1's Γc forces T¹_p are, for its η^FE recovery ([`Reaction`]).
