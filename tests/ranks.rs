@@ -245,41 +245,68 @@ fn a_rank_holds_the_mesh_of_its_body_alone() {
 /// output, the outline with Γc), with and without estimates (the checks gather its rows and
 /// the estimates its overlap from the blocks): on each rank of body 2's group (13 × 49 = 637
 /// nodes, 120 on its outline) its share plus 20 %, a row of 13 and the outline, on 2 and 4
-/// ranks; body 1 whole on its one rank; both on one rank. The solution and the estimates
-/// are the one rank's.
+/// ranks; body 1 whole on its one rank; both on one rank. The same of the reference
+/// solution's fields with `-nndd_reference_factor 2` (body 2: 25 × 97 = 2425 nodes, 240 on
+/// its outline; e_ref reads the coarse field under each rank's block of the fine elements).
+/// The solution, the estimates and e_ref are the one rank's.
 #[test]
 fn a_rank_holds_the_displacement_at_its_nodes_alone() {
     let dir = scratch("ranks-held-u");
     let args = UNEQUAL;
     let estimated = [&args[..], &["-nndd_estimate", "-nndd_estimate_every", "0"]].concat();
-    for (what, args) in [("solve", &args[..]), ("estimate", &estimated[..])] {
-        let held = |j: &serde_json::Value| -> Vec<usize> {
-            serde_json::from_value(j["held_displacement_nodes_per_rank"].clone()).unwrap()
-        };
+    let reference = [&estimated[..], &["-nndd_reference_factor", "2"]].concat();
+    let runs = [
+        ("solve", &args[..]),
+        ("estimate", &estimated[..]),
+        ("reference", &reference[..]),
+    ];
+    for (what, args) in runs {
         let base = solve(1, &dir.join("a"), args);
-        assert_eq!(held(&base), [169 + 637], "{what}");
+        let held = |j: &serde_json::Value, key: &str| -> Vec<usize> {
+            serde_json::from_value(j[key].clone()).unwrap()
+        };
+        let mut keys = vec![("held_displacement_nodes_per_rank", 169, 637, 13, 120)];
+        if what == "reference" {
+            keys.push((
+                "held_reference_displacement_nodes_per_rank",
+                625,
+                2425,
+                25,
+                240,
+            ));
+        }
+        for &(key, body1, body2, ..) in &keys {
+            assert_eq!(held(&base, key), [body1 + body2], "{what}: {key}");
+        }
         for ranks in [3, 5] {
             let prefix = dir.join(format!("b{ranks}"));
             let j = solve(ranks, &prefix, args);
             assert_eq!(j["body_ranks"], serde_json::json!([1, ranks - 1]), "{what}");
-            let h = held(&j);
-            assert_eq!(h[0], 169, "{what}: body 1 on its one rank");
-            let group = &h[1..];
-            let share = 637.0 / group.len() as f64;
-            assert!(
-                group
-                    .iter()
-                    .all(|&n| n as f64 <= 1.2 * share + 13.0 + 120.0),
-                "{what}, {ranks} ranks: {h:?}"
-            );
-            if what == "estimate" {
-                compare(&j, &base, &format!("{what}, {ranks} ranks"));
-            } else {
+            for &(key, body1, body2, row, outline) in &keys {
+                let h = held(&j, key);
+                assert_eq!(h[0], body1, "{what}: {key}: body 1 on its one rank");
+                let share = body2 as f64 / (ranks - 1) as f64;
+                assert!(
+                    (h[1..].iter()).all(|&n| n as f64 <= 1.2 * share + (row + outline) as f64),
+                    "{what}, {ranks} ranks: {key} {h:?}"
+                );
+            }
+            if what == "solve" {
                 assert_eq!(j["iterations"], base["iterations"]);
                 for key in ["potential_energy", "energy_norm"] {
                     let d = (f(&j, key) - f(&base, key)).abs() / f(&base, key).abs();
                     assert!(d < 1e-9, "{ranks} ranks: {key} differs by {d:e}");
                 }
+            } else {
+                compare(&j, &base, &format!("{what}, {ranks} ranks"));
+            }
+            if what == "reference" {
+                let e_ref = |j: &serde_json::Value| f(&j["estimates"][0], "e_ref");
+                let d = (e_ref(&j) - e_ref(&base)).abs() / e_ref(&base);
+                assert!(
+                    e_ref(&base) > 0.0 && d < 1e-10,
+                    "{ranks} ranks: e_ref differs by {d:e}"
+                );
             }
             same_displacements(
                 &dir.join("a"),

@@ -29,6 +29,8 @@ pub struct Measured<'a> {
     pub held_elements: &'a [usize],
     /// The nodes of the reported displacement each rank holds ([`held_field_nodes_per_rank`]).
     pub held_nodes: &'a [usize],
+    /// The nodes of the reference solution's fields each rank held, where it was solved.
+    pub held_reference: Option<&'a [usize]>,
 }
 
 pub fn summarise(
@@ -45,6 +47,7 @@ pub fn summarise(
         ref solvers,
         logged_flops,
         reference_iterations,
+        reference_held_nodes: _,
     } = *post;
     let Measured {
         results,
@@ -52,6 +55,7 @@ pub fn summarise(
         peaks,
         held_elements,
         held_nodes,
+        held_reference,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
@@ -145,6 +149,7 @@ pub fn summarise(
         peak_memory_mib_per_rank: peaks.to_vec(),
         held_mesh_elements_per_rank: held_elements.to_vec(),
         held_displacement_nodes_per_rank: held_nodes.to_vec(),
+        held_reference_displacement_nodes_per_rank: held_reference.map(<[usize]>::to_vec),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),
         xdmf: paths.xdmf().display().to_string(),
@@ -287,7 +292,7 @@ pub fn held_field_nodes_per_rank(layout: &Layout, sol: &Solution) -> Vec<usize> 
 }
 
 /// This rank's count `mine` and every other's, by world rank (collective).
-fn counts_per_rank(layout: &Layout, mine: u64) -> Vec<usize> {
+pub fn counts_per_rank(layout: &Layout, mine: u64) -> Vec<usize> {
     per_rank(layout, mine)
         .into_iter()
         .map(|n| n as usize)

@@ -251,7 +251,7 @@ pub fn solve_reference(
     }
     // The fine problem of a body this rank does not work on freed before the factorisations
     // (the NNDD reads the bodies alone).
-    let mut problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
+    let problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
     drop(both);
     let bodies = setup_bodies(
         &fine,
@@ -260,6 +260,19 @@ pub fn solve_reference(
         stages,
         &mut scratch,
     )?;
+    // Each rank's block of the fine elements, at whose nodes the fine fields are kept.
+    let mut parts = [0, 1].map(|k| {
+        let p = problems[k].as_ref()?;
+        let elements = layout.block(k + 1, p.num_elements());
+        Some(ReferencePart::new(p.mesh(), p.material, elements))
+    });
+    for (k, (b, part)) in bodies.iter().zip(&parts).enumerate() {
+        if let (Some(b), Some(part), Some(p)) = (b, part, &problems[k]) {
+            let block = layout.block(k + 1, p.num_nodes());
+            b.keep_fields_at(block, part.nodes().iter().copied());
+        }
+    }
+    drop(problems);
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mesh = reference_mesh(&fine, r);
     // θ auto first; where it does not converge, the run's own fixed θ, then a small fixed θ
@@ -311,27 +324,23 @@ pub fn solve_reference(
             tried.join("; ")
         )));
     }
-    // The fine factorisations, problems and whole fields freed here: e_ref needs each rank's
-    // block of the fine elements and u_ref on their nodes only.
+    // The fine factorisations and fields freed here: e_ref needs each rank's block of the
+    // fine elements and u_ref on their nodes only.
     drop(bodies);
     let iterations = sol.iterations;
-    let u_ref = sol.last.u;
-    let parts = [0, 1].map(|k| {
-        let p = problems[k].take()?;
-        let elements = layout.block(k + 1, p.num_elements());
-        Some(ReferencePart::new(
-            p.mesh(),
-            p.material,
-            u_ref[k].whole_values(),
-            elements,
-        ))
-    });
-    drop(u_ref);
+    let held_nodes = sol.last.u.iter().map(|u| u.len() / 2).sum();
+    for (part, u) in parts.iter_mut().zip(&sol.last.u) {
+        if let Some(part) = part {
+            part.set_solution(u);
+        }
+    }
+    drop(sol);
     crate::os::memory::release_free_memory(0);
     Ok(Ok(Reference {
         factor: r,
         parts,
         iterations,
+        held_nodes,
     }))
 }
 

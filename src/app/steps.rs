@@ -21,6 +21,8 @@ pub(crate) struct PostProcessed {
     pub(crate) solvers: [solve::BodySolver; 2],
     pub(crate) logged_flops: f64,
     pub(crate) reference_iterations: Option<usize>,
+    /// The nodes at which this rank held the reference solution's fields.
+    pub(crate) reference_held_nodes: Option<usize>,
 }
 
 impl<'a> Run<'a> {
@@ -43,9 +45,9 @@ impl<'a> Run<'a> {
     /// Each rank's bodies (partition, assembly, factorisation); the ranks agree. Each rank
     /// keeps the bodies' fields at the nodes it reads alone: its rows of the output (its block
     /// of the body's nodes and its cells' nodes), Γc and the outline ([`Body::keep_fields_at`];
-    /// the checks gather its rows and the estimates their overlaps from the blocks), but whole
-    /// where e_ref (`-nndd_reference_factor`) or a mortar run's estimates carry them to other
-    /// meshes.
+    /// the checks gather its rows, the estimates their overlaps and e_ref the coarse nodes
+    /// under its block of the fine elements from the blocks), but whole where a mortar run's
+    /// estimates carry them to their matched meshes.
     pub(super) fn set_up_bodies(
         &self,
         timings: &mut Timings,
@@ -55,10 +57,7 @@ impl<'a> Run<'a> {
         let bodies = solve::setup_bodies(settings, owned, layout, self.stages, timings);
         let bodies = agreed(self.agreement, bodies)?;
         let carried = settings.estimate.enabled
-            && (settings.estimate.reference_factor > 0
-                || problems
-                    .iter()
-                    .any(|p| p.trace != crate::problem::GcTrace::Nodes));
+            && (problems.iter()).any(|p| p.trace != crate::problem::GcTrace::Nodes);
         if !carried {
             let kept = crate::io::fields::kept_rows(layout, [&*problems[0], &*problems[1]]);
             for (k, (b, nodes)) in bodies.iter().zip(kept.nodes).enumerate() {
@@ -226,6 +225,7 @@ impl<'a> Run<'a> {
             solvers,
             logged_flops: 0.0,
             reference_iterations: None,
+            reference_held_nodes: None,
         })
     }
 
@@ -253,6 +253,7 @@ impl<'a> Run<'a> {
         ))?;
         post.logged_flops = layout.sum(Petsc::logged_flops());
         post.reference_iterations = e.and_then(|e| e.reference_iterations());
+        post.reference_held_nodes = e.and_then(|e| e.reference_held_nodes());
         if let Some(e) = e {
             timings.estimation_parts = EstimationParts::from(e.part_seconds());
         }
@@ -287,6 +288,8 @@ impl<'a> Run<'a> {
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let held_nodes = report::held_field_nodes_per_rank(layout, sol);
+        let held_reference =
+            (post.reference_held_nodes).map(|n| report::counts_per_rank(layout, n as u64));
         let mut written = Ok(());
         if layout.is_root() {
             let measured = report::Measured {
@@ -295,6 +298,7 @@ impl<'a> Run<'a> {
                 peaks: &peaks,
                 held_elements: &held_elements,
                 held_nodes: &held_nodes,
+                held_reference: held_reference.as_deref(),
             };
             let problems = [&*problems[0], &*problems[1]];
             let summary = report::summarise(settings, problems, layout, sol, post, measured);

@@ -56,12 +56,12 @@ impl Displacement {
     }
 
     /// The whole field's values. Panics where only some nodes are held: the callers are a
-    /// recovery on the whole body (its field gathered whole), e_ref and a mortar run's
-    /// estimates, whose runs keep their fields whole
+    /// recovery on the whole body (its field gathered whole) and a mortar run's estimates,
+    /// whose runs keep their fields whole
     /// ([`crate::dd::body::Body::keep_fields_at`]).
     pub fn whole_values(&self) -> &[f64] {
         self.as_whole().expect(
-            "a field held at some nodes read whole (only runs without estimates hold them so)",
+            "a field held at some nodes read whole (a mortar run's estimates keep theirs whole)",
         )
     }
 

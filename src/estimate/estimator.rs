@@ -259,6 +259,11 @@ impl<'a> Estimator<'a> {
         self.reference.as_ref().map(|r| r.iterations)
     }
 
+    /// The nodes at which this rank held the reference solution's fields (none without one).
+    pub fn reference_held_nodes(&self) -> Option<usize> {
+        self.reference.as_ref().map(|r| r.held_nodes)
+    }
+
     /// The run's two problems, whose elements the records' η maps and whose dofs their
     /// iterates' displacements are on (a mortar run's own, not the matched meshes its
     /// estimates are made on).

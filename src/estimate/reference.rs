@@ -5,32 +5,40 @@
 use std::ops::Range;
 
 use super::error::EstimateError;
-use crate::fem::energy_squared_on;
 use crate::fem::mesh::Mesh;
 use crate::fem::Material;
+use crate::fem::{energy_squared_on, Dofs};
 
 /// The reference solution of (26): the same problem on the nested mesh r·n, solved by the
-/// NNDD to tol 1e−8, on the ranks owning each body. Its bodies' factorisations and its whole
-/// fields are freed once it is solved: e_ref is a sum over the fine elements, and each rank of
-/// a body's group keeps only its block of them and u_ref on their nodes.
+/// NNDD to tol 1e−8, on the ranks owning each body. e_ref is a sum over the fine elements:
+/// each rank of a body's group keeps only its block of them and u_ref on their nodes, which
+/// the fine body held its fields at (with its output block, Γc and the outline,
+/// `Body::keep_fields_at`: no whole fine field on a group of several ranks), and the fine
+/// bodies and their factorisations are freed once it is solved.
 pub struct Reference {
     pub factor: usize,
     /// This rank's part of each body's reference solution (`None` outside the body's group).
     pub parts: [Option<ReferencePart>; 2],
     pub iterations: usize,
+    /// The nodes at which this rank held the fine bodies' solution (both bodies' counts).
+    pub held_nodes: usize,
 }
 
 impl Reference {
+    /// This rank's part of body α's (α = `k + 1`; `None` outside the body's group).
+    pub fn part(&self, k: usize) -> Option<&ReferencePart> {
+        self.parts[k].as_ref()
+    }
+
     /// This rank's part of ‖u_ref^α − I u^α‖²_E, body α = `k + 1`, `u` the coarse field on
     /// `coarse` ([`ReferencePart::error_squared`]): the parts of a body's group add up to it.
     pub fn error_squared_part(
         &self,
         k: usize,
         coarse: &Mesh,
-        u: &[f64],
+        u: &(impl Dofs + ?Sized),
     ) -> Result<f64, EstimateError> {
-        self.parts[k]
-            .as_ref()
+        self.part(k)
             .expect("the reference solution's part on the body's ranks")
             .error_squared(coarse, u)
     }
@@ -38,7 +46,9 @@ impl Reference {
 
 /// A rank's part of body α's reference solution: a block of the fine mesh's elements
 /// (`Layout::block`, consecutive element numbers: on a structured mesh a band of rows), as a
-/// sub-mesh, and u_ref^α on its nodes. Nothing of it is as long as the fine body.
+/// sub-mesh, and u_ref^α on its nodes. Nothing of it is as long as the fine body, and the
+/// coarse field it reads is the one at the coarse nodes under its block
+/// ([`ReferencePart::coarse_nodes`]).
 pub struct ReferencePart {
     material: Material,
     /// What the transfer from the coarse mesh reads of the whole fine mesh.
@@ -49,7 +59,7 @@ pub struct ReferencePart {
     mesh: Mesh,
     /// The fine mesh's node of each of the block's nodes.
     nodes: Vec<usize>,
-    /// u_ref^α on the block's nodes.
+    /// u_ref^α on the block's nodes (empty until [`ReferencePart::set_solution`]).
     u: Vec<f64>,
 }
 
@@ -76,27 +86,27 @@ impl FineMesh {
 }
 
 impl ReferencePart {
-    /// The part on the fine mesh's elements `elements` of the solution `u_ref` (whole) of the
-    /// fine problem (`fine`, of `material`).
-    pub fn new(
-        fine: &Mesh,
-        material: Material,
-        u_ref: &[f64],
-        elements: Range<usize>,
-    ) -> ReferencePart {
+    /// The part on the fine mesh's elements `elements` of the fine problem (`fine`, of
+    /// `material`), before it is solved: its nodes are those at which the fine bodies keep
+    /// their fields on this rank.
+    pub fn new(fine: &Mesh, material: Material, elements: Range<usize>) -> ReferencePart {
         let (mesh, nodes) = fine.sub_mesh(elements.clone());
-        let u = nodes
-            .iter()
-            .flat_map(|&v| [u_ref[2 * v], u_ref[2 * v + 1]])
-            .collect();
         ReferencePart {
             material,
             fine: FineMesh::of(fine),
             elements,
             mesh,
             nodes,
-            u,
+            u: Vec::new(),
         }
+    }
+
+    /// u_ref^α on the part's nodes, from the fine body's solution `u_ref` (held at them at
+    /// least).
+    pub fn set_solution(&mut self, u_ref: &(impl Dofs + ?Sized)) {
+        self.u = (self.nodes.iter())
+            .flat_map(|&v| [u_ref[2 * v], u_ref[2 * v + 1]])
+            .collect();
     }
 
     /// The fine elements this part holds.
@@ -109,9 +119,24 @@ impl ReferencePart {
         &self.nodes
     }
 
+    /// The nodes of `coarse` whose values the transfer to this part reads, ascending: the
+    /// corners of the coarse elements under the block.
+    pub fn coarse_nodes(&self, coarse: &Mesh) -> Result<Vec<usize>, EstimateError> {
+        let mut read = Vec::new();
+        self.stencils(coarse, |_, s| read.extend(s.map(|(n, _)| n)))?;
+        read.sort_unstable();
+        read.dedup();
+        Ok(read)
+    }
+
     /// ‖u_ref^α − I u^α‖²_E over this part's fine elements (26): the sum of d_Eᵀ K_E d_E,
-    /// I the exact P1 transfer of the coarse field `u` on `coarse` to the block's nodes.
-    pub fn error_squared(&self, coarse: &Mesh, u: &[f64]) -> Result<f64, EstimateError> {
+    /// I the exact P1 transfer of the coarse field `u` on `coarse` (held at
+    /// [`ReferencePart::coarse_nodes`] at least) to the block's nodes.
+    pub fn error_squared(
+        &self,
+        coarse: &Mesh,
+        u: &(impl Dofs + ?Sized),
+    ) -> Result<f64, EstimateError> {
         let iu = transfer(
             coarse,
             &self.fine,
@@ -126,6 +151,16 @@ impl ReferencePart {
             0..self.mesh.triangles.len(),
             |i| self.u[i] - iu[i],
         ))
+    }
+
+    /// [`stencils`] of the part's nodes.
+    fn stencils(
+        &self,
+        coarse: &Mesh,
+        visit: impl FnMut(usize, Stencil),
+    ) -> Result<(), EstimateError> {
+        let first = self.elements.start;
+        stencils(coarse, &self.fine, &self.mesh, &self.nodes, first, visit)
     }
 }
 
@@ -142,31 +177,54 @@ pub fn interpolate_nested(
     transfer(coarse, &FineMesh::of(fine), fine, &nodes, 0, u)
 }
 
+/// A fine node's value in the coarse P1 field: three coarse nodes and their weights.
+type Stencil = [(usize, f64); 3];
+
 /// [`interpolate_nested`] onto a part of the fine mesh: `part` its elements `first ..` (their
-/// nodes numbered in the part), `nodes` the fine node of each of the part's nodes.
+/// nodes numbered in the part), `nodes` the fine node of each of the part's nodes; `u` is read
+/// at the stencils' coarse nodes alone.
 fn transfer(
     coarse: &Mesh,
     fine: &FineMesh,
     part: &Mesh,
     nodes: &[usize],
     first: usize,
-    u: &[f64],
+    u: &(impl Dofs + ?Sized),
 ) -> Result<Vec<f64>, EstimateError> {
+    let mut out = vec![0.0; 2 * nodes.len()];
+    stencils(coarse, fine, part, nodes, first, |l, s| {
+        for k in 0..2 {
+            out[2 * l + k] = s.iter().map(|&(n, w)| w * u[2 * n + k]).sum();
+        }
+    })?;
+    Ok(out)
+}
+
+/// Each node `l` of the part ([`transfer`]'s arguments) with its [`Stencil`], given to
+/// `visit(l, stencil)` (a node of several of the part's elements maybe more than once, alike).
+fn stencils(
+    coarse: &Mesh,
+    fine: &FineMesh,
+    part: &Mesh,
+    nodes: &[usize],
+    first: usize,
+    visit: impl FnMut(usize, Stencil),
+) -> Result<(), EstimateError> {
     if coarse.is_structured() && fine.nx > 0 && fine.ny > 0 {
-        transfer_grid(coarse, fine, nodes, u)
+        stencils_grid(coarse, fine, nodes, visit)
     } else {
-        transfer_split(coarse, fine, part, first, u)
+        stencils_split(coarse, fine, part, first, visit)
     }
 }
 
-/// [`transfer`] between structured grids: each fine node from the corners of its coarse
+/// [`stencils`] between structured grids: each fine node from the corners of its coarse
 /// rectangle's triangle.
-fn transfer_grid(
+fn stencils_grid(
     coarse: &Mesh,
     fine: &FineMesh,
     nodes: &[usize],
-    u: &[f64],
-) -> Result<Vec<f64>, EstimateError> {
+    mut visit: impl FnMut(usize, Stencil),
+) -> Result<(), EstimateError> {
     let nested = fine.nx.is_multiple_of(coarse.nx)
         && fine.ny.is_multiple_of(coarse.ny)
         && fine.nx / coarse.nx == fine.ny / coarse.ny
@@ -179,7 +237,6 @@ fn transfer_grid(
         });
     }
     let r = fine.nx / coarse.nx;
-    let mut out = vec![0.0; 2 * nodes.len()];
     for (l, &n) in nodes.iter().enumerate() {
         let (if_, jf) = (n % (fine.nx + 1), n / (fine.nx + 1));
         let (i, j) = ((if_ / r).min(coarse.nx - 1), (jf / r).min(coarse.ny - 1));
@@ -192,28 +249,28 @@ fn transfer_grid(
             coarse.node(i + 1, j + 1),
         );
         // Triangles (a, b, d) below the diagonal (ξ ≥ η) and (a, d, c) above it.
-        let w = if xi >= eta {
-            [(a, 1.0 - xi), (b, xi - eta), (d, eta)]
-        } else {
-            [(a, 1.0 - eta), (d, xi), (c, eta - xi)]
-        };
-        for k in 0..2 {
-            out[2 * l + k] = w.iter().map(|&(node, wt)| wt * u[2 * node + k]).sum();
-        }
+        visit(
+            l,
+            if xi >= eta {
+                [(a, 1.0 - xi), (b, xi - eta), (d, eta)]
+            } else {
+                [(a, 1.0 - eta), (d, xi), (c, eta - xi)]
+            },
+        );
     }
-    Ok(out)
+    Ok(())
 }
 
-/// [`transfer`] for a mesh whose triangles were each split into r² (in order): every fine
+/// [`stencils`] for a mesh whose triangles were each split into r² (in order): every fine
 /// node is evaluated by its barycentric coordinates in its coarse triangle, which must
 /// contain it.
-fn transfer_split(
+fn stencils_split(
     coarse: &Mesh,
     fine: &FineMesh,
     part: &Mesh,
     first: usize,
-    u: &[f64],
-) -> Result<Vec<f64>, EstimateError> {
+    mut visit: impl FnMut(usize, Stencil),
+) -> Result<(), EstimateError> {
     let not_nested = || EstimateError::NotNested {
         coarse: format!("of {} triangles", coarse.triangles.len()),
         fine: format!("of {} triangles", fine.elements),
@@ -224,7 +281,6 @@ fn transfer_split(
     if nc == 0 || r * r != r2 || r2 * nc != nf {
         return Err(not_nested());
     }
-    let mut out = vec![0.0; part.num_dofs()];
     for (l, t) in part.triangles.iter().enumerate() {
         let c = (first + l) / r2;
         let q = coarse.triangle_points(c);
@@ -243,12 +299,10 @@ fn transfer_split(
             if l.iter().any(|&w| !(-1e-9..=1.0 + 1e-9).contains(&w)) {
                 return Err(not_nested());
             }
-            for k in 0..2 {
-                out[2 * n + k] = (0..3).map(|v| l[v] * u[2 * nodes[v] + k]).sum();
-            }
+            visit(n, [0, 1, 2].map(|v| (nodes[v], l[v])));
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 #[cfg(test)]
@@ -342,14 +396,24 @@ mod tests {
         let mut sum = 0.0;
         for part in 0..parts {
             let block = crate::parallel::layout::block_of(ne, part, parts);
-            let p = ReferencePart::new(fine, MATERIAL, &u_ref, block.clone());
+            let mut p = ReferencePart::new(fine, MATERIAL, block.clone());
+            p.set_solution(&u_ref[..]);
             assert_eq!(p.elements(), block);
             assert!(
                 p.nodes().len() <= max_nodes(block.len()),
                 "part {part}: {} nodes",
                 p.nodes().len()
             );
-            sum += p.error_squared(coarse, &u).unwrap();
+            // The coarse field held at the nodes the part reads alone (the rest NaN).
+            let read = p.coarse_nodes(coarse).unwrap();
+            let mut at = vec![f64::NAN; u.len()];
+            for &n in &read {
+                at[2 * n..2 * n + 2].copy_from_slice(&u[2 * n..2 * n + 2]);
+            }
+            // (a band of a structured mesh reads some of the coarse rows)
+            let band = coarse.is_structured() && parts > 1;
+            assert!(!band || read.len() < coarse.num_nodes(), "{read:?}");
+            sum += p.error_squared(coarse, &at[..]).unwrap();
         }
         assert!(
             (sum - whole).abs() <= 1e-12 * whole,

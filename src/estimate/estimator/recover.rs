@@ -36,6 +36,10 @@ pub struct Resolved {
     fe_only: bool,
     reaction1: ReactionOf,
     plain: Option<[Displacement; 2]>,
+    /// u^α_p at the coarse nodes this rank's part of the reference solution reads, where the
+    /// iterate's field is held at other nodes ([`Estimator::reference_fields`]; `None`: e_ref
+    /// reads `plain` or the iterate's field as it is).
+    reference_u: [Option<Displacement>; 2],
     t_glo: Vec<f64>,
     t_fe: Vec<f64>,
     mu_hat: Vec<f64>,
@@ -176,6 +180,7 @@ impl Estimator<'_> {
             fe_only,
             reaction1,
             plain,
+            reference_u: [None, None],
             t_glo,
             t_fe,
             mu_hat,
@@ -225,7 +230,38 @@ impl Estimator<'_> {
             }
         }
         resolved.fields = fields.map(BodyFields::detached);
+        if resolved.plain.is_none() && !fe_only {
+            resolved.reference_u = self.reference_fields(bodies, it)?;
+        }
         Ok(resolved)
+    }
+
+    /// The iterate's field u^α_p gathered at the coarse nodes under this rank's block of the
+    /// reference solution's fine elements ([`ReferencePart::coarse_nodes`]) where its body's
+    /// group holds it at other nodes: e_ref's transfer reads no whole field (collective over
+    /// each body's group). `None` where there is no reference, or the field is whole.
+    ///
+    /// [`ReferencePart::coarse_nodes`]: crate::estimate::reference::ReferencePart::coarse_nodes
+    fn reference_fields(
+        &self,
+        bodies: [Option<&Body>; 2],
+        it: &Iterate,
+    ) -> Result<[Option<Displacement>; 2], EstimateError> {
+        let mut at = [None, None];
+        let Some(r) = &self.reference else {
+            return Ok(at);
+        };
+        for (k, body) in bodies.iter().enumerate() {
+            let (Some(b), Some(part)) = (body, r.part(k)) else {
+                continue;
+            };
+            if it.u[k].as_whole().is_none() {
+                let coarse = self.problems[k].mesh();
+                let nodes = (self.parts).run(Part::ReferenceError, || part.coarse_nodes(coarse))?;
+                at[k] = Some(b.displacement_at(&it.u[k], FieldAt::Nodes(&nodes))?);
+            }
+        }
+        Ok(at)
     }
 
     /// Who estimates which elements of each body, and the overlaps and halos of this rank's
@@ -359,7 +395,8 @@ impl Estimator<'_> {
                 // (each rank of the group sums its block of the fine elements)
                 let p = &self.problems[k];
                 e_ref2 += self.parts.run(Part::ReferenceError, || {
-                    r.error_squared_part(k, p.mesh(), plain[k].whole_values())
+                    let u = resolved.reference_u[k].as_ref().unwrap_or(&plain[k]);
+                    r.error_squared_part(k, p.mesh(), u)
                 })?;
             }
         }
