@@ -318,6 +318,51 @@ fn a_rank_holds_the_displacement_at_its_nodes_alone() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Where a body's elements are estimated outside its group (here on 2, 3 and 4 ranks: body
+/// 1 of 625 nodes on rank 0, body 2 of 25 × 97 = 2425 dealt over every rank), a rank gathers
+/// what its recoveries read of each body it estimates, its overlap and Γc, from the blocks
+/// of the body's group, never the whole field: rank 0, body 1's, holds its own whole and at
+/// most 3/4 of body 2's (it held both whole, 3050 nodes, when the fields were broadcast). The
+/// estimates are the one rank's.
+#[test]
+fn a_rank_estimating_another_group_s_body_gathers_its_overlap_alone() {
+    let dir = scratch("ranks-crossing");
+    let args = [
+        "-nndd_problem",
+        "paper",
+        "-nndd_n",
+        "24",
+        "-nndd_body2_ny",
+        "96",
+        "-nndd_tol",
+        "1e-10",
+        "-nndd_estimate",
+        "-nndd_estimate_every",
+        "0",
+    ];
+    let held = |j: &serde_json::Value| -> Vec<usize> {
+        serde_json::from_value(j["held_estimate_displacement_nodes_per_rank"].clone()).unwrap()
+    };
+    let base = solve(1, &dir.join("a"), &args);
+    assert_eq!(held(&base), [625 + 2425]);
+    for ranks in [2, 3, 4] {
+        let prefix = dir.join(format!("b{ranks}"));
+        let j = solve(ranks, &prefix, &args);
+        let what = format!("{ranks} ranks");
+        assert_eq!(j["body_ranks"], serde_json::json!([1, ranks - 1]), "{what}");
+        assert_eq!(
+            j["held_mesh_elements_per_rank"],
+            serde_json::json!(vec![1152 + 4608; ranks]),
+            "{what}: every rank estimates elements of both bodies"
+        );
+        let h = held(&j);
+        assert!(h.iter().all(|&n| n < 625 + 2425), "{what}: {h:?}");
+        assert!(4 * h[0] <= 4 * 625 + 3 * 2425, "{what}: {h:?}");
+        compare(&j, &base, &what);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Both bodies' displacements of two runs agree to 1e-10 (relative, largest entry).
 fn same_displacements(one: &std::path::Path, other: &std::path::Path, what: &str) {
     for body in ["body1", "body2"] {

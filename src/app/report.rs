@@ -31,6 +31,8 @@ pub struct Measured<'a> {
     pub held_nodes: &'a [usize],
     /// The nodes of the reference solution's fields each rank held, where it was solved.
     pub held_reference: Option<&'a [usize]>,
+    /// The most nodes of an estimated iterate's fields each rank held, where it estimated.
+    pub held_estimate: Option<&'a [usize]>,
 }
 
 pub fn summarise(
@@ -48,6 +50,7 @@ pub fn summarise(
         logged_flops,
         reference_iterations,
         reference_held_nodes: _,
+        estimate_held_nodes: _,
     } = *post;
     let Measured {
         results,
@@ -56,6 +59,7 @@ pub fn summarise(
         held_elements,
         held_nodes,
         held_reference,
+        held_estimate,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
@@ -150,6 +154,7 @@ pub fn summarise(
         held_mesh_elements_per_rank: held_elements.to_vec(),
         held_displacement_nodes_per_rank: held_nodes.to_vec(),
         held_reference_displacement_nodes_per_rank: held_reference.map(<[usize]>::to_vec),
+        held_estimate_displacement_nodes_per_rank: held_estimate.map(<[usize]>::to_vec),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),
         xdmf: paths.xdmf().display().to_string(),

@@ -57,7 +57,7 @@ impl BodyEstimate {
 pub struct ElementWork<'a> {
     p: &'a BodyProblem,
     fields: &'a BodyFields<'a>,
-    /// u^α_p on the view ([`View::local`]).
+    /// u^α_p on the view ([`View::local_of`]).
     u_p: std::borrow::Cow<'a, [f64]>,
     view: &'a View<'a>,
     /// The mesh the recovery runs on, and where the estimate holds each of its elements

@@ -123,6 +123,8 @@ pub struct Estimator<'a> {
     cheap_nndd: OnceCell<bool>,
     /// The estimate in progress recovers η^glo cold ([`Estimator::estimate_cold`]).
     cold: Cell<bool>,
+    /// The most nodes at which this rank held an estimate's u^α_p, both bodies' counts.
+    held_nodes: Cell<usize>,
     /// A mortar run's: its iterates carried to the matched meshes `problems` are
     /// ([`MortarEstimates`]).
     mortar: Option<MortarEstimates>,
@@ -194,6 +196,7 @@ impl<'a> Estimator<'a> {
             operators: Default::default(),
             cheap_nndd: Default::default(),
             cold: Default::default(),
+            held_nodes: Default::default(),
             mortar: None,
             friction: FrictionLaw::Frictionless,
         }
@@ -257,6 +260,12 @@ impl<'a> Estimator<'a> {
     /// The iterations of the reference solution's NNDD (none without one).
     pub fn reference_iterations(&self) -> Option<usize> {
         self.reference.as_ref().map(|r| r.iterations)
+    }
+
+    /// The most nodes at which this rank held an estimate's iterate u^α_p (both bodies'
+    /// counts; what its recoveries read, or the iterate's own field where that is whole).
+    pub fn held_nodes(&self) -> usize {
+        self.held_nodes.get()
     }
 
     /// The nodes at which this rank held the reference solution's fields (none without one).
@@ -414,8 +423,8 @@ impl<'a> Estimator<'a> {
         Ok(self.run(bodies, it, true)?.eta_fe)
     }
 
-    /// Per body, whether some of its elements are estimated outside its group (its fields
-    /// then travel to those ranks), from the element counts alone
+    /// Per body, whether some of its elements are estimated outside its group (those ranks
+    /// then gather its fields from the group's blocks), from the element counts alone
     /// ([`crate::estimate::share::estimating_ranks`]).
     fn crosses(&self) -> [bool; 2] {
         let sizes = self.problems.each_ref().map(|p| p.num_elements());

@@ -9,7 +9,6 @@ use super::parts::{Part, Parts};
 use super::polygon::{EdgeValues, SegmentGap};
 use super::settings::NnddVariant;
 use super::traction::Interface;
-use super::view::View;
 use crate::dd::body::{Body, FieldAt, GcForces, Solved};
 use crate::dd::displacement::Displacement;
 use crate::problem::BodyProblem;
@@ -54,11 +53,10 @@ pub enum Reaction<'a> {
 }
 
 /// The fields of one body's estimate: u^α_p and the Neumann re-solves with the Γc data of
-/// η^glo (ũ^α), of the discrete η^NNDD (ũ^α_d) and, for body 2, of η^FE; made whole on the
-/// body's group ([`body_fields`]) and sent to the other ranks that estimate elements of the
-/// body, then the re-solves cut to the rank's view of the body for its recoveries
-/// ([`BodyFields::on_view`]; empty when not needed: `fe_only`, the density variant, body 1's
-/// η^FE).
+/// η^glo (ũ^α), of the discrete η^NNDD (ũ^α_d) and, for body 2, of η^FE, at what the rank's
+/// view of the body reads ([`body_fields`]; where the body's elements are estimated outside
+/// its group, gathered from the group's blocks, `Estimator::fields_from_blocks`; empty when
+/// not needed: `fe_only`, the density variant, body 1's η^FE).
 #[derive(Default)]
 pub struct BodyFields<'a> {
     /// u^α_p where this rank's recoveries and contact terms read it: the caller's iterate's
@@ -68,19 +66,6 @@ pub struct BodyFields<'a> {
     pub u_tilde: Vec<f64>,
     pub u_d: Vec<f64>,
     pub u_fe: Vec<f64>,
-}
-
-impl BodyFields<'_> {
-    /// These fields with the re-solves cut to `view` ([`View::local`]); u^α_p stays as it is.
-    pub fn on_view(self, view: Option<&View>) -> Self {
-        let keep = |u: Vec<f64>| view.map_or(Vec::new(), |v| v.local(u));
-        BodyFields {
-            u_p: self.u_p,
-            u_tilde: keep(self.u_tilde),
-            u_d: keep(self.u_d),
-            u_fe: keep(self.u_fe),
-        }
-    }
 }
 
 /// The re-solves of body α (collective over its group), held on their owners until

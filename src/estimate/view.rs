@@ -32,7 +32,7 @@ pub enum View<'a> {
 }
 
 impl View<'_> {
-    /// Before a recovery of the data u (on this view, [`View::local`]): start it warm only
+    /// Before a recovery of the data u (on this view, [`View::local_of`]): start it warm only
     /// from nearby data (a relative change of at most `warm_change`,
     /// `-nndd_recovery_warm_change`, default [`super::settings::WARM_CHANGE`]; every rank
     /// decides alike, from the body's energy norms, [`View::relative_change`]), and on a
@@ -121,19 +121,7 @@ impl View<'_> {
         Ok(checked)
     }
 
-    /// What this view's recoveries read of a whole-body field (mesh dofs): all of it on the
-    /// whole body, its sub-mesh's dofs on an overlap ([`Overlap::restrict_dofs`]), nothing on
-    /// an idle rank (a field not made, empty, stays so).
-    pub fn local(&self, u: Vec<f64>) -> Vec<f64> {
-        match self {
-            _ if u.is_empty() => u,
-            View::Whole => u,
-            View::Overlap(o, ..) => o.restrict_dofs(&u),
-            View::Idle(..) => Vec::new(),
-        }
-    }
-
-    /// Where a solve gathers a field that this view's recoveries read ([`View::local`]'s
+    /// Where a solve gathers a field that this view's recoveries read ([`View::local_of`]'s
     /// entries, gathered there alone): whole, at the overlap's nodes, nowhere when idle.
     pub fn field_at(&self) -> FieldAt<'_> {
         match self {
@@ -143,8 +131,10 @@ impl View<'_> {
         }
     }
 
-    /// [`View::local`] of a field held elsewhere, whole or at the view's nodes at least
-    /// (borrowed on the whole body).
+    /// What this view's recoveries read of a field held whole or at the view's nodes at
+    /// least: all of it on the whole body (borrowed), its sub-mesh's dofs on an overlap
+    /// ([`Overlap::restrict_dofs`]), nothing on an idle rank (a field not made, empty, stays
+    /// so).
     pub(super) fn local_of<'b>(&self, u: &'b Displacement) -> std::borrow::Cow<'b, [f64]> {
         use std::borrow::Cow;
         match self {
@@ -155,7 +145,7 @@ impl View<'_> {
         }
     }
 
-    /// ‖u − v‖_E / ‖u‖_E on the body, of two fields on this view ([`View::local`]): the
+    /// ‖u − v‖_E / ‖u‖_E on the body, of two fields on this view ([`View::local_of`]): the
     /// element sums over the elements this rank estimates, added over the ranks that share
     /// the body's recovery (collective over them; the same number on each).
     fn relative_change(&self, p: &BodyProblem, u: &[f64], v: &[f64]) -> f64 {

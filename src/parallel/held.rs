@@ -1,8 +1,8 @@
 //! A rank's part of a vector that is indexed like the whole: the entries from index `first`
 //! on (`first` = 0 and the whole length: the vector whole). What a rank keeps of an estimated
 //! step for the output (its η maps on the elements it writes, its displacement on the dofs
-//! they need) is held so, and [`to_blocks`] sends values computed anywhere to the ranks that
-//! hold them so.
+//! they need) is held so, [`to_blocks`] sends values computed anywhere to the ranks that
+//! hold them so, and [`from_blocks`] gathers nodal fields held so where a rank reads them.
 
 use std::ops::Range;
 
@@ -62,6 +62,59 @@ pub fn to_blocks<const M: usize>(
     }
     assert_eq!(count, block.len(), "each item of the block from one rank");
     (maps, block.start)
+}
+
+/// The inverse of [`to_blocks`] for nodal fields: fields of body `alpha` (two values per node
+/// of its `len` nodes), each held on the body's ranks as their [`Layout::block`] of the nodes
+/// (`blocks[j]`: field j's values at this rank's block, two per node; empty outside the
+/// group; as many fields on every rank), gathered on every rank at its `nodes` alone: field
+/// j's two values per node of `nodes`, in that order. No rank sends or holds a whole field.
+/// Collective over all ranks.
+pub fn from_blocks(
+    layout: &Layout,
+    alpha: usize,
+    len: usize,
+    blocks: &[&[f64]],
+    nodes: &[usize],
+) -> Vec<Vec<f64>> {
+    let ranks = layout.size as usize;
+    let mut asks = vec![Vec::<u64>::new(); ranks];
+    for &n in nodes {
+        asks[layout.block_owner(alpha, len, n)].push(n as u64);
+    }
+    let asked = layout.exchange(true, &asks);
+    let block = layout.block(alpha, len);
+    // (to each rank, its nodes' values field by field)
+    let replies: Vec<Vec<f64>> = (asked.iter())
+        .map(|nodes| {
+            (blocks.iter())
+                .flat_map(|b| {
+                    nodes.iter().flat_map(move |&n| {
+                        let i = 2 * (n as usize - block.start);
+                        [b[i], b[i + 1]]
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    drop(asked);
+    let replied = layout.exchange(true, &replies);
+    drop(replies);
+    // Each node's values from its owner's reply, in the order this rank asked.
+    let mut out: Vec<Vec<f64>> = (blocks.iter())
+        .map(|_| Vec::with_capacity(2 * nodes.len()))
+        .collect();
+    let mut next = vec![0; ranks];
+    for &n in nodes {
+        let r = layout.block_owner(alpha, len, n);
+        let count = asks[r].len();
+        for (j, field) in out.iter_mut().enumerate() {
+            let at = 2 * (j * count + next[r]);
+            field.extend_from_slice(&replied[r][at..at + 2]);
+        }
+        next[r] += 1;
+    }
+    out
 }
 
 /// A map of `len` items held as this rank's block `block` from item `first` on

@@ -25,7 +25,7 @@ pub struct OperatorCache {
     /// The change made by the last `Recovery::Patch` recovery (its warm start).
     pub(crate) warm: Option<plan::Warm>,
     /// The caller's record of the data that recovery was made from (the estimator keeps the
-    /// displacement on the rank's view of the body there, `view::View::local`, to decide
+    /// displacement on the rank's view of the body there, `view::View::local_of`, to decide
     /// whether the next one is close enough to start warm).
     pub warm_data: Option<Vec<f64>>,
     /// The caller's decision for the next recovery: it starts warm (near the last one's

@@ -10,6 +10,7 @@ use super::*;
 use crate::dd::body::{FieldAt, Solved};
 use crate::dd::displacement::{self, Displacement};
 use crate::estimate::polygon::{EdgeValues, SegmentGap};
+use crate::estimate::view::View;
 
 /// What body 1's Γc forces T¹_p are, for its η^FE recovery ([`Reaction`]).
 #[derive(Clone, Copy, Debug)]
@@ -202,14 +203,19 @@ impl Estimator<'_> {
         }
         // Who estimates which elements (made at the first estimate, after the solves and
         // their workspace): each rank gathers the re-solves and the iterate's field where its
-        // recoveries read them, on its overlap of the body, with no whole field where the
-        // body's estimates stay on its group; the other ranks estimating elements of a body
-        // receive its fields whole.
+        // recoveries read them, on its overlap of the body. Where some of the body's elements
+        // are estimated outside its group, each rank of the group gathers them at its block
+        // of the body's nodes, and every rank gathers its overlap from those blocks: no whole
+        // field either way.
         let views = self.shares(crosses).map(|s| s.view(layout));
         let mut fields: [BodyFields; 2] = Default::default();
         for (k, body) in bodies.iter().enumerate() {
+            let block: Vec<usize> = match crosses[k] {
+                true => layout.block(k + 1, self.problems[k].num_nodes()).collect(),
+                false => Vec::new(),
+            };
             let at = match (crosses[k], &views[k]) {
-                (true, _) => FieldAt::Whole,
+                (true, _) => FieldAt::Nodes(&block),
                 (false, Some(view)) => view.field_at(),
                 (false, None) => FieldAt::Nodes(&[]),
             };
@@ -217,23 +223,79 @@ impl Estimator<'_> {
                 fields[k] = body_fields(b, s, &it.u[k], &data, &self.parts, at)?;
             }
             if crosses[k] {
-                let f = &mut fields[k];
-                self.parts.run(Part::Reduction, || {
-                    let mut u = f.u_p.as_whole().map(<[f64]>::to_vec).unwrap_or_default();
-                    layout.share_vec(k + 1, &mut u);
-                    f.u_p = Cow::Owned(Displacement::whole(u));
-                    for v in [&mut f.u_tilde, &mut f.u_d, &mut f.u_fe] {
-                        layout.share_vec(k + 1, v);
-                    }
+                let held = std::mem::take(&mut fields[k]);
+                let view = views[k].as_ref();
+                fields[k] = (self.parts).run(Part::Reduction, || {
+                    self.fields_from_blocks(k, held, &block, view)
                 });
-                fields[k] = std::mem::take(&mut fields[k]).on_view(views[k].as_ref());
             }
         }
+        let held: usize = fields.iter().map(|f| f.u_p.len() / 2).sum();
+        self.held_nodes.set(self.held_nodes.get().max(held));
         resolved.fields = fields.map(BodyFields::detached);
         if resolved.plain.is_none() && !fe_only {
             resolved.reference_u = self.reference_fields(bodies, it)?;
         }
         Ok(resolved)
+    }
+
+    /// Body α's (α = `k + 1`) fields where some of its elements are estimated outside its
+    /// group: `held` on each rank of the group at its `block` of the body's nodes (nothing
+    /// elsewhere), gathered on every rank where its `view` reads them, its overlap's nodes
+    /// and Γc's ([`held::from_blocks`]; collective over all ranks).
+    fn fields_from_blocks(
+        &self,
+        k: usize,
+        held: BodyFields,
+        block: &[usize],
+        view: Option<&View>,
+    ) -> BodyFields<'static> {
+        let (layout, p) = (self.layout, &self.problems[k]);
+        let u_p: Vec<f64> = (block.iter())
+            .flat_map(|&n| [held.u_p[2 * n], held.u_p[2 * n + 1]])
+            .collect();
+        // (the re-solves the estimate made, known on the group alone)
+        let resolves = [&held.u_tilde, &held.u_d, &held.u_fe];
+        let mut made = resolves.map(|v| (!v.is_empty()) as u8 as f64);
+        layout.world_sum(&mut made);
+        let mut nodes: Vec<usize> = match view {
+            Some(View::Overlap(o, ..)) => o.nodes.clone(),
+            _ => Vec::new(),
+        };
+        if view.is_some() {
+            nodes.extend(&p.contact_nodes);
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        let blocks: Vec<&[f64]> = std::iter::once(&u_p)
+            .chain(
+                resolves
+                    .into_iter()
+                    .zip(made)
+                    .filter(|(_, m)| *m > 0.0)
+                    .map(|(v, _)| v),
+            )
+            .map(Vec::as_slice)
+            .collect();
+        let mut gathered =
+            held::from_blocks(layout, k + 1, p.num_nodes(), &blocks, &nodes).into_iter();
+        let at: std::sync::Arc<[u32]> = nodes.iter().map(|&n| n as u32).collect();
+        let mut next = || Displacement::at_nodes(at.clone(), gathered.next().expect("a field"));
+        let u_p = next();
+        let mut local = |m: f64| match (m > 0.0, view) {
+            (true, Some(v)) => v.local_of(&next()).into_owned(),
+            (true, None) => {
+                next();
+                Vec::new()
+            }
+            (false, _) => Vec::new(),
+        };
+        BodyFields {
+            u_tilde: local(made[0]),
+            u_d: local(made[1]),
+            u_fe: local(made[2]),
+            u_p: Cow::Owned(u_p),
+        }
     }
 
     /// The iterate's field u^α_p gathered at the coarse nodes under this rank's block of the
