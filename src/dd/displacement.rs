@@ -6,6 +6,8 @@
 use std::ops::{Index, IndexMut};
 use std::sync::Arc;
 
+use crate::fem::Dofs;
+
 /// u^α on a rank, indexed by mesh dof (2 n + c for node n, component c: global x, y).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Displacement {
@@ -70,10 +72,13 @@ impl Displacement {
         self.nodes.as_deref()
     }
 
-    /// `whole` − this field, at the nodes this field holds (`whole` in mesh dofs).
-    pub fn subtracted_from(&self, whole: &[f64]) -> Displacement {
+    /// `whole` − this field, at the nodes this field holds (`whole` in mesh dofs: a whole
+    /// vector, or a field held at those nodes at least).
+    pub fn subtracted_from(&self, whole: &(impl Dofs + ?Sized)) -> Displacement {
         let values = match &self.nodes {
-            None => whole.iter().zip(&self.values).map(|(a, b)| a - b).collect(),
+            None => (self.values.iter().enumerate())
+                .map(|(d, b)| whole[d] - b)
+                .collect(),
             Some(nodes) => (nodes.iter().zip(self.values.chunks_exact(2)))
                 .flat_map(|(&n, v)| {
                     [
@@ -197,6 +202,10 @@ mod tests {
         );
         let all = Displacement::whole(vec![1.0; 12]);
         assert_eq!(all.subtracted_from(&whole)[11], 120.0);
+        // From a field held at the same nodes.
+        let other = Displacement::at_nodes(vec![1, 4].into(), vec![5.0, 6.0, 7.0, 8.0]);
+        let d = part.subtracted_from(&other);
+        assert_eq!([d[2], d[3], d[8], d[9]], [4.0, 4.0, 4.0, 4.0]);
         assert!(NONE.is_empty() && NONE.as_whole() == Some(&[][..]));
     }
 

@@ -325,9 +325,10 @@ impl<'a> Estimator<'a> {
                         delta.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>()
                     }),
                     (false, _) => {
+                        // (held where the iterate's field is: no whole vector)
                         let u_d = self
                             .parts
-                            .run(Part::Resolves, || b.neumann_solve(&f, true))?;
+                            .run(Part::Resolves, || b.neumann_field(&f, true))?;
                         let d = it.u[k].subtracted_from(&u_d);
                         self.parts.run(Part::ElementSums, || b.quadratic(&d))?
                     }
