@@ -111,16 +111,15 @@ pub fn solve(
         return held_by_contact(layout, bodies, qp, friction);
     }
     // Each body: u₀ (own data, free Γc), v* = B u₀, D = S⁻¹; shared with rank 0.
-    let mut free = [Vec::new(), Vec::new()];
     let mut v_star = [Vec::new(), Vec::new()];
     // g₀ is part of the geometry every rank holds.
     let gap = interface_gaps(bodies, friction.is_some());
     let mut delassus = [Vec::new(), Vec::new()];
     for (k, body) in bodies.iter().enumerate() {
         if let Some(b) = body {
-            let u0 = b.neumann_solve(&vec![0.0; b.pairs()], true)?;
+            // (u₀ held as the body keeps its fields: Γc's among the nodes)
+            let u0 = b.neumann_field(&vec![0.0; b.pairs()], true)?;
             v_star[k] = b.trace(&u0);
-            free[k] = u0;
             // D^α is on the body's first rank, which shares it below.
             if let Some(c) = b.condensed() {
                 delassus[k] = c.delassus.data().to_vec();
@@ -175,8 +174,8 @@ pub fn solve(
         if let Some(b) = body {
             let sign = if k == 0 { -1.0 } else { 1.0 };
             let load: Vec<f64> = mu.iter().map(|x| sign * x).collect();
-            let w = b.neumann_solve(&load, false)?;
-            u[k] = Displacement::whole(free[k].iter().zip(&w).map(|(a, b)| a + b).collect());
+            // u₀ plus the response to the contact forces, in one solve with both loads
+            u[k] = b.neumann_field(&load, true)?;
         }
     }
     Ok(MonolithicResult {
@@ -231,7 +230,7 @@ fn condensed_by_dirichlet(
             }
             c = c0;
         } else {
-            let u0 = b.neumann_solve(&vec![0.0; m], true)?;
+            let u0 = b.neumann_field(&vec![0.0; m], true)?;
             let v_star = b.trace(&u0);
             if let Some(cond) = b.condensed() {
                 s = cond.schur.data().to_vec();
