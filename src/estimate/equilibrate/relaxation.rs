@@ -269,7 +269,8 @@ impl Relaxation<'_> {
     }
 
     /// Index of the patch operator of vertex i (built and cached for a new pattern); None
-    /// past the cache capacity unless `always`.
+    /// past the cache capacity unless `always`, which builds it and keeps it by its index
+    /// alone (its pattern not kept: past the capacity the patterns do not repeat).
     pub(super) fn operator_for(
         &mut self,
         cache: &mut ShapeCache,
@@ -309,12 +310,15 @@ impl Relaxation<'_> {
         if let Some(&o) = self.map.get(&key) {
             return Some(o);
         }
-        if !always && self.ops.len() >= patch_capacity() {
+        let cached = self.ops.len() < patch_capacity();
+        if !(always || cached) {
             return None;
         }
         let op = self.build(cache, elems, &lay.smap, nu, hp);
         self.ops.push(op);
-        self.map.insert(key, self.ops.len() - 1);
+        if cached {
+            self.map.insert(key, self.ops.len() - 1);
+        }
         Some(self.ops.len() - 1)
     }
 

@@ -18,7 +18,7 @@ use super::plan::{Plan, Warm};
 use super::recovery::Recovery;
 use super::relaxation::Relaxation;
 use super::restriction::Restriction;
-use super::sizes::{NC, NONE};
+use super::sizes::{patch_capacity, NC, NONE};
 use super::stress::{EquilibratedStress, EquilibrationStats, FinalPass, Residuals};
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
 use crate::fem::geometry::local_frame;
@@ -600,6 +600,8 @@ impl<'a> Recovering<'a> {
         let plan = match operators.plan.take() {
             Some(p) if p.fingerprint() == fp => p,
             _ => {
+                // (the operators past the cache's patterns were the old plan's alone)
+                relax.ops.truncate(patch_capacity());
                 let plan = Plan::new(relax, cache, &self.sweep_order(), fp);
                 // The element Hessians only build patch operators, and the plan's are all
                 // built: on unstructured meshes (a Hessian per element) they were 1152 bytes

@@ -8,13 +8,19 @@ pub(super) const NONE: usize = usize::MAX;
 pub(crate) const NC: usize = 27;
 /// Number of edge-traction values per element: 3 edges × 2 end points × 2 components.
 pub(crate) const NT: usize = 12;
-/// Shape-cache capacity; beyond it the local operator is recomputed per element.
-pub(super) const MAX_SHAPES: usize = 1 << 18;
+/// Shape-cache capacity; beyond it the local operator is recomputed per element. The caches
+/// pay where shapes and patch patterns repeat (a structured mesh has a few); on an
+/// unstructured mesh each triangle is a shape of its own (2.6 KB of operator each) and each
+/// vertex patch a pattern (a key of about 1 KB besides its operator), found again by no other:
+/// with room for 2¹⁸, the Hertz example at level 5 (203 454 triangles) held 1 GB more per rank
+/// in its recovery, and took no less time.
+pub(super) const MAX_SHAPES: usize = 1 << 14;
 /// Quantum of the shape key (normalised coordinates), 2⁻⁴⁴ ≈ 5.7e-14.
 pub(super) const SHAPE_QUANTUM: f64 = 1.0 / 17_592_186_044_416.0;
 
-/// Capacity of the patch-operator cache; beyond it patch operators are recomputed.
-pub(super) const MAX_PATCHES: usize = 1 << 18;
+/// Capacity of the patch-operator cache's patterns ([`MAX_SHAPES`]); beyond it a patch
+/// operator is recomputed, or kept by its index alone where a plan reads it in every sweep.
+pub(super) const MAX_PATCHES: usize = 1 << 14;
 
 #[cfg(test)]
 thread_local! {

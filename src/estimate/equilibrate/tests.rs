@@ -206,3 +206,45 @@ fn kept_operators_give_the_same_stress_and_grow_no_more() {
         assert_eq!(third.coefficients(e), fresh_soft.coefficients(e));
     }
 }
+
+/// The planned recovery past the caches' capacities: the same stress as with room for every
+/// pattern, the patterns past the capacity not kept (their operators held by index for the
+/// plan alone), and a plan built again holding no more operators than the first.
+#[test]
+fn planned_recovery_past_the_capacity_keeps_no_more_patterns_and_grows_no_more() {
+    let (mesh, bd, u) = skewed_block();
+    let choice = Recovery::Patch {
+        sweeps: 2,
+        warm_sweeps: 0,
+    };
+    let mut ops = OperatorCache::default();
+    let with = |ops: &mut OperatorCache| {
+        equilibrate_restricted(&mesh, &STEEL, &u, &bd, choice, None, Some(ops), None).unwrap()
+    };
+    let cached = equilibrate_with(&mesh, &STEEL, &u, &bd, choice).unwrap();
+    CAPACITY.with(|c| c.set((3, 2)));
+    let first = with(&mut ops);
+    let held = ops.len();
+    ops.plan = None;
+    let again = with(&mut ops);
+    let after = ops.len();
+    CAPACITY.with(|c| c.set((MAX_SHAPES, MAX_PATCHES)));
+    assert_eq!(ops.patch_map.len(), 2, "the patterns within the capacity");
+    assert!(held.1 > 2, "every patch's operator for the plan: {held:?}");
+    assert_eq!(after, held, "a plan built again holds no more operators");
+    assert_admissible(&first.residuals(&mesh, &bd), 1e-10);
+    let smax = (0..mesh.triangles.len())
+        .flat_map(|e| cached.coefficients(e).to_vec())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    for e in 0..mesh.triangles.len() {
+        for (x, y) in [&first, &again]
+            .map(|s| s.coefficients(e))
+            .iter()
+            .zip([cached.coefficients(e), cached.coefficients(e)])
+        {
+            for (a, b) in x.iter().zip(y) {
+                assert!((a - b).abs() < 1e-10 * smax, "element {e}: {a} against {b}");
+            }
+        }
+    }
+}
