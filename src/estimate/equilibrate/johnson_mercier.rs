@@ -6,7 +6,7 @@
 use super::fast_map::FastMap;
 
 use super::eet::element_tractions;
-use super::sizes::{shape_capacity, NC, NONE, NT, SHAPE_QUANTUM};
+use super::sizes::{MAX_SHAPES, NC, NONE, NT, SHAPE_QUANTUM};
 use super::topology::Topology;
 use crate::fem::geometry::{local_frame, unit};
 use crate::fem::mesh::Mesh;
@@ -276,12 +276,24 @@ pub(super) fn apply_operator(g: &[f64; NC * NT], t: &[f64; NT]) -> [f64; NC] {
     x
 }
 
-/// JM operators per triangle shape (normalised vertices, quantised key).
-#[derive(Default)]
+/// JM operators per triangle shape (normalised vertices, quantised key), at most `capacity`
+/// of them (the recovery's, `sizes::capacities`).
 pub(crate) struct ShapeCache {
     map: FastMap<[i64; 4], usize>,
     pub(super) ops: Vec<[f64; NC * NT]>,
     scratch: Option<Box<[f64; NC * NT]>>,
+    capacity: usize,
+}
+
+impl Default for ShapeCache {
+    fn default() -> ShapeCache {
+        ShapeCache {
+            map: Default::default(),
+            ops: Vec::new(),
+            scratch: None,
+            capacity: MAX_SHAPES,
+        }
+    }
 }
 
 impl ShapeCache {
@@ -297,12 +309,17 @@ impl ShapeCache {
             return Some(i);
         }
         let op = jm_operator(q)?;
-        if self.ops.len() >= shape_capacity() {
+        if self.ops.len() >= self.capacity {
             return Some(NONE);
         }
         self.ops.push(op);
         self.map.insert(key, self.ops.len() - 1);
         Some(self.ops.len() - 1)
+    }
+
+    /// At most `capacity` operators from now on (those held beyond it are kept).
+    pub(super) fn set_capacity(&mut self, capacity: usize) {
+        self.capacity = capacity;
     }
 
     /// The operator of index i (recomputed for shape q if i is NONE).

@@ -63,7 +63,9 @@
 //!
 //! Costs (2-core machine, release, 256 × 256 mesh, 131k triangles): averaged 0.2 s, minimum
 //! energy 0.7 s, 3 patch sweeps 1.2 s. The local operators are cached per triangle shape and
-//! per vertex-patch pattern (up to 262144 each, ≈ 680 MB and ≈ 2 GB at most): a structured
+//! per vertex-patch pattern (up to 262144 each, ≈ 680 MB and ≈ 2 GB at most; 16384 for the
+//! planned recovery below, which keeps a patch operator past them by its index alone and
+//! reads a triangle's once per recovery, `sizes::MAX_PLANNED`): a structured
 //! mesh has a handful of each, an unstructured one about one per element and per vertex,
 //! so its first estimate builds them all (the Hertz level-2 mesh, 4024 dofs: 5 s on 2 ranks)
 //! and beyond the capacities they are rebuilt at every use (at 65536, Hertz level 5's estimate

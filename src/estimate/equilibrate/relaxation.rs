@@ -6,7 +6,7 @@ use super::fast_map::FastMap;
 
 use super::eet::{Bc, EdgeConditions};
 use super::johnson_mercier::{apply_operator, eval, midpoints, ShapeCache};
-use super::sizes::{patch_capacity, NC, NONE, NT, SHAPE_QUANTUM};
+use super::sizes::{NC, NONE, NT, SHAPE_QUANTUM};
 use super::topology::{Topology, VertexElements};
 use crate::fem::geometry::{local_frame, triangle_area};
 use crate::fem::mesh::Mesh;
@@ -93,6 +93,8 @@ pub(super) struct Relaxation<'a> {
     pub(super) cm: [[f64; 3]; 3],
     pub(super) map: FastMap<Vec<i64>, usize>,
     pub(super) ops: Vec<PatchOp>,
+    /// The most patterns `map` keeps (the recovery's, `sizes::capacities`).
+    pub(super) capacity: usize,
     /// Per vertex: its cached patch operator (NONE before the first visit or if uncached).
     pub(super) vertex_op: Vec<usize>,
     /// Per shape: the normalised element Hessian Ĥ (12 × 12) of the traction values,
@@ -310,7 +312,7 @@ impl Relaxation<'_> {
         if let Some(&o) = self.map.get(&key) {
             return Some(o);
         }
-        let cached = self.ops.len() < patch_capacity();
+        let cached = self.ops.len() < self.capacity;
         if !(always || cached) {
             return None;
         }

@@ -18,7 +18,7 @@ use super::plan::{Plan, Warm};
 use super::recovery::Recovery;
 use super::relaxation::Relaxation;
 use super::restriction::Restriction;
-use super::sizes::{patch_capacity, NC, NONE};
+use super::sizes::{capacities, NC, NONE};
 use super::stress::{EquilibratedStress, EquilibrationStats, FinalPass, Residuals};
 use super::topology::{is_owned, owned_vertices, sweep_key, vertex_colours, Topology};
 use crate::fem::geometry::local_frame;
@@ -391,6 +391,7 @@ impl<'a> Recovering<'a> {
         moments: EdgeValues,
     ) -> Result<(ShapeCache, Field, Option<EdgeValues>), EquilibrationError> {
         let mut cache = std::mem::take(&mut operators.shapes);
+        cache.set_capacity(capacities(self.recovery).0);
         let nt = self.mesh.triangles.len();
         let mut shape_of = vec![NONE; nt];
         let coef = if self.recovery.updates_fields() {
@@ -524,6 +525,7 @@ impl<'a> Recovering<'a> {
             cm: compliance(self.material),
             map: std::mem::take(&mut operators.patch_map),
             ops: std::mem::take(&mut operators.patch_ops),
+            capacity: capacities(self.recovery).1,
             vertex_op: vec![NONE; self.mesh.num_nodes()],
             hhat: std::mem::take(&mut operators.hhat),
         };
@@ -601,7 +603,7 @@ impl<'a> Recovering<'a> {
             Some(p) if p.fingerprint() == fp => p,
             _ => {
                 // (the operators past the cache's patterns were the old plan's alone)
-                relax.ops.truncate(patch_capacity());
+                relax.ops.truncate(relax.capacity);
                 let plan = Plan::new(relax, cache, &self.sweep_order(), fp);
                 // The element Hessians only build patch operators, and the plan's are all
                 // built: on unstructured meshes (a Hessian per element) they were 1152 bytes
