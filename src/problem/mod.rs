@@ -384,6 +384,15 @@ impl BodyProblem {
         }
     }
 
+    /// The mesh nodes `nodes` and Γc's, ascending, once each: what an estimating rank reads
+    /// of a field on its overlap of the body (its contact terms read Γc).
+    pub fn with_contact_nodes(&self, nodes: &[usize]) -> Vec<usize> {
+        let mut all: Vec<usize> = nodes.iter().chain(&self.contact_nodes).copied().collect();
+        all.sort_unstable();
+        all.dedup();
+        all
+    }
+
     /// Whether this rank holds the body's mesh.
     pub fn holds_mesh(&self) -> bool {
         matches!(self.mesh, BodyMesh::Whole(_))

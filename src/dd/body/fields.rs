@@ -91,11 +91,9 @@ impl Body {
                 Ok(Displacement::whole(self.gather_from_blocks(u, &rows)?))
             }
             FieldAt::Nodes(view) => {
-                let mut nodes: Vec<u32> = (view.iter().chain(&self.problem.contact_nodes))
-                    .map(|&n| n as u32)
+                let nodes: Vec<u32> = (self.problem.with_contact_nodes(view).into_iter())
+                    .map(|n| n as u32)
                     .collect();
-                nodes.sort_unstable();
-                nodes.dedup();
                 let rows: Vec<petsc::Int> = (nodes.iter())
                     .flat_map(|&n| [0, 1].map(|c| (2 * n + c) as petsc::Int))
                     .collect();

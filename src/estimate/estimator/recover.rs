@@ -258,15 +258,11 @@ impl Estimator<'_> {
         let resolves = [&held.u_tilde, &held.u_d, &held.u_fe];
         let mut made = resolves.map(|v| (!v.is_empty()) as u8 as f64);
         layout.world_sum(&mut made);
-        let mut nodes: Vec<usize> = match view {
-            Some(View::Overlap(o, ..)) => o.nodes.clone(),
-            _ => Vec::new(),
+        let nodes = match view {
+            Some(View::Overlap(o, ..)) => p.with_contact_nodes(&o.nodes),
+            Some(_) => p.with_contact_nodes(&[]),
+            None => Vec::new(),
         };
-        if view.is_some() {
-            nodes.extend(&p.contact_nodes);
-        }
-        nodes.sort_unstable();
-        nodes.dedup();
         let blocks: Vec<&[f64]> = std::iter::once(&u_p)
             .chain(
                 resolves
@@ -282,13 +278,12 @@ impl Estimator<'_> {
         let at: std::sync::Arc<[u32]> = nodes.iter().map(|&n| n as u32).collect();
         let mut next = || Displacement::at_nodes(at.clone(), gathered.next().expect("a field"));
         let u_p = next();
-        let mut local = |m: f64| match (m > 0.0, view) {
-            (true, Some(v)) => v.local_of(&next()).into_owned(),
-            (true, None) => {
-                next();
-                Vec::new()
+        let mut local = |m: f64| match m > 0.0 {
+            true => {
+                let field = next();
+                view.map_or(Vec::new(), |v| v.local_of(&field).into_owned())
             }
-            (false, _) => Vec::new(),
+            false => Vec::new(),
         };
         BodyFields {
             u_tilde: local(made[0]),
