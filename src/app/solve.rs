@@ -138,6 +138,8 @@ pub fn setup_matched_bodies(
             let body = set_up_body(settings, problem, layout, SchurMode::None, stages)?;
             timings.assembly += body.setup_seconds.0;
             timings.factorisation += body.setup_seconds.1;
+            // (the carried iterate held at the rank's block of the nodes, Γc and the outline)
+            body.keep_fields_at(layout.block(alpha, problem.num_nodes()), []);
             bodies[alpha - 1] = Some(body);
         }
     }

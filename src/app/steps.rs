@@ -47,9 +47,9 @@ impl<'a> Run<'a> {
     /// Each rank's bodies (partition, assembly, factorisation); the ranks agree. Each rank
     /// keeps the bodies' fields at the nodes it reads alone: its rows of the output (its block
     /// of the body's nodes and its cells' nodes), Γc and the outline ([`Body::keep_fields_at`];
-    /// the checks gather its rows, the estimates their overlaps and e_ref the coarse nodes
-    /// under its block of the fine elements from the blocks), but whole where a mortar run's
-    /// estimates carry them to their matched meshes.
+    /// the checks gather its rows, the estimates their overlaps, e_ref the coarse nodes under
+    /// its block of the fine elements and a mortar run's estimates the nodes under its part of
+    /// the matched meshes from the blocks).
     pub(super) fn set_up_bodies(
         &self,
         timings: &mut Timings,
@@ -58,14 +58,10 @@ impl<'a> Run<'a> {
         let owned = solve::owned(problems, layout);
         let bodies = solve::setup_bodies(settings, owned, layout, self.stages, timings);
         let bodies = agreed(self.agreement, bodies)?;
-        let carried = settings.estimate.enabled
-            && (problems.iter()).any(|p| p.trace != crate::problem::GcTrace::Nodes);
-        if !carried {
-            let kept = crate::io::fields::kept_rows(layout, [&*problems[0], &*problems[1]]);
-            for (k, (b, nodes)) in bodies.iter().zip(kept.nodes).enumerate() {
-                if let Some(b) = b {
-                    b.keep_fields_at(layout.block(k + 1, problems[k].num_nodes()), nodes);
-                }
+        let kept = crate::io::fields::kept_rows(layout, [&*problems[0], &*problems[1]]);
+        for (k, (b, nodes)) in bodies.iter().zip(kept.nodes).enumerate() {
+            if let Some(b) = b {
+                b.keep_fields_at(layout.block(k + 1, problems[k].num_nodes()), nodes);
             }
         }
         Ok(bodies)

@@ -14,6 +14,7 @@ use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::iteration::{body_fields, body_resolves, BodyFields, IterationData, Reaction};
 use crate::estimate::mortar::MortarEstimates;
 use crate::estimate::share::{estimate_owner, estimated_outside_group, Share};
+use crate::fem::mesh::element_u32;
 use crate::parallel::held;
 use crate::parallel::layout::Layout;
 use crate::petsc::LogStage;
@@ -123,7 +124,8 @@ pub struct Estimator<'a> {
     cheap_nndd: OnceCell<bool>,
     /// The estimate in progress recovers η^glo cold ([`Estimator::estimate_cold`]).
     cold: Cell<bool>,
-    /// The most nodes at which this rank held an estimate's u^α_p, both bodies' counts.
+    /// The most nodes at which this rank held an estimate's u^α_p (a mortar run's: carried
+    /// to the matched meshes too), both bodies' counts.
     held_nodes: Cell<usize>,
     /// A mortar run's: its iterates carried to the matched meshes `problems` are
     /// ([`MortarEstimates`]).
@@ -263,7 +265,8 @@ impl<'a> Estimator<'a> {
     }
 
     /// The most nodes at which this rank held an estimate's iterate u^α_p (both bodies'
-    /// counts; what its recoveries read, or the iterate's own field where that is whole).
+    /// counts; what its recoveries read, or the iterate's own field where that is whole; a
+    /// mortar run's carried to the matched meshes too).
     pub fn held_nodes(&self) -> usize {
         self.held_nodes.get()
     }
@@ -474,8 +477,10 @@ impl<'a> Estimator<'a> {
         fe_only: bool,
     ) -> Result<EstimateRecord, EstimateError> {
         let carried = self.parts.run(Part::Reduction, || {
-            m.carry(self.layout, &self.problems, &self.iface, it)
+            m.carry(self.layout, bodies, &self.problems, &self.iface, it)
         })?;
+        let held: usize = carried.iterate.u.iter().map(|u| u.len() / 2).sum();
+        self.held_nodes.set(self.held_nodes.get().max(held));
         let resolved = self.resolve(
             m.bodies(),
             &carried.iterate,
@@ -485,41 +490,22 @@ impl<'a> Estimator<'a> {
         )?;
         let mut rec = self.recover(resolved, &carried.iterate.u)?;
         let q = rec.eta_glo * rec.eta_glo;
-        let lift2 = carried.lift_elements.iter().flatten().sum::<f64>();
+        let lift2 = (carried.lift_elements.iter().flatten())
+            .map(|(_, l)| l)
+            .sum::<f64>();
         let theta = if lift2 > 0.0 && q > 0.0 {
             (lift2 / q).sqrt()
         } else {
             0.0
         };
-        let layout = self.layout;
-        let mut parent_blocks: [Range<usize>; 2] = Default::default();
         for (k, maps) in rec.maps.iter_mut().enumerate() {
-            if bodies[k].is_none() {
-                continue;
+            if bodies[k].is_some() {
+                let first = &mut rec.map_first[k];
+                let lift = &carried.lift_elements[k];
+                *first = self.parts.run(Part::Reduction, || {
+                    onto_run_elements(self.layout, m, k, (maps, *first), theta, lift)
+                });
             }
-            // η^glo's and η^FE's maps (η^NNDD's is the run's own, below): whole on the body's
-            // group for the sums onto the run's elements, then the rank's block of those.
-            let (ne, first) = (self.problems[k].num_elements(), rec.map_first[k]);
-            for (j, map) in maps.iter_mut().take(2).enumerate() {
-                let mut sq = held::whole_on_group(layout, ne, map, first);
-                for v in sq.iter_mut() {
-                    *v *= *v;
-                }
-                if j == 0 && theta > 0.0 {
-                    for v in sq.iter_mut() {
-                        *v *= 1.0 + theta;
-                    }
-                    for (v, l) in sq.iter_mut().zip(&carried.lift_elements[k]) {
-                        *v += (1.0 + 1.0 / theta) * l;
-                    }
-                }
-                let parents = m.to_parents(k, &sq);
-                parent_blocks[k] = layout.block(k + 1, parents.len());
-                *map = held::keep(&parents, 0, &parent_blocks[k]);
-                map.iter_mut().for_each(|v| *v = v.sqrt());
-            }
-            maps[2] = vec![0.0; parent_blocks[k].len()];
-            rec.map_first[k] = parent_blocks[k].start;
         }
         if !fe_only {
             rec.eta_glo += lift2.sqrt();
@@ -530,8 +516,7 @@ impl<'a> Estimator<'a> {
             })?;
             for (k, map) in maps.into_iter().enumerate() {
                 if bodies[k].is_some() {
-                    let block = held::keep(&map, 0, &parent_blocks[k]);
-                    rec.maps[k][2] = block.iter().map(|v| v.max(0.0).sqrt()).collect();
+                    rec.maps[k][2] = map.iter().map(|v| v.max(0.0).sqrt()).collect();
                 }
             }
             rec.eta_nndd = total.max(0.0).sqrt();
@@ -547,4 +532,37 @@ impl<'a> Estimator<'a> {
         rec.t_hat = m.at_pairs(&rec.t_hat);
         Ok(rec)
     }
+}
+
+/// A mortar run's η^glo and η^FE maps of body `k`'s matched mesh (`maps.0[0..2]`, this rank's
+/// block of its elements from element `maps.1` on) onto the run's elements: squared, η^glo's
+/// times (1 + θ) plus (1 + 1/θ) times the lift's energy `lift` on the elements it moves where
+/// θ > 0 ([`Estimator::run_mortar`]), sent to the ranks whose blocks of the run's elements
+/// hold their parents and summed there ([`held::add_to_blocks`]); η^NNDD's map zero until
+/// [`MortarEstimates::nndd_maps`] fills it. Returns the first run element of this rank's
+/// block (collective over the body's group).
+fn onto_run_elements(
+    layout: &Layout,
+    m: &MortarEstimates,
+    k: usize,
+    (maps, first): (&mut [Vec<f64>; 3], usize),
+    theta: f64,
+    lift: &[(usize, f64)],
+) -> usize {
+    let mine = first..first + maps[0].len();
+    let squares = |map: &[f64]| map.iter().map(|v| v * v).collect::<Vec<f64>>();
+    let (mut glo, fe) = (squares(&maps[0]), squares(&maps[1]));
+    if theta > 0.0 {
+        glo.iter_mut().for_each(|v| *v *= 1.0 + theta);
+        for &(e, l) in lift.iter().filter(|(e, _)| mine.contains(e)) {
+            glo[e - first] += (1.0 + 1.0 / theta) * l;
+        }
+    }
+    let parents: Vec<u32> = mine.map(|e| element_u32(m.parent(k, e))).collect();
+    let ([glo, fe], start) =
+        held::add_to_blocks(layout, k + 1, m.run_elements(k), &parents, [&glo, &fe]);
+    let roots = |map: Vec<f64>| map.into_iter().map(f64::sqrt).collect::<Vec<f64>>();
+    let zeros = vec![0.0; glo.len()];
+    *maps = [roots(glo), roots(fe), zeros];
+    start
 }

@@ -22,7 +22,7 @@ use std::rc::Rc;
 use super::cre::energy;
 use super::error::EstimateError;
 use super::traction::Interface;
-use crate::dd::body::Body;
+use crate::dd::body::{Body, FieldAt};
 use crate::dd::displacement::Displacement;
 use crate::dd::nndd::Iterate;
 use crate::fem::{element_dofs, element_stiffness};
@@ -53,8 +53,9 @@ pub struct Carried {
     pub iterate: Iterate,
     /// u^α_p on the matched meshes, without δ_n (for e_ref).
     pub u_plain: [Displacement; 2],
-    /// ‖δ_n‖²_E per element of each body's matched mesh.
-    pub lift_elements: [Vec<f64>; 2],
+    /// ‖δ_n‖²_E on the elements of each body's matched mesh that it moves (element, value):
+    /// those at Γc's nodes (zero on the others).
+    pub lift_elements: [Vec<(usize, f64)>; 2],
 }
 
 impl MortarEstimates {
@@ -110,10 +111,15 @@ impl MortarEstimates {
         [self.bodies[0].as_ref(), self.bodies[1].as_ref()]
     }
 
-    /// Element values of the matched mesh of body `k` (squares of element contributions) summed
-    /// onto the run's mesh.
-    pub fn to_parents(&self, k: usize, squares: &[f64]) -> Vec<f64> {
-        self.transfers[k].to_parents(squares)
+    /// The run's element that element `e` of body `k`'s matched mesh lies in, and the number
+    /// of the run's elements of body `k`.
+    pub fn parent(&self, k: usize, e: usize) -> usize {
+        self.transfers[k].parent(e)
+    }
+
+    /// The number of the run's elements of body `k` (the parents of its matched mesh's).
+    pub fn run_elements(&self, k: usize) -> usize {
+        self.transfers[k].coarse_elements()
     }
 
     /// A P1 density of the matched Γc at the run's pairs (0 where a pair has no matched one).
@@ -124,22 +130,46 @@ impl MortarEstimates {
             .collect()
     }
 
-    /// The mortar iterate `it` on the `matched` problems (module docs); collective over all
-    /// ranks.
+    /// The run's field `u` of body `k` (its body `run`) on the matched mesh, held where the
+    /// matched body `matched` keeps its fields ([`Body::kept_nodes`]): interpolated from the
+    /// run's field gathered at the nodes it reads alone ([`Transfer::stencil_nodes`];
+    /// collective over the body's group).
+    fn carried_field(
+        &self,
+        k: usize,
+        run: &Body,
+        matched: &Body,
+        u: &Displacement,
+    ) -> Result<Displacement, EstimateError> {
+        let t = &self.transfers[k];
+        let Some(nodes) = matched.kept_nodes() else {
+            let whole = match u.as_whole() {
+                Some(_) => std::borrow::Cow::Borrowed(u),
+                None => std::borrow::Cow::Owned(run.displacement_at(u, FieldAt::Whole)?),
+            };
+            return Ok(Displacement::whole(t.interpolate(whole.whole_values())));
+        };
+        let from = run.displacement_at(u, FieldAt::Nodes(&t.stencil_nodes(&nodes)))?;
+        let values = t.interpolate_at(&from, &nodes);
+        Ok(Displacement::at_nodes(nodes, values))
+    }
+
+    /// The mortar iterate `it` of the run's bodies `run` on the `matched` problems (module
+    /// docs), held as the matched bodies keep their fields; collective over all ranks.
     pub fn carry(
         &self,
         layout: &Layout,
+        run: [Option<&Body>; 2],
         matched: &[Rc<BodyProblem>; 2],
         iface: &Interface,
         it: &Iterate,
     ) -> Result<Carried, EstimateError> {
-        let u_plain: [Displacement; 2] = [0, 1].map(|k| {
-            if it.u[k].is_empty() {
-                Displacement::default()
-            } else {
-                Displacement::whole(self.transfers[k].interpolate(it.u[k].whole_values()))
+        let mut u_plain: [Displacement; 2] = Default::default();
+        for k in 0..2 {
+            if let (Some(r), Some(b), false) = (run[k], &self.bodies[k], it.u[k].is_empty()) {
+                u_plain[k] = self.carried_field(k, r, b, &it.u[k])?;
             }
-        });
+        }
         let m = matched[0].pairs();
         // Each body's displacement at the pairs, from its first rank.
         let mut at = vec![0.0; 4 * m];
@@ -212,7 +242,9 @@ impl MortarEstimates {
     /// Γc elements (half to each segment at a pair): node to node the contact step makes that
     /// gap exactly zero where μ̂ > 0, under the mortar operators only to the contact step's
     /// tolerance, of either sign (the absolute value keeps η^NNDD ≥ 0; it still vanishes at
-    /// the solution). Collective over all ranks.
+    /// the solution). Each rank of a body's group computes its block of the body's elements
+    /// ([`Layout::block`]), the fields gathered at their nodes alone. Collective over all
+    /// ranks.
     pub fn nndd_maps(
         &self,
         layout: &Layout,
@@ -225,21 +257,31 @@ impl MortarEstimates {
         for (k, body) in bodies.iter().enumerate() {
             let Some(b) = body else { continue };
             let p = &self.problems[k];
+            let mesh = p.mesh();
+            let block = layout.block(k + 1, p.num_elements());
             let sign = if k == 0 { 1.0 } else { -1.0 };
             let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
-            let u_d = b.neumann_solve(&f, true)?;
-            let mut map: Vec<f64> = (0..p.num_elements())
+            let u_d = b.neumann_field(&f, true)?;
+            let mut nodes: Vec<usize> = block.clone().flat_map(|e| mesh.triangles.get(e)).collect();
+            nodes.sort_unstable();
+            nodes.dedup();
+            let at = FieldAt::Nodes(&nodes);
+            let (u_d, u_p) = (
+                b.displacement_at(&u_d, at)?,
+                b.displacement_at(&it.u[k], at)?,
+            );
+            let mut map: Vec<f64> = (block.clone())
                 .map(|e| {
-                    let ke = element_stiffness(&p.mesh().triangle_points(e), &p.material);
-                    let dofs = element_dofs(&p.mesh().triangles.get(e));
-                    let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - it.u[k][dofs[r]]);
+                    let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
+                    let dofs = element_dofs(&mesh.triangles.get(e));
+                    let d: [f64; 6] = std::array::from_fn(|r| u_d[dofs[r]] - u_p[dofs[r]]);
                     energy(&ke, &d)
                 })
                 .collect();
             if k == self.side {
                 let obstacle = p.obstacle(&it.lambda);
                 let nodes = &p.contact_nodes;
-                let elements = p.mesh().chain_elements(nodes);
+                let elements = mesh.chain_elements(nodes);
                 let m = nodes.len();
                 for i in 0..m {
                     let term = 2.0 * mu_hat[i] * (it.trace2[i] - obstacle[i]).abs();
@@ -248,15 +290,13 @@ impl MortarEstimates {
                         .flatten()
                         .collect();
                     for &s in &segs {
-                        if let Some(e) = elements[s] {
-                            map[e] += term / segs.len() as f64;
+                        if let Some(e) = elements[s].filter(|e| block.contains(e)) {
+                            map[e - block.start] += term / segs.len() as f64;
                         }
                     }
                 }
             }
-            if b.is_root() {
-                total += map.iter().sum::<f64>();
-            }
+            total += map.iter().sum::<f64>();
             maps[k] = map;
         }
         Ok((maps, layout.sum(total)))
@@ -325,28 +365,28 @@ fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
     [part(0), part(1)]
 }
 
-/// ‖δ_n‖²_E per element of the lift `lift` (along the pairs' normals) at a body's matched Γc
-/// nodes.
-fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<f64> {
-    let mut delta = vec![0.0; p.num_dofs()];
-    for (i, &n) in p.contact_nodes.iter().enumerate() {
-        delta[2 * n] = lift[i] * p.contact_normals[i][0];
-        delta[2 * n + 1] = lift[i] * p.contact_normals[i][1];
+/// ‖δ_n‖²_E on the elements of the lift `lift` (along the pairs' normals) at a body's matched
+/// Γc nodes that it moves: (element, value).
+fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<(usize, f64)> {
+    let delta: HashMap<usize, [f64; 2]> = (p.contact_nodes.iter().zip(lift))
+        .zip(&p.contact_normals)
+        .filter(|((_, &l), _)| l != 0.0)
+        .map(|((&n, &l), v)| (n, [l * v[0], l * v[1]]))
+        .collect();
+    if delta.is_empty() {
+        return Vec::new();
     }
+    let mesh = p.mesh();
     (0..p.num_elements())
-        .map(|e| {
-            if p.mesh()
-                .triangles
-                .get(e)
-                .iter()
-                .all(|&a| delta[2 * a] == 0.0 && delta[2 * a + 1] == 0.0)
-            {
-                return 0.0;
+        .filter_map(|e| {
+            let t = mesh.triangles.get(e);
+            if !t.iter().any(|a| delta.contains_key(a)) {
+                return None;
             }
-            let ke = element_stiffness(&p.mesh().triangle_points(e), &p.material);
-            let dofs = element_dofs(&p.mesh().triangles.get(e));
-            let d: [f64; 6] = std::array::from_fn(|r| delta[dofs[r]]);
-            energy(&ke, &d)
+            let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
+            let d: [f64; 6] =
+                std::array::from_fn(|r| delta.get(&t[r / 2]).map_or(0.0, |v| v[r % 2]));
+            Some((e, energy(&ke, &d)))
         })
         .collect()
 }

@@ -229,7 +229,8 @@ pub struct Summary {
     pub held_reference_displacement_nodes_per_rank: Option<Vec<usize>>,
     /// The most nodes at which each rank held an estimated iterate's displacement u^α_p,
     /// both bodies' (what its recoveries read: its overlap of each body it estimates and Γc;
-    /// the iterate's whole field where the rank holds it so), when the run estimates.
+    /// a mortar run's iterate carried to the matched meshes; the iterate's whole field where
+    /// the rank holds it so), when the run estimates.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_estimate_displacement_nodes_per_rank: Option<Vec<usize>>,
     /// Ranks of each body's group.

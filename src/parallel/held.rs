@@ -37,6 +37,35 @@ pub fn to_blocks<const M: usize>(
     values: [&[f64]; M],
     world: bool,
 ) -> ([Vec<f64>; M], usize) {
+    let (maps, first, count) = merge_into_blocks(layout, alpha, len, items, values, world);
+    assert_eq!(count, maps[0].len(), "each item of the block from one rank");
+    (maps, first)
+}
+
+/// [`to_blocks`] of values that several ranks contribute to an item (a coarse element's sum
+/// over the fine elements in it): each item of the block holds the sum of what the ranks of
+/// body `alpha`'s group sent for it (0 where none did). Collective over the group.
+pub fn add_to_blocks<const M: usize>(
+    layout: &Layout,
+    alpha: usize,
+    len: usize,
+    items: &[u32],
+    values: [&[f64]; M],
+) -> ([Vec<f64>; M], usize) {
+    let (maps, first, _) = merge_into_blocks(layout, alpha, len, items, values, false);
+    (maps, first)
+}
+
+/// The values of `items` sent to their blocks' ranks and added there: this rank's block of
+/// each map, its first item, and how many values it received.
+fn merge_into_blocks<const M: usize>(
+    layout: &Layout,
+    alpha: usize,
+    len: usize,
+    items: &[u32],
+    values: [&[f64]; M],
+    world: bool,
+) -> ([Vec<f64>; M], usize, usize) {
     let (first_rank, ranks) = match world {
         true => (0, layout.size as usize),
         false => (layout.group_ranks(alpha).start, layout.group_size()),
@@ -56,12 +85,11 @@ pub fn to_blocks<const M: usize>(
     for item in received.iter().flat_map(|r| r.chunks_exact(M + 1)) {
         let i = item[0] as usize - block.start;
         for (m, &v) in maps.iter_mut().zip(&item[1..]) {
-            m[i] = v;
+            m[i] += v;
         }
         count += 1;
     }
-    assert_eq!(count, block.len(), "each item of the block from one rank");
-    (maps, block.start)
+    (maps, block.start, count)
 }
 
 /// The inverse of [`to_blocks`] for nodal fields: fields of body `alpha` (two values per node
@@ -115,15 +143,6 @@ pub fn from_blocks(
         next[r] += 1;
     }
     out
-}
-
-/// A map of `len` items held as this rank's block `block` from item `first` on
-/// ([`to_blocks`]), whole on every rank of this rank's body group (collective over it).
-pub fn whole_on_group(layout: &Layout, len: usize, block: &[f64], first: usize) -> Vec<f64> {
-    let mut whole = vec![0.0; len];
-    whole[first..first + block.len()].copy_from_slice(block);
-    layout.group_sum(&mut whole);
-    whole
 }
 
 /// A map of `len` items of body `alpha` held as blocks ([`to_blocks`]: this rank's `block`

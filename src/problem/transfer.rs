@@ -4,7 +4,7 @@
 //! point of one of its boundary segments; every triangle lies in one of the user's. So a P1
 //! field of the user's mesh is exactly the P1 field of the matched mesh with the interpolated
 //! values at the inserted nodes ([`Transfer::interpolate`]), and an element sum over the
-//! matched mesh is one over the user's ([`Transfer::to_parents`]).
+//! matched mesh is one over the user's ([`Transfer::parent`]).
 
 use std::collections::HashMap;
 use std::rc::Rc;
@@ -13,6 +13,7 @@ use super::curves::MeshedError;
 use super::matched::point_key;
 use super::BodyProblem;
 use crate::fem::mesh::Mesh;
+use crate::fem::Dofs;
 
 /// Where a node of the matched mesh comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,7 +29,7 @@ enum Source {
 pub struct Transfer {
     sources: Vec<Source>,
     /// The user's triangle each matched triangle lies in.
-    pub parents: Vec<usize>,
+    parents: Vec<usize>,
     /// The number of the user's triangles.
     coarse_elements: usize,
 }
@@ -91,16 +92,40 @@ impl Transfer {
 
     /// The P1 field `u` (x, y per node) of the user's mesh on the matched mesh.
     pub fn interpolate(&self, u: &[f64]) -> Vec<f64> {
-        let mut out = Vec::with_capacity(2 * self.sources.len());
-        for s in &self.sources {
-            for c in 0..2 {
-                out.push(match *s {
-                    Source::Node(i) => u[2 * i + c],
-                    Source::Segment { a, b, t } => (1.0 - t) * u[2 * a + c] + t * u[2 * b + c],
-                });
-            }
-        }
-        out
+        (0..self.sources.len())
+            .flat_map(|n| self.value_at(u, n))
+            .collect()
+    }
+
+    /// The user's nodes whose values make the matched `nodes`' ([`Transfer::interpolate_at`]
+    /// reads them alone), ascending.
+    pub fn stencil_nodes(&self, nodes: &[u32]) -> Vec<usize> {
+        let mut coarse: Vec<usize> = (nodes.iter())
+            .flat_map(|&n| match self.sources[n as usize] {
+                Source::Node(i) => [Some(i), None],
+                Source::Segment { a, b, .. } => [Some(a), Some(b)],
+            })
+            .flatten()
+            .collect();
+        coarse.sort_unstable();
+        coarse.dedup();
+        coarse
+    }
+
+    /// The P1 field `u` of the user's mesh (held at least at [`Transfer::stencil_nodes`] of
+    /// `nodes`) at the matched `nodes`: two values per node, in that order.
+    pub fn interpolate_at(&self, u: &(impl Dofs + ?Sized), nodes: &[u32]) -> Vec<f64> {
+        (nodes.iter())
+            .flat_map(|&n| self.value_at(u, n as usize))
+            .collect()
+    }
+
+    /// Matched node `n`'s (x, y) of the P1 field `u` of the user's mesh.
+    fn value_at(&self, u: &(impl Dofs + ?Sized), n: usize) -> [f64; 2] {
+        std::array::from_fn(|c| match self.sources[n] {
+            Source::Node(i) => u[2 * i + c],
+            Source::Segment { a, b, t } => (1.0 - t) * u[2 * a + c] + t * u[2 * b + c],
+        })
     }
 
     /// The matched node of each of the user's nodes that is one (`None` for the others).
@@ -115,13 +140,14 @@ impl Transfer {
             .collect()
     }
 
-    /// Per user's element, the sum of `values` over the matched elements in it.
-    pub fn to_parents(&self, values: &[f64]) -> Vec<f64> {
-        let mut out = vec![0.0; self.coarse_elements];
-        for (v, &p) in values.iter().zip(&self.parents) {
-            out[p] += v;
-        }
-        out
+    /// The user's element that matched element `e` lies in.
+    pub fn parent(&self, e: usize) -> usize {
+        self.parents[e]
+    }
+
+    /// The number of the user's elements.
+    pub fn coarse_elements(&self) -> usize {
+        self.coarse_elements
     }
 }
 
@@ -310,7 +336,13 @@ mod tests {
             (v[6] - 0.3).abs() < 1e-15 && (v[7] - 0.9).abs() < 1e-15,
             "{v:?}"
         );
-        assert_eq!(t.to_parents(&[1.5, 2.0]), vec![3.5]);
+        assert_eq!((t.parent(0), t.parent(1), t.coarse_elements()), (0, 0, 1));
         assert_eq!(t.fine_node_of().len(), 3);
+        // At the new node alone: from the split edge's ends, the same values.
+        assert_eq!(t.stencil_nodes(&[3]), vec![0, 1]);
+        assert_eq!(
+            t.interpolate_at(&u[..], &[3, 2]),
+            [&v[6..8], &v[4..6]].concat()
+        );
     }
 }

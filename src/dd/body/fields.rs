@@ -1,6 +1,6 @@
 //! A solve's field where it is wanted: an iterate's on each rank of the group at the nodes it
-//! reads ([`Body::keep_fields_at`]; whole where a run's estimates carry it to another mesh), or
-//! on an estimating rank at the nodes of its overlap of the body alone (the estimates'
+//! reads ([`Body::keep_fields_at`]), or on an estimating rank at the nodes of its overlap of
+//! the body alone (the estimates'
 //! re-solves, held on their owners until then, and the iterate's field,
 //! [`Body::displacement_at`]), gathered from the rows' owners (docs/scaling.md, "Memory per
 //! rank").
@@ -75,6 +75,12 @@ impl Body {
         });
     }
 
+    /// The mesh nodes at which this rank keeps the body's fields ([`Body::keep_fields_at`]),
+    /// ascending; `None`: whole.
+    pub fn kept_nodes(&self) -> Option<Arc<[u32]>> {
+        (self.field_nodes.borrow().as_ref()).map(|f| Arc::clone(&f.nodes))
+    }
+
     /// The body's field `u` (held on this rank as [`Body::keep_fields_at`] says) gathered at
     /// `at` from the ranks whose blocks hold it: whole, or at the nodes `at` names and Γc's
     /// (an estimating rank's overlap of the body, whose contact terms read Γc). Collective
@@ -136,12 +142,7 @@ impl Body {
     /// The last solution as a field of the body on this rank: whole, or at the nodes
     /// [`Body::keep_fields_at`] gave, gathered from their owners alone (collective).
     pub(super) fn field(&self, fixed: &[(usize, f64)]) -> Result<Displacement, BodyError> {
-        let nodes = self
-            .field_nodes
-            .borrow()
-            .as_ref()
-            .map(|f| Arc::clone(&f.nodes));
-        match nodes {
+        match self.kept_nodes() {
             None => Ok(Displacement::whole(self.solution(fixed)?)),
             Some(nodes) => {
                 let at: Vec<usize> = nodes.iter().map(|&n| n as usize).collect();

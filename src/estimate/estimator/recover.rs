@@ -233,8 +233,9 @@ impl Estimator<'_> {
         let held: usize = fields.iter().map(|f| f.u_p.len() / 2).sum();
         self.held_nodes.set(self.held_nodes.get().max(held));
         resolved.fields = fields.map(BodyFields::detached);
-        if resolved.plain.is_none() && !fe_only {
-            resolved.reference_u = self.reference_fields(bodies, it)?;
+        if !fe_only {
+            let u = resolved.plain.as_ref().unwrap_or(&it.u);
+            resolved.reference_u = self.reference_fields(bodies, u)?;
         }
         Ok(resolved)
     }
@@ -293,16 +294,17 @@ impl Estimator<'_> {
         }
     }
 
-    /// The iterate's field u^α_p gathered at the coarse nodes under this rank's block of the
-    /// reference solution's fine elements ([`ReferencePart::coarse_nodes`]) where its body's
-    /// group holds it at other nodes: e_ref's transfer reads no whole field (collective over
-    /// each body's group). `None` where there is no reference, or the field is whole.
+    /// The iterate's fields u^α_p `u` gathered at the coarse nodes under this rank's block of
+    /// the reference solution's fine elements ([`ReferencePart::coarse_nodes`]) where its
+    /// body's group holds them at other nodes: e_ref's transfer reads no whole field
+    /// (collective over each body's group). `None` where there is no reference, or the field
+    /// is whole.
     ///
     /// [`ReferencePart::coarse_nodes`]: crate::estimate::reference::ReferencePart::coarse_nodes
     fn reference_fields(
         &self,
         bodies: [Option<&Body>; 2],
-        it: &Iterate,
+        u: &[Displacement; 2],
     ) -> Result<[Option<Displacement>; 2], EstimateError> {
         let mut at = [None, None];
         let Some(r) = &self.reference else {
@@ -312,10 +314,10 @@ impl Estimator<'_> {
             let (Some(b), Some(part)) = (body, r.part(k)) else {
                 continue;
             };
-            if it.u[k].as_whole().is_none() {
+            if u[k].as_whole().is_none() {
                 let coarse = self.problems[k].mesh();
                 let nodes = (self.parts).run(Part::ReferenceError, || part.coarse_nodes(coarse))?;
-                at[k] = Some(b.displacement_at(&it.u[k], FieldAt::Nodes(&nodes))?);
+                at[k] = Some(b.displacement_at(&u[k], FieldAt::Nodes(&nodes))?);
             }
         }
         Ok(at)
