@@ -54,6 +54,20 @@ fn unknown_names_are_refused() {
     refused(1, &["-nndd_solver", "penalty"], "-nndd_solver");
     refused(1, &["-nndd_stop", "never"], "-nndd_stop");
     refused(1, &["-nndd_recovery", "spr"], "-nndd_recovery");
+    // An order of a Gmsh problem's bodies: a name it does not know, and on a built-in problem.
+    let line = fails_with(
+        1,
+        &["-nndd_mesh_order", "hilbert", "-nndd_mesh", "no.msh"],
+        Some(1),
+        &["-nndd_mesh_order: unknown value 'hilbert'"],
+    );
+    assert!(line.contains("file, bands"), "{line}");
+    fails_with(
+        1,
+        &["-nndd_mesh_order", "bands"],
+        Some(1),
+        &["-nndd_mesh_order", "orders the bodies of a Gmsh problem"],
+    );
 }
 
 /// `-nndd_mesh` solves the meshed problem: another problem named beside it used to be

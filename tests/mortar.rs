@@ -18,7 +18,9 @@
 //!   two reference factors, η^NNDD vanishes at convergence, and 1, 2 and 3 ranks agree; with
 //!   estimates during the loop each estimated step's η^glo_E and η^FE_E in the result file
 //!   (on the run's own meshes, each rank keeping its rows) sum to that step's η^glo and η^FE on
-//!   1 and 4 ranks.
+//!   1 and 4 ranks; on 3 and 4 ranks no rank holds a whole field (the iterate carried to the
+//!   matched meshes on each rank's part), and η^glo, η^FE and e_ref are the one rank's to
+//!   1e−10.
 //! - Closed contact curves (tests/mortar/bore.geo, a pin in its bore, whole circles meshed 2:3):
 //!   the same answer as on the circles' lower arcs, NNDD = monolithic, 1, 2 and 3 ranks alike;
 //!   node to node and the estimates on them refused in a line.
@@ -486,6 +488,77 @@ fn mortar_estimates_bound_the_error_on_hertz_and_the_pin() {
         for g in &glo {
             assert!((g - glo[0]).abs() < 1e-6 * glo[0], "{name}: {glo:?}");
         }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A mortar run's estimates hold no whole field: each rank keeps the run's fields at its block
+/// of the output, Γc and the outline, and carries the iterate to the matched meshes at the
+/// matched nodes it keeps (its block, Γc and the outline), gathering the run's field at their
+/// sources alone (`Transfer::stencil_nodes`); the matched elements' maps reach the run's
+/// elements through the ranks whose blocks hold their parents. On Hertz 1:1.5 (level 3, its
+/// bodies in bands: `-nndd_mesh_order bands`) with e_ref (r = 2) on 3 and 4 ranks (body 1 on 2
+/// and 3), each rank of body 1's group holds the
+/// run's field at most at 1.2 times its share of body 1's nodes plus the outline, and the
+/// estimate's fields (the carried iterate, the recoveries' overlaps with their rings) at fewer
+/// nodes than body 1 has (carried whole, the iterate was held at all of body 1's matched
+/// nodes, more); η^glo, η^FE and e_ref are the one rank's to 1e−10.
+#[test]
+fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
+    let dir = scratch("mortar-held");
+    let msh = hertz_mesh(&dir, "1.5", "3");
+    let args = [
+        "-nndd_estimate",
+        "-nndd_reference_factor",
+        "2",
+        "-nndd_tol",
+        "1e-10",
+        "-nndd_mesh_order",
+        "bands",
+    ];
+    let base = hertz_run(1, &msh, &dir.join("a"), &args);
+    let dofs: [usize; 2] = serde_json::from_value(base["body_dofs"].clone()).unwrap();
+    let nodes = dofs.map(|d| d / 2);
+    let outline = ["body1", "body2"].map(|b| outline_nodes(&dir.join("a"), b));
+    let last = |j: &serde_json::Value, key: &str| {
+        let e = j["estimates"].as_array().expect("estimates");
+        f(&e[e.len() - 1], key)
+    };
+    for ranks in [3, 4] {
+        let j = hertz_run(ranks, &msh, &dir.join(format!("b{ranks}")), &args);
+        let what = format!("{ranks} ranks");
+        let list = |key: &str| -> Vec<usize> { serde_json::from_value(j[key].clone()).unwrap() };
+        assert_eq!(list("body_ranks"), [ranks - 1, 1], "{what}");
+        let (held, estimated) = (
+            list("held_displacement_nodes_per_rank"),
+            list("held_estimate_displacement_nodes_per_rank"),
+        );
+        let share = nodes[0] as f64 / (ranks - 1) as f64;
+        for r in 0..ranks - 1 {
+            let bound = 1.2 * share + outline[0] as f64;
+            assert!(
+                held[r] as f64 <= bound,
+                "{what}: rank {r} holds body 1 at {} of {} nodes, over {bound}",
+                held[r],
+                nodes[0]
+            );
+            assert!(
+                estimated[r] < nodes[0],
+                "{what}: rank {r}'s estimate holds {} nodes, body 1 has {}",
+                estimated[r],
+                nodes[0]
+            );
+        }
+        for key in ["eta_glo", "eta_fe", "e_ref"] {
+            let d = ((last(&j, key) - last(&base, key)) / last(&base, key)).abs();
+            println!(
+                "hertz 1:1.5 level 3 mortar on {ranks} ranks: {key} {:.12e} (1 rank {:.12e})",
+                last(&j, key),
+                last(&base, key)
+            );
+            assert!(d < 1e-10, "{what}: {key} differs by {d:e}");
+        }
+        assert!(last(&j, "eta_nndd") < 1e-4 * last(&j, "eta_glo"), "{what}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

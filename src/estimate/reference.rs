@@ -308,6 +308,7 @@ fn stencils_split(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fem::order::ElementOrder;
 
     #[test]
     fn nested_interpolation_is_exact_for_p1() {
@@ -361,6 +362,7 @@ mod tests {
             triangle_tags: Default::default(),
             lines: Default::default(),
             names: [((2, 1), "body1".to_string())].into_iter().collect(),
+            nesting: None,
         }
     }
 
@@ -429,20 +431,28 @@ mod tests {
         let fine = Mesh::structured([0.0, 1.0], [1.0, 1.0], 16, 12);
         check_parts(&coarse, &fine, 3, |ne| (ne / 32 + 3) * 17);
         check_parts(&coarse, &fine, 1, |_| fine.num_nodes());
-        // Split (a Gmsh mesh refined): at most three nodes per element.
+        // Split (a Gmsh mesh refined, in either order): at most three nodes per element.
         let gm = quad();
-        let coarse = gm.body("body1").unwrap().mesh;
-        let fine = gm.refined(4).body("body1").unwrap().mesh;
-        check_parts(&coarse, &fine, 3, |ne| 3 * ne);
-        check_parts(&coarse, &fine, 5, |ne| 3 * ne);
+        for order in [ElementOrder::File, ElementOrder::Bands] {
+            let coarse = gm.body("body1", order).unwrap().mesh;
+            let fine = gm.refined(4).body("body1", order).unwrap().mesh;
+            check_parts(&coarse, &fine, 3, |ne| 3 * ne);
+            check_parts(&coarse, &fine, 5, |ne| 3 * ne);
+        }
     }
 
     #[test]
     fn split_interpolation_is_exact_for_p1_on_unstructured_meshes() {
+        for order in [ElementOrder::File, ElementOrder::Bands] {
+            split_interpolation_is_exact_in(order);
+        }
+    }
+
+    fn split_interpolation_is_exact_in(order: ElementOrder) {
         // A quadrilateral in two triangles (one clockwise), refined 4x through the Gmsh path.
         let gm = quad();
-        let coarse = gm.body("body1").unwrap().mesh;
-        let fine = gm.refined(4).body("body1").unwrap().mesh;
+        let coarse = gm.body("body1", order).unwrap().mesh;
+        let fine = gm.refined(4).body("body1", order).unwrap().mesh;
         // A linear field is reproduced at every fine node; the coarse nodes keep their values.
         let lin = |p: [f64; 2]| [2.0 * p[0] - 3.0 * p[1] + 0.5, p[0] + 4.0 * p[1]];
         let u: Vec<f64> = coarse.points.iter().flat_map(|&p| lin(p)).collect();
@@ -455,9 +465,14 @@ mod tests {
         }
         let w: Vec<f64> = (0..8).map(|i| (i * i) as f64).collect();
         let vw = interpolate_nested(&coarse, &fine, &w).unwrap();
-        assert_eq!(&vw[..8], &w[..]);
+        for (c, q) in coarse.points.iter().enumerate() {
+            let n = (fine.points.iter())
+                .position(|p| p == q)
+                .expect("a coarse node");
+            assert_eq!(&vw[2 * n..2 * n + 2], &w[2 * c..2 * c + 2], "node {c}");
+        }
         // A mesh that is not the split of the coarse one is refused.
-        let other = gm.refined(3).body("body1").unwrap().mesh;
+        let other = gm.refined(3).body("body1", order).unwrap().mesh;
         let mut moved = other.clone();
         moved.points.iter_mut().for_each(|p| p[0] += 0.5);
         assert!(interpolate_nested(&coarse, &moved, &u).is_err());

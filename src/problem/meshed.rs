@@ -22,6 +22,7 @@ use super::sound::{check_pieces, overlap, shared_triangles};
 use super::{BodyProblem, ContactDiscretisation, GcTrace, NeumannEdge, Support};
 use crate::fem::checks;
 use crate::fem::gmsh::{GmshBody, GmshError};
+use crate::fem::order::ElementOrder;
 use crate::fem::Material;
 
 pub use super::parsed::BODY_NAMES;
@@ -57,6 +58,8 @@ pub struct MeshSpec {
     /// keeps the user's pairing, each coarse pair's children paired in order, and the contact
     /// direction at a new node is the user's mesh's normal field there (docs/method.md §5).
     pub nested: Option<usize>,
+    /// The order of each body's triangles and nodes (`-nndd_mesh_order`).
+    pub order: ElementOrder,
     /// What [`super::conform`] did to make the contact curves match (nothing on matching
     /// meshes).
     pub matched: Rc<super::matched::Matched>,
@@ -111,7 +114,10 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
     shared_triangles(gmsh, BODY_NAMES)?;
     let bodies: Vec<GmshBody> = BODY_NAMES
         .iter()
-        .map(|n| gmsh.body(n).map_err(|e| made_by_matching(spec, e)))
+        .map(|n| {
+            gmsh.body(n, spec.order)
+                .map_err(|e| made_by_matching(spec, e))
+        })
         .collect::<Result<_, _>>()?;
     overlap(gmsh, &bodies)?;
     // Every curve named by an option must lie on a body.
@@ -575,6 +581,7 @@ mod tests {
             gap: Default::default(),
             geo_set: Vec::new(),
             nested: None,
+            order: Default::default(),
             matched: Rc::new(matched),
         };
         let degenerate = |corners: [[f64; 2]; 3]| GmshError::Degenerate {

@@ -275,6 +275,25 @@ pub fn cells(prefix: &Path, grid: &str) -> Vec<i64> {
     }
 }
 
+/// The nodes on the outline of body `grid` (`body1` or `body2`) in the result file at
+/// `prefix`: those of the sides of one of its cells alone.
+pub fn outline_nodes(prefix: &Path, grid: &str) -> usize {
+    let mut sides: std::collections::HashMap<[i64; 2], usize> = Default::default();
+    for t in cells(prefix, grid).chunks_exact(3) {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *sides.entry([a.min(b), a.max(b)]).or_default() += 1;
+        }
+    }
+    let mut nodes: Vec<i64> = (sides.iter())
+        .filter(|(_, &n)| n == 1)
+        .flat_map(|(s, _)| *s)
+        .collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    nodes.len()
+}
+
 /// The points of `grid` (see [`field_at`]), x and y of each.
 pub fn points(prefix: &Path, grid: &str) -> Vec<f64> {
     let (name, rows) = grid_rows(prefix, grid);

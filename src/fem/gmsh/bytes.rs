@@ -3,12 +3,13 @@
 
 use std::collections::BTreeMap;
 
-use super::{Cells, ElementTags, GmshMesh};
+use super::{Cells, ElementTags, GmshMesh, Nesting};
 
 impl GmshMesh {
     /// The mesh as bytes (little-endian: the path, the points, each kind of element's tag
     /// lists then its nodes in 4 bytes and its list's index, the element tags' runs, the
-    /// names): what world rank 0 sends the others, 16 bytes per triangle and per node.
+    /// names, the nesting): what world rank 0 sends the others, 16 bytes per triangle and per
+    /// node.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut b = Vec::with_capacity(16 * self.points.len() + 16 * self.triangles.len());
         text(&mut b, &self.path);
@@ -33,6 +34,8 @@ impl GmshMesh {
             b.extend_from_slice(&tag.to_le_bytes());
             text(&mut b, name);
         }
+        // (a mesh of its own: no children)
+        int(&mut b, self.nesting.map_or(0, |n| n.children) as u64);
         b
     }
 
@@ -53,6 +56,10 @@ impl GmshMesh {
         let names = (0..r.int()?)
             .map(|_| Some(((r.i32()?, r.i32()?), r.text()?)))
             .collect::<Option<BTreeMap<_, _>>>()?;
+        let nesting = match r.int()? {
+            0 => None,
+            children => Some(Nesting { children }),
+        };
         (r.at == bytes.len()).then_some(GmshMesh {
             path,
             points,
@@ -60,6 +67,7 @@ impl GmshMesh {
             triangle_tags,
             lines,
             names,
+            nesting,
         })
     }
 }

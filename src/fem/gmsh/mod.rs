@@ -17,6 +17,7 @@ use mshio::mshfile::ElementType;
 
 use crate::fem::checks;
 use crate::fem::mesh::Mesh;
+use crate::fem::order::{self, ElementOrder};
 
 mod bytes;
 mod cells;
@@ -76,6 +77,18 @@ pub struct GmshMesh {
     pub lines: Cells<2>,
     /// Physical names by (dimension, tag).
     pub names: BTreeMap<(i32, i32), String>,
+    /// How a mesh made by [`GmshMesh::refined`] nests in the file's (`None`: the file's own).
+    pub nesting: Option<Nesting>,
+}
+
+/// How a refined mesh nests in the mesh it was refined from: each of that mesh's triangles
+/// became `children` consecutive ones. A body of either lists its triangles in the same order
+/// of the coarse ones ([`GmshMesh::body`]), so that the refined body's triangles
+/// r² t … r² (t + 1) − 1 lie in the coarse body's triangle t (the reference solution's
+/// transfer relies on it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Nesting {
+    pub children: usize,
 }
 
 /// One body cut out of a [`GmshMesh`]: its mesh and its named boundary curves.
@@ -322,6 +335,7 @@ pub fn parse(bytes: &[u8], path: &str) -> Result<GmshMesh, GmshError> {
         triangle_tags,
         lines,
         names: physical_names(bytes),
+        nesting: None,
     })
 }
 
@@ -498,37 +512,68 @@ impl GmshMesh {
         seen.iter().filter(|&&s| s).count()
     }
 
-    /// Cut out the physical surface `name` as a mesh of its own (nodes renumbered in the
-    /// file's order, triangles counter-clockwise), with the physical curves whose lines lie
-    /// on it.
-    pub fn body(&self, name: &str) -> Result<GmshBody, GmshError> {
+    /// The triangles of the physical surface `tag` in the `order` asked, as indices into
+    /// [`GmshMesh::triangles`]: the file's, or bands ([`order::breadth_first`]); on a refined
+    /// mesh the coarse triangles' children together, in the coarse triangles' order (the
+    /// children of two coarse triangles share sides where those do: the same order as the
+    /// coarse body's, [`Nesting`]).
+    fn surface_triangles(&self, tag: i32, order: ElementOrder) -> Vec<usize> {
+        let children = self.nesting.map_or(1, |n| n.children);
+        let groups: Vec<usize> = (0..self.triangles.len() / children)
+            .filter(|&g| self.triangles.tags(g * children).contains(&tag))
+            .collect();
+        let groups = match order {
+            ElementOrder::File => groups,
+            ElementOrder::Bands => {
+                let sides: Vec<([usize; 2], u32)> = (groups.iter().enumerate())
+                    .flat_map(|(j, &g)| {
+                        (g * children..(g + 1) * children).flat_map(move |i| {
+                            let t = self.triangles.nodes(i);
+                            [0, 1, 2].map(|k| ([t[k], t[(k + 1) % 3]], j as u32))
+                        })
+                    })
+                    .collect();
+                (order::breadth_first(groups.len(), sides).into_iter())
+                    .map(|j| groups[j])
+                    .collect()
+            }
+        };
+        (groups.into_iter())
+            .flat_map(|g| g * children..(g + 1) * children)
+            .collect()
+    }
+
+    /// Cut out the physical surface `name` as a mesh of its own, its triangles in the `order`
+    /// asked ([`GmshMesh::surface_triangles`]; bands: what a rank holds of the body is near its
+    /// share) and counter-clockwise, its nodes numbered in the file's order or, in bands, as
+    /// the triangles first meet them, with the physical curves whose lines lie on it.
+    pub fn body(&self, name: &str, order: ElementOrder) -> Result<GmshBody, GmshError> {
         let tag = self.tag(2, name).ok_or_else(|| GmshError::NoSurface {
             path: self.path.clone(),
             name: name.to_string(),
             known: self.group_names(2),
         })?;
-        const NONE: usize = usize::MAX;
-        let mut local = vec![NONE; self.points.len()];
-        let mut used: Vec<usize> = Vec::new();
-        let mut tris = Vec::new();
-        for (i, (t, phys)) in self.triangles.iter().enumerate() {
-            if phys.contains(&tag) {
-                for a in t {
-                    if local[a] == NONE {
-                        local[a] = 0;
-                        used.push(a);
-                    }
-                }
-                tris.push(i);
-            }
-        }
+        let tris = self.surface_triangles(tag, order);
         if tris.is_empty() {
             return Err(GmshError::Invalid {
                 path: self.path.clone(),
                 reason: format!("the physical surface '{name}' has no triangles"),
             });
         }
-        used.sort_unstable();
+        // The nodes as the triangles, in that order, first meet them (bands), or in the
+        // file's order.
+        const NONE: usize = usize::MAX;
+        let mut local = vec![NONE; self.points.len()];
+        let mut used: Vec<usize> = Vec::new();
+        for a in tris.iter().flat_map(|&i| self.triangles.nodes(i)) {
+            if local[a] == NONE {
+                local[a] = 0;
+                used.push(a);
+            }
+        }
+        if order == ElementOrder::File {
+            used.sort_unstable();
+        }
         for (i, &a) in used.iter().enumerate() {
             local[a] = i;
         }
@@ -632,7 +677,7 @@ mod tests {
         assert_eq!(m.lines, vec![([0, 1], vec![7])].into());
         assert_eq!(m.tag(2, "body1"), Some(3));
         assert_eq!(m.surface_node_count("body1"), 4);
-        let b = m.body("body1").unwrap();
+        let b = m.body("body1", ElementOrder::File).unwrap();
         // Clockwise triangles are turned counter-clockwise.
         for e in 0..b.mesh.triangles.len() {
             let p = b.mesh.triangle_points(e);
@@ -640,7 +685,10 @@ mod tests {
                 - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
             assert!((a2 - 1.0).abs() < 1e-15, "triangle {e}: 2 area {a2}");
         }
-        assert_eq!(b.curves["base"], vec![[0, 1]]);
+        let base: Vec<[[f64; 2]; 2]> = (b.curves["base"].iter())
+            .map(|e| e.map(|a| b.mesh.points[a]))
+            .collect();
+        assert_eq!(base, vec![[[0.0, 0.0], [1.0, 0.0]]]);
         assert_eq!(b.mesh.boundary_edges().len(), 4);
     }
 
@@ -656,6 +704,10 @@ mod tests {
         assert_eq!(back.triangle_tags, m.triangle_tags);
         assert!(!m.triangle_tags.is_empty());
         assert_eq!(back.names, m.names);
+        assert_eq!(
+            (back.nesting, m.nesting.map(|n| n.children)),
+            (m.nesting, Some(9))
+        );
         // 16 bytes per node and per triangle, and a little for the tag lists and names.
         let size = 16 * (m.points.len() + m.triangles.len()) + 4 * 3 * m.lines.len();
         assert!(b.len() < size + 400, "{} bytes for {size}", b.len());
@@ -695,7 +747,7 @@ mod tests {
             }
         }
         // The curve 'base' is the bottom edge split into r pieces, in order.
-        let b = f.body("body1").unwrap();
+        let b = f.body("body1", ElementOrder::File).unwrap();
         let edges = &b.curves["base"];
         assert_eq!(edges.len(), r);
         for (k, e) in edges.iter().enumerate() {
@@ -741,7 +793,10 @@ mod tests {
         let mut flat = m.clone();
         // Node 40 = (0, 1) onto the diagonal from (0, 0) to (1, 1).
         flat.points[3] = [0.5, 0.5 + 1e-9];
-        let e = flat.body("body1").unwrap_err().to_string();
+        let e = flat
+            .body("body1", ElementOrder::File)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("'body1' has a degenerate triangle, element 3"),
             "{e}"
@@ -749,8 +804,15 @@ mod tests {
         let mut folded = m.clone();
         // Node 40 across the diagonal: both triangles below it.
         folded.points[3] = [0.9, 0.2];
-        let e = folded.body("body1").unwrap_err().to_string();
-        assert!(e.contains("'body1' is folded: element 2"), "{e}");
+        let e = folded
+            .body("body1", ElementOrder::File)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'body1' is folded: element "), "{e}");
+        assert!(
+            e.contains("element 2 (") && e.contains("element 3 ("),
+            "{e}"
+        );
         assert!(e.contains("(inverted: element"), "{e}");
     }
 
@@ -763,6 +825,10 @@ mod tests {
         let z = SQUARE.replace("1 1 0\n0 1 0\n$EndNodes", "1 1 0.5\n0 1 0\n$EndNodes");
         assert!(err(z.as_bytes()).contains("z = "));
         let m = parse(SQUARE.as_bytes(), "x.msh").unwrap();
-        assert!(m.body("body2").unwrap_err().to_string().contains("body1"));
+        assert!(m
+            .body("body2", ElementOrder::File)
+            .unwrap_err()
+            .to_string()
+            .contains("body1"));
     }
 }

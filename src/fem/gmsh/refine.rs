@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 
-use super::{Cells, GmshMesh};
+use super::{Cells, GmshMesh, Nesting};
 
 impl GmshMesh {
     /// The uniform refinement of the mesh by `r` (the reference mesh of (26) for a Gmsh
@@ -13,7 +13,7 @@ impl GmshMesh {
     ///
     /// Numbering, which the reference solution's transfer relies on: the nodes keep
     /// their numbers (new nodes follow), and the r² triangles of triangle t are
-    /// r² t … r² (t + 1) − 1, with t's orientation and physical groups.
+    /// r² t … r² (t + 1) − 1, with t's orientation and physical groups (its [`Nesting`]).
     pub fn refined(&self, r: usize) -> GmshMesh {
         assert!(r >= 1, "refinement factor r >= 1");
         let mut points = self.points.clone();
@@ -92,6 +92,10 @@ impl GmshMesh {
             .iter()
             .flat_map(|t| std::iter::repeat_n(t, r * r))
             .collect();
+        // (a refined mesh refined again nests in the file's all the same)
+        let nesting = Nesting {
+            children: r * r * self.nesting.map_or(1, |n| n.children),
+        };
         GmshMesh {
             path: format!("{} refined {r}x", self.path),
             points,
@@ -99,6 +103,7 @@ impl GmshMesh {
             triangle_tags,
             lines,
             names: self.names.clone(),
+            nesting: Some(nesting),
         }
     }
 }
