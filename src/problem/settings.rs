@@ -68,7 +68,7 @@ impl ProblemSettings {
         )?;
         let order = o.choice(
             "-nndd_mesh_order",
-            "With -nndd_mesh: the order of each body's triangles and nodes: file (the mesh file's), bands (Cuthill-McKee bands across the body, the nodes numbered as the triangles meet them: on several ranks each rank holds little more than its share of a body's fields; the patch recovery's estimates differ from file's at about 1e-3, both bounds)",
+            "With -nndd_mesh: the order of each body's triangles and nodes: file (the mesh file's), bands (Cuthill-McKee bands across the body, the nodes numbered as the triangles meet them: on several ranks each rank holds little more than its share of a body's fields; the patch recovery's eta_glo differs from file's by up to about 1e-3, both bounds)",
             &[("file", ElementOrder::File), ("bands", ElementOrder::Bands)],
         )?;
         let geo_set = read_geo_set(o, kind, &mesh_file)?;
