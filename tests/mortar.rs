@@ -517,13 +517,9 @@ fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
         "bands",
     ];
     let base = hertz_run(1, &msh, &dir.join("a"), &args);
-    let dofs: [usize; 2] = serde_json::from_value(base["body_dofs"].clone()).unwrap();
-    let nodes = dofs.map(|d| d / 2);
+    let nodes = body_nodes(&base);
     let outline = ["body1", "body2"].map(|b| outline_nodes(&dir.join("a"), b));
-    let last = |j: &serde_json::Value, key: &str| {
-        let e = j["estimates"].as_array().expect("estimates");
-        f(&e[e.len() - 1], key)
-    };
+    let last = last_estimate;
     for ranks in [3, 4] {
         let j = hertz_run(ranks, &msh, &dir.join(format!("b{ranks}")), &args);
         let what = format!("{ranks} ranks");

@@ -340,13 +340,9 @@ fn a_rank_holds_its_share_of_a_gmsh_body() {
     ];
     let bands = [&args[..], &["-nndd_mesh_order", "bands"]].concat();
     let base = solve_meshed(1, HERTZ_OPTS, &msh, &dir.join("a"), &bands);
-    let dofs: [usize; 2] = serde_json::from_value(base["body_dofs"].clone()).unwrap();
-    let nodes = dofs.map(|d| d / 2);
+    let nodes = body_nodes(&base);
     let outline = ["body1", "body2"].map(|b| outline_nodes(&dir.join("a"), b));
-    let last = |j: &serde_json::Value, key: &str| {
-        let e = j["estimates"].as_array().expect("estimates");
-        f(&e[e.len() - 1], key)
-    };
+    let last = last_estimate;
     // Each rank's held nodes over 1.2 × its share + the outline, on groups of several ranks.
     let over = |j: &serde_json::Value| -> Vec<f64> {
         let list = |key: &str| -> Vec<usize> { serde_json::from_value(j[key].clone()).unwrap() };

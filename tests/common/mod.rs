@@ -275,6 +275,18 @@ pub fn cells(prefix: &Path, grid: &str) -> Vec<i64> {
     }
 }
 
+/// Each body's node count in the summary `j`.
+pub fn body_nodes(j: &serde_json::Value) -> [usize; 2] {
+    let dofs: [usize; 2] = serde_json::from_value(j["body_dofs"].clone()).unwrap();
+    dofs.map(|d| d / 2)
+}
+
+/// `key` of the last estimate in the summary `j`.
+pub fn last_estimate(j: &serde_json::Value, key: &str) -> f64 {
+    let e = j["estimates"].as_array().expect("estimates");
+    f(e.last().expect("an estimate"), key)
+}
+
 /// The nodes on the outline of body `grid` (`body1` or `body2`) in the result file at
 /// `prefix`: those of the sides of one of its cells alone.
 pub fn outline_nodes(prefix: &Path, grid: &str) -> usize {
