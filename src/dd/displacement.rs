@@ -58,13 +58,12 @@ impl Displacement {
     }
 
     /// The whole field's values. Panics where only some nodes are held: the callers are a
-    /// recovery on the whole body (its field gathered whole) and a mortar run's estimates,
-    /// whose runs keep their fields whole
-    /// ([`crate::dd::body::Body::keep_fields_at`]).
+    /// recovery on the whole body and a mortar run's estimates carrying a body's field on its
+    /// only rank, both of which read a field the rank holds whole
+    /// ([`crate::dd::body::Body::keep_fields_at`]; gathered whole first where it is not).
     pub fn whole_values(&self) -> &[f64] {
-        self.as_whole().expect(
-            "a field held at some nodes read whole (a mortar run's estimates keep theirs whole)",
-        )
+        self.as_whole()
+            .expect("a field held at some nodes read whole (a body's only rank holds it whole)")
     }
 
     /// The mesh nodes held, ascending; `None` where whole.

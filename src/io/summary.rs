@@ -219,8 +219,7 @@ pub struct Summary {
     pub held_mesh_elements_per_rank: Vec<usize>,
     /// The nodes at which each rank holds the reported iterate's displacement, by world rank:
     /// its rows of the output (its block of the body's nodes and its cells' nodes), Γc and the
-    /// outline (a body's whole on the body's only rank, and where a mortar run's estimates
-    /// read them).
+    /// outline (a body's whole on the body's only rank).
     pub held_displacement_nodes_per_rank: Vec<usize>,
     /// The same of the reference solution's fields (`-nndd_reference_factor`), both fine
     /// bodies' nodes, when solved: its block of the fine elements' nodes, its block of the
