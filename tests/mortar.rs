@@ -8,7 +8,7 @@
 //! - On matching curves mortar is node to node: the same energy and pressures.
 //! - Hertz with the cylinder 10 times coarser than the block and the block 10 times coarser:
 //!   the peak pressure within 3 % of Hertz's, θ auto in ≤ 20 iterations, NNDD = monolithic, on
-//!   1, 2 and 3 ranks alike.
+//!   1, 2 and 3 ranks alike, each rank holding the mesh of its group's body alone.
 //! - The pin in its hole meshed 2:3: no open pair inside the contact arc, NNDD = monolithic;
 //!   the pressure smooth (its largest second difference along Γc ≤ 5 % of the peak), where
 //!   the gap measured between the polygons (`-nndd_mortar_gap polygons`) leaves a ripple of
@@ -150,6 +150,8 @@ fn hertz_with_mortar_on_curves_meshed_1_to_10_either_way() {
             &["-nndd_solver", "monolithic"],
         );
         let mut energies = Vec::new();
+        // (both bodies' elements, which the one rank holds)
+        let mut both = 0;
         for np in [1, 2, 3] {
             let prefix = dir.join(format!("nndd-{ratio}-{np}"));
             let j = hertz_run(np, &msh, &prefix, &[]);
@@ -176,6 +178,25 @@ fn hertz_with_mortar_on_curves_meshed_1_to_10_either_way() {
             let em = f(&mono, "potential_energy");
             assert!((e - em).abs() < 1e-8 * em.abs(), "{what}: {e} vs {em}");
             energies.push(e);
+            // Without estimates a rank holds the mesh of its group's body alone.
+            let held: Vec<usize> =
+                serde_json::from_value(j["held_mesh_elements_per_rank"].clone()).unwrap();
+            let groups: Vec<usize> = serde_json::from_value(j["body_ranks"].clone()).unwrap();
+            match np {
+                1 => both = held[0],
+                _ => {
+                    let (b1, b2) = (held[0], held[np - 1]);
+                    assert!(b1 + b2 == both && b1 < both, "{what}: {held:?} of {both}");
+                    assert!(
+                        held[..groups[0]].iter().all(|&h| h == b1),
+                        "{what}: {held:?}"
+                    );
+                    assert!(
+                        held[groups[0]..].iter().all(|&h| h == b2),
+                        "{what}: {held:?}"
+                    );
+                }
+            }
         }
         for e in &energies {
             assert!(

@@ -409,7 +409,8 @@ fn say_warnings(root: bool, warnings: &[String]) {
 
 /// Each body's problem as this rank keeps it through the run: whole where a phase on this
 /// rank reads the body's mesh (the body of the rank's group, a body some of whose elements
-/// are estimated outside its group, every body of a mortar or an adaptive run), else with
+/// are estimated outside its group, every body of a mortar run that estimates or of an
+/// adaptive run), else with
 /// its mesh released ([`BodyProblem::released`]: its outline, O(√N), and its counts), so
 /// that a rank holds one body's mesh where it used to hold both.
 fn release_unread_meshes(
@@ -419,7 +420,9 @@ fn release_unread_meshes(
 ) -> [Rc<BodyProblem>; 2] {
     let pair = [&*problems[0], &*problems[1]];
     let mortar = problem::discretisation(pair) == ContactDiscretisation::Mortar;
-    if mortar || settings.adapt.is_some() {
+    // (a mortar run's estimates map both bodies' meshes onto their matched ones; an adaptive
+    // run remeshes both)
+    if (mortar && settings.estimate.enabled) || settings.adapt.is_some() {
         return problems;
     }
     let sizes = pair.map(|p| p.num_elements());
