@@ -22,7 +22,7 @@ use std::rc::Rc;
 use super::cre::energy;
 use super::error::EstimateError;
 use super::traction::Interface;
-use crate::dd::body::{Body, FieldAt};
+use crate::dd::body::{Body, FieldAt, GcForces};
 use crate::dd::displacement::Displacement;
 use crate::dd::nndd::Iterate;
 use crate::fem::{element_dofs, element_stiffness};
@@ -261,15 +261,15 @@ impl MortarEstimates {
             let block = layout.block(k + 1, p.num_elements());
             let sign = if k == 0 { 1.0 } else { -1.0 };
             let f: Vec<f64> = mu_hat.iter().map(|m| -sign * m).collect();
-            let u_d = b.neumann_field(&f, true)?;
             let mut nodes: Vec<usize> = block.clone().flat_map(|e| mesh.triangles.get(e)).collect();
             nodes.sort_unstable();
             nodes.dedup();
             let at = FieldAt::Nodes(&nodes);
-            let (u_d, u_p) = (
-                b.displacement_at(&u_d, at)?,
-                b.displacement_at(&it.u[k], at)?,
-            );
+            // (the re-solve gathered from its rows' owners at the block's nodes alone)
+            let solved = b.neumann_solve_many(&[GcForces::Normal(f)])?;
+            let u_d = b.fields_at(solved, at)?.pop().expect("ũ_d");
+            let u_d = Displacement::at_nodes(nodes.iter().map(|&n| n as u32).collect(), u_d);
+            let u_p = b.displacement_at(&it.u[k], at)?;
             let mut map: Vec<f64> = (block.clone())
                 .map(|e| {
                     let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
