@@ -113,7 +113,7 @@ fn h5_matches_json() {
             let fmax = f(&j, "f_max");
             for jj in 0..8 {
                 let (a, b) = (mesh.node(8, jj), mesh.node(8, jj + 1));
-                let (ya, yb) = (mesh.points[a][1], mesh.points[b][1]);
+                let (ya, yb) = (mesh.points.get(a)[1], mesh.points.get(b)[1]);
                 let (ta, tb) = (fmax * (2.0 - ya), fmax * (2.0 - yb));
                 let h = yb - ya;
                 energy -= h / 6.0

@@ -199,7 +199,7 @@ pub fn write_size_field(
     let mut sizes = Vec::new();
     for (p, eta) in problems.iter().zip(eta_fe) {
         let offset = points.len();
-        points.extend_from_slice(&p.mesh().points);
+        points.extend(p.mesh().points.iter());
         for (e, t) in p.mesh().triangles.iter().enumerate() {
             triangles.push(t.map(|v| v + offset));
             sizes.push(size_field::triangle_size(p.mesh().triangle_points(e)));

@@ -144,9 +144,9 @@ impl<'a> EdgeGrid<'a> {
         let pts = |ns: &[usize]| ns.iter().map(|&n| outline.point(n)).collect::<Vec<_>>();
         let boxes: Vec<(u32, BBox)> = (outline.edges.iter())
             .enumerate()
-            .map(|(e, ends)| (e as u32, bbox(&pts(ends))))
+            .map(|(e, ends)| (e as u32, bbox(pts(ends))))
             .collect();
-        let mut area = bbox(&pts(outline.nodes()));
+        let mut area = bbox(pts(outline.nodes()));
         let [lo, hi] = &mut area;
         for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
             *l -= reach;
@@ -164,7 +164,7 @@ impl<'a> EdgeGrid<'a> {
         let outline = self.boundary.outline;
         let end = [x[0] + reach * nu[0], x[1] + reach * nu[1]];
         let mut best: Option<(f64, [f64; 2])> = None;
-        self.grid.query(bbox(&[x, end]), |e| {
+        self.grid.query(bbox([x, end]), |e| {
             let [ea, eb] = outline.edges[e as usize];
             let (pa, pb) = (outline.point(ea), outline.point(eb));
             let w = [pb[0] - pa[0], pb[1] - pa[1]];

@@ -273,8 +273,8 @@ pub(super) fn rigid_modes(
     let nodes: Vec<usize> = part.owned_mesh_nodes().collect();
     let mut sums = [0.0, 0.0, nodes.len() as f64];
     for &i in &nodes {
-        sums[0] += pts[i][0];
-        sums[1] += pts[i][1];
+        sums[0] += pts.get(i)[0];
+        sums[1] += pts.get(i)[1];
     }
     comm.sum(&mut sums);
     let c = [sums[0] / sums[2], sums[1] / sums[2]];
@@ -282,7 +282,7 @@ pub(super) fn rigid_modes(
         nodes
             .iter()
             .flat_map(|&i| {
-                let p = pts[i];
+                let p = pts.get(i);
                 let v = match k {
                     0 => [1.0, 0.0],
                     1 => [0.0, 1.0],

@@ -75,13 +75,13 @@ impl MortarEstimates {
         let pts: Vec<[f64; 2]> = nm
             .contact_nodes
             .iter()
-            .map(|&n| nm.mesh().points[n])
+            .map(|&n| nm.mesh().points.get(n))
             .collect();
         let ms = &matched[side];
         let places = ms
             .contact_nodes
             .iter()
-            .map(|&n| place(&pts, ms.mesh().points[n]))
+            .map(|&n| place(&pts, ms.mesh().points.get(n)))
             .collect();
         let fine_of = transfers[side].fine_node_of();
         let index: HashMap<usize, usize> = ms

@@ -507,8 +507,12 @@ mod tests {
         for j in 1..mesh.ny {
             for i in 1..mesh.nx {
                 let n = mesh.node(i, j);
-                mesh.points[n][0] += 0.2 / 40.0 * rng.next();
-                mesh.points[n][1] += 0.2 / 32.0 * rng.next();
+                let p = mesh.points.get(n);
+                let q = [
+                    p[0] + 0.2 / 40.0 * rng.next(),
+                    p[1] + 0.2 / 32.0 * rng.next(),
+                ];
+                mesh.points.set(n, q);
             }
         }
         check_partition(&mesh, &bd, &slabs(&mesh), 2, "distorted slabs");
@@ -663,7 +667,7 @@ mod tests {
             );
         }
         for (k, &g) in ov.nodes.iter().enumerate() {
-            assert_eq!(ov.mesh.points[k], mesh.points[g]);
+            assert_eq!(ov.mesh.points.get(k), mesh.points.get(g));
             assert_eq!(
                 ov.vertex_key[k],
                 crate::estimate::equilibrate::sweep_key(colours[g], g)

@@ -106,7 +106,7 @@ pub enum Share {
     /// Every element of the body.
     Whole,
     /// Some elements (with their overlap), the others on other ranks.
-    Part(Overlap, Halo),
+    Part(Box<Overlap>, Halo),
     /// None, the body being split over other ranks: only the warm-start exchanges.
     Idle(Halo),
     /// None, the body being on one other rank.
@@ -154,7 +154,7 @@ impl Share {
                 let rings = Overlap::rings_exchanged(recovery, colour_count(&colours));
                 let overlap = Overlap::new(mesh, &own, rings, &colours);
                 let halo = Halo::new(Some(&overlap), &scoped, crosses, layout);
-                Share::Part(overlap, halo)
+                Share::Part(Box::new(overlap), halo)
             }
         }
     }

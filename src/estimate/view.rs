@@ -216,7 +216,7 @@ pub fn boundary(p: &BodyProblem, gc: &[EdgeValues]) -> Boundary {
     // density there is c·|Γ¹|/|Γ| (1 on body 1's side and where both sides are parallel).
     for (k, [ca, cb]) in gc.iter().enumerate() {
         let (a, b) = (p.contact_nodes[k], p.contact_nodes[k + 1]);
-        let (pa, pb) = (mesh.points[a], mesh.points[b]);
+        let (pa, pb) = (mesh.points.get(a), mesh.points.get(b));
         let scale = p.contact_lengths[k] / (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
         known.insert(
             (a, b),

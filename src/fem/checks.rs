@@ -235,9 +235,10 @@ impl Grid {
     }
 }
 
-pub(crate) fn bbox(points: &[[f64; 2]]) -> BBox {
+pub(crate) fn bbox<P: std::borrow::Borrow<[f64; 2]>>(points: impl IntoIterator<Item = P>) -> BBox {
     let mut b = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
     for p in points {
+        let p = p.borrow();
         for k in 0..2 {
             b[0][k] = b[0][k].min(p[k]);
             b[1][k] = b[1][k].max(p[k]);
@@ -273,7 +274,7 @@ pub fn overlap(meshes: [&Mesh; 2]) -> Option<Overlap> {
     if !(common[0][0] <= common[1][0] && common[0][1] <= common[1][1]) {
         return None;
     }
-    let tri_box = |m: &Mesh, e: usize| bbox(&m.triangle_points(e));
+    let tri_box = |m: &Mesh, e: usize| bbox(m.triangle_points(e));
     // Points of body `a` in triangles of body `b`: the nodes both ways, then the centroids.
     // The triangles that meet the common box, with their boxes.
     let near: Vec<Vec<(u32, BBox)>> = meshes
@@ -305,7 +306,7 @@ pub fn overlap(meshes: [&Mesh; 2]) -> Option<Overlap> {
         hit
     };
     for (a, mesh) in meshes.iter().enumerate() {
-        for (node, &p) in mesh.points.iter().enumerate() {
+        for (node, p) in mesh.points.iter().enumerate() {
             if let Some(element) = inside(p, 1 - a) {
                 return Some(Overlap::Node {
                     body: a,
@@ -341,28 +342,28 @@ pub fn overlap(meshes: [&Mesh; 2]) -> Option<Overlap> {
                 .iter()
                 .map(|&(e, _)| m.triangles.get(e as usize))
                 .collect(),
-            points: Vec::new(),
+            points: Default::default(),
             ..*m
         };
         part.boundary_edges()
             .into_iter()
-            .filter(|e| meets(bbox(&[m.points[e[0]], m.points[e[1]]]), common))
+            .filter(|e| meets(bbox([m.points.get(e[0]), m.points.get(e[1])]), common))
             .collect::<Vec<_>>()
     });
     if edges[0].is_empty() || edges[1].is_empty() {
         return None;
     }
-    let seg = |k: usize, e: [usize; 2]| [meshes[k].points[e[0]], meshes[k].points[e[1]]];
+    let seg = |k: usize, e: [usize; 2]| [meshes[k].points.get(e[0]), meshes[k].points.get(e[1])];
     let items: Vec<(u32, BBox)> = edges[0]
         .iter()
         .enumerate()
-        .map(|(i, &e)| (i as u32, bbox(&seg(0, e))))
+        .map(|(i, &e)| (i as u32, bbox(seg(0, e))))
         .collect();
     let grid = Grid::new(common, items.len(), &items);
     for &f in &edges[1] {
         let q = seg(1, f);
         let mut hit = None;
-        grid.query(bbox(&q), |i| {
+        grid.query(bbox(q), |i| {
             let e = edges[0][i as usize];
             let cross = segments_cross(seg(0, e), q, OVERLAP_TOL);
             if cross {

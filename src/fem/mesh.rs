@@ -1,11 +1,15 @@
 //! P1 triangle meshes: structured ones of the benchmark blocks (docs/benchmarks.md,
 //! "Meshes") and unstructured ones (Gmsh input, sub-meshes), `nx = ny = 0`.
 //!
-//! A structured body is an `nx × ny` grid of equal rectangles; the rectangle with corners a (lower left),
-//! b (lower right), c (upper left), d (upper right) is split into the triangles (a, b, d) and
-//! (a, d, c). Node (i, j) has index `j (nx + 1) + i`; its dofs are `2 node` (x) and
-//! `2 node + 1` (y).
+//! A structured body is an `nx × ny` grid of equal rectangles; the rectangle with corners a
+//! (lower left), b (lower right), c (upper left), d (upper right) is split into the triangles
+//! (a, b, d) and (a, d, c), elements 2 (j nx + i) and 2 (j nx + i) + 1 where a is node (i, j).
+//! Node (i, j) has index `j (nx + 1) + i`; its dofs are `2 node` (x) and `2 node + 1` (y). Its
+//! points and triangles are given by these formulas, not stored ([`Points`], [`Triangles`]).
 use std::collections::HashMap;
+
+mod store;
+pub use store::{element_u32, PointIter, Points, TriangleIter, Triangles};
 
 /// A triangle mesh: structured (`nx × ny` grid of the rectangle `origin + [0, size.0] ×
 /// [0, size.1]`) or unstructured (`nx = ny = 0`, `origin` and `size` its bounding box).
@@ -15,83 +19,8 @@ pub struct Mesh {
     pub ny: usize,
     pub origin: [f64; 2],
     pub size: [f64; 2],
-    pub points: Vec<[f64; 2]>,
+    pub points: Points,
     pub triangles: Triangles,
-}
-
-/// A mesh's triangles, their nodes stored as `u32` (half the memory of `usize`: 6 MiB less
-/// per body at `paper` n = 512, on every rank that holds the body's mesh) and handed out as
-/// `usize`. A body has fewer than 2³² nodes: the size check refuses meshes far smaller.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Triangles(Vec<[u32; 3]>);
-
-/// A triangle's nodes as stored.
-fn narrow(t: [usize; 3]) -> [u32; 3] {
-    t.map(|v| u32::try_from(v).expect("a mesh has fewer than 2^32 nodes"))
-}
-
-/// An element number in 4 bytes (compact per-element lists: the estimate's vertex stars and
-/// slab order): a body has fewer than 2³² elements (PETSc's 32-bit indices refuse far smaller
-/// ones).
-pub fn element_u32(e: usize) -> u32 {
-    u32::try_from(e).expect("a mesh has fewer than 2^32 elements")
-}
-
-/// A stored triangle's nodes as indices.
-fn widen(t: &[u32; 3]) -> [usize; 3] {
-    t.map(|v| v as usize)
-}
-
-impl Triangles {
-    pub fn with_capacity(n: usize) -> Triangles {
-        Triangles(Vec::with_capacity(n))
-    }
-
-    pub fn len(&self) -> usize {
-        self.0.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-
-    /// The nodes of triangle `e`.
-    pub fn get(&self, e: usize) -> [usize; 3] {
-        widen(&self.0[e])
-    }
-
-    pub fn push(&mut self, t: [usize; 3]) {
-        self.0.push(narrow(t));
-    }
-
-    /// The triangles' nodes, in order.
-    pub fn iter(&self) -> TriangleIter<'_> {
-        self.0.iter().map(widen)
-    }
-}
-
-/// The iterator of [`Triangles::iter`].
-pub type TriangleIter<'a> =
-    std::iter::Map<std::slice::Iter<'a, [u32; 3]>, fn(&[u32; 3]) -> [usize; 3]>;
-
-impl<'a> IntoIterator for &'a Triangles {
-    type Item = [usize; 3];
-    type IntoIter = TriangleIter<'a>;
-    fn into_iter(self) -> TriangleIter<'a> {
-        self.iter()
-    }
-}
-
-impl FromIterator<[usize; 3]> for Triangles {
-    fn from_iter<I: IntoIterator<Item = [usize; 3]>>(it: I) -> Triangles {
-        Triangles(it.into_iter().map(narrow).collect())
-    }
-}
-
-impl From<Vec<[usize; 3]>> for Triangles {
-    fn from(v: Vec<[usize; 3]>) -> Triangles {
-        v.into_iter().collect()
-    }
 }
 
 /// A 64-bit mixing step (the multiply–xorshift of splitmix64): fingerprints that cost about
@@ -118,34 +47,13 @@ impl Mesh {
     }
 
     pub fn structured(origin: [f64; 2], size: [f64; 2], nx: usize, ny: usize) -> Mesh {
-        let (hx, hy) = (size[0] / nx as f64, size[1] / ny as f64);
-        let mut points = Vec::with_capacity((nx + 1) * (ny + 1));
-        for j in 0..=ny {
-            for i in 0..=nx {
-                points.push([origin[0] + i as f64 * hx, origin[1] + j as f64 * hy]);
-            }
-        }
-        let node = |i: usize, j: usize| j * (nx + 1) + i;
-        let mut triangles = Triangles::with_capacity(2 * nx * ny);
-        for j in 0..ny {
-            for i in 0..nx {
-                let (a, b, c, d) = (
-                    node(i, j),
-                    node(i + 1, j),
-                    node(i, j + 1),
-                    node(i + 1, j + 1),
-                );
-                triangles.push([a, b, d]);
-                triangles.push([a, d, c]);
-            }
-        }
         Mesh {
             nx,
             ny,
             origin,
             size,
-            points,
-            triangles,
+            points: Points::grid(origin, size, nx, ny),
+            triangles: Triangles::grid(nx, ny),
         }
     }
 
@@ -164,7 +72,7 @@ impl Mesh {
             ny: 0,
             origin: lo,
             size: [hi[0] - lo[0], hi[1] - lo[1]],
-            points,
+            points: points.into(),
             triangles: triangles.into(),
         }
     }
@@ -228,7 +136,7 @@ impl Mesh {
     /// The vertex coordinates of triangle `e`.
     pub fn triangle_points(&self, e: usize) -> [[f64; 2]; 3] {
         let t = self.triangles.get(e);
-        [self.points[t[0]], self.points[t[1]], self.points[t[2]]]
+        t.map(|v| self.points.get(v))
     }
 
     /// The element of each edge `(a, b)` of the chain `nodes` (segment k joins nodes k and
@@ -264,9 +172,7 @@ impl Mesh {
         const NONE: u32 = u32::MAX;
         let mut local = vec![NONE; self.num_nodes()];
         for e in elements.clone() {
-            self.triangles.0[e]
-                .iter()
-                .for_each(|&v| local[v as usize] = 0);
+            self.triangles.get(e).iter().for_each(|&v| local[v] = 0);
         }
         let nodes: Vec<usize> = (0..local.len()).filter(|&v| local[v] != NONE).collect();
         for (k, &v) in nodes.iter().enumerate() {
@@ -277,13 +183,10 @@ impl Mesh {
             ny: 0,
             origin: self.origin,
             size: self.size,
-            points: nodes.iter().map(|&v| self.points[v]).collect(),
-            triangles: Triangles(
-                elements
-                    .into_iter()
-                    .map(|e| self.triangles.0[e].map(|v| local[v as usize]))
-                    .collect(),
-            ),
+            points: nodes.iter().map(|&v| self.points.get(v)).collect(),
+            triangles: (elements.into_iter())
+                .map(|e| self.triangles.get(e).map(|v| local[v] as usize))
+                .collect(),
         };
         (sub, nodes)
     }
@@ -363,25 +266,6 @@ pub(crate) fn for_each_side(mesh: &Mesh, mut f: impl FnMut(&[(u32, u32)]) -> boo
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn triangles_hand_back_their_nodes_from_four_bytes_each() {
-        let m = Mesh::structured([0.0, 0.0], [1.0, 1.0], 3, 2);
-        let v: Vec<[usize; 3]> = m.triangles.iter().collect();
-        assert_eq!(v.len(), 12);
-        assert_eq!(v[1], [0, 5, 4]);
-        assert_eq!(m.triangles.get(7), v[7]);
-        assert_eq!(Triangles::from(v.clone()), m.triangles);
-        assert_eq!(std::mem::size_of_val(&m.triangles.0[..]), 12 * 12);
-        let top = [0, 1, u32::MAX as usize];
-        assert_eq!(Triangles::from(vec![top]).get(0), top);
-    }
-
-    #[test]
-    #[should_panic(expected = "fewer than 2^32 nodes")]
-    fn a_node_beyond_u32_is_refused() {
-        let _ = Triangles::from(vec![[0, 1, 1 << 32]]);
-    }
 
     #[test]
     fn chain_elements_are_the_first_triangles_with_each_edge() {

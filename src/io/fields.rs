@@ -149,7 +149,7 @@ pub fn results(
 /// indices of the whole grid: body 2's after body 1's) and the constant cell field `body`.
 fn bodies_grid(problems: [&BodyProblem; 2], rows: [&Share; 2], mine: &Share) -> Grid {
     let points = on_share(rows, mine, Center::Node, 2, |k, n, out| {
-        out.extend(problems[k].mesh().points[n])
+        out.extend(problems[k].mesh().points.get(n))
     });
     let mut triangles = Vec::with_capacity(mine.cells.len());
     let body = on_share(rows, mine, Center::Cell, 1, |k, e, out| {

@@ -29,7 +29,7 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
             }
             let f = |y: f64| [0.0, settings.f_max * (2.0 - y)];
             for [a, b] in mesh.right_edges() {
-                let t = [f(mesh.points[a][1]), f(mesh.points[b][1])];
+                let t = [f(mesh.points.get(a)[1]), f(mesh.points.get(b)[1])];
                 if t[0] != [0.0, 0.0] || t[1] != [0.0, 0.0] {
                     neumann.push(NeumannEdge {
                         nodes: [a, b],
@@ -61,7 +61,7 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
     };
     let gap = vec![0.0; contact_nodes.len()];
     // Both sides of Γc have the same nodes' x: body 2's segments are body 1's.
-    let points: Vec<[f64; 2]> = contact_nodes.iter().map(|&n| mesh.points[n]).collect();
+    let points: Vec<[f64; 2]> = contact_nodes.iter().map(|&n| mesh.points.get(n)).collect();
     let contact_lengths = segment_lengths(&points);
     let contact_normals = vec![UP; contact_nodes.len()];
     BodyProblem {

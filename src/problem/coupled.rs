@@ -60,9 +60,9 @@ pub(super) fn mortar_interface(
         let (chain_s, segments) = oriented_side(&bodies[k], nodes, &contact[k])?;
         let outward = chain_normals(&segments, ends[k]);
         let ps = &bodies[k].mesh.points;
-        let points: Vec<[f64; 2]> = chain_s.iter().map(|&n| ps[n]).collect();
+        let points: Vec<[f64; 2]> = chain_s.iter().map(|&n| ps.get(n)).collect();
         let po = &bodies[1 - k].mesh.points;
-        let points_o: Vec<[f64; 2]> = chains[1 - k].iter().map(|&n| po[n]).collect();
+        let points_o: Vec<[f64; 2]> = chains[1 - k].iter().map(|&n| po.get(n)).collect();
         let coupling = Coupling::new(
             &CurveNodes {
                 ids: &chain_s,

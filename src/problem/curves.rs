@@ -7,6 +7,7 @@ use super::mortar::Ends;
 use std::collections::{BTreeMap, BTreeSet};
 
 use crate::fem::gmsh::{GmshBody, GmshError};
+use crate::fem::mesh::Points;
 
 /// What is wrong with a meshed problem: one line, naming the option.
 #[derive(Debug, thiserror::Error)]
@@ -175,7 +176,7 @@ pub(super) fn oriented_side(
     let opposite = third_vertices(body, &nodes);
     // Left normal of a→b; body 1 must be on the other side of every segment.
     let left = |a: usize, b: usize| {
-        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
+        let (t0, t1) = (pts.get(b)[0] - pts.get(a)[0], pts.get(b)[1] - pts.get(a)[1]);
         let h = t0.hypot(t1);
         [-t1 / h, t0 / h]
     };
@@ -183,13 +184,13 @@ pub(super) fn oriented_side(
         match opposite[&(a.min(b), a.max(b))][..] {
             [c] => {
                 let n = left(a, b);
-                Ok(n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]))
+                Ok(n[0] * (pts.get(c)[0] - pts.get(a)[0]) + n[1] * (pts.get(c)[1] - pts.get(a)[1]))
             }
             _ => Err(opt_err(
                 OPT,
                 format!(
                     "body 1's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
-                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
+                    pts.get(a)[0], pts.get(a)[1], pts.get(b)[0], pts.get(b)[1]
                 ),
             )),
         }
@@ -253,7 +254,7 @@ pub(super) fn facing(
     side1: &[[f64; 2]],
     s2: &[usize],
     normals: &[[f64; 2]],
-    p2: &[[f64; 2]],
+    p2: &Points,
 ) -> Result<Vec<[f64; 2]>, MeshedError> {
     const OPT: &str = "-nndd_contact";
     let curve = &contact[1];
@@ -268,14 +269,15 @@ pub(super) fn facing(
                 OPT,
                 format!(
                     "body 2's contact curve '{curve}' is not on its boundary at the segment from ({:.6e}, {:.6e}) to ({:.6e}, {:.6e})",
-                    pts[a][0], pts[a][1], pts[b][0], pts[b][1]
+                    pts.get(a)[0], pts.get(a)[1], pts.get(b)[0], pts.get(b)[1]
                 ),
             ));
         };
-        let (t0, t1) = (pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]);
+        let (t0, t1) = (pts.get(b)[0] - pts.get(a)[0], pts.get(b)[1] - pts.get(a)[1]);
         let h = t0.hypot(t1);
         let n = [-t1 / h, t0 / h];
-        let inward = n[0] * (pts[c][0] - pts[a][0]) + n[1] * (pts[c][1] - pts[a][1]) > 0.0;
+        let inward =
+            n[0] * (pts.get(c)[0] - pts.get(a)[0]) + n[1] * (pts.get(c)[1] - pts.get(a)[1]) > 0.0;
         segments.push(if inward { [-n[0], -n[1]] } else { n });
     }
     let node_normal: BTreeMap<usize, [f64; 2]> = chain2
@@ -292,7 +294,7 @@ pub(super) fn facing(
                 format!(
                     "the curves '{}' and '{curve}' do not face each other: at body 1's node ({:.6e}, {:.6e}) and its partner ({:.6e}, {:.6e}) the outward normals ({:.4}, {:.4}) and ({:.4}, {:.4}) point the same way (n1·n2 = {dot:.3}); name the curve of body 2 that faces body 1's",
                     contact[0],
-                    side1[k][0], side1[k][1], p2[b][0], p2[b][1], n1[0], n1[1], n2[0], n2[1]
+                    side1[k][0], side1[k][1], p2.get(b)[0], p2.get(b)[1], n1[0], n1[1], n2[0], n2[1]
                 ),
             ));
         }

@@ -159,7 +159,7 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
         };
         for (&node, n) in framed.iter().zip(&pairing.normals) {
             if *n != super::UP && dirichlet.iter().any(|&(d, _)| d / 2 == node) {
-                let p = bodies[k].mesh.points[node];
+                let p = bodies[k].mesh.points.get(node);
                 // The option that prescribes it.
                 let option = spec
                     .conditions
@@ -234,7 +234,7 @@ fn conditions(
                             &name,
                             format!(
                                 "conflicts with {other} at the node ({:.6e}, {:.6e}) of body {alpha} ({v:e} vs {w:e})",
-                                body.mesh.points[n][0], body.mesh.points[n][1]
+                                body.mesh.points.get(n)[0], body.mesh.points.get(n)[1]
                             ),
                         ));
                     }
@@ -244,7 +244,7 @@ fn conditions(
         }
         if let Some([t0, t1]) = c.traction {
             // Linear in the arc length from the curve's first point to its last.
-            let pts: Vec<[f64; 2]> = nodes.iter().map(|&n| body.mesh.points[n]).collect();
+            let pts: Vec<[f64; 2]> = nodes.iter().map(|&n| body.mesh.points.get(n)).collect();
             let mut s = vec![0.0; pts.len()];
             for i in 1..pts.len() {
                 s[i] = s[i - 1] + (pts[i][0] - pts[i - 1][0]).hypot(pts[i][1] - pts[i - 1][1]);
@@ -293,7 +293,7 @@ fn on_boundary(
     {
         None => Ok(()),
         Some(&[a, b]) => {
-            let (pa, pb) = (body.mesh.points[a], body.mesh.points[b]);
+            let (pa, pb) = (body.mesh.points.get(a), body.mesh.points.get(b));
             Err(opt_err(
                 option,
                 format!(
@@ -400,14 +400,18 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
     // inserted to match body 2's, the normal field it was projected along.
     let mut all_normals = node_normals(&segments);
     for (k, &a) in chain1.iter().enumerate() {
-        if let Some(n) = spec.matched.normals.get(&super::matched::point_key(p1[a])) {
+        if let Some(n) = spec
+            .matched
+            .normals
+            .get(&super::matched::point_key(p1.get(a)))
+        {
             all_normals[k] = *n;
         }
     }
     if let Some(r) = spec.nested {
         all_normals = refined_normals(&chain1, r, &all_normals)?;
     }
-    let curve1: Vec<[f64; 2]> = chain1.iter().map(|&n| p1[n]).collect();
+    let curve1: Vec<[f64; 2]> = chain1.iter().map(|&n| p1.get(n)).collect();
     let tol = 1e-8
         * super::segment_lengths(&curve1)
             .iter()
@@ -416,7 +420,7 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
     // Offset of body 2's node b from body 1's node k: (along τ, along n).
     let offset = |k: usize, b: usize| {
         let (a, n) = (curve1[k], all_normals[k]);
-        let d = [p2[b][0] - a[0], p2[b][1] - a[1]];
+        let d = [p2.get(b)[0] - a[0], p2.get(b)[1] - a[1]];
         if n == super::UP {
             (d[0], d[1])
         } else {
@@ -474,7 +478,7 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
                     OPT,
                     format!(
                         "the node ({:.6e}, {:.6e}) of body 1's contact curve has no partner on its normal ({:.4}, {:.4}); the nearest node of body 2's curve, ({:.6e}, {:.6e}), is {:.3e} off that line",
-                        curve1[k][0], curve1[k][1], n[0], n[1], p2[b][0], p2[b][1], t.abs()
+                        curve1[k][0], curve1[k][1], n[0], n[1], p2.get(b)[0], p2.get(b)[1], t.abs()
                     ),
                 ));
             };
@@ -496,7 +500,7 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
                 OPT,
                 format!(
                     "the node ({:.6e}, {:.6e}) of body 2's contact curve has no partner on body 1's curve; the nearest normal line, of ({:.6e}, {:.6e}), is {:.3e} away",
-                    p2[b][0], p2[b][1], curve1[k][0], curve1[k][1], t.abs()
+                    p2.get(b)[0], p2.get(b)[1], curve1[k][0], curve1[k][1], t.abs()
                 ),
             ));
         }
@@ -542,7 +546,7 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
                 OPT,
                 format!(
                     "the curves '{}' and '{}' face away from each other: body 2's node ({:.6e}, {:.6e}) is {:.3e} behind body 1's node ({:.6e}, {:.6e}) along its outward normal ({:.4}, {:.4}); name the curves that face each other across the gap (the initial gap must be >= 0)",
-                    spec.contact[0], spec.contact[1], p2[b][0], p2[b][1], -g, side1[i][0], side1[i][1], n[0], n[1]
+                    spec.contact[0], spec.contact[1], p2.get(b)[0], p2.get(b)[1], -g, side1[i][0], side1[i][1], n[0], n[1]
                 ),
             ));
         }

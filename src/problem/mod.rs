@@ -428,7 +428,7 @@ impl BodyProblem {
     /// outline.
     pub fn boundary_point(&self, node: usize) -> [f64; 2] {
         match &self.mesh {
-            BodyMesh::Whole(m) => m.points[node],
+            BodyMesh::Whole(m) => m.points.get(node),
             BodyMesh::Released { .. } => self.outline().point(node),
         }
     }
@@ -463,8 +463,8 @@ impl BodyProblem {
         for e in &self.neumann {
             let [a, b] = e.nodes;
             let (fa, fb) = edge_load(
-                self.mesh().points[a],
-                self.mesh().points[b],
+                self.mesh().points.get(a),
+                self.mesh().points.get(b),
                 e.traction[0],
                 e.traction[1],
             );

@@ -25,7 +25,7 @@ impl Outline {
         let mut nodes: Vec<usize> = edges.iter().flatten().copied().collect();
         nodes.sort_unstable();
         nodes.dedup();
-        let points = nodes.iter().map(|&n| mesh.points[n]).collect();
+        let points = nodes.iter().map(|&n| mesh.points.get(n)).collect();
         Outline {
             edges,
             nodes,
@@ -67,11 +67,11 @@ mod tests {
         let inner: Vec<usize> = (0..12).filter(|&n| o.index(n).is_none()).collect();
         assert_eq!(inner, vec![mesh.node(1, 1), mesh.node(2, 1)]);
         for n in o.nodes() {
-            assert_eq!(o.point(*n), mesh.points[*n]);
+            assert_eq!(o.point(*n), mesh.points.get(*n));
         }
         // Each edge is a unit side on the perimeter, with the body on its left.
         for &[a, b] in &o.edges {
-            let (p, q) = (mesh.points[a], mesh.points[b]);
+            let (p, q) = (mesh.points.get(a), mesh.points.get(b));
             assert_eq!((q[0] - p[0]).hypot(q[1] - p[1]), 1.0);
             let mid = [(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0];
             let left = [mid[0] - (q[1] - p[1]) * 0.25, mid[1] + (q[0] - p[0]) * 0.25];

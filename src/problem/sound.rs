@@ -6,6 +6,7 @@ use super::curves::{opt_err, MeshedError};
 use super::Support;
 use crate::fem::checks::{self, Overlap};
 use crate::fem::gmsh::{GmshBody, GmshError, GmshMesh};
+use crate::fem::mesh::Points;
 
 fn invalid(gmsh: &GmshMesh, reason: String) -> MeshedError {
     MeshedError::Mesh(GmshError::Invalid {
@@ -51,7 +52,7 @@ pub(super) fn overlap(gmsh: &GmshMesh, bodies: &[GmshBody]) -> Result<(), Meshed
         } => format!(
             "the bodies overlap: body {}'s node {} is inside body {}'s {}",
             body + 1,
-            pt(bodies[body].mesh.points[node]),
+            pt(bodies[body].mesh.points.get(node)),
             2 - body,
             gmsh.describe(bodies[1 - body].elements[element])
         ),
@@ -89,10 +90,10 @@ pub(super) fn overlap(gmsh: &GmshMesh, bodies: &[GmshBody]) -> Result<(), Meshed
             let (p, q) = (&bodies[0].mesh.points, &bodies[1].mesh.points);
             format!(
                 "the bodies overlap: body 1's boundary edge {}–{} crosses body 2's {}–{}",
-                pt(p[e[0]]),
-                pt(p[e[1]]),
-                pt(q[f[0]]),
-                pt(q[f[1]])
+                pt(p.get(e[0])),
+                pt(p.get(e[1])),
+                pt(q.get(f[0])),
+                pt(q.get(f[1]))
             )
         }
     };
@@ -126,7 +127,7 @@ pub(super) fn check_pieces(
         let held = nodes
             .iter()
             .zip(normals)
-            .map(|(&a, &n)| (mesh.points[a], n));
+            .map(|(&a, &n)| (mesh.points.get(a), n));
         if rigid_motions_fixed(prescribed.chain(held)) {
             return Ok(Support::Contact);
         }
@@ -154,9 +155,9 @@ pub(super) fn check_pieces(
     }
     for (k, list) in nodes.iter().enumerate() {
         let mut local = Vec::new();
-        let mut pts = Vec::with_capacity(list.len());
+        let mut pts = Points::default();
         for (i, &a) in list.iter().enumerate() {
-            pts.push(mesh.points[a]);
+            pts.push(mesh.points.get(a));
             local.extend(fixed[a].iter().map(|&(d, v)| (2 * i + d % 2, v)));
         }
         if !rigid_motions_fixed(dirichlet_rows(&pts, &local)) {
@@ -191,12 +192,12 @@ pub(super) fn check_pieces(
 
 /// The prescribed dofs (`2 node + component`, of `pts`) as (point, direction) rows.
 fn dirichlet_rows<'a>(
-    pts: &'a [[f64; 2]],
+    pts: &'a Points,
     dirichlet: &'a [(usize, f64)],
 ) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + Clone + 'a {
     dirichlet.iter().map(|&(d, _)| {
         let dir = if d % 2 == 0 { [1.0, 0.0] } else { [0.0, 1.0] };
-        (pts[d / 2], dir)
+        (pts.get(d / 2), dir)
     })
 }
 

@@ -55,25 +55,25 @@ impl Transfer {
             .points
             .iter()
             .enumerate()
-            .map(|(i, p)| (point_key(*p), i))
+            .map(|(i, p)| (point_key(p), i))
             .collect();
         let boundary = coarse.boundary_edges();
         let mut sources = Vec::with_capacity(fine.points.len());
         for p in &fine.points {
-            if let Some(&i) = at.get(&point_key(*p)) {
+            if let Some(&i) = at.get(&point_key(p)) {
                 sources.push(Source::Node(i));
                 continue;
             }
             let (best, d, t) = boundary
                 .iter()
                 .map(|&[a, b]| {
-                    let (t, d) = foot(coarse.points[a], coarse.points[b], *p);
+                    let (t, d) = foot(coarse.points.get(a), coarse.points.get(b), p);
                     ([a, b], d, t)
                 })
                 .min_by(|x, y| x.1.total_cmp(&y.1))
                 .ok_or_else(|| invalid("no boundary".into()))?;
             let [a, b] = best;
-            let len = dist(coarse.points[a], coarse.points[b]);
+            let len = dist(coarse.points.get(a), coarse.points.get(b));
             if d > ON_SEGMENT * len {
                 return Err(invalid(format!(
                     "its node ({:.6e}, {:.6e}) is on no boundary segment",
@@ -176,7 +176,7 @@ impl GapField {
             points: nm
                 .contact_nodes
                 .iter()
-                .map(|&n| nm.mesh().points[n])
+                .map(|&n| nm.mesh().points.get(n))
                 .collect(),
             values: nm.gap.clone(),
         }
@@ -198,7 +198,7 @@ impl GapField {
         let gap: Vec<f64> = p
             .contact_nodes
             .iter()
-            .map(|&n| self.at(p.mesh().points[n]))
+            .map(|&n| self.at(p.mesh().points.get(n)))
             .collect();
         problems.map(|b| {
             Rc::new(BodyProblem {

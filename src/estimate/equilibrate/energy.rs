@@ -325,7 +325,7 @@ mod tests {
             let (mesh, mut bd) = patch(n, [0.0; 3]);
             for be in &mut bd.edges {
                 let [a, b] = be.nodes;
-                let (pa, pb) = (mesh.points[a], mesh.points[b]);
+                let (pa, pb) = (mesh.points.get(a), mesh.points.get(b));
                 let tv = [pb[0] - pa[0], pb[1] - pa[1]];
                 let len = tv[0].hypot(tv[1]);
                 // Outward normal: the edge lies on the boundary of the unit square.

@@ -285,7 +285,7 @@ impl Relaxation<'_> {
         let nu = lay.unknowns.len();
         let hp = lay.hp;
         // Pattern key: topology, orientation, boundary codes and normalised geometry.
-        let pi = mesh.points[i];
+        let pi = mesh.points.get(i);
         let mut key: Vec<i64> = vec![elems.len() as i64, lay.star_edges.len() as i64, nu as i64];
         for (row, (e, a)) in elems.iter().enumerate() {
             key.push(a as i64);
@@ -293,7 +293,7 @@ impl Relaxation<'_> {
                 key.extend([ti as i64, u as i64, s as i64]);
             }
             for v in mesh.triangles.get(e) {
-                let p = mesh.points[v];
+                let p = mesh.points.get(v);
                 for c in 0..2 {
                     key.push(((p[c] - pi[c]) / hp / SHAPE_QUANTUM).round() as i64);
                 }

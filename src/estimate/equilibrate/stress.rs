@@ -193,7 +193,7 @@ impl FinalPass<'_> {
                     let n = topo.normal(mesh, g);
                     let interior = topo.elems(g)[1] != NONE;
                     for (end, node) in topo.nodes(g).into_iter().enumerate() {
-                        let xp = mesh.points[node];
+                        let xp = mesh.points.get(node);
                         let tr =
                             traction(&eval(&x, l, [(xp[0] - c[0]) / h, (xp[1] - c[1]) / h]), n);
                         for k in 0..2 {
@@ -370,7 +370,7 @@ impl EquilibratedStress {
             }
             let n = topo.normal(mesh, g);
             for node in topo.nodes(g) {
-                let x = mesh.points[node];
+                let x = mesh.points.get(node);
                 let t0 = traction(&edge_stress(e0, g, x), n);
                 let t1 = traction(&edge_stress(e1, g, x), n);
                 jel = jel.max((t1[0] - t0[0]).abs()).max((t1[1] - t0[1]).abs());
@@ -387,7 +387,7 @@ impl EquilibratedStress {
             }
             let n = topo.normal(mesh, g);
             for (end, node) in topo.nodes(g).into_iter().enumerate() {
-                let t = traction(&edge_stress(e0, g, mesh.points[node]), n);
+                let t = traction(&edge_stress(e0, g, mesh.points.get(node)), n);
                 for k in 0..2 {
                     if let Bc::Known(v) = bc[g][k] {
                         gmax = gmax.max(v[end].abs());

@@ -142,7 +142,8 @@ fn rollers_give_exact_uniaxial_stress() {
 fn skewed_block() -> (Mesh, Boundary, Vec<f64>) {
     let (mut mesh, bd) = block(4);
     let centre = mesh.node(2, 2);
-    mesh.points[centre][0] += 0.03;
+    let c = mesh.points.get(centre);
+    mesh.points.set(centre, [c[0] + 0.03, c[1]]);
     let u = fe_solve(&mesh, &bd);
     (mesh, bd, u)
 }

@@ -47,7 +47,7 @@ pub(crate) fn fe_solve(mesh: &Mesh, boundary: &Boundary) -> Vec<f64> {
                 tb[c] = v[1];
             }
         }
-        let (fa, fb) = fem::edge_load(mesh.points[a], mesh.points[b], ta, tb);
+        let (fa, fb) = fem::edge_load(mesh.points.get(a), mesh.points.get(b), ta, tb);
         for c in 0..2 {
             f[2 * a + c] += fa[c];
             f[2 * b + c] += fb[c];
@@ -181,7 +181,7 @@ pub(crate) fn block_rect(nx: usize, ny: usize) -> (Mesh, Boundary) {
     }
     let p = |x: f64| -1e7 * (1.0 + x);
     for w in mesh.top_nodes().windows(2) {
-        let (xa, xb) = (mesh.points[w[0]][0], mesh.points[w[1]][0]);
+        let (xa, xb) = (mesh.points.get(w[0])[0], mesh.points.get(w[1])[0]);
         edges.push(BoundaryEdge {
             nodes: [w[1], w[0]], // reversed on purpose: values follow `nodes`
             comps: [known(0.0, 0.0), known(p(xb), p(xa))],
@@ -189,7 +189,7 @@ pub(crate) fn block_rect(nx: usize, ny: usize) -> (Mesh, Boundary) {
     }
     let tau = |y: f64| 4e6 * (1.0 + 2.0 * y);
     for [a, b] in mesh.right_edges() {
-        let (ya, yb) = (mesh.points[a][1], mesh.points[b][1]);
+        let (ya, yb) = (mesh.points.get(a)[1], mesh.points.get(b)[1]);
         edges.push(BoundaryEdge {
             nodes: [a, b],
             comps: [known(0.0, 0.0), known(tau(ya), tau(yb))],
@@ -214,8 +214,9 @@ pub(super) fn distorted_block(n: usize, seed: u64) -> (Mesh, Boundary) {
     for j in 1..n {
         for i in 1..n {
             let k = mesh.node(i, j);
-            mesh.points[k][0] += 0.05 * rng.next();
-            mesh.points[k][1] += 0.05 * rng.next();
+            let p = mesh.points.get(k);
+            mesh.points
+                .set(k, [p[0] + 0.05 * rng.next(), p[1] + 0.05 * rng.next()]);
         }
     }
     (mesh, bd)

@@ -295,7 +295,7 @@ impl Topology {
                 elem_edges[e][l] = g as u32;
                 if edge_elems[g][0] == u32::MAX {
                     edge_elems[g][0] = e as u32;
-                    let (pa, pb) = (mesh.points[a], mesh.points[b]);
+                    let (pa, pb) = (mesh.points.get(a), mesh.points.get(b));
                     edge_len[g] = (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
                     plus_forward[g] = a < b;
                 } else if edge_elems[g][1] == u32::MAX {
@@ -339,7 +339,7 @@ impl Topology {
         } else {
             (hi, lo)
         };
-        let (pa, pb) = (mesh.points[a], mesh.points[b]);
+        let (pa, pb) = (mesh.points.get(a), mesh.points.get(b));
         let tv = [pb[0] - pa[0], pb[1] - pa[1]];
         let len = self.edge_len[g];
         [tv[1] / len, -tv[0] / len]
@@ -446,9 +446,9 @@ mod tests {
         }
         let mut points = vec![[0.0; 2]; nn];
         for (i, p) in mesh.points.iter().enumerate() {
-            points[perm[i]] = *p;
+            points[perm[i]] = p;
         }
-        mesh.points = points;
+        mesh.points = points.into();
         (mesh.nx, mesh.ny) = (0, 0);
         mesh.triangles = mesh.triangles.iter().map(|t| t.map(|v| perm[v])).collect();
         let neighbours = Neighbours::of(&mesh);

@@ -686,7 +686,7 @@ mod tests {
             assert!((a2 - 1.0).abs() < 1e-15, "triangle {e}: 2 area {a2}");
         }
         let base: Vec<[[f64; 2]; 2]> = (b.curves["base"].iter())
-            .map(|e| e.map(|a| b.mesh.points[a]))
+            .map(|e| e.map(|a| b.mesh.points.get(a)))
             .collect();
         assert_eq!(base, vec![[[0.0, 0.0], [1.0, 0.0]]]);
         assert_eq!(b.mesh.boundary_edges().len(), 4);
@@ -751,7 +751,7 @@ mod tests {
         let edges = &b.curves["base"];
         assert_eq!(edges.len(), r);
         for (k, e) in edges.iter().enumerate() {
-            let (p, q) = (b.mesh.points[e[0]], b.mesh.points[e[1]]);
+            let (p, q) = (b.mesh.points.get(e[0]), b.mesh.points.get(e[1]));
             assert_eq!(e[1], edges.get(k + 1).map_or(e[1], |n| n[0]), "a chain");
             assert!((p[0] - k as f64 / r as f64).abs() < 1e-15 && p[1] == 0.0);
             assert!((q[0] - (k + 1) as f64 / r as f64).abs() < 1e-15 && q[1] == 0.0);

@@ -1,0 +1,403 @@
+//! How a mesh holds its points and triangles: a structured grid's by their formula, none
+//! stored ([`Mesh::structured`](super::Mesh::structured): a built-in body costs a rank that
+//! holds it no memory per node or element), any other's listed. Both hand out values, not
+//! references, by index or in order.
+
+/// A mesh's triangles: those of a structured grid by their formula (none stored: 12 B per
+/// element less on every rank that holds a body, 6 MiB per body at `paper` n = 512), the
+/// others stored with their nodes as `u32` (half the memory of `usize`), all handed out as
+/// `usize`. A body has fewer than 2³² nodes: the size check refuses meshes far smaller.
+#[derive(Clone, Debug, Default)]
+pub struct Triangles(Store);
+
+#[derive(Clone, Debug)]
+enum Store {
+    /// Each triangle's nodes.
+    Listed(Vec<[u32; 3]>),
+    /// The `nx × ny` grid of [`Mesh::structured`](super::Mesh::structured): rectangle (i, j)
+    /// is elements 2 (j nx + i), (a, b, d), and 2 (j nx + i) + 1, (a, d, c).
+    Grid { nx: usize, ny: usize },
+}
+
+impl Default for Store {
+    fn default() -> Store {
+        Store::Listed(Vec::new())
+    }
+}
+
+/// A triangle's nodes as stored.
+fn narrow(t: [usize; 3]) -> [u32; 3] {
+    t.map(|v| u32::try_from(v).expect("a mesh has fewer than 2^32 nodes"))
+}
+
+/// An element number in 4 bytes (compact per-element lists: the estimate's vertex stars and
+/// slab order): a body has fewer than 2³² elements (PETSc's 32-bit indices refuse far smaller
+/// ones).
+pub fn element_u32(e: usize) -> u32 {
+    u32::try_from(e).expect("a mesh has fewer than 2^32 elements")
+}
+
+impl Triangles {
+    pub fn with_capacity(n: usize) -> Triangles {
+        Triangles(Store::Listed(Vec::with_capacity(n)))
+    }
+
+    /// The triangles of the `nx × ny` grid of [`Mesh::structured`](super::Mesh::structured),
+    /// none stored.
+    pub(super) fn grid(nx: usize, ny: usize) -> Triangles {
+        // (its node numbers fit in u32, as a stored mesh's)
+        narrow([(nx + 1) * (ny + 1), 0, 0]);
+        Triangles(Store::Grid { nx, ny })
+    }
+
+    pub fn len(&self) -> usize {
+        match &self.0 {
+            Store::Listed(t) => t.len(),
+            Store::Grid { nx, ny } => 2 * nx * ny,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The nodes of triangle `e`.
+    pub fn get(&self, e: usize) -> [usize; 3] {
+        match &self.0 {
+            Store::Listed(t) => t[e].map(|v| v as usize),
+            &Store::Grid { nx, ny } => {
+                assert!(e < 2 * nx * ny, "triangle {e} of a grid of {}", 2 * nx * ny);
+                let (i, j) = ((e / 2) % nx, e / 2 / nx);
+                let a = j * (nx + 1) + i;
+                let (b, c) = (a + 1, a + nx + 1);
+                match e % 2 {
+                    0 => [a, b, c + 1],
+                    _ => [a, c + 1, c],
+                }
+            }
+        }
+    }
+
+    /// Appends triangle `t` (a grid's triangles are listed first).
+    pub fn push(&mut self, t: [usize; 3]) {
+        if let Store::Grid { .. } = self.0 {
+            self.0 = Store::Listed(self.iter().map(narrow).collect());
+        }
+        if let Store::Listed(v) = &mut self.0 {
+            v.push(narrow(t));
+        }
+    }
+
+    /// The triangles' nodes, in order.
+    pub fn iter(&self) -> TriangleIter<'_> {
+        TriangleIter {
+            triangles: self,
+            range: 0..self.len(),
+        }
+    }
+}
+
+impl PartialEq for Triangles {
+    /// The same triangles, listed or by their grid's formula.
+    fn eq(&self, other: &Triangles) -> bool {
+        self.len() == other.len() && self.iter().eq(other.iter())
+    }
+}
+
+impl Eq for Triangles {}
+
+/// The iterator of [`Triangles::iter`].
+#[derive(Clone, Debug)]
+pub struct TriangleIter<'a> {
+    triangles: &'a Triangles,
+    range: std::ops::Range<usize>,
+}
+
+impl Iterator for TriangleIter<'_> {
+    type Item = [usize; 3];
+    fn next(&mut self) -> Option<[usize; 3]> {
+        self.range.next().map(|e| self.triangles.get(e))
+    }
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.range.size_hint()
+    }
+    fn nth(&mut self, n: usize) -> Option<[usize; 3]> {
+        self.range.nth(n).map(|e| self.triangles.get(e))
+    }
+}
+
+impl DoubleEndedIterator for TriangleIter<'_> {
+    fn next_back(&mut self) -> Option<[usize; 3]> {
+        self.range.next_back().map(|e| self.triangles.get(e))
+    }
+}
+
+impl ExactSizeIterator for TriangleIter<'_> {}
+
+impl<'a> IntoIterator for &'a Triangles {
+    type Item = [usize; 3];
+    type IntoIter = TriangleIter<'a>;
+    fn into_iter(self) -> TriangleIter<'a> {
+        self.iter()
+    }
+}
+
+impl FromIterator<[usize; 3]> for Triangles {
+    fn from_iter<I: IntoIterator<Item = [usize; 3]>>(it: I) -> Triangles {
+        Triangles(Store::Listed(it.into_iter().map(narrow).collect()))
+    }
+}
+
+impl From<Vec<[usize; 3]>> for Triangles {
+    fn from(v: Vec<[usize; 3]>) -> Triangles {
+        v.into_iter().collect()
+    }
+}
+
+/// A mesh's points: a structured grid's by their formula (none stored: 16 B per node less
+/// on every rank that holds a body), the others listed.
+#[derive(Clone, Debug, Default)]
+pub struct Points(PointStore);
+
+#[derive(Clone, Debug)]
+enum PointStore {
+    /// Each point.
+    Listed(Vec<[f64; 2]>),
+    /// Node j (nx + 1) + i of the grid of [`Mesh::structured`](super::Mesh::structured), at
+    /// origin + (i hx, j hy), hx = size.0 / nx, hy = size.1 / ny (as it stored them).
+    Grid {
+        origin: [f64; 2],
+        h: [f64; 2],
+        nx: usize,
+        ny: usize,
+    },
+}
+
+impl Default for PointStore {
+    fn default() -> PointStore {
+        PointStore::Listed(Vec::new())
+    }
+}
+
+impl Points {
+    /// The points of the `nx × ny` grid of the rectangle `origin + [0, size.0] × [0, size.1]`,
+    /// none stored.
+    pub(super) fn grid(origin: [f64; 2], size: [f64; 2], nx: usize, ny: usize) -> Points {
+        let h = [size[0] / nx as f64, size[1] / ny as f64];
+        Points(PointStore::Grid { origin, h, nx, ny })
+    }
+
+    pub fn len(&self) -> usize {
+        match &self.0 {
+            PointStore::Listed(p) => p.len(),
+            PointStore::Grid { nx, ny, .. } => (nx + 1) * (ny + 1),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Point `i`.
+    pub fn get(&self, i: usize) -> [f64; 2] {
+        match &self.0 {
+            PointStore::Listed(p) => p[i],
+            &PointStore::Grid { origin, h, nx, ny } => {
+                assert!(
+                    i < (nx + 1) * (ny + 1),
+                    "point {i} of a grid of {}",
+                    (nx + 1) * (ny + 1)
+                );
+                let (a, b) = (i % (nx + 1), i / (nx + 1));
+                [origin[0] + a as f64 * h[0], origin[1] + b as f64 * h[1]]
+            }
+        }
+    }
+
+    /// Appends point `p` (a grid's points are listed first).
+    pub fn push(&mut self, p: [f64; 2]) {
+        self.listed().push(p);
+    }
+
+    /// Moves point `i` to `p` (a grid's points are listed first).
+    pub fn set(&mut self, i: usize, p: [f64; 2]) {
+        self.listed()[i] = p;
+    }
+
+    /// The points as a list, a grid's listed first.
+    fn listed(&mut self) -> &mut Vec<[f64; 2]> {
+        if let PointStore::Grid { .. } = self.0 {
+            self.0 = PointStore::Listed(self.iter().collect());
+        }
+        match &mut self.0 {
+            PointStore::Listed(v) => v,
+            PointStore::Grid { .. } => unreachable!("listed above"),
+        }
+    }
+
+    /// The points, in order.
+    pub fn iter(&self) -> PointIter<'_> {
+        PointIter {
+            points: self,
+            range: 0..self.len(),
+        }
+    }
+
+    /// The points listed (a copy).
+    pub fn to_vec(&self) -> Vec<[f64; 2]> {
+        self.iter().collect()
+    }
+}
+
+impl PartialEq for Points {
+    /// The same points, listed or by their grid's formula.
+    fn eq(&self, other: &Points) -> bool {
+        self.len() == other.len() && self.iter().eq(other.iter())
+    }
+}
+
+/// The iterator of [`Points::iter`].
+#[derive(Clone, Debug)]
+pub struct PointIter<'a> {
+    points: &'a Points,
+    range: std::ops::Range<usize>,
+}
+
+impl Iterator for PointIter<'_> {
+    type Item = [f64; 2];
+    fn next(&mut self) -> Option<[f64; 2]> {
+        self.range.next().map(|i| self.points.get(i))
+    }
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.range.size_hint()
+    }
+    fn nth(&mut self, n: usize) -> Option<[f64; 2]> {
+        self.range.nth(n).map(|i| self.points.get(i))
+    }
+}
+
+impl DoubleEndedIterator for PointIter<'_> {
+    fn next_back(&mut self) -> Option<[f64; 2]> {
+        self.range.next_back().map(|i| self.points.get(i))
+    }
+}
+
+impl ExactSizeIterator for PointIter<'_> {}
+
+impl<'a> IntoIterator for &'a Points {
+    type Item = [f64; 2];
+    type IntoIter = PointIter<'a>;
+    fn into_iter(self) -> PointIter<'a> {
+        self.iter()
+    }
+}
+
+impl FromIterator<[f64; 2]> for Points {
+    fn from_iter<I: IntoIterator<Item = [f64; 2]>>(it: I) -> Points {
+        Points(PointStore::Listed(it.into_iter().collect()))
+    }
+}
+
+impl From<Vec<[f64; 2]>> for Points {
+    fn from(v: Vec<[f64; 2]>) -> Points {
+        Points(PointStore::Listed(v))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::mesh::Mesh;
+
+    #[test]
+    fn triangles_hand_back_their_nodes_from_four_bytes_each() {
+        let v = vec![[0, 1, 5], [0, 5, 4], [1, 2, 6]];
+        let t = Triangles::from(v.clone());
+        assert_eq!(t.iter().collect::<Vec<_>>(), v);
+        assert_eq!(t.get(1), [0, 5, 4]);
+        match &t.0 {
+            Store::Listed(l) => assert_eq!(std::mem::size_of_val(&l[..]), 3 * 12),
+            Store::Grid { .. } => panic!("listed triangles stored as a grid"),
+        }
+        let top = [0, 1, u32::MAX as usize];
+        assert_eq!(Triangles::from(vec![top]).get(0), top);
+    }
+
+    #[test]
+    fn a_grid_s_triangles_are_its_rectangles_split_along_a_d_and_none_are_stored() {
+        let (nx, ny) = (3, 2);
+        let m = Mesh::structured([0.0, 0.0], [1.0, 1.0], nx, ny);
+        assert!(matches!(m.triangles.0, Store::Grid { .. }));
+        // The rectangles listed row by row, as docs/benchmarks.md draws them.
+        let mut listed = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let (a, c) = (m.node(i, j), m.node(i, j + 1));
+                listed.push([a, a + 1, c + 1]);
+                listed.push([a, c + 1, c]);
+            }
+        }
+        assert_eq!(m.triangles.iter().collect::<Vec<_>>(), listed);
+        assert_eq!(m.triangles.iter().rev().nth(2), Some(listed[9]));
+        assert_eq!(m.triangles.iter().len(), 12);
+        assert_eq!(m.triangles, Triangles::from(listed.clone()));
+        // Every triangle counter-clockwise, and the grid's area covered once.
+        let areas: Vec<f64> = (m.triangles.iter())
+            .map(|t| crate::fem::geometry::triangle_area(&t.map(|v| m.points.get(v))))
+            .collect();
+        assert!(areas.iter().all(|&a| a > 0.0), "{areas:?}");
+        let area: f64 = areas.iter().sum();
+        assert!((area - 1.0).abs() < 1e-14, "area {area}");
+        // A triangle appended to a grid lists the grid's before it.
+        let mut grown = m.triangles.clone();
+        grown.push([0, 1, 2]);
+        listed.push([0, 1, 2]);
+        assert_eq!(grown.iter().collect::<Vec<_>>(), listed);
+        assert!(matches!(grown.0, Store::Listed(_)));
+    }
+
+    #[test]
+    #[should_panic(expected = "fewer than 2^32 nodes")]
+    fn a_node_beyond_u32_is_refused() {
+        let _ = Triangles::from(vec![[0, 1, 1 << 32]]);
+    }
+
+    #[test]
+    fn a_grid_s_points_are_the_ones_it_listed_bit_for_bit() {
+        let (origin, size, nx, ny) = ([0.1, 0.9], [1.0 / 3.0, 0.7], 7, 5);
+        let m = Mesh::structured(origin, size, nx, ny);
+        assert!(matches!(m.points.0, PointStore::Grid { .. }));
+        // What the grid used to list, in node order j (nx + 1) + i.
+        let (hx, hy) = (size[0] / nx as f64, size[1] / ny as f64);
+        let mut listed = Vec::new();
+        for j in 0..=ny {
+            for i in 0..=nx {
+                listed.push([origin[0] + i as f64 * hx, origin[1] + j as f64 * hy]);
+            }
+        }
+        let bits =
+            |p: &[[f64; 2]]| -> Vec<[u64; 2]> { p.iter().map(|q| q.map(f64::to_bits)).collect() };
+        assert_eq!(bits(&m.points.to_vec()), bits(&listed));
+        assert_eq!(m.points.len(), 48);
+        assert_eq!(m.points.iter().rev().nth(8), Some(listed[39]));
+        assert_eq!(m.points, Points::from(listed.clone()));
+        assert_eq!(m.points.get(m.node(3, 2)), listed[2 * 8 + 3]);
+        let mut grown = m.points.clone();
+        grown.push([9.0, 9.0]);
+        listed.push([9.0, 9.0]);
+        assert_eq!(grown.to_vec(), listed);
+        assert!(matches!(grown.0, PointStore::Listed(_)));
+        let mut moved = m.points.clone();
+        moved.set(5, [-1.0, 2.0]);
+        assert_eq!(moved.get(5), [-1.0, 2.0]);
+        assert_eq!(moved.get(6), listed[6]);
+    }
+
+    #[test]
+    #[should_panic(expected = "point 12 of a grid of 12")]
+    fn a_point_beyond_the_grid_is_refused() {
+        let _ = Mesh::structured([0.0, 0.0], [1.0, 1.0], 3, 2)
+            .points
+            .get(12);
+    }
+}
