@@ -90,8 +90,8 @@ impl Triangles {
 
     /// The triangles' nodes, in order.
     pub fn iter(&self) -> TriangleIter<'_> {
-        TriangleIter {
-            triangles: self,
+        ByIndex {
+            store: self,
             range: 0..self.len(),
         }
     }
@@ -105,34 +105,6 @@ impl PartialEq for Triangles {
 }
 
 impl Eq for Triangles {}
-
-/// The iterator of [`Triangles::iter`].
-#[derive(Clone, Debug)]
-pub struct TriangleIter<'a> {
-    triangles: &'a Triangles,
-    range: std::ops::Range<usize>,
-}
-
-impl Iterator for TriangleIter<'_> {
-    type Item = [usize; 3];
-    fn next(&mut self) -> Option<[usize; 3]> {
-        self.range.next().map(|e| self.triangles.get(e))
-    }
-    fn size_hint(&self) -> (usize, Option<usize>) {
-        self.range.size_hint()
-    }
-    fn nth(&mut self, n: usize) -> Option<[usize; 3]> {
-        self.range.nth(n).map(|e| self.triangles.get(e))
-    }
-}
-
-impl DoubleEndedIterator for TriangleIter<'_> {
-    fn next_back(&mut self) -> Option<[usize; 3]> {
-        self.range.next_back().map(|e| self.triangles.get(e))
-    }
-}
-
-impl ExactSizeIterator for TriangleIter<'_> {}
 
 impl<'a> IntoIterator for &'a Triangles {
     type Item = [usize; 3];
@@ -237,8 +209,8 @@ impl Points {
 
     /// The points, in order.
     pub fn iter(&self) -> PointIter<'_> {
-        PointIter {
-            points: self,
+        ByIndex {
+            store: self,
             range: 0..self.len(),
         }
     }
@@ -255,34 +227,6 @@ impl PartialEq for Points {
         self.len() == other.len() && self.iter().eq(other.iter())
     }
 }
-
-/// The iterator of [`Points::iter`].
-#[derive(Clone, Debug)]
-pub struct PointIter<'a> {
-    points: &'a Points,
-    range: std::ops::Range<usize>,
-}
-
-impl Iterator for PointIter<'_> {
-    type Item = [f64; 2];
-    fn next(&mut self) -> Option<[f64; 2]> {
-        self.range.next().map(|i| self.points.get(i))
-    }
-    fn size_hint(&self) -> (usize, Option<usize>) {
-        self.range.size_hint()
-    }
-    fn nth(&mut self, n: usize) -> Option<[f64; 2]> {
-        self.range.nth(n).map(|i| self.points.get(i))
-    }
-}
-
-impl DoubleEndedIterator for PointIter<'_> {
-    fn next_back(&mut self) -> Option<[f64; 2]> {
-        self.range.next_back().map(|i| self.points.get(i))
-    }
-}
-
-impl ExactSizeIterator for PointIter<'_> {}
 
 impl<'a> IntoIterator for &'a Points {
     type Item = [f64; 2];
@@ -303,6 +247,60 @@ impl From<Vec<[f64; 2]>> for Points {
         Points(PointStore::Listed(v))
     }
 }
+
+/// What [`ByIndex`] hands out: a mesh's points or triangles by index.
+pub trait Indexed {
+    type Item;
+    fn at(&self, i: usize) -> Self::Item;
+}
+
+impl Indexed for Triangles {
+    type Item = [usize; 3];
+    fn at(&self, e: usize) -> [usize; 3] {
+        self.get(e)
+    }
+}
+
+impl Indexed for Points {
+    type Item = [f64; 2];
+    fn at(&self, i: usize) -> [f64; 2] {
+        self.get(i)
+    }
+}
+
+/// The iterator of [`Triangles::iter`] and [`Points::iter`]: each by index, in order.
+#[derive(Clone, Debug)]
+pub struct ByIndex<'a, S> {
+    store: &'a S,
+    range: std::ops::Range<usize>,
+}
+
+/// The iterator of [`Triangles::iter`].
+pub type TriangleIter<'a> = ByIndex<'a, Triangles>;
+
+/// The iterator of [`Points::iter`].
+pub type PointIter<'a> = ByIndex<'a, Points>;
+
+impl<S: Indexed> Iterator for ByIndex<'_, S> {
+    type Item = S::Item;
+    fn next(&mut self) -> Option<S::Item> {
+        self.range.next().map(|i| self.store.at(i))
+    }
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.range.size_hint()
+    }
+    fn nth(&mut self, n: usize) -> Option<S::Item> {
+        self.range.nth(n).map(|i| self.store.at(i))
+    }
+}
+
+impl<S: Indexed> DoubleEndedIterator for ByIndex<'_, S> {
+    fn next_back(&mut self) -> Option<S::Item> {
+        self.range.next_back().map(|i| self.store.at(i))
+    }
+}
+
+impl<S: Indexed> ExactSizeIterator for ByIndex<'_, S> {}
 
 #[cfg(test)]
 mod tests {
