@@ -273,8 +273,9 @@ pub(super) fn rigid_modes(
     let nodes: Vec<usize> = part.owned_mesh_nodes().collect();
     let mut sums = [0.0, 0.0, nodes.len() as f64];
     for &i in &nodes {
-        sums[0] += pts.get(i)[0];
-        sums[1] += pts.get(i)[1];
+        let p = pts.get(i);
+        sums[0] += p[0];
+        sums[1] += p[1];
     }
     comm.sum(&mut sums);
     let c = [sums[0] / sums[2], sums[1] / sums[2]];

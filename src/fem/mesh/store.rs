@@ -45,8 +45,12 @@ impl Triangles {
     /// The triangles of the `nx × ny` grid of [`Mesh::structured`](super::Mesh::structured),
     /// none stored.
     pub(super) fn grid(nx: usize, ny: usize) -> Triangles {
-        // (its node numbers fit in u32, as a stored mesh's)
-        narrow([(nx + 1) * (ny + 1), 0, 0]);
+        // (its node numbers fit in 4 bytes, as a stored mesh's: the per-node lists rely on it)
+        let nodes = (nx + 1) * (ny + 1);
+        assert!(
+            u32::try_from(nodes).is_ok(),
+            "a mesh has fewer than 2^32 nodes"
+        );
         Triangles(Store::Grid { nx, ny })
     }
 
