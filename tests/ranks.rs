@@ -191,7 +191,11 @@ fn h5_contents(prefix: &std::path::Path) -> Vec<(String, Vec<f64>)> {
 fn four_ranks_write_the_file_one_rank_writes() {
     for every in ["10", "1"] {
         // (each body 12 × 12 × 2 = 288 elements; a rank holds its group's body's mesh alone)
-        ranks_write_what_one_writes(4, every, &[], &[288; 4]);
+        let j = ranks_write_what_one_writes(4, every, &PAPER_12, &[]);
+        assert_eq!(
+            j["held_mesh_elements_per_rank"],
+            serde_json::json!(vec![288; 4])
+        );
     }
 }
 
@@ -202,8 +206,47 @@ fn four_ranks_write_the_file_one_rank_writes() {
 fn three_ranks_write_the_file_one_rank_writes_with_unequal_bodies() {
     // (body 2's 1152 elements dealt over all three ranks with body 1's 288: every rank holds
     // both meshes)
-    ranks_write_what_one_writes(3, "10", &["-nndd_body2_ny", "48"], &[1440; 3]);
+    let j = ranks_write_what_one_writes(3, "10", &PAPER_12, &["-nndd_body2_ny", "48"]);
+    assert_eq!(
+        j["held_mesh_elements_per_rank"],
+        serde_json::json!(vec![1440; 3])
+    );
 }
+
+/// A body meshed in Gmsh (its points and triangles listed, not a grid's formula) is held on
+/// each rank of its group as the part the rank reads once the bodies are set up: its elements
+/// of the partition and its block of the output's cells (and where it estimates, its overlap
+/// and Γc's elements). `paper` drawn in Gmsh, 2048 elements per body, on 6 ranks (3 per
+/// body): at most two shares of 2048 / 3 and the METIS imbalance (3 %), against the whole
+/// body on 1 and 2 ranks; the written file is the one rank's, with and without estimates.
+#[test]
+fn six_ranks_hold_the_parts_of_gmsh_bodies_they_read_and_write_the_file_one_rank_writes() {
+    let dir = scratch("ranks-gmsh-part");
+    let msh = dir.join("paper-32.msh");
+    gmsh(PAPER_GEO, &[("n", "32")], &[], &msh);
+    let problem = paper_mesh_args(&msh, "contact1,contact2", "-1e-4");
+    let problem: Vec<&str> = problem.iter().map(String::as_str).collect();
+    for (every, estimate) in [("0", &[][..]), ("3", &["-nndd_estimate"][..])] {
+        let j = ranks_write_what_one_writes(6, every, &problem, estimate);
+        assert_eq!(j["body_ranks"], serde_json::json!([3, 3]));
+        let held = j["held_mesh_elements_per_rank"].as_array().unwrap().clone();
+        let held: Vec<u64> = held.iter().map(|h| h.as_u64().unwrap()).collect();
+        let bound = (2.0 * 2048.0 / 3.0 * 1.03) as u64;
+        match every {
+            // (its partition's elements and its block of the output's)
+            "0" => assert!(held.iter().all(|&h| h <= bound), "{held:?} > {bound}"),
+            // (and its overlap of the body it estimates, with rings of neighbours: the whole
+            // body on a rank where they cover most of this small mesh)
+            _ => assert!(held.iter().sum::<u64>() < 6 * 2048, "{held:?}"),
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `paper` n = 12 (each body 12 × 12 × 2 = 288 elements).
+const PAPER_12: [&str; 4] = ["-nndd_problem", "paper", "-nndd_n", "12"];
+
+const PAPER_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
 
 /// `paper` n = 12 with body 2 four times as tall (48 rows of cells): on 3 ranks one for body 1,
 /// two for body 2.
@@ -439,23 +482,22 @@ fn same_displacements(one: &std::path::Path, other: &std::path::Path, what: &str
     }
 }
 
-fn ranks_write_what_one_writes(ranks: usize, every: &str, extra: &[&str], held: &[usize]) {
-    let dir = scratch(&format!("ranks-h5-{ranks}-{every}"));
-    let mut args = vec![
-        "-nndd_problem",
-        "paper",
-        "-nndd_n",
-        "12",
-        "-nndd_tol",
-        "1e-12",
-        "-nndd_estimate_every",
-        every,
-    ];
+/// The `problem` with `extra` options, estimated every `every` iterations, solved on 1 and
+/// on `ranks` ranks: the same datasets, the geometry identical, the values to 1e-9; the
+/// `ranks`-rank run's summary.
+fn ranks_write_what_one_writes(
+    ranks: usize,
+    every: &str,
+    problem: &[&str],
+    extra: &[&str],
+) -> serde_json::Value {
+    let dir = scratch(&format!("ranks-h5-{ranks}-{every}-{}", problem.len()));
+    let mut args = problem.to_vec();
+    args.extend(["-nndd_tol", "1e-12", "-nndd_estimate_every", every]);
     args.extend(extra);
     solve(1, &dir.join("a"), &args);
     let j = solve(ranks, &dir.join("b"), &args);
     assert_eq!(j["ranks"], ranks);
-    assert_eq!(j["held_mesh_elements_per_rank"], serde_json::json!(held));
     let (a, b) = (h5_contents(&dir.join("a")), h5_contents(&dir.join("b")));
     let names = |c: &[(String, Vec<f64>)]| c.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
     assert_eq!(
@@ -488,6 +530,7 @@ fn ranks_write_what_one_writes(ranks: usize, every: &str, extra: &[&str], held: 
         }
     }
     std::fs::remove_dir_all(&dir).ok();
+    j
 }
 
 #[test]

@@ -304,9 +304,13 @@ pub(crate) fn solve_cycle(
     // solve at the estimated iterations and on the reported iterate; made first, so that the
     // reference's fine factorisations are freed before the run's own are made.
     let mut reference_warnings = Vec::new();
-    let estimator = run.estimator(&mut timings, &mut reference_warnings)?;
+    let mut estimator = run.estimator(&mut timings, &mut reference_warnings)?;
     // Setup: each rank's bodies (partition, assembly, factorisation); the ranks agree.
-    let bodies = run.set_up_bodies(&mut timings)?;
+    let mut bodies = run.set_up_bodies(&mut timings)?;
+    // A Gmsh body's mesh cut, on each rank, to the part it reads from here on.
+    drop(run);
+    let problems = keep_read_parts(problems, &settings, &layout, &mut bodies, &mut estimator);
+    let run = Run::new(&settings, &layout, &problems, stages, agreement);
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mut warnings = unused_solver_options(&settings, &layout)?;
     say_warnings(layout.is_root(), &warnings);
@@ -419,10 +423,7 @@ fn release_unread_meshes(
     layout: &Layout,
 ) -> [Rc<BodyProblem>; 2] {
     let pair = [&*problems[0], &*problems[1]];
-    let mortar = problem::discretisation(pair) == ContactDiscretisation::Mortar;
-    // (a mortar run's estimates map both bodies' meshes onto their matched ones; an adaptive
-    // run remeshes both)
-    if (mortar && settings.estimate.enabled) || settings.adapt.is_some() {
+    if reads_whole_meshes(settings, pair) {
         return problems;
     }
     let sizes = pair.map(|p| p.num_elements());
@@ -434,6 +435,73 @@ fn release_unread_meshes(
             false => Rc::new(p.released()),
         }
     })
+}
+
+/// Whether a rank that holds a body's mesh reads it whole through the run: a mortar run's
+/// estimates map both bodies' meshes onto their matched ones, an adaptive run remeshes both.
+fn reads_whole_meshes(settings: &Settings, problems: [&BodyProblem; 2]) -> bool {
+    let mortar = problem::discretisation(problems) == ContactDiscretisation::Mortar;
+    (mortar && settings.estimate.enabled) || settings.adapt.is_some()
+}
+
+/// Each body's problem with its mesh, where it is listed (a Gmsh body's), cut to the part this
+/// rank reads once the bodies are set up ([`BodyProblem::part`]; docs/scaling.md, "Memory per
+/// rank"): its elements of the partition (their nodes: its rows), its block of the output's
+/// cells and nodes, Γc's nodes and the elements its estimates read
+/// ([`Estimator::elements_read`]; collective: the estimator's shares, its overlaps, made
+/// here rather than at the first estimate). A body estimated whole on the rank, a built-in
+/// body (its grid's formula holds nothing), a part of most of the mesh, a mortar run that
+/// estimates and an adaptive run ([`reads_whole_meshes`]) keep theirs.
+fn keep_read_parts(
+    problems: [Rc<BodyProblem>; 2],
+    settings: &Settings,
+    layout: &Layout,
+    bodies: &mut [Option<Body>; 2],
+    estimator: &mut Option<Estimator>,
+) -> [Rc<BodyProblem>; 2] {
+    // (a built-in body's mesh is its grid's formula: nothing to cut; the condition is the same
+    // on every rank, as the estimator's shares are made collectively)
+    let pair = [&*problems[0], &*problems[1]];
+    if settings.problem.mesh.is_none() || reads_whole_meshes(settings, pair) {
+        return problems;
+    }
+    let estimated = estimator.as_ref().map(|e| e.elements_read());
+    let parts = [0, 1].map(|k| {
+        let p = &problems[k];
+        let mut elements = match &estimated {
+            Some(read) => read[k].clone()?,
+            None => Vec::new(),
+        };
+        if !p.holds_listed_mesh() {
+            return None;
+        }
+        let (cells, nodes) = (
+            layout.block(k + 1, p.num_elements()),
+            layout.block(k + 1, p.num_nodes()),
+        );
+        if let Some(b) = &bodies[k] {
+            elements.extend_from_slice(&b.partition.elements);
+        }
+        elements.extend(cells.map(crate::fem::mesh::element_u32));
+        elements.sort_unstable();
+        elements.dedup();
+        let contact = p.contact_nodes.iter().chain(&p.contact_candidates);
+        let nodes: Vec<u32> = nodes.chain(contact.copied()).map(|n| n as u32).collect();
+        // (a part holds 4 B more per entry than the whole: 16 B per triangle, 20 per point)
+        (4 * elements.len() < 3 * p.num_elements()).then(|| Rc::new(p.part(&elements, &nodes)))
+    });
+    let [p1, p2] = problems;
+    let [q1, q2] = parts;
+    let held = [q1.unwrap_or(p1), q2.unwrap_or(p2)];
+    for (b, p) in bodies.iter_mut().zip(&held) {
+        if let Some(b) = b {
+            b.problem = Rc::clone(p);
+        }
+    }
+    if let Some(e) = estimator {
+        e.hold(&held);
+    }
+    held
 }
 
 /// Both bodies' problems (the ranks agree); a Gmsh problem's contact curves, made to match,

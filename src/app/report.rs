@@ -280,11 +280,12 @@ fn per_rank<T: mpi::datatype::Equivalence + Copy + Default>(layout: &Layout, min
 }
 
 /// The elements of the bodies' meshes each rank holds through the run, by world rank (a
-/// body's whole where the rank keeps its mesh, none where it released it; collective).
+/// body's whole where the rank keeps its mesh, the part it reads where it keeps that, none
+/// where it released it; collective).
 pub fn held_mesh_elements_per_rank(layout: &Layout, problems: [&BodyProblem; 2]) -> Vec<usize> {
     let mine: u64 = (problems.iter())
         .filter(|p| p.holds_mesh())
-        .map(|p| p.num_elements() as u64)
+        .map(|p| p.mesh().triangles.held_len() as u64)
         .sum();
     counts_per_rank(layout, mine)
 }

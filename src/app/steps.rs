@@ -7,7 +7,9 @@ use super::*;
 pub(super) struct Run<'a> {
     settings: &'a Settings,
     layout: &'a Layout,
-    problems: &'a [Rc<BodyProblem>; 2],
+    /// The bodies' problems: as built, then each Gmsh body's mesh cut to the part the rank
+    /// reads ([`super::keep_read_parts`]).
+    problems: [Rc<BodyProblem>; 2],
     stages: &'a Stages,
     agreement: &'a Agreement,
 }
@@ -31,14 +33,14 @@ impl<'a> Run<'a> {
     pub(super) fn new(
         settings: &'a Settings,
         layout: &'a Layout,
-        problems: &'a [Rc<BodyProblem>; 2],
+        problems: &[Rc<BodyProblem>; 2],
         stages: &'a Stages,
         agreement: &'a Agreement,
     ) -> Run<'a> {
         Run {
             settings,
             layout,
-            problems,
+            problems: problems.clone(),
             stages,
             agreement,
         }
@@ -54,7 +56,7 @@ impl<'a> Run<'a> {
         &self,
         timings: &mut Timings,
     ) -> Result<[Option<Body>; 2], AppError> {
-        let (settings, problems, layout) = (self.settings, self.problems, self.layout);
+        let (settings, problems, layout) = (self.settings, &self.problems, self.layout);
         let owned = solve::owned(problems, layout);
         let bodies = solve::setup_bodies(settings, owned, layout, self.stages, timings);
         let bodies = agreed(self.agreement, bodies)?;
@@ -139,7 +141,7 @@ impl<'a> Run<'a> {
                 &settings.estimate,
                 qp,
                 layout,
-                self.problems,
+                &self.problems,
                 reference,
                 stages,
             )
@@ -212,7 +214,7 @@ impl<'a> Run<'a> {
     ) -> Result<PostProcessed, AppError> {
         let layout = self.layout;
         let energy = potential_energy(layout, refs, sol)?;
-        let energy_norm = energy_norm(layout, self.problems, sol);
+        let energy_norm = energy_norm(layout, &self.problems, sol);
         let solvers = solve::body_solvers(layout, refs, sol);
         if self.settings.output.schur_view {
             write_interface_operators(self.settings, layout, refs)?;
@@ -271,7 +273,7 @@ impl<'a> Run<'a> {
         mut timings: Timings,
         t_start: Instant,
     ) -> Result<(), AppError> {
-        let (settings, layout, problems) = (self.settings, self.layout, self.problems);
+        let (settings, layout, problems) = (self.settings, self.layout, &self.problems);
         let t_out = Instant::now();
         let results = {
             let _s = self.stages.output.enter();

@@ -427,6 +427,32 @@ impl<'a> Estimator<'a> {
         Ok(self.run(bodies, it, true)?.eta_fe)
     }
 
+    /// The elements of each body this rank's estimates read (collective: the shares are made
+    /// here where not yet, [`Estimator::shares`]): `None` where they read every one (the
+    /// rank estimates the whole body), else its overlap's with the Γc elements its contact
+    /// terms read, and the coarse elements under its part of e_ref's fine ones.
+    pub(crate) fn elements_read(&self) -> [Option<Vec<u32>>; 2] {
+        let shares = self.shares(self.crosses());
+        [0, 1].map(|k| {
+            let p = &self.problems[k];
+            let mut read = shares[k].elements_read()?;
+            if !read.is_empty() {
+                let gc = p.mesh().chain_elements(&p.contact_nodes);
+                read.extend(gc.into_iter().flatten().map(element_u32));
+            }
+            if let Some(part) = self.reference.as_ref().and_then(|r| r.part(k)) {
+                read.extend(part.coarse_elements(p.num_elements()).map(element_u32));
+            }
+            Some(read)
+        })
+    }
+
+    /// Reads `problems` from now on: the run's, each body's mesh cut to the part this rank
+    /// reads ([`Estimator::elements_read`]).
+    pub(crate) fn hold(&mut self, problems: &[Rc<BodyProblem>; 2]) {
+        self.problems = problems.clone();
+    }
+
     /// Per body, whether some of its elements are estimated outside its group (those ranks
     /// then gather its fields from the group's blocks), from the element counts alone
     /// ([`crate::estimate::share::estimating_ranks`]).

@@ -114,6 +114,18 @@ impl ReferencePart {
         self.elements.clone()
     }
 
+    /// The elements of the coarse mesh of `coarse_elements` triangles that the transfer to
+    /// this part reads ([`ReferencePart::coarse_nodes`]): a Gmsh mesh's triangle t was split
+    /// into the fine ones r² t … r² (t + 1) − 1; a grid's, those under the part's by the
+    /// same count.
+    pub fn coarse_elements(&self, coarse_elements: usize) -> Range<usize> {
+        let r2 = (self.fine.elements / coarse_elements.max(1)).max(1);
+        match self.elements.is_empty() {
+            true => 0..0,
+            false => self.elements.start / r2..(self.elements.end - 1) / r2 + 1,
+        }
+    }
+
     /// The fine nodes this part holds.
     pub fn nodes(&self) -> &[usize] {
         &self.nodes

@@ -159,6 +159,16 @@ impl Share {
         }
     }
 
+    /// The elements of the body this rank's recoveries read: `None` for every one, else
+    /// its overlap's (none where it recovers none).
+    pub fn elements_read(&self) -> Option<Vec<u32>> {
+        match self {
+            Share::Whole => None,
+            Share::Part(o, _) => Some(o.elements.iter().map(|&e| element_u32(e)).collect()),
+            Share::Idle(_) | Share::Elsewhere => Some(Vec::new()),
+        }
+    }
+
     /// The view of the body's recoveries on this rank (none: nothing to do here).
     pub fn view<'a>(&'a self, layout: &'a Layout) -> Option<View<'a>> {
         match self {

@@ -240,8 +240,9 @@ pub fn boundary(p: &BodyProblem, gc: &[EdgeValues]) -> Boundary {
         }
         sides
     } else {
-        // Every edge of one triangle, oriented as in it; the data may run the other way.
-        let sides = mesh.boundary_edges();
+        // Every edge of one triangle, oriented as in it (the outline's, made once); the data
+        // may run the other way.
+        let sides = p.outline().edges.clone();
         for &[a, b] in &sides {
             if !known.contains_key(&(a, b)) {
                 if let Some(v) = known.get(&(b, a)).copied() {

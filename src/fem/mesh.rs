@@ -46,6 +46,28 @@ impl Mesh {
         h
     }
 
+    /// This mesh's part a rank reads: the triangles `elements` and the points of their
+    /// nodes and of `nodes`, by their global indices (the rest handed out by no one: reading
+    /// one panics). The counts, the numbering and the bounding box are the whole mesh's.
+    pub fn part(&self, elements: &[u32], nodes: &[u32]) -> Mesh {
+        let mut elements = elements.to_vec();
+        elements.sort_unstable();
+        elements.dedup();
+        let corners = elements
+            .iter()
+            .flat_map(|&e| self.triangles.get(e as usize));
+        let mut held: Vec<u32> = (corners.map(|v| v as u32))
+            .chain(nodes.iter().copied())
+            .collect();
+        held.sort_unstable();
+        held.dedup();
+        Mesh {
+            points: self.points.part(&held),
+            triangles: self.triangles.part(&elements),
+            ..*self
+        }
+    }
+
     pub fn structured(origin: [f64; 2], size: [f64; 2], nx: usize, ny: usize) -> Mesh {
         Mesh {
             nx,
@@ -141,7 +163,8 @@ impl Mesh {
 
     /// The element of each edge `(a, b)` of the chain `nodes` (segment k joins nodes k and
     /// k + 1), or `None` where no triangle has that edge: one scan of the triangles with a map
-    /// of the chain's edges only (memory O(chain), not O(mesh)).
+    /// of the chain's edges only (memory O(chain), not O(mesh)); on a rank's part
+    /// ([`Mesh::part`]) the triangles it holds.
     pub fn chain_elements(&self, nodes: &[usize]) -> Vec<Option<usize>> {
         let key = |a: usize, b: usize| (a.min(b), a.max(b));
         let mut wanted: HashMap<(usize, usize), Vec<usize>> = HashMap::new();
@@ -149,7 +172,7 @@ impl Mesh {
             wanted.entry(key(w[0], w[1])).or_default().push(k);
         }
         let mut out = vec![None; nodes.len().saturating_sub(1)];
-        for (e, t) in self.triangles.iter().enumerate() {
+        for (e, t) in self.triangles.held() {
             for k in 0..3 {
                 if let Some(segs) = wanted.get(&key(t[k], t[(k + 1) % 3])) {
                     for &s in segs {

@@ -248,6 +248,9 @@ pub struct BodyProblem {
 #[derive(Clone, Debug)]
 enum BodyMesh {
     Whole(Mesh),
+    /// The part of a listed (Gmsh) mesh a rank of the body's group reads once the bodies are
+    /// set up ([`BodyProblem::part`]): its counts and numbering the whole's.
+    Part(Mesh),
     /// Released on a rank outside the body's group that does not estimate it (its counts
     /// kept: the output's rows and the summary read them): the rank reads the body's
     /// [`Outline`] alone.
@@ -371,10 +374,11 @@ impl BodyProblem {
     ///
     /// # Panics
     /// Where this rank released it ([`BodyProblem::released`]): a rank releases the mesh of a
-    /// body only where nothing after reads it there (`app::release_unread_meshes`).
+    /// body only where nothing after reads it there (`app::release_unread_meshes`). Where it
+    /// holds a part ([`BodyProblem::part`]), on reading an element or a node beyond it.
     pub fn mesh(&self) -> &Mesh {
         match &self.mesh {
-            BodyMesh::Whole(m) => m,
+            BodyMesh::Whole(m) | BodyMesh::Part(m) => m,
             BodyMesh::Released { .. } => {
                 panic!(
                     "body {}'s mesh is read on a rank that released it",
@@ -393,15 +397,21 @@ impl BodyProblem {
         all
     }
 
-    /// Whether this rank holds the body's mesh.
+    /// Whether this rank holds the body's mesh (whole or the part it reads).
     pub fn holds_mesh(&self) -> bool {
-        matches!(self.mesh, BodyMesh::Whole(_))
+        matches!(self.mesh, BodyMesh::Whole(_) | BodyMesh::Part(_))
+    }
+
+    /// Whether this rank holds the body's mesh whole, listed (not a grid's formula): what
+    /// [`BodyProblem::part`] makes smaller.
+    pub fn holds_listed_mesh(&self) -> bool {
+        matches!(&self.mesh, BodyMesh::Whole(m) if !m.is_structured())
     }
 
     /// The body's nodes (held or released).
     pub fn num_nodes(&self) -> usize {
         match &self.mesh {
-            BodyMesh::Whole(m) => m.num_nodes(),
+            BodyMesh::Whole(m) | BodyMesh::Part(m) => m.num_nodes(),
             BodyMesh::Released { nodes, .. } => *nodes,
         }
     }
@@ -414,7 +424,7 @@ impl BodyProblem {
     /// The body's elements (held or released).
     pub fn num_elements(&self) -> usize {
         match &self.mesh {
-            BodyMesh::Whole(m) => m.triangles.len(),
+            BodyMesh::Whole(m) | BodyMesh::Part(m) => m.triangles.len(),
             BodyMesh::Released { elements, .. } => *elements,
         }
     }
@@ -429,19 +439,30 @@ impl BodyProblem {
     pub fn boundary_point(&self, node: usize) -> [f64; 2] {
         match &self.mesh {
             BodyMesh::Whole(m) => m.points.get(node),
-            BodyMesh::Released { .. } => self.outline().point(node),
+            BodyMesh::Part(_) | BodyMesh::Released { .. } => self.outline().point(node),
         }
     }
 
     /// This problem with its mesh released, its outline and its counts kept: what a rank
     /// holds of a body whose mesh nothing there reads after the layout.
     pub fn released(&self) -> BodyProblem {
+        self.with_mesh(BodyMesh::Released {
+            nodes: self.num_nodes(),
+            elements: self.num_elements(),
+        })
+    }
+
+    /// This problem with its mesh held as the part a rank reads ([`Mesh::part`]): the
+    /// elements `elements` and the nodes `nodes` (the outline kept whole, O(√N)).
+    pub fn part(&self, elements: &[u32], nodes: &[u32]) -> BodyProblem {
+        self.with_mesh(BodyMesh::Part(self.mesh().part(elements, nodes)))
+    }
+
+    /// This problem with its mesh held as `mesh` (its outline made first: it is kept).
+    fn with_mesh(&self, mesh: BodyMesh) -> BodyProblem {
         BodyProblem {
             alpha: self.alpha,
-            mesh: BodyMesh::Released {
-                nodes: self.num_nodes(),
-                elements: self.num_elements(),
-            },
+            mesh,
             outline: std::cell::OnceCell::from(self.outline().clone()),
             material: self.material,
             dirichlet: self.dirichlet.clone(),

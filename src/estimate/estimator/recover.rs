@@ -325,7 +325,7 @@ impl Estimator<'_> {
 
     /// Who estimates which elements of each body, and the overlaps and halos of this rank's
     /// ([`Share`]): made at the first estimate (collective), kept for the others.
-    fn shares(&self, crosses: [bool; 2]) -> [&Share; 2] {
+    pub(super) fn shares(&self, crosses: [bool; 2]) -> [&Share; 2] {
         let sizes = self.problems.each_ref().map(|p| p.num_elements());
         [0, 1].map(|k| {
             self.shares[k].get_or_init(|| {

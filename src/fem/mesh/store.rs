@@ -1,7 +1,8 @@
 //! How a mesh holds its points and triangles: a structured grid's by their formula, none
 //! stored ([`Mesh::structured`](super::Mesh::structured): a built-in body costs a rank that
-//! holds it no memory per node or element), any other's listed. Both hand out values, not
-//! references, by index or in order.
+//! holds it no memory per node or element), a rank's part of a listed mesh by their global
+//! indices ([`Mesh::part`](super::Mesh::part): the entries the rank reads), any other's listed.
+//! All hand out values, not references, by index or in order.
 
 /// A mesh's triangles: those of a structured grid by their formula (none stored: 12 B per
 /// element less on every rank that holds a body, 6 MiB per body at `paper` n = 512), the
@@ -17,6 +18,54 @@ enum Store {
     /// The `nx × ny` grid of [`Mesh::structured`](super::Mesh::structured): rectangle (i, j)
     /// is elements 2 (j nx + i), (a, b, d), and 2 (j nx + i) + 1, (a, d, c).
     Grid { nx: usize, ny: usize },
+    /// A rank's part: some triangles of a listed mesh, by their global index.
+    Part(Part<[u32; 3]>),
+}
+
+/// Some entries of a list of `len`, by their global indices: a rank's part of a listed mesh.
+#[derive(Clone, Debug)]
+struct Part<T> {
+    len: usize,
+    /// The entries' indices, ascending.
+    ids: Vec<u32>,
+    values: Vec<T>,
+}
+
+impl<T: Copy> Part<T> {
+    /// The entries `ids` (ascending, each below `len`) of `all`.
+    fn of(len: usize, ids: &[u32], all: impl Fn(usize) -> T) -> Part<T> {
+        debug_assert!(ids.windows(2).all(|w| w[0] < w[1]), "ascending ids");
+        assert!(
+            ids.last().is_none_or(|&i| (i as usize) < len),
+            "ids below {len}"
+        );
+        Part {
+            len,
+            ids: ids.to_vec(),
+            values: ids.iter().map(|&i| all(i as usize)).collect(),
+        }
+    }
+
+    /// Entry `i`: one held (a binary search), else a panic naming `what`: a phase reads
+    /// beyond the part it was given.
+    fn get(&self, i: usize, what: &str) -> T {
+        let found = u32::try_from(i).ok().map(|i| self.ids.binary_search(&i));
+        match found {
+            Some(Ok(k)) => self.values[k],
+            _ => panic!(
+                "{what} {i} is not in this rank's part of the mesh ({} of {} held)",
+                self.ids.len(),
+                self.len
+            ),
+        }
+    }
+
+    /// The held entries with their global indices, ascending.
+    fn held(&self) -> impl Iterator<Item = (usize, T)> + '_ {
+        (self.ids.iter())
+            .zip(&self.values)
+            .map(|(&i, &v)| (i as usize, v))
+    }
 }
 
 impl Default for Store {
@@ -58,7 +107,33 @@ impl Triangles {
         match &self.0 {
             Store::Listed(t) => t.len(),
             Store::Grid { nx, ny } => 2 * nx * ny,
+            Store::Part(p) => p.len,
         }
+    }
+
+    /// The triangles this store can hand out: all of a listed or grid mesh, a part's own.
+    pub fn held_len(&self) -> usize {
+        match &self.0 {
+            Store::Part(p) => p.ids.len(),
+            _ => self.len(),
+        }
+    }
+
+    /// The triangles this store can hand out, with their indices, ascending: all of a listed
+    /// or grid mesh, a part's own.
+    pub fn held(&self) -> Box<dyn Iterator<Item = (usize, [usize; 3])> + '_> {
+        let wide = |t: [u32; 3]| t.map(|v| v as usize);
+        match &self.0 {
+            Store::Part(p) => Box::new(p.held().map(move |(e, t)| (e, wide(t)))),
+            _ => Box::new(self.iter().enumerate()),
+        }
+    }
+
+    /// The triangles `ids` (ascending) of these, as a part: what a rank reads of a mesh.
+    pub(super) fn part(&self, ids: &[u32]) -> Triangles {
+        Triangles(Store::Part(Part::of(self.len(), ids, |e| {
+            narrow(self.get(e))
+        })))
     }
 
     pub fn is_empty(&self) -> bool {
@@ -79,16 +154,19 @@ impl Triangles {
                     _ => [a, c + 1, c],
                 }
             }
+            Store::Part(p) => p.get(e, "triangle").map(|v| v as usize),
         }
     }
 
-    /// Appends triangle `t` (a grid's triangles are listed first).
+    /// Appends triangle `t` (a grid's triangles are listed first; a part is not extended).
     pub fn push(&mut self, t: [usize; 3]) {
-        if let Store::Grid { .. } = self.0 {
-            self.0 = Store::Listed(self.iter().map(narrow).collect());
-        }
-        if let Store::Listed(v) = &mut self.0 {
-            v.push(narrow(t));
+        match &mut self.0 {
+            Store::Grid { .. } => {
+                self.0 = Store::Listed(self.iter().map(narrow).collect());
+                self.push(t);
+            }
+            Store::Listed(v) => v.push(narrow(t)),
+            Store::Part(_) => panic!("a rank's part of a mesh is not extended"),
         }
     }
 
@@ -147,6 +225,8 @@ enum PointStore {
         nx: usize,
         ny: usize,
     },
+    /// A rank's part: some points of a listed mesh, by their global index.
+    Part(Part<[f64; 2]>),
 }
 
 impl Default for PointStore {
@@ -167,7 +247,13 @@ impl Points {
         match &self.0 {
             PointStore::Listed(p) => p.len(),
             PointStore::Grid { nx, ny, .. } => (nx + 1) * (ny + 1),
+            PointStore::Part(p) => p.len,
         }
+    }
+
+    /// The points `ids` (ascending) of these, as a part: what a rank reads of a mesh.
+    pub(super) fn part(&self, ids: &[u32]) -> Points {
+        Points(PointStore::Part(Part::of(self.len(), ids, |i| self.get(i))))
     }
 
     pub fn is_empty(&self) -> bool {
@@ -187,6 +273,7 @@ impl Points {
                 let (a, b) = (i % (nx + 1), i / (nx + 1));
                 [origin[0] + a as f64 * h[0], origin[1] + b as f64 * h[1]]
             }
+            PointStore::Part(p) => p.get(i, "point"),
         }
     }
 
@@ -200,7 +287,7 @@ impl Points {
         self.listed()[i] = p;
     }
 
-    /// The points as a list, a grid's listed first.
+    /// The points as a list, a grid's listed first (a part is not changed).
     fn listed(&mut self) -> &mut Vec<[f64; 2]> {
         if let PointStore::Grid { .. } = self.0 {
             self.0 = PointStore::Listed(self.iter().collect());
@@ -208,6 +295,7 @@ impl Points {
         match &mut self.0 {
             PointStore::Listed(v) => v,
             PointStore::Grid { .. } => unreachable!("listed above"),
+            PointStore::Part(_) => panic!("a rank's part of a mesh is not changed"),
         }
     }
 
@@ -319,7 +407,7 @@ mod tests {
         assert_eq!(t.get(1), [0, 5, 4]);
         match &t.0 {
             Store::Listed(l) => assert_eq!(std::mem::size_of_val(&l[..]), 3 * 12),
-            Store::Grid { .. } => panic!("listed triangles stored as a grid"),
+            _ => panic!("listed triangles stored otherwise"),
         }
         let top = [0, 1, u32::MAX as usize];
         assert_eq!(Triangles::from(vec![top]).get(0), top);
@@ -393,6 +481,47 @@ mod tests {
         moved.set(5, [-1.0, 2.0]);
         assert_eq!(moved.get(5), [-1.0, 2.0]);
         assert_eq!(moved.get(6), listed[6]);
+    }
+
+    #[test]
+    fn a_part_hands_out_its_entries_as_the_whole_mesh_does_and_holds_no_others() {
+        let whole = Mesh::unstructured(
+            Mesh::structured([0.0, 0.0], [1.0, 1.0], 4, 3)
+                .points
+                .to_vec(),
+            Mesh::structured([0.0, 0.0], [1.0, 1.0], 4, 3)
+                .triangles
+                .iter()
+                .collect(),
+        );
+        let part = whole.part(&[7, 2, 7, 20], &[19]);
+        // The counts and the numbering are the whole mesh's.
+        assert_eq!((part.triangles.len(), part.num_nodes()), (24, 20));
+        assert_eq!(part.triangles.held_len(), 3);
+        let held: Vec<(usize, [usize; 3])> = part.triangles.held().collect();
+        let expected: Vec<(usize, [usize; 3])> =
+            [2, 7, 20].map(|e| (e, whole.triangles.get(e))).to_vec();
+        assert_eq!(held, expected);
+        for (_, t) in &held {
+            for &v in t {
+                assert_eq!(part.points.get(v), whole.points.get(v));
+            }
+        }
+        assert_eq!(part.points.get(19), whole.points.get(19));
+        // (a triangle's chain edge found among the triangles held)
+        let t = whole.triangles.get(20);
+        assert_eq!(part.chain_elements(&[t[0], t[1]]), vec![Some(20)]);
+        match &part.points.0 {
+            PointStore::Part(p) => assert_eq!(p.ids, [1, 2, 3, 7, 8, 9, 12, 13, 18, 19]),
+            _ => panic!("a part's points stored otherwise"),
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "triangle 3 is not in this rank's part of the mesh (1 of 24 held)")]
+    fn a_triangle_beyond_the_part_is_refused() {
+        let whole = Mesh::structured([0.0, 0.0], [1.0, 1.0], 4, 3);
+        let _ = whole.part(&[2], &[]).triangles.get(3);
     }
 
     #[test]
