@@ -83,7 +83,8 @@ fn main() {
     std::process::exit(code);
 }
 
-/// The panic hook: one line naming the internal error, its place and the rank; then, where
+/// The panic hook: one line naming the internal error, its place and the rank (and the
+/// backtrace where `RUST_BACKTRACE` asks for it); then, where
 /// other ranks run, the end of the whole job (they may wait in a collective for this one, and
 /// unwinding would wait for them in MPI_Finalize).
 fn internal_error(info: &std::panic::PanicHookInfo) {
@@ -102,6 +103,11 @@ fn internal_error(info: &std::panic::PanicHookInfo) {
     };
     let what = what.replace('\n', " ");
     nndd::io::monitor::say(format_args!("nndd: internal error{rank}: {what}{at}"));
+    // (with RUST_BACKTRACE=1, where the panic came from: what a bug report needs)
+    let trace = std::backtrace::Backtrace::capture();
+    if trace.status() == std::backtrace::BacktraceStatus::Captured {
+        eprintln!("{trace}");
+    }
     if running && world().size() > 1 {
         world().abort(101)
     }
