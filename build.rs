@@ -23,6 +23,7 @@ const FUNCTIONS: &[&str] = &[
     "PetscMemoryGetMaximumUsage",
     "PetscMemorySetGetMaximumUsage",
     "PetscObjectSetName",
+    "PetscObjectReference",
     "PetscFreeA",
     "PetscOptionsGetAll",
     "ISCreateGeneral",

@@ -161,7 +161,7 @@ fn set_up_body(
     // METIS's work arrays (on the group's first rank) back to the system before the assembly
     // and the factorisation allocate theirs.
     crate::os::memory::release_free_memory(0);
-    Body::setup(
+    let body = Body::setup(
         Rc::clone(problem),
         layout.own_body_comm(),
         partition,
@@ -170,7 +170,16 @@ fn set_up_body(
         settings.friction.interface(),
         stages,
     )
-    .map_err(|e| unknown_type(e, alpha))
+    .map_err(|e| unknown_type(e, alpha))?;
+    // (a factorisation made again where MUMPS's workspace fell short, said once per group)
+    for (f, more) in body.relaxed_factorisations() {
+        let w = format!(
+            "body {alpha}: MUMPS's factorisation fell short of workspace (INFOG(1) = {}, INFOG(2) = {}, with its estimate + {} %); factored again with -body{alpha}_mat_mumps_icntl_14 {more}",
+            f.status, f.detail, f.relaxation
+        );
+        super::say_warnings(layout.group_rank() == 0, &[w]);
+    }
+    Ok(body)
 }
 
 /// A solver option of body α naming a type PETSc does not know (`-body1_ksp_type foo`) is bad

@@ -31,7 +31,7 @@ use crate::dd::stiffness::{self, Stiffness};
 use crate::parallel::fault::{self, InjectedFault, Phase};
 use crate::parallel::layout::OwnComm;
 use crate::parallel::partition::Partition;
-use crate::petsc::{self, Comm, Gather, Ksp, Vector};
+use crate::petsc::{self, Comm, Gather, Int, Ksp, MumpsFailure, Vector};
 use std::rc::Rc;
 
 use crate::fem::{Dofs, DofsMut};
@@ -373,6 +373,14 @@ impl Body {
         )?);
         self.setup_seconds.1 += t1.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// The MUMPS factorisations of this body's systems that fell short of workspace and
+    /// were made again, each with the relaxation ICNTL(14) of the next ([`Ksp::new`]).
+    pub fn relaxed_factorisations(&self) -> Vec<(MumpsFailure, Int)> {
+        let systems = [&self.neumann, &self.dirichlet];
+        let solvers = systems.into_iter().flatten();
+        solvers.flat_map(|k| k.relaxed().iter().copied()).collect()
     }
 
     pub fn has_dirichlet_system(&self) -> bool {

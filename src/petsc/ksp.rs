@@ -10,7 +10,7 @@ use super::error::{call, cstr, PetscError, Result, ERR_MISSING_FACTOR, ERR_UNKNO
 use super::is::Is;
 use super::mat::Matrix;
 use super::mumps;
-use super::options::{option_default, option_present, option_string};
+use super::options::{option_default, option_present, option_string, set_option};
 use super::vec::{Gather, Vector, PETSC_DETERMINE};
 use super::{ffi, Int};
 
@@ -80,7 +80,14 @@ pub struct Ksp {
     /// Bytes of PETSc's copy of the operator for MUMPS freed on this rank once factored
     /// ([`mumps::release_triples`]).
     freed_copy: usize,
+    /// The MUMPS factorisations that fell short of workspace before this one, each with the
+    /// relaxation ICNTL(14) it was made again with ([`Ksp::new`]).
+    relaxed: Vec<(mumps::Failure, Int)>,
 }
+
+/// The factorisations a solver makes again where MUMPS's workspace falls short, each with
+/// the relaxation ICNTL(14) raised from r to 2 r + 50 per cent (20 → 90 → 230).
+const RELAXATION_RETRIES: usize = 2;
 
 impl Ksp {
     /// The operator the solver was made for.
@@ -91,7 +98,46 @@ impl Ksp {
     /// Create the solver for `mat` with options prefix `prefix` (e.g. `body1_`). When
     /// `schur_rows` is given and the factorisation is MUMPS, its Schur complement on those rows
     /// is computed during the factorisation ([`Ksp::schur_complement`]).
+    /// Where MUMPS's workspace falls short (INFOG(1) = −8, −9) and the user did not set
+    /// `-<prefix>mat_mumps_icntl_14`, the factorisation is made again with a larger relaxation
+    /// ([`RELAXATION_RETRIES`] times at most; [`Ksp::relaxed`] says which); any other failure
+    /// is the error naming INFOG(1), INFOG(2) and what to change.
     pub fn new(comm: Comm, mat: Matrix, prefix: &str, schur_rows: Option<&[Int]>) -> Result<Ksp> {
+        let option = format!("-{prefix}mat_mumps_icntl_14");
+        let set_by_user = option_present(&option);
+        let mut relaxed = Vec::new();
+        loop {
+            match Ksp::attempt(comm, mat.share()?, prefix, schur_rows)? {
+                Ok(mut solver) => {
+                    solver.relaxed = relaxed;
+                    return Ok(solver);
+                }
+                Err(f) if f.workspace_short() && !set_by_user => {
+                    if relaxed.len() == RELAXATION_RETRIES {
+                        return Err(f.error(prefix));
+                    }
+                    let more = 2 * f.relaxation.max(0) + 50;
+                    set_option(&option, &more.to_string())?;
+                    relaxed.push((f, more));
+                }
+                Err(f) => return Err(f.error(prefix)),
+            }
+        }
+    }
+
+    /// The MUMPS factorisations that fell short of workspace before this solver's, each with
+    /// the relaxation ICNTL(14) it was made again with (empty: the first one did).
+    pub fn relaxed(&self) -> &[(mumps::Failure, Int)] {
+        &self.relaxed
+    }
+
+    /// One try of [`Ksp::new`]: `Ok(Err)` where MUMPS's factorisation failed.
+    fn attempt(
+        comm: Comm,
+        mat: Matrix,
+        prefix: &str,
+        schur_rows: Option<&[Int]>,
+    ) -> Result<std::result::Result<Ksp, mumps::Failure>> {
         let mut ksp: ffi::KSP = ptr::null_mut();
         call!(KSPCreate(comm.0, &mut ksp))?;
         let mut solver = Ksp {
@@ -102,6 +148,7 @@ impl Ksp {
             a_norm: std::cell::Cell::new(None),
             check_seconds: std::cell::Cell::new(0.0),
             freed_copy: 0,
+            relaxed: Vec::new(),
         };
         call!(KSPSetOperators(solver.ksp, solver._mat.0, solver._mat.0))?;
         let p = cstr(prefix);
@@ -135,7 +182,9 @@ impl Ksp {
         call!(KSPSetUp(solver.ksp))?;
         if mumps_factor {
             call!(PCFactorGetMatrix(pc, &mut factor))?;
-            mumps::verdict(factor, prefix)?;
+            if let Err(f) = mumps::verdict(factor)? {
+                return Ok(Err(f));
+            }
         }
         if let Some((_is, m)) = schur_is {
             let mut s: ffi::Mat = ptr::null_mut();
@@ -152,7 +201,7 @@ impl Ksp {
         if mumps_factor {
             solver.freed_copy = mumps::release_triples(factor)?;
         }
-        Ok(solver)
+        Ok(Ok(solver))
     }
 
     /// The PC's type name.

@@ -121,6 +121,13 @@ impl Matrix {
         set
     }
 
+    /// A second handle of this matrix (PETSc's reference count raised; each handle's drop
+    /// lowers it): what a solver holds while its maker keeps the matrix to try again.
+    pub fn share(&self) -> Result<Matrix> {
+        call!(PetscObjectReference(self.0 as ffi::PetscObject))?;
+        Ok(Matrix(self.0))
+    }
+
     pub fn duplicate(&self) -> Result<Matrix> {
         let mut m: ffi::Mat = ptr::null_mut();
         call!(MatDuplicate(self.0, ffi::MAT_COPY_VALUES, &mut m))?;

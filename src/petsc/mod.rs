@@ -39,6 +39,7 @@ pub use init::Petsc;
 pub use ksp::{unknown_type_option, Ksp, SolveInfo};
 pub use log::{LogStage, StageGuard};
 pub use mat::Matrix;
+pub use mumps::Failure as MumpsFailure;
 pub use options::{
     names_in, option_default, option_names, option_present, option_string, options_text,
     unused_options, OptionsBlock,

@@ -8,7 +8,10 @@
 //! default on several ranks (5 % on one), and most of a rank's peak is that workspace
 //! (docs/scaling.md, "Memory per rank"). nndd keeps MUMPS's default: with 5 % on a group of
 //! several ranks, `paper` n = 1024 on 8 ranks ended in MUMPS 5.5 with a Fortran runtime error
-//! (dfac_process_blocfacto_LDLT.F, line 983) instead of INFOG(1) = −9.
+//! (dfac_process_blocfacto_LDLT.F, line 983) instead of INFOG(1) = −9. Where the default
+//! falls short (INFOG(1) = −8 or −9: small bodies on many ranks), the solver factors again
+//! with a larger relaxation ([`Failure::workspace_short`], `Ksp::new`), unless the user set
+//! it.
 //!
 //! [`inverse_entries`] asks MUMPS itself for selected entries of A⁻¹ (ICNTL(30)) with the
 //! factorisation PETSc made: MUMPS takes the wanted entries as a sparse right-hand side with
@@ -27,17 +30,43 @@ use std::ptr;
 use super::error::{call, PetscError, Result, ERR_LIB};
 use super::{ffi, Int};
 
-/// `Ok` where MUMPS's factorisation `factor` succeeded (INFOG is the same on every rank of its
-/// group, so every rank returns the same), else the error naming what to change.
-pub(super) fn verdict(factor: ffi::Mat, prefix: &str) -> Result<()> {
+/// A failed MUMPS factorisation: INFOG(1), INFOG(2) and the relaxation ICNTL(14) (per cent
+/// of the analysis's workspace estimate) it ran with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Failure {
+    pub status: Int,
+    pub detail: Int,
+    pub relaxation: Int,
+}
+
+impl Failure {
+    /// Whether its workspace was too small (INFOG(1) = −8, −9): a larger relaxation may let
+    /// the factorisation through.
+    pub fn workspace_short(&self) -> bool {
+        matches!(self.status, -8 | -9)
+    }
+
+    /// The error of this failure of the solver with options prefix `prefix`.
+    pub(super) fn error(&self, prefix: &str) -> PetscError {
+        failure(prefix, self.status, self.detail, self.relaxation)
+    }
+}
+
+/// `Ok(Ok)` where MUMPS's factorisation `factor` succeeded, `Ok(Err)` with what failed where it
+/// did not (INFOG is the same on every rank of its group, so every rank returns the same).
+pub(super) fn verdict(factor: ffi::Mat) -> Result<std::result::Result<(), Failure>> {
     let (mut status, mut detail, mut relaxation): (Int, Int, Int) = (0, 0, 0);
     call!(MatMumpsGetInfog(factor, 1, &mut status))?;
     if status >= 0 {
-        return Ok(());
+        return Ok(Ok(()));
     }
     call!(MatMumpsGetInfog(factor, 2, &mut detail))?;
     call!(MatMumpsGetIcntl(factor, 14, &mut relaxation))?;
-    Err(failure(prefix, status, detail, relaxation))
+    Ok(Err(Failure {
+        status,
+        detail,
+        relaxation,
+    }))
 }
 
 /// The error of a failed MUMPS factorisation: INFOG(1) `status`, INFOG(2) `detail`, under the

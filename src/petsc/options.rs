@@ -103,6 +103,11 @@ pub fn option_default(name: &str, value: &str) -> Result<()> {
     if option_present(name) {
         return Ok(());
     }
+    set_option(name, value)
+}
+
+/// Sets option `name` to `value` in the options database, over any value it had.
+pub fn set_option(name: &str, value: &str) -> Result<()> {
     let (n, v) = (cstr(name), cstr(value));
     call!(PetscOptionsSetValue(
         ptr::null_mut(),
