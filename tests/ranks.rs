@@ -214,7 +214,7 @@ fn three_ranks_write_the_file_one_rank_writes_with_unequal_bodies() {
 }
 
 /// A body meshed in Gmsh (its points and triangles listed, not a grid's formula) is held on
-/// each rank of its group as the part the rank reads once the bodies are set up: its elements
+/// each rank of its group as the part the rank reads once the bodies are partitioned: its elements
 /// of the partition and its block of the output's cells (and where it estimates, its overlap
 /// and Γc's elements). `paper` drawn in Gmsh, 2048 elements per body, on 6 ranks (3 per
 /// body): at most two shares of 2048 / 3 and the METIS imbalance (3 %), against the whole

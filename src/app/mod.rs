@@ -37,7 +37,7 @@ use crate::io::summary::{EstimationParts, Timings};
 use crate::os::{memory, signals};
 use crate::parallel::fault::{self, Agreement, InjectedFault, Phase};
 use crate::parallel::layout::{Layout, LayoutError};
-use crate::parallel::partition::PartitionError;
+use crate::parallel::partition::{Partition, PartitionError};
 use crate::petsc::log::Stages;
 use crate::petsc::{self, Ksp, Matrix, Petsc, PetscError};
 use crate::problem::meshed::MeshedError;
@@ -305,12 +305,14 @@ pub(crate) fn solve_cycle(
     // reference's fine factorisations are freed before the run's own are made.
     let mut reference_warnings = Vec::new();
     let mut estimator = run.estimator(&mut timings, &mut reference_warnings)?;
-    // Setup: each rank's bodies (partition, assembly, factorisation); the ranks agree.
-    let mut bodies = run.set_up_bodies(&mut timings)?;
-    // A Gmsh body's mesh cut, on each rank, to the part it reads from here on.
+    // Partition: each body over its group (METIS); then a Gmsh body's mesh cut, on each rank,
+    // to the part it reads from here on.
+    let partitions = run.partitions()?;
     drop(run);
-    let problems = keep_read_parts(problems, &settings, &layout, &mut bodies, &mut estimator);
+    let problems = keep_read_parts(problems, &settings, &layout, &partitions, &mut estimator);
     let run = Run::new(&settings, &layout, &problems, stages, agreement);
+    // Setup: each rank's bodies (assembly, factorisation); the ranks agree.
+    let bodies = run.set_up_bodies(partitions, &mut timings)?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mut warnings = unused_solver_options(&settings, &layout)?;
     say_warnings(layout.is_root(), &warnings);
@@ -445,9 +447,10 @@ fn reads_whole_meshes(settings: &Settings, problems: [&BodyProblem; 2]) -> bool 
 }
 
 /// Each body's problem with its mesh, where it is listed (a Gmsh body's), cut to the part this
-/// rank reads once the bodies are set up ([`BodyProblem::part`]; docs/scaling.md, "Memory per
-/// rank"): its elements of the partition (their nodes: its rows), its block of the output's
-/// cells and nodes, Γc's nodes and the elements its estimates read
+/// rank reads once the bodies are partitioned, before they are set up ([`BodyProblem::part`];
+/// docs/scaling.md, "Memory per rank"): its elements of the partition and its nodes (its
+/// rows), its block of the output's cells and nodes, Γc's nodes and the elements its estimates
+/// read
 /// ([`Estimator::elements_read`]; collective: the estimator's shares, its overlaps, made
 /// here rather than at the first estimate). A body estimated whole on the rank, a built-in
 /// body (its grid's formula holds nothing), a part of most of the mesh, a mortar run that
@@ -456,7 +459,7 @@ fn keep_read_parts(
     problems: [Rc<BodyProblem>; 2],
     settings: &Settings,
     layout: &Layout,
-    bodies: &mut [Option<Body>; 2],
+    partitions: &[Option<Partition>; 2],
     estimator: &mut Option<Estimator>,
 ) -> [Rc<BodyProblem>; 2] {
     // (a built-in body's mesh is its grid's formula: nothing to cut; the condition is the same
@@ -479,25 +482,22 @@ fn keep_read_parts(
             layout.block(k + 1, p.num_elements()),
             layout.block(k + 1, p.num_nodes()),
         );
-        if let Some(b) = &bodies[k] {
-            elements.extend_from_slice(&b.partition.elements);
+        let owned = partitions[k].as_ref();
+        if let Some(part) = owned {
+            elements.extend_from_slice(&part.elements);
         }
         elements.extend(cells.map(crate::fem::mesh::element_u32));
         elements.sort_unstable();
         elements.dedup();
-        let contact = p.contact_nodes.iter().chain(&p.contact_candidates);
-        let nodes: Vec<u32> = nodes.chain(contact.copied()).map(|n| n as u32).collect();
+        let rows = owned.into_iter().flat_map(Partition::owned_mesh_nodes);
+        let contact = p.contact_nodes.iter().chain(&p.contact_candidates).copied();
+        let nodes: Vec<u32> = nodes.chain(rows).chain(contact).map(|n| n as u32).collect();
         // (a part holds 4 B more per entry than the whole: 16 B per triangle, 20 per point)
         (4 * elements.len() < 3 * p.num_elements()).then(|| Rc::new(p.part(&elements, &nodes)))
     });
     let [p1, p2] = problems;
     let [q1, q2] = parts;
     let held = [q1.unwrap_or(p1), q2.unwrap_or(p2)];
-    for (b, p) in bodies.iter_mut().zip(&held) {
-        if let Some(b) = b {
-            b.problem = Rc::clone(p);
-        }
-    }
     if let Some(e) = estimator {
         e.hold(&held);
     }

@@ -69,14 +69,15 @@ pub struct Solution {
 pub fn setup_bodies(
     settings: &Settings,
     owned: [Option<&Rc<BodyProblem>>; 2],
+    partitions: [Option<Partition>; 2],
     layout: &Layout,
     stages: &Stages,
     timings: &mut Timings,
 ) -> Result<[Option<Body>; 2], AppError> {
     let nndd_run = settings.solver == SolverKind::Nndd;
     let mut bodies: [Option<Body>; 2] = [None, None];
-    for alpha in [1, 2] {
-        let Some(problem) = owned[alpha - 1] else {
+    for (alpha, partition) in [1, 2].into_iter().zip(partitions) {
+        let (Some(problem), Some(partition)) = (owned[alpha - 1], partition) else {
             continue;
         };
         // Every body forms its interface operators where its factorisation gives them (MUMPS,
@@ -96,7 +97,7 @@ pub fn setup_bodies(
             (_, _, DirichletChoice::Condensed) => SchurMode::Always,
             (_, _, DirichletChoice::Auto | DirichletChoice::System) => SchurMode::IfFactored,
         };
-        let mut body = set_up_body(settings, problem, layout, schur, stages)?;
+        let mut body = set_up_body(settings, problem, partition, layout, schur, stages)?;
         let system =
             settings.nndd.dirichlet_step == DirichletChoice::System || !body.has_condensed();
         // A body held only by contact takes the Dirichlet step, and the monolithic solve
@@ -111,6 +112,24 @@ pub fn setup_bodies(
         bodies[alpha - 1] = Some(body);
     }
     Ok(bodies)
+}
+
+/// The partition of each body this rank's group works on ([`Partition::on_group`]: METIS on
+/// the group's first rank; `None` for the others).
+pub fn partitions(
+    owned: [Option<&Rc<BodyProblem>>; 2],
+    layout: &Layout,
+) -> Result<[Option<Partition>; 2], AppError> {
+    let mut parts = [None, None];
+    for (alpha, problem) in [1, 2].into_iter().zip(owned) {
+        if let Some(p) = problem {
+            parts[alpha - 1] = Some(Partition::on_group(p.mesh(), alpha, layout)?);
+            // METIS's work arrays (on the group's first rank) back to the system before the
+            // assembly and the factorisation allocate theirs.
+            crate::os::memory::release_free_memory(0);
+        }
+    }
+    Ok(parts)
 }
 
 /// The problems of the bodies this rank's group works on (`None` for the others).
@@ -132,10 +151,12 @@ pub fn setup_matched_bodies(
     timings: &mut Timings,
 ) -> Result<[Option<Body>; 2], AppError> {
     let mut bodies: [Option<Body>; 2] = [None, None];
-    for alpha in [1, 2] {
-        if layout.owns(alpha) {
+    let parts = partitions(owned(problems, layout), layout)?;
+    for (alpha, partition) in [1, 2].into_iter().zip(parts) {
+        if let Some(partition) = partition {
             let problem = &problems[alpha - 1];
-            let body = set_up_body(settings, problem, layout, SchurMode::None, stages)?;
+            let schur = SchurMode::None;
+            let body = set_up_body(settings, problem, partition, layout, schur, stages)?;
             timings.assembly += body.setup_seconds.0;
             timings.factorisation += body.setup_seconds.1;
             // (the carried iterate held at the rank's block of the nodes, Γc and the outline)
@@ -146,21 +167,18 @@ pub fn setup_matched_bodies(
     Ok(bodies)
 }
 
-/// One body's partition, assembly and factorisation (with its interface operators as `schur`
-/// says), on its group.
+/// One body's assembly and factorisation on its `partition` (with its interface operators as
+/// `schur` says), on its group.
 fn set_up_body(
     settings: &Settings,
     problem: &Rc<BodyProblem>,
+    partition: Partition,
     layout: &Layout,
     schur: SchurMode,
     stages: &Stages,
 ) -> Result<Body, AppError> {
     let alpha = problem.alpha;
     announce_setup(alpha, problem, layout)?;
-    let partition = Partition::on_group(problem.mesh(), alpha, layout)?;
-    // METIS's work arrays (on the group's first rank) back to the system before the assembly
-    // and the factorisation allocate theirs.
-    crate::os::memory::release_free_memory(0);
     let body = Body::setup(
         Rc::clone(problem),
         layout.own_body_comm(),
@@ -264,9 +282,11 @@ pub fn solve_reference(
     // (the NNDD reads the bodies alone).
     let problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
     drop(both);
+    let held = problems.each_ref().map(Option::as_ref);
     let bodies = setup_bodies(
         &fine,
-        problems.each_ref().map(Option::as_ref),
+        held,
+        partitions(held, layout)?,
         layout,
         stages,
         &mut scratch,

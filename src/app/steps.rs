@@ -46,19 +46,26 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// Each rank's bodies (partition, assembly, factorisation); the ranks agree. Each rank
-    /// keeps the bodies' fields at the nodes it reads alone: its rows of the output (its block
-    /// of the body's nodes and its cells' nodes), Γc and the outline ([`Body::keep_fields_at`];
-    /// the checks gather its rows, the estimates their overlaps, e_ref the coarse nodes under
-    /// its block of the fine elements and a mortar run's estimates the nodes under its part of
-    /// the matched meshes from the blocks).
+    /// Each body's partition over its group, on the ranks of the group; the ranks agree.
+    pub(super) fn partitions(&self) -> Result<[Option<Partition>; 2], AppError> {
+        let parts = solve::partitions(solve::owned(&self.problems, self.layout), self.layout);
+        agreed(self.agreement, parts)
+    }
+
+    /// Each rank's bodies on their `partitions` (assembly, factorisation); the ranks agree.
+    /// Each rank keeps the bodies' fields at the nodes it reads alone: its rows of the output
+    /// (its block of the body's nodes and its cells' nodes), Γc and the outline
+    /// ([`Body::keep_fields_at`]; the checks gather its rows, the estimates their overlaps,
+    /// e_ref the coarse nodes under its block of the fine elements and a mortar run's estimates
+    /// the nodes under its part of the matched meshes from the blocks).
     pub(super) fn set_up_bodies(
         &self,
+        partitions: [Option<Partition>; 2],
         timings: &mut Timings,
     ) -> Result<[Option<Body>; 2], AppError> {
         let (settings, problems, layout) = (self.settings, &self.problems, self.layout);
         let owned = solve::owned(problems, layout);
-        let bodies = solve::setup_bodies(settings, owned, layout, self.stages, timings);
+        let bodies = solve::setup_bodies(settings, owned, partitions, layout, self.stages, timings);
         let bodies = agreed(self.agreement, bodies)?;
         let kept = crate::io::fields::kept_rows(layout, [&*problems[0], &*problems[1]]);
         for (k, (b, nodes)) in bodies.iter().zip(kept.nodes).enumerate() {

@@ -216,7 +216,7 @@ pub struct Summary {
     /// The elements of the bodies' meshes each rank holds through the run, by world rank: its
     /// group's body (and a body it estimates outside that body's group, or both in a mortar
     /// run that estimates or an adaptive run), of a Gmsh body the part it reads once the
-    /// bodies are set up; the other's mesh released after the layout.
+    /// bodies are partitioned; the other's mesh released after the layout.
     pub held_mesh_elements_per_rank: Vec<usize>,
     /// The nodes at which each rank holds the reported iterate's displacement, by world rank:
     /// its rows of the output (its block of the body's nodes and its cells' nodes), Γc and the

@@ -248,8 +248,8 @@ pub struct BodyProblem {
 #[derive(Clone, Debug)]
 enum BodyMesh {
     Whole(Mesh),
-    /// The part of a listed (Gmsh) mesh a rank of the body's group reads once the bodies are
-    /// set up ([`BodyProblem::part`]): its counts and numbering the whole's.
+    /// The part of a listed (Gmsh) mesh a rank reads once the bodies are partitioned
+    /// ([`BodyProblem::part`]): its counts and numbering the whole's.
     Part(Mesh),
     /// Released on a rank outside the body's group that does not estimate it (its counts
     /// kept: the output's rows and the summary read them): the rank reads the body's
@@ -484,8 +484,8 @@ impl BodyProblem {
         for e in &self.neumann {
             let [a, b] = e.nodes;
             let (fa, fb) = edge_load(
-                self.mesh().points.get(a),
-                self.mesh().points.get(b),
+                self.boundary_point(a),
+                self.boundary_point(b),
                 e.traction[0],
                 e.traction[1],
             );
