@@ -450,11 +450,10 @@ fn reads_whole_meshes(settings: &Settings, problems: [&BodyProblem; 2]) -> bool 
 /// rank reads once the bodies are partitioned, before they are set up ([`BodyProblem::part`];
 /// docs/scaling.md, "Memory per rank"): its elements of the partition and its nodes (its
 /// rows), its block of the output's cells and nodes, Γc's nodes and the elements its estimates
-/// read
-/// ([`Estimator::elements_read`]; collective: the estimator's shares, its overlaps, made
-/// here rather than at the first estimate). A body estimated whole on the rank, a built-in
-/// body (its grid's formula holds nothing), a part of most of the mesh, a mortar run that
-/// estimates and an adaptive run ([`reads_whole_meshes`]) keep theirs.
+/// read ([`Estimator::elements_read`]; collective: the estimator's shares, its overlaps, are
+/// made here rather than at the first estimate). A body estimated whole on the rank, a
+/// built-in body (its grid's formula holds nothing), a part of most of the mesh, a mortar run
+/// that estimates and an adaptive run ([`reads_whole_meshes`]) keep theirs.
 fn keep_read_parts(
     problems: [Rc<BodyProblem>; 2],
     settings: &Settings,
