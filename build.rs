@@ -16,6 +16,7 @@ const FUNCTIONS: &[&str] = &[
     "PetscOptionsHasName",
     "PetscOptionsGetString",
     "PetscOptionsSetValue",
+    "PetscOptionsClearValue",
     "PetscOptionsLeft(Get|Restore)?",
     "PetscLogStageRegister",
     "PetscLogStagePush",

@@ -300,8 +300,8 @@ fn a_failed_mumps_factorisation_names_its_cause() {
 /// Where MUMPS's default workspace falls short (INFOG(1) = −9: `paper` drawn in Gmsh, n = 32,
 /// on 8 ranks, 4 per body: one body or both in every one of 5 runs here, which one varying;
 /// before, the run ended there), the factorisation is made again with the relaxation raised
-/// (20 → 90 %), the group's first rank says so naming the option, and the solution is the
-/// one rank's.
+/// (20 → 90 %), world rank 0 says so naming the option and the summary's `warnings` hold the
+/// same lines, and the solution is the one rank's.
 #[test]
 fn a_factorisation_short_of_workspace_is_made_again_with_more() {
     let dir = scratch("paths-mumps-relaxed");
@@ -321,7 +321,12 @@ fn a_factorisation_short_of_workspace_is_made_again_with_more() {
         "8 ranks: {}\n{stdout}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for w in stdout.lines().filter(|l| l.contains("fell short")) {
+    // (the warnings go to stderr, as PETSc's do)
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let said: Vec<&str> = (stderr.lines())
+        .filter(|l| l.contains("fell short"))
+        .collect();
+    for w in &said {
         assert!(
             w.contains("INFOG(1) = -9") && w.contains("_mat_mumps_icntl_14 90"),
             "{w}"
@@ -329,6 +334,13 @@ fn a_factorisation_short_of_workspace_is_made_again_with_more() {
     }
     let eight: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(format!("{p}.json")).unwrap()).unwrap();
+    // Each said once, by world rank 0 whichever group factored it, and in the summary.
+    let summary: Vec<String> = (eight["warnings"].as_array().unwrap().iter())
+        .map(|w| w.as_str().unwrap())
+        .filter(|w| w.contains("fell short"))
+        .map(|w| format!("nndd: warning: {w}"))
+        .collect();
+    assert_eq!(said, summary, "{stderr}");
     assert_eq!(eight["iterations"], one["iterations"]);
     same(&dir.join("one"), &prefix, 1e-10);
     std::fs::remove_dir_all(&dir).ok();

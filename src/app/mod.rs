@@ -12,6 +12,7 @@ pub mod capacity;
 mod cycles;
 pub mod options;
 pub mod preflight;
+mod relaxed;
 mod report;
 mod reported;
 mod solve;
@@ -303,8 +304,8 @@ pub(crate) fn solve_cycle(
     // Estimate: the estimator (with the reference solution of (26) when asked), used by the
     // solve at the estimated iterations and on the reported iterate; made first, so that the
     // reference's fine factorisations are freed before the run's own are made.
-    let mut reference_warnings = Vec::new();
-    let mut estimator = run.estimator(&mut timings, &mut reference_warnings)?;
+    let mut setup_warnings = Vec::new();
+    let mut estimator = run.estimator(&mut timings, &mut setup_warnings)?;
     // Partition: each body over its group (METIS); then a Gmsh body's mesh cut, on each rank,
     // to the part it reads from here on.
     let partitions = run.partitions()?;
@@ -312,11 +313,11 @@ pub(crate) fn solve_cycle(
     let problems = keep_read_parts(problems, &settings, &layout, &partitions, &mut estimator);
     let run = Run::new(&settings, &layout, &problems, stages, agreement);
     // Setup: each rank's bodies (assembly, factorisation); the ranks agree.
-    let bodies = run.set_up_bodies(partitions, &mut timings)?;
+    let bodies = run.set_up_bodies(partitions, &mut timings, &mut setup_warnings)?;
     let refs = [bodies[0].as_ref(), bodies[1].as_ref()];
     let mut warnings = unused_solver_options(&settings, &layout)?;
     say_warnings(layout.is_root(), &warnings);
-    warnings.append(&mut reference_warnings);
+    warnings.append(&mut setup_warnings);
     run.announce_setup(t_start);
     // Solve: the NNDD (paper §3) or the monolithic check; the contact checked on the curves.
     let mut sol = run.solve(refs, estimator.as_ref(), &mut timings, &restart)?;

@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use super::agreed;
 use super::options::{Settings, SettingsError, SolverKind};
+use super::relaxed::{relaxed_warnings, Factored};
 use super::reported::{attach_estimates, keep_for_output, resolve_reported, Pending};
 use super::{AppError, LONG_PHASE_DOFS};
 use crate::dd::body::{uses_superlu_dist, Body, BodyError, SchurMode, SchurSource};
@@ -189,14 +190,6 @@ fn set_up_body(
         stages,
     )
     .map_err(|e| unknown_type(e, alpha))?;
-    // (a factorisation made again where MUMPS's workspace fell short, said once per group)
-    for (f, more) in body.relaxed_factorisations() {
-        let w = format!(
-            "body {alpha}: MUMPS's factorisation fell short of workspace (INFOG(1) = {}, INFOG(2) = {}, with its estimate + {} %); factored again with -body{alpha}_mat_mumps_icntl_14 {more}",
-            f.status, f.detail, f.relaxation
-        );
-        super::say_warnings(layout.group_rank() == 0, &[w]);
-    }
     Ok(body)
 }
 
@@ -255,6 +248,7 @@ pub fn solve_reference(
     r: usize,
     timings: &mut Timings,
     gaps: Option<&crate::problem::transfer::GapField>,
+    warnings: &mut Vec<String>,
 ) -> Result<Result<Reference, String>, AppError> {
     let t = Instant::now();
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
@@ -291,6 +285,7 @@ pub fn solve_reference(
         stages,
         &mut scratch,
     )?;
+    warnings.extend(relaxed_warnings(&bodies, layout, Factored::Reference));
     // Each rank's block of the fine elements, at whose nodes the fine fields are kept.
     let mut parts = [0, 1].map(|k| {
         let p = problems[k].as_ref()?;

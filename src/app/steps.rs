@@ -1,6 +1,7 @@
 //! The steps of one solve from the setup on ([`Run`]): the bodies, the estimator, the NNDD or
 //! the monolithic check, the contact's check, the post-processing and the output.
 
+use super::relaxed::{relaxed_warnings, Factored};
 use super::*;
 
 /// What the steps of a run from the setup on work with.
@@ -58,15 +59,18 @@ impl<'a> Run<'a> {
     /// ([`Body::keep_fields_at`]; the checks gather its rows, the estimates their overlaps,
     /// e_ref the coarse nodes under its block of the fine elements and a mortar run's estimates
     /// the nodes under its part of the matched meshes from the blocks).
+    /// A factorisation made again with a larger relaxation is a warning, added to `warnings`.
     pub(super) fn set_up_bodies(
         &self,
         partitions: [Option<Partition>; 2],
         timings: &mut Timings,
+        warnings: &mut Vec<String>,
     ) -> Result<[Option<Body>; 2], AppError> {
         let (settings, problems, layout) = (self.settings, &self.problems, self.layout);
         let owned = solve::owned(problems, layout);
         let bodies = solve::setup_bodies(settings, owned, partitions, layout, self.stages, timings);
         let bodies = agreed(self.agreement, bodies)?;
+        warnings.extend(relaxed_warnings(&bodies, layout, Factored::Run));
         let kept = crate::io::fields::kept_rows(layout, [&*problems[0], &*problems[1]]);
         for (k, (b, nodes)) in bodies.iter().zip(kept.nodes).enumerate() {
             if let Some(b) = b {
@@ -105,7 +109,8 @@ impl<'a> Run<'a> {
     }
 
     /// The estimator when the run estimates, with the reference solution of (26) when asked
-    /// (one that does not converge is a warning, added to `warnings`: no e_ref then). A mortar
+    /// (one that does not converge is a warning, added to `warnings`: no e_ref then, as is a
+    /// factorisation made again with a larger relaxation). A mortar
     /// run's estimates and reference work on the matched meshes of
     /// [`crate::problem::ProblemSettings::for_estimates`], their bodies set up here.
     pub(super) fn estimator(
@@ -128,7 +133,8 @@ impl<'a> Run<'a> {
         let reference = match settings.estimate.reference_factor {
             0 => None,
             r => {
-                match solve::solve_reference(on, layout, self.stages, r, timings, gaps.as_ref())? {
+                let gaps = gaps.as_ref();
+                match solve::solve_reference(on, layout, self.stages, r, timings, gaps, warnings)? {
                     Ok(reference) => Some(reference),
                     Err(w) => {
                         say_warnings(layout.is_root(), std::slice::from_ref(&w));
@@ -158,6 +164,7 @@ impl<'a> Run<'a> {
         let problems = gaps.apply(crate::problem::build(&matched.problem)?);
         let bodies = solve::setup_matched_bodies(&matched, &problems, layout, self.stages, timings);
         let bodies = agreed(self.agreement, bodies)?;
+        warnings.extend(relaxed_warnings(&bodies, layout, Factored::Matched));
         let mortar = agreed(
             self.agreement,
             MortarEstimates::new(self.problems.clone(), &problems, bodies).map_err(AppError::from),

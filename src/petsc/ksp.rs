@@ -10,7 +10,7 @@ use super::error::{call, cstr, PetscError, Result, ERR_MISSING_FACTOR, ERR_UNKNO
 use super::is::Is;
 use super::mat::Matrix;
 use super::mumps;
-use super::options::{option_default, option_present, option_string, set_option};
+use super::options::{clear_option, option_default, option_present, option_string, set_option};
 use super::vec::{Gather, Vector, PETSC_DETERMINE};
 use super::{ffi, Int};
 
@@ -101,28 +101,36 @@ impl Ksp {
     /// Where MUMPS's workspace falls short (INFOG(1) = −8, −9) and the user did not set
     /// `-<prefix>mat_mumps_icntl_14`, the factorisation is made again with a larger relaxation
     /// ([`RELAXATION_RETRIES`] times at most; [`Ksp::relaxed`] says which); any other failure
-    /// is the error naming INFOG(1), INFOG(2) and what to change.
+    /// is the error naming INFOG(1), INFOG(2) and what to change. A raised relaxation is
+    /// removed from the options database once the solver is made (or has failed): the next
+    /// factorisation with this prefix (the run's after the reference's, the Dirichlet system
+    /// after the Neumann one) starts from MUMPS's default and may be made again in turn.
     pub fn new(comm: Comm, mat: Matrix, prefix: &str, schur_rows: Option<&[Int]>) -> Result<Ksp> {
         let option = format!("-{prefix}mat_mumps_icntl_14");
         let set_by_user = option_present(&option);
         let mut relaxed = Vec::new();
-        loop {
-            match Ksp::attempt(comm, mat.share()?, prefix, schur_rows)? {
-                Ok(mut solver) => {
-                    solver.relaxed = relaxed;
-                    return Ok(solver);
+        let made = loop {
+            match Ksp::attempt(comm, mat.share()?, prefix, schur_rows) {
+                Ok(Ok(mut solver)) => {
+                    solver.relaxed = std::mem::take(&mut relaxed);
+                    break Ok(solver);
                 }
-                Err(f) if f.workspace_short() && !set_by_user => {
+                Ok(Err(f)) if f.workspace_short() && !set_by_user => {
                     if relaxed.len() == RELAXATION_RETRIES {
-                        return Err(f.error(prefix));
+                        break Err(f.error(prefix));
                     }
                     let more = 2 * f.relaxation.max(0) + 50;
                     set_option(&option, &more.to_string())?;
                     relaxed.push((f, more));
                 }
-                Err(f) => return Err(f.error(prefix)),
+                Ok(Err(f)) => break Err(f.error(prefix)),
+                Err(e) => break Err(e),
             }
+        };
+        if !set_by_user && option_present(&option) {
+            clear_option(&option)?;
         }
+        made
     }
 
     /// The MUMPS factorisations that fell short of workspace before this solver's, each with

@@ -116,6 +116,12 @@ pub fn set_option(name: &str, value: &str) -> Result<()> {
     ))
 }
 
+/// Removes option `name` from the options database (nothing where it is absent).
+pub fn clear_option(name: &str) -> Result<()> {
+    let n = cstr(name);
+    call!(PetscOptionsClearValue(ptr::null_mut(), n.as_ptr()))
+}
+
 /// A block of registered options (`PetscOptionsBegin` … `PetscOptionsEnd`): each query
 /// registers the option with its help text, so `-help` lists it with its default.
 pub struct OptionsBlock {
