@@ -63,35 +63,15 @@ fn warnings_of(b: &Body, whose: Factored) -> Vec<String> {
 
 /// Every rank's `lines`, by world rank, on world rank 0 (empty elsewhere; collective).
 fn gathered_lines(layout: &Layout, lines: &[String]) -> Vec<String> {
-    use mpi::datatype::PartitionMut;
-    use mpi::traits::{Communicator, Root};
     if layout.size == 1 {
         return lines.to_vec();
     }
-    let bytes = lines.join("\n").into_bytes();
-    let root = layout.world.process_at_rank(0);
-    let len = bytes.len() as i32;
-    if !layout.is_root() {
-        root.gather_into(&len);
-        root.gather_varcount_into(&bytes[..]);
-        return Vec::new();
-    }
-    let mut counts = vec![0i32; layout.size as usize];
-    root.gather_into_root(&len, &mut counts[..]);
-    let displs: Vec<i32> = counts
-        .iter()
-        .scan(0, |a, &n| Some(std::mem::replace(a, *a + n)))
-        .collect();
-    let mut all = vec![0u8; counts.iter().sum::<i32>() as usize];
-    root.gather_varcount_into_root(
-        &bytes[..],
-        &mut PartitionMut::new(&mut all[..], &counts[..], &displs[..]),
-    );
+    let mut send = vec![Vec::new(); layout.size as usize];
+    send[0] = lines.join("\n").into_bytes();
+    let got = layout.exchange(true, &send);
     // (by world rank: body 1's group first)
-    let mut out = Vec::new();
-    for (&c, &d) in counts.iter().zip(&displs) {
-        let t = String::from_utf8_lossy(&all[d as usize..(d + c) as usize]).into_owned();
-        out.extend(t.lines().map(str::to_owned));
-    }
-    out
+    let texts = got.iter().map(|b| String::from_utf8_lossy(b));
+    texts
+        .flat_map(|t| t.lines().map(str::to_owned).collect::<Vec<_>>())
+        .collect()
 }

@@ -346,8 +346,11 @@ fn exchange_on<T: Equivalence + Copy + Default>(
             })
             .collect()
     };
-    let flat: Vec<T> = send.concat();
-    let mut recv = vec![T::default(); recv_counts.iter().sum::<i32>() as usize];
+    let flat: Vec<T> = buffer(send.iter().map(Vec::len).sum(), |b| {
+        send.iter().for_each(|v| b.extend_from_slice(v))
+    });
+    let total = recv_counts.iter().sum::<i32>() as usize;
+    let mut recv: Vec<T> = buffer(total, |b| b.resize(total, T::default()));
     let (sd, rd) = (displs(&counts), displs(&recv_counts));
     comm.all_to_all_varcount_into(
         &Partition::new(&flat[..], &counts[..], &sd[..]),
@@ -358,9 +361,34 @@ fn exchange_on<T: Equivalence + Copy + Default>(
         .collect()
 }
 
+/// A buffer of `len` entries filled by `fill`, allocated even when empty: an empty `Vec`'s
+/// pointer is its alignment, which for a byte type is `MPI_IN_PLACE`'s value in OpenMPI (1), and
+/// an `MPI_Alltoallv` given it as both buffers fails with MPI_ERR_ARG on that rank alone (the
+/// others then wait for it).
+fn buffer<T>(len: usize, fill: impl FnOnce(&mut Vec<T>)) -> Vec<T> {
+    let mut b = Vec::with_capacity(len.max(1));
+    fill(&mut b);
+    b
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_empty_exchange_buffer_is_not_mpi_in_place() {
+        let send: Vec<Vec<u8>> = vec![Vec::new(); 3];
+        assert_eq!(
+            Vec::<u8>::new().as_ptr() as usize,
+            1,
+            "an empty Vec's pointer"
+        );
+        let flat: Vec<u8> = buffer(0, |b| send.iter().for_each(|v| b.extend_from_slice(v)));
+        let recv: Vec<u8> = buffer(0, |b| b.resize(0, 0));
+        assert!(flat.is_empty() && recv.is_empty());
+        assert!(flat.as_ptr() as usize > 1 && recv.as_ptr() as usize > 1);
+        assert_ne!(flat.as_ptr(), recv.as_ptr());
+    }
 
     #[test]
     fn each_item_has_one_block_and_its_owner_finds_it() {
