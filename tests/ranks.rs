@@ -243,6 +243,41 @@ fn six_ranks_hold_the_parts_of_gmsh_bodies_they_read_and_write_the_file_one_rank
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The reference solution's fine bodies, a Gmsh mesh refined (`-nndd_reference_factor 2`:
+/// 8192 elements per body), are held on each rank of their group as the part it reads once
+/// they are partitioned: its partition's elements and its block of the fine elements (whose
+/// nodes e_ref's transfer reads), at most two shares of 8192 / 3 and the METIS imbalance on 6
+/// ranks, against both whole on 1 rank; e_ref is the one rank's.
+#[test]
+fn the_reference_solution_holds_the_parts_of_its_gmsh_bodies() {
+    let dir = scratch("ranks-gmsh-reference-part");
+    let msh = dir.join("paper-32.msh");
+    gmsh(PAPER_GEO, &[("n", "32")], &[], &msh);
+    let problem = paper_mesh_args(&msh, "contact1,contact2", "-1e-4");
+    let mut args: Vec<&str> = problem.iter().map(String::as_str).collect();
+    args.extend(["-nndd_estimate", "-nndd_estimate_every", "0"]);
+    args.extend(["-nndd_reference_factor", "2"]);
+    let one = solve(1, &dir.join("one"), &args);
+    let six = solve(6, &dir.join("six"), &args);
+    let held = |j: &serde_json::Value| -> Vec<u64> {
+        let h = j["held_reference_mesh_elements_per_rank"]
+            .as_array()
+            .unwrap();
+        h.iter().map(|h| h.as_u64().unwrap()).collect()
+    };
+    assert_eq!(held(&one), [2 * 8192]);
+    let bound = (2.0 * 8192.0 / 3.0 * 1.03) as u64;
+    let h = held(&six);
+    assert!(
+        h.len() == 6 && h.iter().all(|&h| h <= bound),
+        "{h:?} > {bound}"
+    );
+    let e_ref = |j: &serde_json::Value| j["estimates"][0]["e_ref"].as_f64().unwrap();
+    let d = (e_ref(&six) - e_ref(&one)).abs() / e_ref(&one);
+    assert!(e_ref(&one) > 0.0 && d < 1e-10, "e_ref differs by {d:e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `paper` n = 12 (each body 12 × 12 × 2 = 288 elements).
 const PAPER_12: [&str; 4] = ["-nndd_problem", "paper", "-nndd_n", "12"];
 

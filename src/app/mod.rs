@@ -470,30 +470,11 @@ fn keep_read_parts(
     }
     let estimated = estimator.as_ref().map(|e| e.elements_read());
     let parts = [0, 1].map(|k| {
-        let p = &problems[k];
-        let mut elements = match &estimated {
+        let elements = match &estimated {
             Some(read) => read[k].clone()?,
             None => Vec::new(),
         };
-        if !p.holds_listed_mesh() {
-            return None;
-        }
-        let (cells, nodes) = (
-            layout.block(k + 1, p.num_elements()),
-            layout.block(k + 1, p.num_nodes()),
-        );
-        let owned = partitions[k].as_ref();
-        if let Some(part) = owned {
-            elements.extend_from_slice(&part.elements);
-        }
-        elements.extend(cells.map(crate::fem::mesh::element_u32));
-        elements.sort_unstable();
-        elements.dedup();
-        let rows = owned.into_iter().flat_map(Partition::owned_mesh_nodes);
-        let contact = p.contact_nodes.iter().chain(&p.contact_candidates).copied();
-        let nodes: Vec<u32> = nodes.chain(rows).chain(contact).map(|n| n as u32).collect();
-        // (a part holds 4 B more per entry than the whole: 16 B per triangle, 20 per point)
-        (4 * elements.len() < 3 * p.num_elements()).then(|| Rc::new(p.part(&elements, &nodes)))
+        read_part(&problems[k], layout, partitions[k].as_ref(), elements)
     });
     let [p1, p2] = problems;
     let [q1, q2] = parts;
@@ -502,6 +483,36 @@ fn keep_read_parts(
         e.hold(&held);
     }
     held
+}
+
+/// Body α's problem `p` with its mesh cut to the part this rank reads (`None` where its mesh is
+/// not listed, or the part would be most of it: a part holds 4 B more per entry than the
+/// whole): the `elements` given, its elements of `partition` and its nodes (its rows), its
+/// block of the output's cells and nodes, and Γc's nodes ([`BodyProblem::part`]).
+pub(super) fn read_part(
+    p: &BodyProblem,
+    layout: &Layout,
+    partition: Option<&Partition>,
+    mut elements: Vec<u32>,
+) -> Option<Rc<BodyProblem>> {
+    if !p.holds_listed_mesh() {
+        return None;
+    }
+    let (cells, nodes) = (
+        layout.block(p.alpha, p.num_elements()),
+        layout.block(p.alpha, p.num_nodes()),
+    );
+    if let Some(part) = partition {
+        elements.extend_from_slice(&part.elements);
+    }
+    elements.extend(cells.map(crate::fem::mesh::element_u32));
+    elements.sort_unstable();
+    elements.dedup();
+    let rows = partition.into_iter().flat_map(Partition::owned_mesh_nodes);
+    let contact = p.contact_nodes.iter().chain(&p.contact_candidates).copied();
+    let nodes: Vec<u32> = nodes.chain(rows).chain(contact).map(|n| n as u32).collect();
+    // (16 B per triangle and 20 per point held, against 12 and 16 whole)
+    (4 * elements.len() < 3 * p.num_elements()).then(|| Rc::new(p.part(&elements, &nodes)))
 }
 
 /// Both bodies' problems (the ranks agree); a Gmsh problem's contact curves, made to match,

@@ -31,6 +31,8 @@ pub struct Measured<'a> {
     pub held_nodes: &'a [usize],
     /// The nodes of the reference solution's fields each rank held, where it was solved.
     pub held_reference: Option<&'a [usize]>,
+    /// The elements of the fine meshes each rank held for the reference solution.
+    pub held_reference_elements: Option<&'a [usize]>,
     /// The most nodes of an estimated iterate's fields each rank held, where it estimated.
     pub held_estimate: Option<&'a [usize]>,
 }
@@ -50,6 +52,7 @@ pub fn summarise(
         logged_flops,
         reference_iterations,
         reference_held_nodes: _,
+        reference_held_elements: _,
         estimate_held_nodes: _,
     } = *post;
     let Measured {
@@ -59,6 +62,7 @@ pub fn summarise(
         held_elements,
         held_nodes,
         held_reference,
+        held_reference_elements,
         held_estimate,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
@@ -154,6 +158,7 @@ pub fn summarise(
         held_mesh_elements_per_rank: held_elements.to_vec(),
         held_displacement_nodes_per_rank: held_nodes.to_vec(),
         held_reference_displacement_nodes_per_rank: held_reference.map(<[usize]>::to_vec),
+        held_reference_mesh_elements_per_rank: held_reference_elements.map(<[usize]>::to_vec),
         held_estimate_displacement_nodes_per_rank: held_estimate.map(<[usize]>::to_vec),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),

@@ -276,15 +276,19 @@ pub fn solve_reference(
     // (the NNDD reads the bodies alone).
     let problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
     drop(both);
+    let cut = partitions(problems.each_ref().map(Option::as_ref), layout)?;
+    // A Gmsh body's fine mesh cut to the part this rank reads (its partition, its block of the
+    // fine elements, whose nodes e_ref's transfer reads, and Γc) before the factorisations.
+    let problems = problems.map(|p| {
+        let p = p?;
+        let part = super::read_part(&p, layout, cut[p.alpha - 1].as_ref(), Vec::new());
+        Some(part.unwrap_or(p))
+    });
     let held = problems.each_ref().map(Option::as_ref);
-    let bodies = setup_bodies(
-        &fine,
-        held,
-        partitions(held, layout)?,
-        layout,
-        stages,
-        &mut scratch,
-    )?;
+    let held_elements = (held.iter().flatten())
+        .map(|p| p.mesh().triangles.held_len())
+        .sum();
+    let bodies = setup_bodies(&fine, held, cut, layout, stages, &mut scratch)?;
     warnings.extend(relaxed_warnings(&bodies, layout, Factored::Reference));
     // Each rank's block of the fine elements, at whose nodes the fine fields are kept.
     let mut parts = [0, 1].map(|k| {
@@ -367,6 +371,7 @@ pub fn solve_reference(
         parts,
         iterations,
         held_nodes,
+        held_elements,
     }))
 }
 

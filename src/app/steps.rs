@@ -26,6 +26,8 @@ pub(crate) struct PostProcessed {
     pub(crate) reference_iterations: Option<usize>,
     /// The nodes at which this rank held the reference solution's fields.
     pub(crate) reference_held_nodes: Option<usize>,
+    /// The elements of the fine meshes this rank held for the reference solution.
+    pub(crate) reference_held_elements: Option<usize>,
     /// The most nodes at which this rank held an estimated iterate's fields.
     pub(crate) estimate_held_nodes: Option<usize>,
 }
@@ -240,6 +242,7 @@ impl<'a> Run<'a> {
             logged_flops: 0.0,
             reference_iterations: None,
             reference_held_nodes: None,
+            reference_held_elements: None,
             estimate_held_nodes: None,
         })
     }
@@ -269,6 +272,7 @@ impl<'a> Run<'a> {
         post.logged_flops = layout.sum(Petsc::logged_flops());
         post.reference_iterations = e.and_then(|e| e.reference_iterations());
         post.reference_held_nodes = e.and_then(|e| e.reference_held_nodes());
+        post.reference_held_elements = e.and_then(|e| e.reference_held_elements());
         post.estimate_held_nodes = e.map(|e| e.held_nodes());
         if let Some(e) = e {
             timings.estimation_parts = EstimationParts::from(e.part_seconds());
@@ -304,8 +308,12 @@ impl<'a> Run<'a> {
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let held_nodes = report::held_field_nodes_per_rank(layout, sol);
-        let [held_reference, held_estimate] = [post.reference_held_nodes, post.estimate_held_nodes]
-            .map(|n| n.map(|n| report::counts_per_rank(layout, n as u64)));
+        let [held_reference, held_estimate, held_reference_elements] = [
+            post.reference_held_nodes,
+            post.estimate_held_nodes,
+            post.reference_held_elements,
+        ]
+        .map(|n| n.map(|n| report::counts_per_rank(layout, n as u64)));
         let mut written = Ok(());
         if layout.is_root() {
             let measured = report::Measured {
@@ -315,6 +323,7 @@ impl<'a> Run<'a> {
                 held_elements: &held_elements,
                 held_nodes: &held_nodes,
                 held_reference: held_reference.as_deref(),
+                held_reference_elements: held_reference_elements.as_deref(),
                 held_estimate: held_estimate.as_deref(),
             };
             let problems = [&*problems[0], &*problems[1]];

@@ -276,6 +276,12 @@ impl<'a> Estimator<'a> {
         self.reference.as_ref().map(|r| r.held_nodes)
     }
 
+    /// The elements of the fine meshes this rank held for the reference solution, where it
+    /// was solved ([`Reference::held_elements`]).
+    pub fn reference_held_elements(&self) -> Option<usize> {
+        self.reference.as_ref().map(|r| r.held_elements)
+    }
+
     /// The run's two problems, whose elements the records' η maps and whose dofs their
     /// iterates' displacements are on (a mortar run's own, not the matched meshes its
     /// estimates are made on).

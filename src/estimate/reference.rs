@@ -22,6 +22,9 @@ pub struct Reference {
     pub iterations: usize,
     /// The nodes at which this rank held the fine bodies' solution (both bodies' counts).
     pub held_nodes: usize,
+    /// The elements of the fine bodies' meshes this rank held through their set-up and solve
+    /// (a Gmsh body's part, `app::read_part`; a built-in body's grid, whole, holds nothing).
+    pub held_elements: usize,
 }
 
 impl Reference {

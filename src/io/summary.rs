@@ -227,6 +227,12 @@ pub struct Summary {
     /// fine body's nodes, Γc and the outline.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_reference_displacement_nodes_per_rank: Option<Vec<usize>>,
+    /// The elements of the reference solution's fine meshes each rank held through their
+    /// set-up and solve, both bodies', when solved: a Gmsh body's part on a rank of its group
+    /// (its partition, its block of the fine elements and Γc; whole where that would be most
+    /// of it), a built-in body's grid whole (its formula: nothing stored).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_reference_mesh_elements_per_rank: Option<Vec<usize>>,
     /// The most nodes at which each rank held an estimated iterate's displacement u^α_p,
     /// both bodies' (what its recoveries read: its overlap of each body it estimates and Γc;
     /// a mortar run's iterate carried to the matched meshes; the iterate's whole field where
