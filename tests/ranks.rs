@@ -222,9 +222,7 @@ fn three_ranks_write_the_file_one_rank_writes_with_unequal_bodies() {
 #[test]
 fn six_ranks_hold_the_parts_of_gmsh_bodies_they_read_and_write_the_file_one_rank_writes() {
     let dir = scratch("ranks-gmsh-part");
-    let msh = dir.join("paper-32.msh");
-    gmsh(PAPER_GEO, &[("n", "32")], &[], &msh);
-    let problem = paper_mesh_args(&msh, "contact1,contact2", "-1e-4");
+    let problem = paper_drawn_in_gmsh(&dir);
     let problem: Vec<&str> = problem.iter().map(String::as_str).collect();
     for (every, estimate) in [("0", &[][..]), ("3", &["-nndd_estimate"][..])] {
         let j = ranks_write_what_one_writes(6, every, &problem, estimate);
@@ -251,9 +249,7 @@ fn six_ranks_hold_the_parts_of_gmsh_bodies_they_read_and_write_the_file_one_rank
 #[test]
 fn the_reference_solution_holds_the_parts_of_its_gmsh_bodies() {
     let dir = scratch("ranks-gmsh-reference-part");
-    let msh = dir.join("paper-32.msh");
-    gmsh(PAPER_GEO, &[("n", "32")], &[], &msh);
-    let problem = paper_mesh_args(&msh, "contact1,contact2", "-1e-4");
+    let problem = paper_drawn_in_gmsh(&dir);
     let mut args: Vec<&str> = problem.iter().map(String::as_str).collect();
     args.extend(["-nndd_estimate", "-nndd_estimate_every", "0"]);
     args.extend(["-nndd_reference_factor", "2"]);
@@ -276,6 +272,13 @@ fn the_reference_solution_holds_the_parts_of_its_gmsh_bodies() {
     let d = (e_ref(&six) - e_ref(&one)).abs() / e_ref(&one);
     assert!(e_ref(&one) > 0.0 && d < 1e-10, "e_ref differs by {d:e}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The options of `paper` drawn in Gmsh, n = 32 (2048 elements per body), its mesh in `dir`.
+fn paper_drawn_in_gmsh(dir: &std::path::Path) -> Vec<String> {
+    let msh = dir.join("paper-32.msh");
+    gmsh(PAPER_GEO, &[("n", "32")], &[], &msh);
+    paper_mesh_args(&msh, "contact1,contact2", "-1e-4")
 }
 
 /// `paper` n = 12 (each body 12 × 12 × 2 = 288 elements).
