@@ -377,14 +377,11 @@ mod tests {
 
     #[test]
     fn an_empty_exchange_buffer_is_not_mpi_in_place() {
+        let empty = Vec::<u8>::new();
+        assert_eq!(empty.as_ptr() as usize, 1, "an empty Vec's pointer");
         let send: Vec<Vec<u8>> = vec![Vec::new(); 3];
-        assert_eq!(
-            Vec::<u8>::new().as_ptr() as usize,
-            1,
-            "an empty Vec's pointer"
-        );
         let flat: Vec<u8> = buffer(0, |b| send.iter().for_each(|v| b.extend_from_slice(v)));
-        let recv: Vec<u8> = buffer(0, |b| b.resize(0, 0));
+        let recv: Vec<u8> = buffer(0, |b| b.extend(std::iter::empty::<u8>()));
         assert!(flat.is_empty() && recv.is_empty());
         assert!(flat.as_ptr() as usize > 1 && recv.as_ptr() as usize > 1);
         assert_ne!(flat.as_ptr(), recv.as_ptr());
