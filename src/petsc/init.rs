@@ -58,6 +58,17 @@ impl Petsc {
             ptr::null(),
             help.as_ptr()
         ))?;
+        // PETSc leaves MPI_COMM_WORLD returning MPI's errors as codes, which rsmpi does not
+        // read: an MPI error in nndd's own collectives (on communicators made from the world
+        // from here on) would pass unnoticed on one rank while the others wait for it. MPI's
+        // default again: such an error ends the job.
+        // SAFETY: MPI is initialised; both handles are MPI's constants.
+        unsafe {
+            mpi::ffi::MPI_Comm_set_errhandler(
+                mpi::ffi::RSMPI_COMM_WORLD,
+                mpi::ffi::RSMPI_ERRORS_ARE_FATAL,
+            );
+        }
         // Errors come back as codes; we print them as one line ourselves.
         call!(PetscPushErrorHandler(
             Some(ffi::PetscReturnErrorHandler),
