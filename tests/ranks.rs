@@ -274,6 +274,41 @@ fn the_reference_solution_holds_the_parts_of_its_gmsh_bodies() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// With `-nndd_partition blocks` each body is dealt over its group in the output's index
+/// blocks (`Partitioner::IndexBlocks`), one distribution for the assembly and the output: a
+/// rank holds its share of a Gmsh body's elements and no more. `paper` drawn in Gmsh and
+/// numbered in bands (`-nndd_mesh_order bands`), 2048 elements per body, on 6 ranks: 682 or
+/// 683 each, and the file the one rank writes; the reference solution's fine bodies (8192
+/// elements each) alike, 2730 or 2731 each, e_ref the one rank's. The built-in `paper` (its
+/// grids' rows in blocks) writes the one rank's file too.
+#[test]
+fn a_body_dealt_in_index_blocks_is_held_as_its_share_on_each_rank() {
+    let dir = scratch("ranks-gmsh-blocks");
+    ranks_write_what_one_writes(4, "2", &PAPER_12, &["-nndd_partition", "blocks"]);
+    let problem = paper_drawn_in_gmsh(&dir);
+    let mut problem: Vec<&str> = problem.iter().map(String::as_str).collect();
+    problem.extend(["-nndd_mesh_order", "bands", "-nndd_partition", "blocks"]);
+    let counts = |j: &serde_json::Value, key: &str| -> Vec<u64> {
+        let h = j[key].as_array().unwrap();
+        h.iter().map(|h| h.as_u64().unwrap()).collect()
+    };
+    let j = ranks_write_what_one_writes(6, "0", &problem, &[]);
+    let held = counts(&j, "held_mesh_elements_per_rank");
+    assert!(held.iter().all(|&h| h == 682 || h == 683), "{held:?}");
+    assert_eq!(held.iter().sum::<u64>(), 2 * 2048, "{held:?}");
+    let mut args = problem.clone();
+    args.extend(["-nndd_estimate", "-nndd_estimate_every", "0"]);
+    args.extend(["-nndd_reference_factor", "2"]);
+    let one = solve(1, &dir.join("one"), &args);
+    let six = solve(6, &dir.join("six"), &args);
+    let fine = counts(&six, "held_reference_mesh_elements_per_rank");
+    assert!(fine.iter().all(|&h| h == 2730 || h == 2731), "{fine:?}");
+    let e_ref = |j: &serde_json::Value| j["estimates"][0]["e_ref"].as_f64().unwrap();
+    let d = (e_ref(&six) - e_ref(&one)).abs() / e_ref(&one);
+    assert!(e_ref(&one) > 0.0 && d < 1e-10, "e_ref differs by {d:e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// The options of `paper` drawn in Gmsh, n = 32 (2048 elements per body), its mesh in `dir`.
 fn paper_drawn_in_gmsh(dir: &std::path::Path) -> Vec<String> {
     let msh = dir.join("paper-32.msh");

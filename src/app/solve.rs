@@ -29,7 +29,7 @@ use crate::io::summary::Timings;
 use crate::os::signals::{self, StopPhase};
 use crate::parallel::fault::{self, Agreement, Phase};
 use crate::parallel::layout::Layout;
-use crate::parallel::partition::Partition;
+use crate::parallel::partition::{Partition, Partitioner};
 use crate::petsc;
 use crate::petsc::log::Stages;
 use crate::problem::{self, BodyProblem, ProblemKind, Support};
@@ -115,16 +115,17 @@ pub fn setup_bodies(
     Ok(bodies)
 }
 
-/// The partition of each body this rank's group works on ([`Partition::on_group`]: METIS on
-/// the group's first rank; `None` for the others).
+/// The partition of each body this rank's group works on, by `how` ([`Partition::on_group`]:
+/// METIS on the group's first rank, or the output's index blocks; `None` for the others).
 pub fn partitions(
     owned: [Option<&Rc<BodyProblem>>; 2],
     layout: &Layout,
+    how: Partitioner,
 ) -> Result<[Option<Partition>; 2], AppError> {
     let mut parts = [None, None];
     for (alpha, problem) in [1, 2].into_iter().zip(owned) {
         if let Some(p) = problem {
-            parts[alpha - 1] = Some(Partition::on_group(p.mesh(), alpha, layout)?);
+            parts[alpha - 1] = Some(Partition::on_group(p.mesh(), alpha, layout, how)?);
             // METIS's work arrays (on the group's first rank) back to the system before the
             // assembly and the factorisation allocate theirs.
             crate::os::memory::release_free_memory(0);
@@ -152,7 +153,8 @@ pub fn setup_matched_bodies(
     timings: &mut Timings,
 ) -> Result<[Option<Body>; 2], AppError> {
     let mut bodies: [Option<Body>; 2] = [None, None];
-    let parts = partitions(owned(problems, layout), layout)?;
+    let how = settings.problem.partitioner;
+    let parts = partitions(owned(problems, layout), layout, how)?;
     for (alpha, partition) in [1, 2].into_iter().zip(parts) {
         if let Some(partition) = partition {
             let problem = &problems[alpha - 1];
@@ -276,7 +278,8 @@ pub fn solve_reference(
     // (the NNDD reads the bodies alone).
     let problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
     drop(both);
-    let cut = partitions(problems.each_ref().map(Option::as_ref), layout)?;
+    let how = fine.problem.partitioner;
+    let cut = partitions(problems.each_ref().map(Option::as_ref), layout, how)?;
     // A Gmsh body's fine mesh cut to the part this rank reads (its partition, its block of the
     // fine elements, whose nodes e_ref's transfer reads, and Γc) before the factorisations.
     let problems = problems.map(|p| {

@@ -51,7 +51,8 @@ impl<'a> Run<'a> {
 
     /// Each body's partition over its group, on the ranks of the group; the ranks agree.
     pub(super) fn partitions(&self) -> Result<[Option<Partition>; 2], AppError> {
-        let parts = solve::partitions(solve::owned(&self.problems, self.layout), self.layout);
+        let how = self.settings.problem.partitioner;
+        let parts = solve::partitions(solve::owned(&self.problems, self.layout), self.layout, how);
         agreed(self.agreement, parts)
     }
 

@@ -6,12 +6,15 @@
 //! order. The rest of the code keeps the mesh numbering; this type translates (a dof `2 i + k`
 //! of mesh node i is PETSc row `2 petsc_node[i] + k`). The group's first rank runs METIS and
 //! broadcasts its element and node parts ([`Partition::on_group`]): one METIS run per body
-//! whatever the rank count.
+//! whatever the rank count. With `-nndd_partition blocks` a body is dealt in the output's index
+//! blocks instead ([`Partitioner::IndexBlocks`]): one distribution of its elements for the
+//! assembly and the output, so that a rank reads its block alone (compact parts where the
+//! numbering is: a built-in grid's rows, a Gmsh body in `-nndd_mesh_order bands`).
 
 use std::ops::Range;
 
 use crate::fem::mesh::Mesh;
-use crate::parallel::layout::Layout;
+use crate::parallel::layout::{block_of, Layout};
 use crate::petsc::Int;
 
 #[derive(Debug, thiserror::Error)]
@@ -23,6 +26,18 @@ pub enum PartitionError {
         parts: usize,
         message: String,
     },
+}
+
+/// How a body's elements and nodes are dealt over its group.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Partitioner {
+    /// METIS's parts of the mesh's dual graph: compact in any numbering.
+    #[default]
+    Metis,
+    /// The index blocks of the elements and of the nodes that the output writes
+    /// ([`Layout::block`]), the nodes already in rank order: compact parts where the body's
+    /// numbering is (a built-in grid's rows, a Gmsh body in `-nndd_mesh_order bands`).
+    IndexBlocks,
 }
 
 /// The distribution of one body over its group of `size` ranks.
@@ -43,18 +58,21 @@ pub struct Partition {
 }
 
 impl Partition {
-    /// The METIS partition of body `alpha`'s `mesh` over this rank's body group (collective
-    /// over the group): its first rank partitions, the others receive the parts.
+    /// The partition of body `alpha`'s `mesh` over this rank's body group by `how`. METIS's
+    /// is collective over the group: its first rank partitions, the others receive the parts.
     pub fn on_group(
         mesh: &Mesh,
         alpha: usize,
         layout: &Layout,
+        how: Partitioner,
     ) -> Result<Partition, PartitionError> {
         let (rank, size) = (layout.group_rank(), layout.group_size());
-        if size == 1 {
-            return Partition::new(mesh, alpha, rank, size);
-        }
         let (ne, nn) = (mesh.triangles.len(), mesh.num_nodes());
+        match how {
+            _ if size == 1 => return Partition::new(mesh, alpha, rank, size),
+            Partitioner::IndexBlocks => return Ok(Partition::index_blocks(ne, nn, rank, size)),
+            Partitioner::Metis => {}
+        }
         // [ok, element parts …, node parts …], so that a METIS failure ends every rank.
         let mut parts = vec![0u32; 1 + ne + nn];
         let mut failure = None;
@@ -109,6 +127,17 @@ impl Partition {
         }
         let (epart, npart) = metis_parts(mesh, alpha, size)?;
         Ok(Partition::from_parts(rank, size, &epart, &npart))
+    }
+
+    /// The partition of `ne` elements and `nn` nodes in index blocks over `size` ranks
+    /// ([`block_of`], the output's), seen from rank `rank`.
+    pub fn index_blocks(ne: usize, nn: usize, rank: usize, size: usize) -> Partition {
+        let parts = |len: usize| -> Vec<u32> {
+            (0..size)
+                .flat_map(|r| block_of(len, r, size).map(move |_| r as u32))
+                .collect()
+        };
+        Partition::from_parts(rank, size, &parts(ne), &parts(nn))
     }
 
     /// The partition with element parts `epart` and node parts `npart` (METIS's).
@@ -282,6 +311,24 @@ mod tests {
                 assert_eq!(concat[rows[d] as usize], full[d]);
                 let owner = parts[0].owner_of_petsc_node(rows[d] as usize / 2);
                 assert!(parts[owner].owns_dof(d));
+            }
+        }
+    }
+
+    /// Index blocks: each rank's elements and nodes are its blocks of the output's, and the
+    /// PETSc numbering is the mesh's (the nodes already in rank order).
+    #[test]
+    fn index_blocks_are_the_output_blocks_in_mesh_order() {
+        let (ne, nn) = (17, 11);
+        for size in [2, 3, 5] {
+            for rank in 0..size {
+                let p = Partition::index_blocks(ne, nn, rank, size);
+                let elements: Vec<u32> = block_of(ne, rank, size).map(|e| e as u32).collect();
+                assert_eq!(p.elements, elements);
+                assert_eq!(p.owned_nodes(), block_of(nn, rank, size));
+                assert_eq!(p.petsc_node, (0..nn as u32).collect::<Vec<_>>());
+                let nodes: Vec<usize> = p.owned_mesh_nodes().collect();
+                assert_eq!(nodes, block_of(nn, rank, size).collect::<Vec<_>>());
             }
         }
     }

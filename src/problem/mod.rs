@@ -66,6 +66,8 @@ pub struct ProblemSettings {
     pub f_max: f64,
     /// The user's meshed problem (`ProblemKind::Mesh`).
     pub mesh: Option<meshed::MeshSpec>,
+    /// How each body is dealt over its group (`-nndd_partition`).
+    pub partitioner: crate::parallel::partition::Partitioner,
 }
 
 impl ProblemSettings {

@@ -11,6 +11,7 @@ use super::{ContactDiscretisation, DiscretisationChoice, ProblemKind, ProblemSet
 use crate::fem::order::ElementOrder;
 use crate::fem::Material;
 use crate::fem::{geo, gmsh};
+use crate::parallel::partition::Partitioner;
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::{self, OptionsBlock};
 
@@ -71,6 +72,11 @@ impl ProblemSettings {
             "With -nndd_mesh: the order of each body's triangles and nodes: file (the mesh file's), bands (Cuthill-McKee bands across the body, the nodes numbered as the triangles meet them: on several ranks each rank holds little more than its share of a body's fields; the patch recovery's eta_glo differs from file's by up to about 1e-3, both bounds)",
             &[("file", ElementOrder::File), ("bands", ElementOrder::Bands)],
         )?;
+        let partitioner = o.choice(
+            "-nndd_partition",
+            "How each body's elements and nodes are dealt over its group of ranks: metis (METIS's parts of the mesh), blocks (the output's index blocks: one distribution for the assembly and the output, so that a rank holds one share of its body's mesh; compact where the numbering is, the built-in grids' rows or a Gmsh body in -nndd_mesh_order bands, not in a Gmsh file's own order)",
+            &[("metis", Partitioner::Metis), ("blocks", Partitioner::IndexBlocks)],
+        )?;
         let geo_set = read_geo_set(o, kind, &mesh_file)?;
         let curves = (contact.as_str(), choice, gap);
         let mesh = match kind {
@@ -93,6 +99,7 @@ impl ProblemSettings {
             Bounds::FINITE,
         )?;
         Ok(ProblemSettings {
+            partitioner,
             kind,
             n,
             grids,
