@@ -280,7 +280,11 @@ fn the_reference_solution_holds_the_parts_of_its_gmsh_bodies() {
 /// numbered in bands (`-nndd_mesh_order bands`), 2048 elements per body, on 6 ranks: 682 or
 /// 683 each, and the file the one rank writes; the reference solution's fine bodies (8192
 /// elements each) alike, 2730 or 2731 each, e_ref the one rank's. The built-in `paper` (its
-/// grids' rows in blocks) writes the one rank's file too.
+/// grids' rows in blocks) writes the one rank's file too. A body estimated on its group alone
+/// is estimated in the same blocks: with an estimate, n = 64 (8192 elements per body) on 6
+/// ranks, a rank holds its share and its overlap's rings, under 0.6 of the body (with METIS's
+/// parts and the estimator's slabs, 6109 to 8192 here), and η^glo is the same as with METIS
+/// and on one rank.
 #[test]
 fn a_body_dealt_in_index_blocks_is_held_as_its_share_on_each_rank() {
     let dir = scratch("ranks-gmsh-blocks");
@@ -306,13 +310,40 @@ fn a_body_dealt_in_index_blocks_is_held_as_its_share_on_each_rank() {
     let e_ref = |j: &serde_json::Value| j["estimates"][0]["e_ref"].as_f64().unwrap();
     let d = (e_ref(&six) - e_ref(&one)).abs() / e_ref(&one);
     assert!(e_ref(&one) > 0.0 && d < 1e-10, "e_ref differs by {d:e}");
+    // One estimate, n = 64.
+    let fine = paper_drawn_in_gmsh_at(&dir, 64);
+    let mut args: Vec<&str> = fine.iter().map(String::as_str).collect();
+    args.extend([
+        "-nndd_mesh_order",
+        "bands",
+        "-nndd_estimate",
+        "-nndd_estimate_every",
+        "0",
+    ]);
+    let eta = |j: &serde_json::Value| j["estimates"][0]["eta_glo"].as_f64().unwrap();
+    let one = solve(1, &dir.join("one-64"), &args);
+    let metis = solve(6, &dir.join("metis-64"), &args);
+    args.extend(["-nndd_partition", "blocks"]);
+    let blocks = solve(6, &dir.join("blocks-64"), &args);
+    let held = counts(&blocks, "held_mesh_elements_per_rank");
+    assert!(held.iter().all(|&h| h < 8192 * 6 / 10), "{held:?}");
+    for j in [&metis, &blocks] {
+        let d = (eta(j) - eta(&one)).abs() / eta(&one);
+        assert!(d < 1e-12, "eta_glo differs by {d:e}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The options of `paper` drawn in Gmsh, n = 32 (2048 elements per body), its mesh in `dir`.
 fn paper_drawn_in_gmsh(dir: &std::path::Path) -> Vec<String> {
-    let msh = dir.join("paper-32.msh");
-    gmsh(PAPER_GEO, &[("n", "32")], &[], &msh);
+    paper_drawn_in_gmsh_at(dir, 32)
+}
+
+/// The options of `paper` drawn in Gmsh at level `n` (2 n² elements per body), its mesh in
+/// `dir`.
+fn paper_drawn_in_gmsh_at(dir: &std::path::Path, n: usize) -> Vec<String> {
+    let msh = dir.join(format!("paper-{n}.msh"));
+    gmsh(PAPER_GEO, &[("n", &n.to_string())], &[], &msh);
     paper_mesh_args(&msh, "contact1,contact2", "-1e-4")
 }
 

@@ -161,7 +161,8 @@ impl<'a> Run<'a> {
                 reference,
                 stages,
             )
-            .with_friction(settings.friction);
+            .with_friction(settings.friction)
+            .with_partitioner(settings.problem.partitioner);
             return Ok(Some(e));
         };
         let problems = gaps.apply(crate::problem::build(&matched.problem)?);

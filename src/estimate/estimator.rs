@@ -13,10 +13,11 @@ use crate::estimate::cre::{worst, BodyEstimate, ElementWork};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::iteration::{body_fields, body_resolves, BodyFields, IterationData, Reaction};
 use crate::estimate::mortar::MortarEstimates;
-use crate::estimate::share::{estimate_owner, estimated_outside_group, Share};
+use crate::estimate::share::{block_owners, estimate_owner, estimated_outside_group, Share};
 use crate::fem::mesh::element_u32;
 use crate::parallel::held;
 use crate::parallel::layout::Layout;
+use crate::parallel::partition::Partitioner;
 use crate::petsc::LogStage;
 use crate::problem::BodyProblem;
 use crate::qp::QpSettings;
@@ -132,6 +133,9 @@ pub struct Estimator<'a> {
     mortar: Option<MortarEstimates>,
     /// The friction law (`-nndd_friction`; its estimates need a straight Γc).
     friction: FrictionLaw,
+    /// How the bodies are dealt over their groups (`-nndd_partition`): in index blocks, a
+    /// body estimated on its group alone is estimated in those blocks too.
+    partitioner: Partitioner,
 }
 
 /// The free heap (bytes) from which an estimate gives the memory back between its two
@@ -201,7 +205,17 @@ impl<'a> Estimator<'a> {
             held_nodes: Default::default(),
             mortar: None,
             friction: FrictionLaw::Frictionless,
+            partitioner: Partitioner::default(),
         }
+    }
+
+    /// The estimator of a run whose bodies are dealt over their groups by `how`
+    /// (`-nndd_partition`): with index blocks, a body estimated on its group alone is
+    /// estimated in the same blocks, so that a rank's estimates read its block and the rings
+    /// of neighbours its recoveries need ([`crate::estimate::share::block_owners`]).
+    pub fn with_partitioner(mut self, how: Partitioner) -> Estimator<'a> {
+        self.partitioner = how;
+        self
     }
 
     /// The estimator of a run with friction `law` (docs/method.md §9).

@@ -43,6 +43,15 @@ pub fn estimate_owner(sizes: [usize; 2], mesh: &Mesh, ranks: usize, k: usize) ->
     owner
 }
 
+/// The world rank of each of body `alpha`'s `len` elements whose block of the output holds it
+/// ([`Layout::block`]): who estimates the body where it is dealt over its group in index
+/// blocks (`-nndd_partition blocks`) and estimated there alone.
+pub fn block_owners(layout: &Layout, alpha: usize, len: usize) -> Vec<u32> {
+    (0..len)
+        .map(|e| layout.block_owner(alpha, len, e) as u32)
+        .collect()
+}
+
 /// The world ranks that estimate elements of each body ([`estimate_owner`]), from the
 /// bodies' element counts `sizes` alone: known before, and without, the owner of every
 /// element.

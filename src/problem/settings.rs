@@ -74,7 +74,7 @@ impl ProblemSettings {
         )?;
         let partitioner = o.choice(
             "-nndd_partition",
-            "How each body's elements and nodes are dealt over its group of ranks: metis (METIS's parts of the mesh), blocks (the output's index blocks: one distribution for the assembly and the output, so that a rank holds one share of its body's mesh; compact where the numbering is, the built-in grids' rows or a Gmsh body in -nndd_mesh_order bands, not in a Gmsh file's own order)",
+            "How each body's elements and nodes are dealt over its group of ranks: metis (METIS's parts of the mesh), blocks (the output's index blocks: one distribution for the assembly, the output and the estimates of a body estimated on its group, so that a rank holds one share of its body's mesh, and its overlap's rings where it estimates; compact where the numbering is, the built-in grids' rows or a Gmsh body in -nndd_mesh_order bands, not in a Gmsh file's own order)",
             &[("metis", Partitioner::Metis), ("blocks", Partitioner::IndexBlocks)],
         )?;
         let geo_set = read_geo_set(o, kind, &mesh_file)?;
