@@ -192,15 +192,7 @@ impl Mesh {
     where
         I: IntoIterator<Item = usize> + Clone,
     {
-        const NONE: u32 = u32::MAX;
-        let mut local = vec![NONE; self.num_nodes()];
-        for e in elements.clone() {
-            self.triangles.get(e).iter().for_each(|&v| local[v] = 0);
-        }
-        let nodes: Vec<usize> = (0..local.len()).filter(|&v| local[v] != NONE).collect();
-        for (k, &v) in nodes.iter().enumerate() {
-            local[v] = k as u32;
-        }
+        let (nodes, local) = self.sub_nodes(elements.clone());
         let sub = Mesh {
             nx: 0,
             ny: 0,
@@ -208,10 +200,40 @@ impl Mesh {
             size: self.size,
             points: nodes.iter().map(|&v| self.points.get(v)).collect(),
             triangles: (elements.into_iter())
-                .map(|e| self.triangles.get(e).map(|v| local[v] as usize))
+                .map(|e| self.triangles.get(e).map(|v| local.of(&nodes, v)))
                 .collect(),
         };
         (sub, nodes)
+    }
+
+    /// The nodes of the triangles `elements`, increasing, and their numbering 0.. ([`SubNodes`]):
+    /// a map of the whole mesh's nodes where the triangles have at least one corner per 8 of
+    /// them (4 B per node, no more than the sub-mesh's own points), else a search of the sorted
+    /// nodes, so that a small sub-mesh of a large mesh (an overlap on one of many ranks) costs
+    /// nothing of the mesh's size.
+    fn sub_nodes<I: IntoIterator<Item = usize> + Clone>(
+        &self,
+        elements: I,
+    ) -> (Vec<usize>, SubNodes) {
+        let corners = 3 * elements.clone().into_iter().count();
+        if 8 * corners < self.num_nodes() {
+            let mut nodes: Vec<usize> = (elements.into_iter())
+                .flat_map(|e| self.triangles.get(e))
+                .collect();
+            nodes.sort_unstable();
+            nodes.dedup();
+            return (nodes, SubNodes::Sorted);
+        }
+        const NONE: u32 = u32::MAX;
+        let mut local = vec![NONE; self.num_nodes()];
+        for e in elements {
+            self.triangles.get(e).iter().for_each(|&v| local[v] = 0);
+        }
+        let nodes: Vec<usize> = (0..local.len()).filter(|&v| local[v] != NONE).collect();
+        for (k, &v) in nodes.iter().enumerate() {
+            local[v] = k as u32;
+        }
+        (nodes, SubNodes::Map(local))
     }
 
     /// Sorted node neighbourhoods (each node with itself), the sparsity pattern of P1.
@@ -286,6 +308,23 @@ pub(crate) fn for_each_side(mesh: &Mesh, mut f: impl FnMut(&[(u32, u32)]) -> boo
     false
 }
 
+/// How [`Mesh::sub_mesh`] numbers its nodes: the sub-mesh's number of each of the whole mesh's
+/// nodes, or a binary search of the sub-mesh's sorted nodes.
+enum SubNodes {
+    Map(Vec<u32>),
+    Sorted,
+}
+
+impl SubNodes {
+    /// The sub-mesh's number of the whole mesh's node `v`, one of `nodes` (sorted).
+    fn of(&self, nodes: &[usize], v: usize) -> usize {
+        match self {
+            SubNodes::Map(local) => local[v] as usize,
+            SubNodes::Sorted => nodes.binary_search(&v).expect("a node of the sub-mesh"),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -334,5 +373,31 @@ mod tests {
         assert_eq!(m.triangles.get(1), [0, 6, 5]);
         assert_eq!(m.top_nodes(), vec![15, 16, 17, 18, 19]);
         assert_eq!(m.right_edges()[0], [4, 9]);
+    }
+
+    /// A sub-mesh is numbered the same whether its nodes come from a map of the whole mesh's
+    /// (many elements) or a search of its sorted nodes (few): its nodes increasing, each
+    /// triangle's corners theirs.
+    #[test]
+    fn a_sub_mesh_is_numbered_alike_by_map_and_by_search() {
+        let mesh = Mesh::structured([0.0, 0.0], [1.0, 1.0], 20, 20);
+        for (elements, sorted) in [(vec![5, 47, 46, 300], true), ((0..400).collect(), false)] {
+            let (_, how) = mesh.sub_nodes(elements.iter().copied());
+            assert_eq!(matches!(how, SubNodes::Sorted), sorted);
+            let (sub, nodes) = mesh.sub_mesh(elements.iter().copied());
+            let mut expected: Vec<usize> = (elements.iter())
+                .flat_map(|&e| mesh.triangles.get(e))
+                .collect();
+            expected.sort_unstable();
+            expected.dedup();
+            assert_eq!(nodes, expected);
+            for (k, &e) in elements.iter().enumerate() {
+                let corners = sub.triangles.get(k).map(|v| nodes[v]);
+                assert_eq!(corners, mesh.triangles.get(e));
+            }
+            for (k, &v) in nodes.iter().enumerate() {
+                assert_eq!(sub.points.get(k), mesh.points.get(v));
+            }
+        }
     }
 }
