@@ -182,7 +182,7 @@ fn set_up_body(
 ) -> Result<Body, AppError> {
     let alpha = problem.alpha;
     announce_setup(alpha, problem, layout)?;
-    let body = Body::setup(
+    Body::setup(
         Rc::clone(problem),
         layout.own_body_comm(),
         partition,
@@ -191,8 +191,7 @@ fn set_up_body(
         settings.friction.interface(),
         stages,
     )
-    .map_err(|e| unknown_type(e, alpha))?;
-    Ok(body)
+    .map_err(|e| unknown_type(e, alpha))
 }
 
 /// A solver option of body α naming a type PETSc does not know (`-body1_ksp_type foo`) is bad

@@ -68,10 +68,11 @@ impl Partition {
     ) -> Result<Partition, PartitionError> {
         let (rank, size) = (layout.group_rank(), layout.group_size());
         let (ne, nn) = (mesh.triangles.len(), mesh.num_nodes());
-        match how {
-            _ if size == 1 => return Partition::new(mesh, alpha, rank, size),
-            Partitioner::IndexBlocks => return Ok(Partition::index_blocks(ne, nn, rank, size)),
-            Partitioner::Metis => {}
+        if size == 1 {
+            return Partition::new(mesh, alpha, rank, size);
+        }
+        if how == Partitioner::IndexBlocks {
+            return Ok(Partition::index_blocks(ne, nn, rank, size));
         }
         // [ok, element parts …, node parts …], so that a METIS failure ends every rank.
         let mut parts = vec![0u32; 1 + ne + nn];
