@@ -18,7 +18,7 @@
 
 mod common;
 use common::HERTZ_NM_GEO as HERTZ_GEO;
-use common::{f, mpirun, paper_mesh_args, refused, scratch, solve};
+use common::{f, mpirun, paper_mesh_args, refused, scratch, solve, PAPER_GEO};
 
 use std::path::Path;
 
@@ -123,8 +123,6 @@ fn a_body_meshed_again_from_the_sizes_of_its_errors() {
     assert!(arc.len() > 20 && worst < 1e-9, "{worst:e}");
     std::fs::remove_dir_all(&dir).ok();
 }
-
-const PAPER_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
 
 /// examples/paper/paper.opts on paper.geo with n = 8 (256 triangles), and `extra`.
 fn paper_adaptive(extra: &[&str]) -> Vec<String> {

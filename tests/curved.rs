@@ -15,7 +15,6 @@ use common::*;
 
 use std::path::{Path, PathBuf};
 
-const PAPER_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
 const PAPER_OPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.opts");
 const PIN_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/pin/pin.geo");
 const PIN_OPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/pin/pin.opts");

@@ -147,44 +147,6 @@ fn one_to_six_ranks(recovery: &str) {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Every dataset and attribute of a result file, by path.
-fn h5_contents(prefix: &std::path::Path) -> Vec<(String, Vec<f64>)> {
-    fn walk(g: &hdf5::Group, path: &str, out: &mut Vec<(String, Vec<f64>)>) {
-        for a in g.attr_names().unwrap() {
-            // The text attributes describe the run (its options differ): their names only.
-            let v: Vec<f64> = g
-                .attr(&a)
-                .unwrap()
-                .read_scalar::<f64>()
-                .into_iter()
-                .collect();
-            out.push((format!("{path}@{a}"), v));
-        }
-        for name in g.member_names().unwrap() {
-            let p = format!("{path}/{name}");
-            if let Ok(sub) = g.group(&name) {
-                walk(&sub, &p, out);
-            } else {
-                let d = g.dataset(&name).unwrap();
-                let v: Vec<f64> = match d.read_raw::<f64>() {
-                    Ok(v) => v,
-                    Err(_) => d
-                        .read_raw::<i64>()
-                        .unwrap()
-                        .iter()
-                        .map(|&x| x as f64)
-                        .collect(),
-                };
-                out.push((format!("{p} {:?}", d.shape()), v));
-            }
-        }
-    }
-    let f = hdf5::File::open(format!("{}.h5", prefix.display())).unwrap();
-    let mut out = Vec::new();
-    walk(&f, "", &mut out);
-    out
-}
-
 /// With an estimate every 10 iterations, and at every iteration (the reported iterate then
 /// estimated in the loop and again cold, the estimates before it kept for the output by rows).
 #[test]
@@ -334,23 +296,8 @@ fn a_body_dealt_in_index_blocks_is_held_as_its_share_on_each_rank() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The options of `paper` drawn in Gmsh, n = 32 (2048 elements per body), its mesh in `dir`.
-fn paper_drawn_in_gmsh(dir: &std::path::Path) -> Vec<String> {
-    paper_drawn_in_gmsh_at(dir, 32)
-}
-
-/// The options of `paper` drawn in Gmsh at level `n` (2 n² elements per body), its mesh in
-/// `dir`.
-fn paper_drawn_in_gmsh_at(dir: &std::path::Path, n: usize) -> Vec<String> {
-    let msh = dir.join(format!("paper-{n}.msh"));
-    gmsh(PAPER_GEO, &[("n", &n.to_string())], &[], &msh);
-    paper_mesh_args(&msh, "contact1,contact2", "-1e-4")
-}
-
 /// `paper` n = 12 (each body 12 × 12 × 2 = 288 elements).
 const PAPER_12: [&str; 4] = ["-nndd_problem", "paper", "-nndd_n", "12"];
-
-const PAPER_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
 
 /// `paper` n = 12 with body 2 four times as tall (48 rows of cells): on 3 ranks one for body 1,
 /// two for body 2.
@@ -573,17 +520,6 @@ fn a_rank_estimating_another_group_s_body_gathers_its_overlap_alone() {
         compare(&j, &base, &what);
     }
     std::fs::remove_dir_all(&dir).ok();
-}
-
-/// Both bodies' displacements of two runs agree to 1e-10 (relative, largest entry).
-fn same_displacements(one: &std::path::Path, other: &std::path::Path, what: &str) {
-    for body in ["body1", "body2"] {
-        let d = rel_max_diff(
-            &field(other, body, "displacement"),
-            &field(one, body, "displacement"),
-        );
-        assert!(d < 1e-10, "{body}: {what} differ by {d:e}");
-    }
 }
 
 /// The `problem` with `extra` options, estimated every `every` iterations, solved on 1 and

@@ -10,6 +10,7 @@
 mod adapt;
 pub mod capacity;
 mod cycles;
+mod input;
 pub mod options;
 pub mod preflight;
 mod relaxed;
@@ -96,6 +97,10 @@ pub enum AppError {
     /// An adaptive run could not make its next mesh (the size view, or Gmsh).
     #[error("-nndd_adapt_tol: {0}")]
     Adapt(String),
+    /// What world rank 0 sent of the bodies it built did not read back
+    /// (`-nndd_mesh_input root`).
+    #[error("-nndd_mesh_input root: {0}")]
+    Input(String),
     #[error("cannot catch the stop signals: {0}")]
     Signals(std::io::Error),
     /// An error that every rank learnt at an agreement: all exit together.
@@ -266,14 +271,27 @@ pub(crate) fn solve_cycle(
     start: Start,
     t_start: Instant,
 ) -> Result<Cycle, AppError> {
-    // Problem: both bodies' meshes, materials, boundary conditions and Γc (every rank builds
-    // the whole geometry; after the layout a rank keeps the meshes its phases read).
-    let mut problems = build_problems(&settings, agreement, world.rank() == 0)?;
+    // Problem: both bodies' meshes, materials, boundary conditions and Γc, built on world
+    // rank 0 alone where the run allows it (the others hold their outlines and Γc until rank
+    // 0 sends them their parts), else on every rank (after the layout a rank keeps the meshes
+    // its phases read).
+    let on_root = input::on_root(&settings, world.size());
+    let mut problems = match on_root {
+        true => {
+            // (a rank that builds nothing lets the parsed file go at once)
+            if world.rank() != 0 {
+                settings.release_mesh_unread_later();
+            }
+            input::build_on_root(&settings, agreement, world)?
+        }
+        false => build_problems(&settings, agreement)?,
+    };
     if let Some(why) = settings.problem.node_to_node_instead(&problems)? {
         // (`-nndd_contact_discretisation auto` where mortar is not available)
         settings.warnings.push(why);
-        problems = build_problems(&settings, agreement, world.rank() == 0)?;
+        problems = build_problems(&settings, agreement)?;
     }
+    say_contact_curves(&settings, &problems, world.rank() == 0);
     // The mortar discretisation, or a body held only by contact, decides the Dirichlet step's
     // body (the same on every rank).
     agreed(
@@ -299,7 +317,24 @@ pub(crate) fn solve_cycle(
     let mut restart = restart_point(&settings, &problems, agreement)?;
     let carried = start.checkpoint(&settings, &restart, &problems);
     restart.from = restart.from.take().or(carried);
-    let problems = release_unread_meshes(problems, &settings, &layout);
+    // Input: world rank 0 partitions the bodies it built and sends each rank its part, or
+    // each rank lets go of the meshes it does not read.
+    let (problems, dealt, input_elements) = match on_root {
+        true => {
+            let (problems, partitions, n) =
+                input::deal_parts(problems, &settings, &layout, agreement)?;
+            // (world rank 0's whole bodies and the parts it sent, back to the system before
+            // the assembly and the factorisation allocate theirs)
+            memory::release_free_memory(0);
+            (problems, Some(partitions), n)
+        }
+        false => {
+            let n = input_mesh_elements(&problems);
+            let problems = release_unread_meshes(problems, &settings, &layout);
+            (problems, None, n)
+        }
+    };
+    let input_peak = memory::peak_memory() / (1024.0 * 1024.0);
     let run = Run::new(&settings, &layout, &problems, stages, agreement);
     // Estimate: the estimator (with the reference solution of (26) when asked), used by the
     // solve at the estimated iterations and on the reported iterate; made first, so that the
@@ -308,7 +343,10 @@ pub(crate) fn solve_cycle(
     let mut estimator = run.estimator(&mut timings, &mut setup_warnings)?;
     // Partition: each body over its group (METIS); then a Gmsh body's mesh cut, on each rank,
     // to the part it reads from here on.
-    let partitions = run.partitions()?;
+    let partitions = match dealt {
+        Some(partitions) => partitions,
+        None => run.partitions()?,
+    };
     drop(run);
     let problems = keep_read_parts(problems, &settings, &layout, &partitions, &mut estimator);
     let run = Run::new(&settings, &layout, &problems, stages, agreement);
@@ -327,6 +365,8 @@ pub(crate) fn solve_cycle(
     timings.checks += layout.max(t_contact.elapsed().as_secs_f64());
     // Post-processing: energy, each body's solver.
     let mut post = run.post_process(refs, &sol)?;
+    post.input_mesh_elements = settings.problem.mesh.as_ref().map(|_| input_elements);
+    post.input_peak_memory_mib = input_peak;
     drop(bodies);
     memory::release_free_memory(0);
     // The reported iterate's estimate finished (its recoveries) with the factorisations
@@ -493,15 +533,27 @@ pub(super) fn read_part(
     p: &BodyProblem,
     layout: &Layout,
     partition: Option<&Partition>,
+    elements: Vec<u32>,
+) -> Option<Rc<BodyProblem>> {
+    let (cells, nodes) = (
+        layout.block(p.alpha, p.num_elements()),
+        layout.block(p.alpha, p.num_nodes()),
+    );
+    read_part_in(p, cells, nodes, partition, elements)
+}
+
+/// [`read_part`] for the rank whose blocks of the output's cells and nodes are `cells` and
+/// `nodes` (world rank 0 cuts every rank's part, `input::deal_parts`).
+fn read_part_in(
+    p: &BodyProblem,
+    cells: std::ops::Range<usize>,
+    nodes: std::ops::Range<usize>,
+    partition: Option<&Partition>,
     mut elements: Vec<u32>,
 ) -> Option<Rc<BodyProblem>> {
     if !p.holds_listed_mesh() {
         return None;
     }
-    let (cells, nodes) = (
-        layout.block(p.alpha, p.num_elements()),
-        layout.block(p.alpha, p.num_nodes()),
-    );
     if let Some(part) = partition {
         elements.extend_from_slice(&part.elements);
     }
@@ -515,12 +567,10 @@ pub(super) fn read_part(
     (4 * elements.len() < 3 * p.num_elements()).then(|| Rc::new(p.part(&elements, &nodes)))
 }
 
-/// Both bodies' problems (the ranks agree); a Gmsh problem's contact curves, made to match,
-/// reported.
+/// Both bodies' problems, built on every rank (the ranks agree).
 fn build_problems(
     settings: &Settings,
     agreement: &Agreement,
-    root: bool,
 ) -> Result<[Rc<BodyProblem>; 2], AppError> {
     let built = problem::build(&settings.problem)
         .map_err(AppError::from)
@@ -528,34 +578,49 @@ fn build_problems(
             fault::check(Phase::Mesh)?;
             Ok(p)
         });
-    let problems = agreed(agreement, built)?;
-    if let (Some(spec), true) = (&settings.problem.mesh, root) {
-        let m = &spec.matched;
-        let side = problem::pair_side([&problems[0], &problems[1]]);
-        if problem::discretisation([&problems[0], &problems[1]]) == ContactDiscretisation::Mortar {
-            let [c1, c2] = &spec.contact;
-            println!(
-                "nndd: contact curves '{c1}' and '{c2}' coupled by mortar as meshed: Γc's {} pairs at body {}'s nodes (the coarser curve), which body {} meets at points of its curve ({} of its nodes)",
-                problems[side].pairs(),
-                side + 1,
-                2 - side,
-                problems[1 - side].contact_nodes.len()
-            );
-        } else if m.inserted != [0; 2] || m.moved != [0; 2] {
-            let [c1, c2] = &spec.contact;
-            println!(
-                "nndd: contact curves '{c1}' and '{c2}' meshed independently, made to match: {} and {} node(s) inserted, {} and {} moved onto a partner; Γc: {} pairs where they overlap ({} and {} nodes on the curves)",
-                m.inserted[0],
-                m.inserted[1],
-                m.moved[0],
-                m.moved[1],
-                problems[0].pairs(),
-                problems[0].contact_candidates.len(),
-                problems[1].contact_candidates.len()
-            );
-        }
+    agreed(agreement, built)
+}
+
+/// The elements of the bodies' meshes this rank holds once they are built: both bodies'
+/// where it built them, none of a built-in body's (its grid's formula), its part where
+/// world rank 0 built them ([`input::deal_parts`] counts those).
+fn input_mesh_elements(problems: &[Rc<BodyProblem>; 2]) -> usize {
+    (problems.iter())
+        .filter(|p| p.holds_listed_mesh())
+        .map(|p| p.num_elements())
+        .sum()
+}
+
+/// On world rank 0 (`root`), a Gmsh problem's contact curves, made to match or coupled by
+/// mortar, reported.
+fn say_contact_curves(settings: &Settings, problems: &[Rc<BodyProblem>; 2], root: bool) {
+    let (Some(spec), true) = (&settings.problem.mesh, root) else {
+        return;
+    };
+    let m = &spec.matched;
+    let side = problem::pair_side([&problems[0], &problems[1]]);
+    if problem::discretisation([&problems[0], &problems[1]]) == ContactDiscretisation::Mortar {
+        let [c1, c2] = &spec.contact;
+        println!(
+            "nndd: contact curves '{c1}' and '{c2}' coupled by mortar as meshed: Γc's {} pairs at body {}'s nodes (the coarser curve), which body {} meets at points of its curve ({} of its nodes)",
+            problems[side].pairs(),
+            side + 1,
+            2 - side,
+            problems[1 - side].contact_nodes.len()
+        );
+    } else if m.inserted != [0; 2] || m.moved != [0; 2] {
+        let [c1, c2] = &spec.contact;
+        println!(
+            "nndd: contact curves '{c1}' and '{c2}' meshed independently, made to match: {} and {} node(s) inserted, {} and {} moved onto a partner; Γc: {} pairs where they overlap ({} and {} nodes on the curves)",
+            m.inserted[0],
+            m.inserted[1],
+            m.moved[0],
+            m.moved[1],
+            problems[0].pairs(),
+            problems[0].contact_candidates.len(),
+            problems[1].contact_candidates.len()
+        );
     }
-    Ok(problems)
 }
 
 /// The ranks of each body's group, and the choices that depend on them checked: the

@@ -35,6 +35,10 @@ pub struct Measured<'a> {
     pub held_reference_elements: Option<&'a [usize]>,
     /// The most nodes of an estimated iterate's fields each rank held, where it estimated.
     pub held_estimate: Option<&'a [usize]>,
+    /// The elements of a Gmsh problem's meshes each rank held in the input.
+    pub input_elements: Option<&'a [usize]>,
+    /// Each rank's peak memory (MiB) at the end of the input.
+    pub input_peaks: &'a [f64],
 }
 
 pub fn summarise(
@@ -54,6 +58,8 @@ pub fn summarise(
         reference_held_nodes: _,
         reference_held_elements: _,
         estimate_held_nodes: _,
+        input_mesh_elements: _,
+        input_peak_memory_mib: _,
     } = *post;
     let Measured {
         results,
@@ -64,6 +70,8 @@ pub fn summarise(
         held_reference,
         held_reference_elements,
         held_estimate,
+        input_elements,
+        input_peaks,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
@@ -160,6 +168,8 @@ pub fn summarise(
         held_reference_displacement_nodes_per_rank: held_reference.map(<[usize]>::to_vec),
         held_reference_mesh_elements_per_rank: held_reference_elements.map(<[usize]>::to_vec),
         held_estimate_displacement_nodes_per_rank: held_estimate.map(<[usize]>::to_vec),
+        input_mesh_elements_per_rank: input_elements.map(<[usize]>::to_vec),
+        input_peak_memory_mib_per_rank: input_peaks.to_vec(),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),
         xdmf: paths.xdmf().display().to_string(),
@@ -274,6 +284,12 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
 /// Peak memory of every rank (MiB), on every rank.
 pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
     per_rank(layout, memory::peak_memory() / (1024.0 * 1024.0))
+}
+
+/// Each rank's peak resident memory (MiB) at the end of the input ([`PostProcessed`]), by
+/// world rank (collective).
+pub fn input_peak_memory_per_rank(layout: &Layout, post: &PostProcessed) -> Vec<f64> {
+    per_rank(layout, post.input_peak_memory_mib)
 }
 
 /// Every rank's `mine`, by world rank, on every rank (collective).

@@ -30,6 +30,12 @@ pub(crate) struct PostProcessed {
     pub(crate) reference_held_elements: Option<usize>,
     /// The most nodes at which this rank held an estimated iterate's fields.
     pub(crate) estimate_held_nodes: Option<usize>,
+    /// The elements of a Gmsh problem's meshes this rank held in the input: both bodies'
+    /// where it built them, else the part it was sent (`app::input`).
+    pub(crate) input_mesh_elements: Option<usize>,
+    /// This rank's peak resident memory (MiB) once the bodies' problems were built (or sent)
+    /// and laid out, before their set-up.
+    pub(crate) input_peak_memory_mib: f64,
 }
 
 impl<'a> Run<'a> {
@@ -246,6 +252,8 @@ impl<'a> Run<'a> {
             reference_held_nodes: None,
             reference_held_elements: None,
             estimate_held_nodes: None,
+            input_mesh_elements: None,
+            input_peak_memory_mib: 0.0,
         })
     }
 
@@ -307,13 +315,15 @@ impl<'a> Run<'a> {
         timings.total = t_start.elapsed().as_secs_f64();
         // The high-water marks of the whole run, the output's fields included.
         let peaks = report::peak_memory_per_rank(layout);
+        let input_peaks = report::input_peak_memory_per_rank(layout, post);
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let held_nodes = report::held_field_nodes_per_rank(layout, sol);
-        let [held_reference, held_estimate, held_reference_elements] = [
+        let [held_reference, held_estimate, held_reference_elements, input_elements] = [
             post.reference_held_nodes,
             post.estimate_held_nodes,
             post.reference_held_elements,
+            post.input_mesh_elements,
         ]
         .map(|n| n.map(|n| report::counts_per_rank(layout, n as u64)));
         let mut written = Ok(());
@@ -327,6 +337,8 @@ impl<'a> Run<'a> {
                 held_reference: held_reference.as_deref(),
                 held_reference_elements: held_reference_elements.as_deref(),
                 held_estimate: held_estimate.as_deref(),
+                input_elements: input_elements.as_deref(),
+                input_peaks: &input_peaks,
             };
             let problems = [&*problems[0], &*problems[1]];
             let summary = report::summarise(settings, problems, layout, sol, post, measured);

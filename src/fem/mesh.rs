@@ -8,6 +8,8 @@
 //! points and triangles are given by these formulas, not stored ([`Points`], [`Triangles`]).
 use std::collections::HashMap;
 
+use crate::fem::wire::{Reader, Writer};
+
 mod store;
 pub use store::{element_u32, PointIter, Points, TriangleIter, Triangles};
 
@@ -66,6 +68,30 @@ impl Mesh {
             triangles: self.triangles.part(&elements),
             ..*self
         }
+    }
+
+    /// The mesh as bytes ([`Writer`]): what a rank that built it sends another, a part as a
+    /// part, a grid by its formula.
+    pub fn write(&self, w: &mut Writer) {
+        w.int(self.nx);
+        w.int(self.ny);
+        w.points(&[self.origin, self.size]);
+        self.points.write(w);
+        self.triangles.write(w);
+    }
+
+    /// What [`Mesh::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Mesh> {
+        let (nx, ny) = (r.int()?, r.int()?);
+        let [origin, size] = <[[f64; 2]; 2]>::try_from(r.points()?).ok()?;
+        Some(Mesh {
+            nx,
+            ny,
+            origin,
+            size,
+            points: Points::read(r)?,
+            triangles: Triangles::read(r)?,
+        })
     }
 
     pub fn structured(origin: [f64; 2], size: [f64; 2], nx: usize, ny: usize) -> Mesh {
@@ -351,6 +377,48 @@ mod tests {
         }
         let apart = m.chain_elements(&[m.node(0, 0), m.node(2, 0)]);
         assert_eq!(apart, vec![None]);
+    }
+
+    /// A grid, a listed mesh and a part read back as written: the same points and triangles
+    /// (a part's own, and its refusal of the rest), and truncated bytes refused.
+    #[test]
+    fn a_mesh_written_as_bytes_reads_back_the_same() {
+        let grid = Mesh::structured([0.5, 1.0], [2.0, 1.5], 4, 3);
+        let mut listed = grid.clone();
+        listed.points.set(3, [0.25, 1.125]);
+        let part = listed.part(&[2, 7, 11], &[19]);
+        let round = |m: &Mesh| {
+            let mut w = Writer::default();
+            m.write(&mut w);
+            let mut r = Reader::new(&w.0);
+            let back = Mesh::read(&mut r).expect("read back");
+            assert!(r.is_done());
+            for cut in [1, w.0.len() / 2, w.0.len() - 1] {
+                assert!(Mesh::read(&mut Reader::new(&w.0[..cut])).is_none());
+            }
+            back
+        };
+        for m in [&grid, &listed] {
+            let back = round(m);
+            assert_eq!(
+                (back.nx, back.ny, back.origin, back.size),
+                (m.nx, m.ny, m.origin, m.size)
+            );
+            assert_eq!(back.fingerprint(), m.fingerprint());
+            assert!(back.points == m.points && back.triangles == m.triangles);
+        }
+        let back = round(&part);
+        assert_eq!(back.triangles.len(), listed.triangles.len());
+        let held: Vec<_> = back.triangles.held().collect();
+        assert_eq!(held, part.triangles.held().collect::<Vec<_>>());
+        assert_eq!(held.len(), 3);
+        for (_, t) in held {
+            for v in t {
+                assert_eq!(back.points.get(v), listed.points.get(v));
+            }
+        }
+        assert_eq!(back.points.get(19), listed.points.get(19));
+        assert!(std::panic::catch_unwind(|| back.points.get(0)).is_err());
     }
 
     #[test]

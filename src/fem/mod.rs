@@ -3,7 +3,8 @@
 //! `.geo` geometry; [`checks`] finds flat, folded and overlapping triangles; [`order`] orders
 //! triangles so that blocks of them lie together), triangle geometry ([`geometry`]: area,
 //! barycentric coordinates, local frame) and P1 plane-strain elasticity ([`elasticity`]:
-//! element stiffness, stresses, edge loads, CSR assembly).
+//! element stiffness, stresses, edge loads, CSR assembly); [`wire`]: plain data as bytes, for
+//! what one rank builds and sends the others.
 //!
 //! May use: `petsc`, `os` (today it uses nothing of the crate).
 
@@ -14,6 +15,7 @@ pub mod geometry;
 pub mod gmsh;
 pub mod mesh;
 pub mod order;
+pub mod wire;
 
 pub use elasticity::{
     assemble_stiffness, edge_load, element_dofs, element_energy, element_stiffness, element_stress,

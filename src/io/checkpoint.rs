@@ -143,7 +143,7 @@ impl BodyIdentity {
         BodyIdentity {
             nodes: b.num_nodes(),
             elements: b.num_elements(),
-            mesh: b.mesh().fingerprint(),
+            mesh: b.mesh_fingerprint(),
             young: b.material.young,
             poisson: b.material.poisson,
             loads,

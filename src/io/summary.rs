@@ -239,6 +239,16 @@ pub struct Summary {
     /// the rank holds it so), when the run estimates.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_estimate_displacement_nodes_per_rank: Option<Vec<usize>>,
+    /// The elements of a Gmsh problem's meshes each rank held in the input, by world rank:
+    /// both bodies' on a rank that built them (world rank 0 alone under `-nndd_mesh_input
+    /// root`, every rank under `every_rank` or where a later phase reads the whole meshes),
+    /// else the part of its group's body world rank 0 sent it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub input_mesh_elements_per_rank: Option<Vec<usize>>,
+    /// Peak resident memory of every rank (MiB) at the end of the input, by world rank: once
+    /// the bodies' problems were built (or a rank's part sent) and the ranks laid out, before
+    /// the bodies are set up (what building the whole bodies on a rank costs it).
+    pub input_peak_memory_mib_per_rank: Vec<f64>,
     /// Ranks of each body's group.
     pub body_ranks: [usize; 2],
     /// Largest equilibrium residuals of the recovered stresses over the estimated iterations

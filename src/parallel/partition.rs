@@ -14,6 +14,7 @@
 use std::ops::Range;
 
 use crate::fem::mesh::Mesh;
+use crate::fem::wire::{Reader, Writer};
 use crate::parallel::layout::{block_of, Layout};
 use crate::petsc::Int;
 
@@ -133,33 +134,77 @@ impl Partition {
     /// The partition of `ne` elements and `nn` nodes in index blocks over `size` ranks
     /// ([`block_of`], the output's), seen from rank `rank`.
     pub fn index_blocks(ne: usize, nn: usize, rank: usize, size: usize) -> Partition {
-        let parts = |len: usize| -> Vec<u32> {
-            (0..size)
-                .flat_map(|r| block_of(len, r, size).map(move |_| r as u32))
-                .collect()
+        Partition::from_parts(rank, size, &block_parts(ne, size), &block_parts(nn, size))
+    }
+
+    /// Every rank's partition of body `alpha`'s `mesh` over a group of `size` ranks by `how`,
+    /// made on the one rank that holds the mesh (one METIS run; `app::input` sends each
+    /// rank its own): the partitions [`Partition::on_group`] gives the group's ranks.
+    pub fn dealt(
+        mesh: &Mesh,
+        alpha: usize,
+        size: usize,
+        how: Partitioner,
+    ) -> Result<Vec<Partition>, PartitionError> {
+        let (ne, nn) = (mesh.triangles.len(), mesh.num_nodes());
+        if size == 1 {
+            return Ok(vec![Partition::new(mesh, alpha, 0, 1)?]);
+        }
+        let (epart, npart) = match how {
+            Partitioner::IndexBlocks => (block_parts(ne, size), block_parts(nn, size)),
+            Partitioner::Metis => metis_parts(mesh, alpha, size)?,
         };
-        Partition::from_parts(rank, size, &parts(ne), &parts(nn))
+        let (node_start, petsc_node) = numbering(size, &npart);
+        let mut elements = vec![Vec::new(); size];
+        for (e, &p) in epart.iter().enumerate() {
+            elements[p as usize].push(e as u32);
+        }
+        let mut mesh_nodes = vec![Vec::new(); size];
+        for (i, &p) in npart.iter().enumerate() {
+            mesh_nodes[p as usize].push(i as u32);
+        }
+        Ok((elements.into_iter().zip(mesh_nodes).enumerate())
+            .map(|(rank, (elements, mesh_nodes))| Partition {
+                rank,
+                size,
+                elements,
+                petsc_node: petsc_node.clone(),
+                node_start: node_start.clone(),
+                mesh_nodes,
+            })
+            .collect())
+    }
+
+    /// The partition as bytes ([`Writer`]): what the rank that made it sends its rank.
+    pub fn write(&self, w: &mut Writer) {
+        w.int(self.rank);
+        w.int(self.size);
+        w.u32s(&self.elements);
+        w.u32s(&self.petsc_node);
+        w.ints(&self.node_start);
+        w.u32s(&self.mesh_nodes);
+    }
+
+    /// What [`Partition::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Partition> {
+        let p = Partition {
+            rank: r.int()?,
+            size: r.int()?,
+            elements: r.u32s()?,
+            petsc_node: r.u32s()?,
+            node_start: r.ints()?,
+            mesh_nodes: r.u32s()?,
+        };
+        let sound = p.rank < p.size
+            && p.node_start.len() == p.size + 1
+            && p.node_start.last() == Some(&p.petsc_node.len())
+            && p.mesh_nodes.len() == p.owned_nodes().len();
+        sound.then_some(p)
     }
 
     /// The partition with element parts `epart` and node parts `npart` (METIS's).
     fn from_parts(rank: usize, size: usize, epart: &[u32], npart: &[u32]) -> Partition {
-        let mut count = vec![0usize; size];
-        for &p in npart {
-            count[p as usize] += 1;
-        }
-        let mut node_start = vec![0usize; size + 1];
-        for r in 0..size {
-            node_start[r + 1] = node_start[r] + count[r];
-        }
-        let mut next = node_start.clone();
-        let petsc_node = npart
-            .iter()
-            .map(|&p| {
-                let i = next[p as usize];
-                next[p as usize] += 1;
-                i as u32
-            })
-            .collect();
+        let (node_start, petsc_node) = numbering(size, npart);
         Partition {
             rank,
             size,
@@ -227,6 +272,35 @@ impl Partition {
     pub fn owned_elements(&self) -> usize {
         self.elements.len()
     }
+}
+
+/// The PETSc numbering of node parts `npart` over `size` ranks: the first PETSc node of each
+/// rank (and the count at the end), and each mesh node's, each rank's nodes in mesh order.
+fn numbering(size: usize, npart: &[u32]) -> (Vec<usize>, Vec<u32>) {
+    let mut node_start = vec![0usize; size + 1];
+    for &p in npart {
+        node_start[p as usize + 1] += 1;
+    }
+    for r in 0..size {
+        node_start[r + 1] += node_start[r];
+    }
+    let mut next = node_start.clone();
+    let petsc_node = npart
+        .iter()
+        .map(|&p| {
+            let i = next[p as usize];
+            next[p as usize] += 1;
+            i as u32
+        })
+        .collect();
+    (node_start, petsc_node)
+}
+
+/// The part of each of `len` items in the index blocks over `size` ranks ([`block_of`]).
+fn block_parts(len: usize, size: usize) -> Vec<u32> {
+    (0..size)
+        .flat_map(|r| block_of(len, r, size).map(move |_| r as u32))
+        .collect()
 }
 
 /// METIS's element and node parts of `mesh` in `size` parts (`METIS_PartMeshDual`), every
@@ -312,6 +386,38 @@ mod tests {
                 assert_eq!(concat[rows[d] as usize], full[d]);
                 let owner = parts[0].owner_of_petsc_node(rows[d] as usize / 2);
                 assert!(parts[owner].owns_dof(d));
+            }
+        }
+    }
+
+    /// The partitions made on one rank are those each rank of the group makes, METIS's and
+    /// the blocks', and read back as written.
+    #[test]
+    fn partitions_dealt_from_one_rank_are_the_groups_own() {
+        let mesh = Mesh::structured([0.0, 0.0], [1.0, 1.0], 9, 7);
+        for (how, size) in [
+            (Partitioner::Metis, 3),
+            (Partitioner::IndexBlocks, 4),
+            (Partitioner::Metis, 1),
+        ] {
+            let dealt = Partition::dealt(&mesh, 2, size, how).unwrap();
+            assert_eq!(dealt.len(), size);
+            for (rank, d) in dealt.iter().enumerate() {
+                let own = match how {
+                    Partitioner::Metis => Partition::new(&mesh, 2, rank, size).unwrap(),
+                    Partitioner::IndexBlocks => Partition::index_blocks(126, 80, rank, size),
+                };
+                let mut w = Writer::default();
+                d.write(&mut w);
+                let back = Partition::read(&mut Reader::new(&w.0)).unwrap();
+                for p in [d, &back] {
+                    assert_eq!((p.rank, p.size), (rank, size));
+                    assert_eq!(p.elements, own.elements);
+                    assert_eq!(p.petsc_node, own.petsc_node);
+                    assert_eq!(p.node_start, own.node_start);
+                    assert_eq!(p.mesh_nodes, own.mesh_nodes);
+                }
+                assert!(Partition::read(&mut Reader::new(&w.0[..w.0.len() - 4])).is_none());
             }
         }
     }

@@ -68,6 +68,7 @@ pub fn body(settings: &ProblemSettings, alpha: usize) -> BodyProblem {
         alpha,
         mesh: super::BodyMesh::Whole(mesh),
         outline: Default::default(),
+        fingerprint: Default::default(),
         material,
         dirichlet,
         neumann,

@@ -184,6 +184,7 @@ pub fn build(spec: &MeshSpec, materials: [Material; 2]) -> Result<[BodyProblem; 
             alpha,
             mesh: super::BodyMesh::Whole(bodies[k].mesh.clone()),
             outline: Default::default(),
+            fingerprint: Default::default(),
             material: materials[k],
             dirichlet,
             neumann,

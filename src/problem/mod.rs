@@ -23,6 +23,7 @@ mod polyline;
 pub mod settings;
 mod sound;
 pub mod transfer;
+mod wire;
 
 use std::rc::Rc;
 
@@ -68,6 +69,8 @@ pub struct ProblemSettings {
     pub mesh: Option<meshed::MeshSpec>,
     /// How each body is dealt over its group (`-nndd_partition`).
     pub partitioner: crate::parallel::partition::Partitioner,
+    /// Where a Gmsh problem's bodies are built (`-nndd_mesh_input`).
+    pub input: parsed::MeshInput,
 }
 
 impl ProblemSettings {
@@ -215,6 +218,9 @@ pub struct BodyProblem {
     mesh: BodyMesh,
     /// Its boundary, made from the mesh when first read and kept where the mesh is released.
     outline: std::cell::OnceCell<Outline>,
+    /// Its mesh's fingerprint ([`Mesh::fingerprint`]), made from the whole mesh when first read
+    /// and kept with the part or the outline a rank holds after.
+    fingerprint: std::cell::OnceCell<u64>,
     pub material: Material,
     /// Γ_D: prescribed dofs and their values, sorted by dof.
     pub dirichlet: Vec<(usize, f64)>,
@@ -436,6 +442,16 @@ impl BodyProblem {
         self.outline.get_or_init(|| Outline::of(self.mesh()))
     }
 
+    /// The fingerprint of the body's whole mesh ([`Mesh::fingerprint`]: what a restart point
+    /// is checked against), made from the mesh when first read.
+    ///
+    /// # Panics
+    /// Where the rank holds a part of the mesh or its outline alone and the fingerprint was
+    /// not made before (from the whole mesh, or by the rank that built it).
+    pub fn mesh_fingerprint(&self) -> u64 {
+        *self.fingerprint.get_or_init(|| self.mesh().fingerprint())
+    }
+
     /// The point of Γc node or boundary node `node`, from the mesh where held, else from the
     /// outline.
     pub fn boundary_point(&self, node: usize) -> [f64; 2] {
@@ -466,6 +482,7 @@ impl BodyProblem {
             alpha: self.alpha,
             mesh,
             outline: std::cell::OnceCell::from(self.outline().clone()),
+            fingerprint: self.fingerprint.clone(),
             material: self.material,
             dirichlet: self.dirichlet.clone(),
             neumann: self.neumann.clone(),

@@ -5,6 +5,7 @@
 //! ([`super::BodyProblem::released`]).
 
 use crate::fem::mesh::Mesh;
+use crate::fem::wire::{Reader, Writer};
 
 /// The boundary of a mesh, by its own node numbers.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -36,6 +37,25 @@ impl Outline {
     /// The boundary nodes, sorted.
     pub fn nodes(&self) -> &[usize] {
         &self.nodes
+    }
+
+    /// The outline as bytes ([`Writer`]).
+    pub fn write(&self, w: &mut Writer) {
+        w.list(&self.edges, |w, e| e.iter().for_each(|&n| w.int(n)));
+        w.ints(&self.nodes);
+        w.points(&self.points);
+    }
+
+    /// What [`Outline::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Outline> {
+        let edges = r.list(16, |r| Some([r.int()?, r.int()?]))?;
+        let (nodes, points) = (r.ints()?, r.points()?);
+        let sound = nodes.windows(2).all(|w| w[0] < w[1]) && nodes.len() == points.len();
+        sound.then_some(Outline {
+            edges,
+            nodes,
+            points,
+        })
     }
 
     /// The position of boundary node `node` in [`Outline::nodes`]; `None` off the boundary.

@@ -13,6 +13,19 @@ use std::rc::Rc;
 use super::curves::MeshedError;
 use crate::fem::gmsh::GmshMesh;
 
+/// Where a Gmsh problem's bodies are built on several ranks (`-nndd_mesh_input`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MeshInput {
+    /// World rank 0 builds both bodies, partitions them and sends every other rank its part
+    /// (`app::input`), where no later phase reads the whole meshes; else as [`EveryRank`].
+    ///
+    /// [`EveryRank`]: MeshInput::EveryRank
+    #[default]
+    Root,
+    /// Every rank builds both bodies, then keeps its part (`app::keep_read_parts`).
+    EveryRank,
+}
+
 /// The physical surface names of the two bodies.
 pub const BODY_NAMES: [&str; 2] = ["body1", "body2"];
 

@@ -6,6 +6,7 @@ use std::rc::Rc;
 
 use super::meshed::{CurveCondition, MeshSpec, MeshedError, BODY_NAMES};
 use super::mortar::GapGeometry;
+use super::parsed::MeshInput;
 use super::parsed::ParsedFile;
 use super::{ContactDiscretisation, DiscretisationChoice, ProblemKind, ProblemSettings};
 use crate::fem::order::ElementOrder;
@@ -77,6 +78,11 @@ impl ProblemSettings {
             "How each body's elements and nodes are dealt over its group of ranks: metis (METIS's parts of the mesh), blocks (the output's index blocks: one distribution for the assembly, the output and the estimates of a body estimated on its group, so that a rank holds one share of its body's mesh, and its overlap's rings where it estimates; compact where the numbering is, the built-in grids' rows or a Gmsh body in -nndd_mesh_order bands, not in a Gmsh file's own order)",
             &[("metis", Partitioner::Metis), ("blocks", Partitioner::IndexBlocks)],
         )?;
+        let input = o.choice(
+            "-nndd_mesh_input",
+            "With -nndd_mesh on several ranks: where the bodies are built: root (world rank 0 builds both, partitions them and sends every other rank its part, so that no other rank builds a whole body; a run that estimates, solves the reference, couples by mortar or adapts builds them on every rank, as every_rank), every_rank (every rank builds both bodies, then keeps its part)",
+            &[("root", MeshInput::Root), ("every_rank", MeshInput::EveryRank)],
+        )?;
         let geo_set = read_geo_set(o, kind, &mesh_file)?;
         let curves = (contact.as_str(), choice, gap);
         let mesh = match kind {
@@ -100,6 +106,7 @@ impl ProblemSettings {
         )?;
         Ok(ProblemSettings {
             partitioner,
+            input,
             kind,
             n,
             grids,
@@ -486,6 +493,12 @@ pub fn option_applies(kind: ProblemKind, name: &str) -> Result<(), SettingsError
         return Err(SettingsError::named(
             name,
             "orders the bodies of a Gmsh problem (-nndd_mesh); the built-in problems' grids are numbered row by row",
+        ));
+    }
+    if !mesh && name == "-nndd_mesh_input" {
+        return Err(SettingsError::named(
+            name,
+            "says where a Gmsh problem's bodies (-nndd_mesh) are built; a built-in body's mesh is its grid's formula, built on no rank",
         ));
     }
     if !mesh && name == "-nndd_contact" {

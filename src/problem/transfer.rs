@@ -312,6 +312,7 @@ mod tests {
             alpha: 1,
             mesh: super::super::BodyMesh::Whole(mesh),
             outline: Default::default(),
+            fingerprint: Default::default(),
             material: crate::fem::Material {
                 young: 1.0,
                 poisson: 0.3,

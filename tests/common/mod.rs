@@ -526,3 +526,68 @@ pub fn wait_within(mut child: Child, limit: Duration, what: &str) -> Ended {
         std::thread::sleep(Duration::from_millis(20));
     }
 }
+
+/// examples/paper: `paper` drawn in Gmsh (its level `n`).
+pub const PAPER_GEO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/paper/paper.geo");
+
+/// The options of `paper` drawn in Gmsh, n = 32 (2048 elements per body), its mesh in `dir`.
+pub fn paper_drawn_in_gmsh(dir: &std::path::Path) -> Vec<String> {
+    paper_drawn_in_gmsh_at(dir, 32)
+}
+
+/// The options of `paper` drawn in Gmsh at level `n` (2 n² elements per body), its mesh in
+/// `dir`.
+pub fn paper_drawn_in_gmsh_at(dir: &std::path::Path, n: usize) -> Vec<String> {
+    let msh = dir.join(format!("paper-{n}.msh"));
+    gmsh(PAPER_GEO, &[("n", &n.to_string())], &[], &msh);
+    paper_mesh_args(&msh, "contact1,contact2", "-1e-4")
+}
+
+/// Every dataset and attribute of a result file, by path.
+pub fn h5_contents(prefix: &std::path::Path) -> Vec<(String, Vec<f64>)> {
+    fn walk(g: &hdf5::Group, path: &str, out: &mut Vec<(String, Vec<f64>)>) {
+        for a in g.attr_names().unwrap() {
+            // The text attributes describe the run (its options differ): their names only.
+            let v: Vec<f64> = g
+                .attr(&a)
+                .unwrap()
+                .read_scalar::<f64>()
+                .into_iter()
+                .collect();
+            out.push((format!("{path}@{a}"), v));
+        }
+        for name in g.member_names().unwrap() {
+            let p = format!("{path}/{name}");
+            if let Ok(sub) = g.group(&name) {
+                walk(&sub, &p, out);
+            } else {
+                let d = g.dataset(&name).unwrap();
+                let v: Vec<f64> = match d.read_raw::<f64>() {
+                    Ok(v) => v,
+                    Err(_) => d
+                        .read_raw::<i64>()
+                        .unwrap()
+                        .iter()
+                        .map(|&x| x as f64)
+                        .collect(),
+                };
+                out.push((format!("{p} {:?}", d.shape()), v));
+            }
+        }
+    }
+    let f = hdf5::File::open(format!("{}.h5", prefix.display())).unwrap();
+    let mut out = Vec::new();
+    walk(&f, "", &mut out);
+    out
+}
+
+/// Both bodies' displacements of two runs agree to 1e-10 (relative, largest entry).
+pub fn same_displacements(one: &std::path::Path, other: &std::path::Path, what: &str) {
+    for body in ["body1", "body2"] {
+        let d = rel_max_diff(
+            &field(other, body, "displacement"),
+            &field(one, body, "displacement"),
+        );
+        assert!(d < 1e-10, "{body}: {what} differ by {d:e}");
+    }
+}

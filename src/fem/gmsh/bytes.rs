@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 
 use super::{Cells, ElementTags, GmshMesh, Nesting};
+use crate::fem::wire::{Reader, Writer};
 
 impl GmshMesh {
     /// The mesh as bytes (little-endian: the path, the points, each kind of element's tag
@@ -11,56 +12,47 @@ impl GmshMesh {
     /// names, the nesting): what world rank 0 sends the others, 16 bytes per triangle and per
     /// node.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(16 * self.points.len() + 16 * self.triangles.len());
-        text(&mut b, &self.path);
-        int(&mut b, self.points.len() as u64);
-        for p in &self.points {
-            b.extend_from_slice(&p[0].to_le_bytes());
-            b.extend_from_slice(&p[1].to_le_bytes());
-        }
-        cells(&mut b, &self.triangles);
+        let mut w = Writer::with_capacity(16 * self.points.len() + 16 * self.triangles.len());
+        w.text(&self.path);
+        w.points(&self.points);
+        cells(&mut w, &self.triangles);
         let (runs, len) = self.triangle_tags.runs();
-        int(&mut b, len as u64);
-        int(&mut b, runs.len() as u64);
-        for &(first, tag, step) in runs {
-            int(&mut b, first as u64);
-            int(&mut b, tag);
-            b.push(step);
-        }
-        cells(&mut b, &self.lines);
-        int(&mut b, self.names.len() as u64);
+        w.int(len);
+        w.list(runs, |w, &(first, tag, step)| {
+            w.int(first);
+            w.u64(tag);
+            w.u8(step);
+        });
+        cells(&mut w, &self.lines);
+        w.int(self.names.len());
         for ((dim, tag), name) in &self.names {
-            b.extend_from_slice(&dim.to_le_bytes());
-            b.extend_from_slice(&tag.to_le_bytes());
-            text(&mut b, name);
+            w.i32(*dim);
+            w.i32(*tag);
+            w.text(name);
         }
         // (a mesh of its own: no children)
-        int(&mut b, self.nesting.map_or(0, |n| n.children) as u64);
-        b
+        w.int(self.nesting.map_or(0, |n| n.children));
+        w.0
     }
 
     /// The mesh [`GmshMesh::to_bytes`] wrote (`None` for bytes it did not write).
     pub fn from_bytes(bytes: &[u8]) -> Option<GmshMesh> {
-        let mut r = Reader { bytes, at: 0 };
+        let mut r = Reader::new(bytes);
         let path = r.text()?;
-        let points = (0..r.int()?)
-            .map(|_| Some([r.f64()?, r.f64()?]))
-            .collect::<Option<Vec<_>>>()?;
-        let triangles = r.cells()?;
+        let points = r.points()?;
+        let triangles = read_cells(&mut r)?;
         let len = r.int()?;
-        let runs = (0..r.int()?)
-            .map(|_| Some((r.int()?, r.int()? as u64, r.take::<1>()?[0])))
-            .collect::<Option<Vec<_>>>()?;
+        let runs = r.list(17, |r| Some((r.int()?, r.u64()?, r.u8()?)))?;
         let triangle_tags = ElementTags::from_runs(runs, len)?;
-        let lines = r.cells()?;
-        let names = (0..r.int()?)
+        let lines = read_cells(&mut r)?;
+        let names = (0..r.count(12)?)
             .map(|_| Some(((r.i32()?, r.i32()?), r.text()?)))
             .collect::<Option<BTreeMap<_, _>>>()?;
         let nesting = match r.int()? {
             0 => None,
             children => Some(Nesting { children }),
         };
-        (r.at == bytes.len()).then_some(GmshMesh {
+        r.is_done().then_some(GmshMesh {
             path,
             points,
             triangles,
@@ -72,88 +64,33 @@ impl GmshMesh {
     }
 }
 
-fn int(b: &mut Vec<u8>, v: u64) {
-    b.extend_from_slice(&v.to_le_bytes());
-}
-
-fn text(b: &mut Vec<u8>, t: &str) {
-    int(b, t.len() as u64);
-    b.extend_from_slice(t.as_bytes());
-}
-
 /// Elements as bytes: the tag lists, the count, then each element's nodes and list index in 4
 /// bytes each.
-fn cells<const N: usize>(b: &mut Vec<u8>, c: &Cells<N>) {
+fn cells<const N: usize>(w: &mut Writer, c: &Cells<N>) {
     let (nodes, set, sets) = c.parts();
-    int(b, sets.len() as u64);
-    for tags in sets {
-        int(b, tags.len() as u64);
-        for &t in tags {
-            b.extend_from_slice(&t.to_le_bytes());
-        }
-    }
-    int(b, nodes.len() as u64);
+    w.list(sets, |w, tags| w.list(tags, |w, &t| w.i32(t)));
+    w.int(nodes.len());
     for (n, &s) in nodes.iter().zip(set) {
         for &v in n {
-            b.extend_from_slice(&v.to_le_bytes());
+            w.u32(v);
         }
-        b.extend_from_slice(&s.to_le_bytes());
+        w.u32(s);
     }
 }
 
-/// Reads what [`GmshMesh::to_bytes`] wrote.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> Option<[u8; N]> {
-        let b = self.bytes.get(self.at..self.at + N)?;
-        self.at += N;
-        b.try_into().ok()
-    }
-    fn int(&mut self) -> Option<usize> {
-        usize::try_from(u64::from_le_bytes(self.take()?)).ok()
-    }
-    fn f64(&mut self) -> Option<f64> {
-        Some(f64::from_le_bytes(self.take()?))
-    }
-    fn i32(&mut self) -> Option<i32> {
-        Some(i32::from_le_bytes(self.take()?))
-    }
-    fn u32(&mut self) -> Option<u32> {
-        Some(u32::from_le_bytes(self.take()?))
-    }
-    fn tags(&mut self) -> Option<Vec<i32>> {
-        (0..self.int()?).map(|_| self.i32()).collect()
-    }
-    /// What [`cells`] wrote.
-    fn cells<const N: usize>(&mut self) -> Option<Cells<N>> {
-        let sets = (0..self.int()?)
-            .map(|_| self.tags())
-            .collect::<Option<Vec<_>>>()?;
-        let n = self.int()?;
-        // (a count the bytes cannot hold is refused before anything is allocated for it)
-        if n > (self.bytes.len() - self.at) / (4 * (N + 1)) {
-            return None;
+/// What [`cells`] wrote.
+fn read_cells<const N: usize>(r: &mut Reader) -> Option<Cells<N>> {
+    let sets = r.list(8, |r| r.list(4, Reader::i32))?;
+    let n = r.count(4 * (N + 1))?;
+    let mut nodes = Vec::with_capacity(n);
+    let mut set = Vec::with_capacity(n);
+    for _ in 0..n {
+        let mut v = [0u32; N];
+        for x in v.iter_mut() {
+            *x = r.u32()?;
         }
-        let mut nodes = Vec::with_capacity(n);
-        let mut set = Vec::with_capacity(n);
-        for _ in 0..n {
-            let mut v = [0u32; N];
-            for x in v.iter_mut() {
-                *x = self.u32()?;
-            }
-            nodes.push(v);
-            set.push(self.u32()?);
-        }
-        Cells::from_parts(nodes, set, sets)
+        nodes.push(v);
+        set.push(r.u32()?);
     }
-    fn text(&mut self) -> Option<String> {
-        let n = self.int()?;
-        let b = self.bytes.get(self.at..self.at + n)?;
-        self.at += n;
-        String::from_utf8(b.to_vec()).ok()
-    }
+    Cells::from_parts(nodes, set, sets)
 }

@@ -4,6 +4,8 @@
 //! indices ([`Mesh::part`](super::Mesh::part): the entries the rank reads), any other's listed.
 //! All hand out values, not references, by index or in order.
 
+use crate::fem::wire::{Reader, Writer};
+
 /// A mesh's triangles: those of a structured grid by their formula (none stored: 12 B per
 /// element less on every rank that holds a body, 6 MiB per body at `paper` n = 512), the
 /// others stored with their nodes as `u32` (half the memory of `usize`), all handed out as
@@ -337,6 +339,111 @@ impl FromIterator<[f64; 2]> for Points {
 impl From<Vec<[f64; 2]>> for Points {
     fn from(v: Vec<[f64; 2]>) -> Points {
         Points(PointStore::Listed(v))
+    }
+}
+
+/// Bytes of the stores ([`Triangles::write`], [`Points::write`]): a tag, then a listed store's
+/// entries, a grid's dimensions, a part's length, indices and entries.
+const LISTED: u8 = 0;
+const GRID: u8 = 1;
+const PART: u8 = 2;
+
+impl Triangles {
+    /// These triangles as bytes (a grid's by its dimensions).
+    pub fn write(&self, w: &mut Writer) {
+        let nodes = |w: &mut Writer, t: &[u32; 3]| t.iter().for_each(|&v| w.u32(v));
+        match &self.0 {
+            Store::Listed(t) => {
+                w.u8(LISTED);
+                w.list(t, nodes);
+            }
+            &Store::Grid { nx, ny } => {
+                w.u8(GRID);
+                w.int(nx);
+                w.int(ny);
+            }
+            Store::Part(p) => {
+                w.u8(PART);
+                w.int(p.len);
+                w.u32s(&p.ids);
+                w.list(&p.values, nodes);
+            }
+        }
+    }
+
+    /// What [`Triangles::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Triangles> {
+        let nodes = |r: &mut Reader| Some([r.u32()?, r.u32()?, r.u32()?]);
+        Some(Triangles(match r.u8()? {
+            LISTED => Store::Listed(r.list(12, nodes)?),
+            GRID => Store::Grid {
+                nx: r.int()?,
+                ny: r.int()?,
+            },
+            PART => Store::Part(Part::read(r, 12, nodes)?),
+            _ => return None,
+        }))
+    }
+}
+
+impl Points {
+    /// These points as bytes (a grid's by its formula's constants).
+    pub fn write(&self, w: &mut Writer) {
+        match &self.0 {
+            PointStore::Listed(p) => {
+                w.u8(LISTED);
+                w.points(p);
+            }
+            &PointStore::Grid { origin, h, nx, ny } => {
+                w.u8(GRID);
+                w.points(&[origin, h]);
+                w.int(nx);
+                w.int(ny);
+            }
+            PointStore::Part(p) => {
+                w.u8(PART);
+                w.int(p.len);
+                w.u32s(&p.ids);
+                w.points(&p.values);
+            }
+        }
+    }
+
+    /// What [`Points::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Points> {
+        let point = |r: &mut Reader| Some([r.f64()?, r.f64()?]);
+        Some(Points(match r.u8()? {
+            LISTED => PointStore::Listed(r.points()?),
+            GRID => {
+                let [origin, h] = <[[f64; 2]; 2]>::try_from(r.points()?).ok()?;
+                PointStore::Grid {
+                    origin,
+                    h,
+                    nx: r.int()?,
+                    ny: r.int()?,
+                }
+            }
+            PART => PointStore::Part(Part::read(r, 16, point)?),
+            _ => return None,
+        }))
+    }
+}
+
+impl<T> Part<T> {
+    /// A part's length, ascending indices below it, and as many entries, each of at least
+    /// `entry` bytes read by `each`.
+    fn read(
+        r: &mut Reader,
+        entry: usize,
+        each: impl FnMut(&mut Reader) -> Option<T>,
+    ) -> Option<Part<T>> {
+        let len = r.int()?;
+        let ids = r.u32s()?;
+        let values = r.list(entry, each)?;
+        let sound = ids.windows(2).all(|w| w[0] < w[1])
+            && ids.last().is_none_or(|&i| (i as usize) < len)
+            && values.len() == ids.len();
+        sound.then_some(Part { len, ids, values })
     }
 }
 
