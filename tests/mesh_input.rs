@@ -7,8 +7,9 @@ mod common;
 use common::*;
 
 /// `paper` drawn in Gmsh (2048 elements per body) on 2, 3 and 5 ranks, METIS's parts and
-/// index blocks: the summary's `input_mesh_elements_per_rank` is both bodies' 4096 on world
-/// rank 0 and the part sent on each other rank (the whole body on a body's only rank, else at
+/// index blocks: the parsed file is held on world rank 0 alone (the summary's
+/// `input_file_points_per_rank`; on every rank under `every_rank`), and
+/// `input_mesh_elements_per_rank` is both bodies' 4096 on world rank 0 and the part sent on each other rank (the whole body on a body's only rank, else at
 /// most two shares of it and METIS's 3 % imbalance: its partition and its block of the
 /// output), 4096 on every rank under `every_rank`; the result files are the same (the meshes
 /// value for value, the fields to round-off), and the solution the same as one rank's.
@@ -36,6 +37,21 @@ fn ranks_other_than_the_first_are_sent_their_parts_and_write_what_every_rank_bui
             input(&every),
             vec![4096; ranks],
             "{ranks} ranks, every_rank"
+        );
+        // (the parsed file: on world rank 0 alone, else sent to every rank)
+        let points = |j: &serde_json::Value| -> Vec<u64> {
+            let list = j["input_file_points_per_rank"].as_array().unwrap();
+            list.iter().map(|n| n.as_u64().unwrap()).collect()
+        };
+        let file = points(&one)[0];
+        assert!(file >= 2 * 1089 - 33, "{file} points in the file");
+        assert_eq!(points(&every), vec![file; ranks]);
+        let mut on_root = vec![0; ranks];
+        on_root[0] = file;
+        assert_eq!(
+            points(&root),
+            on_root,
+            "{ranks} ranks: the file on world rank 0 alone"
         );
         let sent = input(&root);
         let groups: Vec<u64> = serde_json::from_value(root["body_ranks"].clone()).unwrap();
@@ -99,7 +115,8 @@ fn same_file(a: &std::path::Path, b: &std::path::Path, what: &str) {
 }
 
 /// A run whose later phases read the whole meshes on every rank (here its estimates' overlaps)
-/// builds them on every rank, as `every_rank`, whatever `-nndd_mesh_input` says; a built-in
+/// is sent the parsed file and builds them on every rank, as `every_rank`, whatever
+/// `-nndd_mesh_input` says; a built-in
 /// problem reports no input mesh (its grids are formulas), and the option is refused beside it.
 #[test]
 fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
@@ -111,6 +128,13 @@ fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
     assert_eq!(
         j["input_mesh_elements_per_rank"],
         serde_json::json!([4096, 4096, 4096])
+    );
+    let points = j["input_file_points_per_rank"].as_array().unwrap();
+    assert!(
+        points.len() == 3
+            && points
+                .iter()
+                .all(|p| p == &points[0] && p.as_u64() > Some(2000))
     );
     let builtin = ["-nndd_problem", "paper", "-nndd_n", "8"];
     let j = solve(2, &dir.join("builtin"), &builtin);

@@ -23,6 +23,7 @@ use crate::fem::wire::{Reader, Writer};
 use crate::parallel::fault::{self, Agreement, Phase};
 use crate::parallel::layout::{block_of, Layout};
 use crate::parallel::partition::Partition;
+use crate::parallel::root;
 use crate::parallel::wait::politely;
 use crate::problem::parsed::MeshInput;
 use crate::problem::{self, BodyProblem, ContactDiscretisation};
@@ -49,8 +50,7 @@ pub(super) fn build_on_root(
     agreement: &Agreement,
     world: &SimpleCommunicator,
 ) -> Result<[Rc<BodyProblem>; 2], AppError> {
-    let root = world.rank() == 0;
-    let built = match root {
+    let built = match world.rank() == 0 {
         true => problem::build(&settings.problem).map(Some),
         false => Ok(None),
     };
@@ -68,10 +68,13 @@ pub(super) fn build_on_root(
         }
         w.0
     });
-    let bytes = from_root(world, outlines);
-    let problems = match built {
-        Some(problems) => Ok(problems),
-        None => released_pair(&bytes),
+    let bytes = root::bytes_from_root("the bodies' outlines", || {
+        outlines.ok_or_else(|| "world rank 0 built no bodies".to_string())
+    });
+    let problems = match (built, bytes) {
+        (Some(problems), _) => Ok(problems),
+        (None, Ok(bytes)) => released_pair(&bytes),
+        (None, Err(e)) => Err(AppError::Input(e)),
     };
     agreed(agreement, problems)
 }
@@ -89,7 +92,7 @@ fn released_pair(bytes: &[u8]) -> Result<[Rc<BodyProblem>; 2], AppError> {
 /// The error of bytes from world rank 0 that do not read back.
 fn damaged(what: &str) -> AppError {
     AppError::Input(format!(
-        "{what} sent by world rank 0 do not read back (use -nndd_mesh_input every_rank)"
+        "-nndd_mesh_input root: {what} sent by world rank 0 do not read back (use -nndd_mesh_input every_rank)"
     ))
 }
 
@@ -197,17 +200,6 @@ fn part_for(
 ) -> Rc<BodyProblem> {
     let [cells, nodes] = blocks;
     super::read_part_in(p, cells, nodes, Some(partition), Vec::new()).unwrap_or_else(|| p.clone())
-}
-
-/// `bytes` (on world rank 0, `Some`) on every rank of `world` (collective; the others wait
-/// without taking a core from rank 0).
-fn from_root(world: &SimpleCommunicator, bytes: Option<Vec<u8>>) -> Vec<u8> {
-    let root = world.process_at_rank(0);
-    let mut len = [bytes.as_ref().map_or(0, |b| b.len() as u64)];
-    mpi::request::scope(|scope| politely(root.immediate_broadcast_into(scope, &mut len[..])));
-    let mut bytes = bytes.unwrap_or_else(|| vec![0u8; len[0] as usize]);
-    root.broadcast_into(&mut bytes[..]);
-    bytes
 }
 
 /// The most bytes one message carries (MPI counts them in an `int`).

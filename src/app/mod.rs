@@ -97,9 +97,8 @@ pub enum AppError {
     /// An adaptive run could not make its next mesh (the size view, or Gmsh).
     #[error("-nndd_adapt_tol: {0}")]
     Adapt(String),
-    /// What world rank 0 sent of the bodies it built did not read back
-    /// (`-nndd_mesh_input root`).
-    #[error("-nndd_mesh_input root: {0}")]
+    /// What world rank 0 sent of the file it read or the bodies it built did not read back.
+    #[error("-nndd_mesh: {0}")]
     Input(String),
     #[error("cannot catch the stop signals: {0}")]
     Signals(std::io::Error),
@@ -277,14 +276,13 @@ pub(crate) fn solve_cycle(
     // its phases read).
     let on_root = input::on_root(&settings, world.size());
     let mut problems = match on_root {
-        true => {
-            // (a rank that builds nothing lets the parsed file go at once)
-            if world.rank() != 0 {
-                settings.release_mesh_unread_later();
-            }
-            input::build_on_root(&settings, agreement, world)?
+        true => input::build_on_root(&settings, agreement, world)?,
+        false => {
+            // (world rank 0 read the file: every rank builds from it)
+            let shared = settings.problem.share_parsed_file(world);
+            agreed(agreement, shared.map_err(AppError::Input))?;
+            build_problems(&settings, agreement)?
         }
-        false => build_problems(&settings, agreement)?,
     };
     if let Some(why) = settings.problem.node_to_node_instead(&problems)? {
         // (`-nndd_contact_discretisation auto` where mortar is not available)
@@ -366,6 +364,7 @@ pub(crate) fn solve_cycle(
     // Post-processing: energy, each body's solver.
     let mut post = run.post_process(refs, &sol)?;
     post.input_mesh_elements = settings.problem.mesh.as_ref().map(|_| input_elements);
+    post.input_file_points = settings.problem.mesh.as_ref().map(|m| m.gmsh.held_points);
     post.input_peak_memory_mib = input_peak;
     drop(bodies);
     memory::release_free_memory(0);

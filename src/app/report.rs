@@ -37,6 +37,8 @@ pub struct Measured<'a> {
     pub held_estimate: Option<&'a [usize]>,
     /// The elements of a Gmsh problem's meshes each rank held in the input.
     pub input_elements: Option<&'a [usize]>,
+    /// The points of a Gmsh problem's parsed file each rank held.
+    pub input_points: Option<&'a [usize]>,
     /// Each rank's peak memory (MiB) at the end of the input.
     pub input_peaks: &'a [f64],
 }
@@ -59,6 +61,7 @@ pub fn summarise(
         reference_held_elements: _,
         estimate_held_nodes: _,
         input_mesh_elements: _,
+        input_file_points: _,
         input_peak_memory_mib: _,
     } = *post;
     let Measured {
@@ -71,6 +74,7 @@ pub fn summarise(
         held_reference_elements,
         held_estimate,
         input_elements,
+        input_points,
         input_peaks,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
@@ -169,6 +173,7 @@ pub fn summarise(
         held_reference_mesh_elements_per_rank: held_reference_elements.map(<[usize]>::to_vec),
         held_estimate_displacement_nodes_per_rank: held_estimate.map(<[usize]>::to_vec),
         input_mesh_elements_per_rank: input_elements.map(<[usize]>::to_vec),
+        input_file_points_per_rank: input_points.map(<[usize]>::to_vec),
         input_peak_memory_mib_per_rank: input_peaks.to_vec(),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),

@@ -33,6 +33,9 @@ pub(crate) struct PostProcessed {
     /// The elements of a Gmsh problem's meshes this rank held in the input: both bodies'
     /// where it built them, else the part it was sent (`app::input`).
     pub(crate) input_mesh_elements: Option<usize>,
+    /// The points of a Gmsh problem's parsed file this rank held (all on world rank 0,
+    /// which read it, and on a rank it was sent to).
+    pub(crate) input_file_points: Option<usize>,
     /// This rank's peak resident memory (MiB) once the bodies' problems were built (or sent)
     /// and laid out, before their set-up.
     pub(crate) input_peak_memory_mib: f64,
@@ -253,6 +256,7 @@ impl<'a> Run<'a> {
             reference_held_elements: None,
             estimate_held_nodes: None,
             input_mesh_elements: None,
+            input_file_points: None,
             input_peak_memory_mib: 0.0,
         })
     }
@@ -319,13 +323,15 @@ impl<'a> Run<'a> {
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let held_nodes = report::held_field_nodes_per_rank(layout, sol);
-        let [held_reference, held_estimate, held_reference_elements, input_elements] = [
-            post.reference_held_nodes,
-            post.estimate_held_nodes,
-            post.reference_held_elements,
-            post.input_mesh_elements,
-        ]
-        .map(|n| n.map(|n| report::counts_per_rank(layout, n as u64)));
+        let [held_reference, held_estimate, held_reference_elements, input_elements, input_points] =
+            [
+                post.reference_held_nodes,
+                post.estimate_held_nodes,
+                post.reference_held_elements,
+                post.input_mesh_elements,
+                post.input_file_points,
+            ]
+            .map(|n| n.map(|n| report::counts_per_rank(layout, n as u64)));
         let mut written = Ok(());
         if layout.is_root() {
             let measured = report::Measured {
@@ -338,6 +344,7 @@ impl<'a> Run<'a> {
                 held_reference_elements: held_reference_elements.as_deref(),
                 held_estimate: held_estimate.as_deref(),
                 input_elements: input_elements.as_deref(),
+                input_points: input_points.as_deref(),
                 input_peaks: &input_peaks,
             };
             let problems = [&*problems[0], &*problems[1]];

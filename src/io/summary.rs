@@ -245,6 +245,11 @@ pub struct Summary {
     /// else the part of its group's body world rank 0 sent it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub input_mesh_elements_per_rank: Option<Vec<usize>>,
+    /// The points of a Gmsh problem's parsed file each rank held, by world rank: all on
+    /// world rank 0, which reads it, and on every rank it is sent to (where the bodies are
+    /// built on every rank), none on the others.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub input_file_points_per_rank: Option<Vec<usize>>,
     /// Peak resident memory of every rank (MiB) at the end of the input, by world rank: once
     /// the bodies' problems were built (or a rank's part sent) and the ranks laid out, before
     /// the bodies are set up (what building the whole bodies on a rank costs it).

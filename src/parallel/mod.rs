@@ -3,7 +3,7 @@
 //! body's mesh split over its group by METIS, and the PETSc row numbering; [`fault`]: how the
 //! ranks agree that a phase failed, and the test-only injection of a failure; [`wait`]:
 //! waiting for other ranks without taking their core; [`held`]: a rank's part of a vector
-//! indexed like the whole.
+//! indexed like the whole; [`root`]: what world rank 0 makes, sent to every rank.
 //!
 //! May use: `qp`, `fem`, `petsc`, `os`.
 
@@ -11,4 +11,5 @@ pub mod fault;
 pub mod held;
 pub mod layout;
 pub mod partition;
+pub mod root;
 pub mod wait;

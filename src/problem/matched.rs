@@ -3,6 +3,8 @@
 
 use std::collections::BTreeMap;
 
+use crate::fem::wire::{Reader, Writer};
+
 /// What was done to make the contact curves match.
 #[derive(Clone, Debug, Default)]
 pub struct Matched {
@@ -22,4 +24,40 @@ pub struct Matched {
 /// The key of a point in [`Matched::normals`].
 pub fn point_key(p: [f64; 2]) -> [u64; 2] {
     [p[0].to_bits(), p[1].to_bits()]
+}
+
+impl Matched {
+    /// What was done, as bytes (world rank 0 did it; `problem::settings` sends it).
+    pub fn write(&self, w: &mut Writer) {
+        w.int(self.normals.len());
+        for (k, n) in &self.normals {
+            k.iter().for_each(|&x| w.u64(x));
+            w.f64(n[0]);
+            w.f64(n[1]);
+        }
+        w.ints(&self.inserted);
+        w.ints(&self.moved);
+        w.int(self.made.len());
+        for k in &self.made {
+            k.iter().for_each(|&x| w.u64(x));
+        }
+    }
+
+    /// What [`Matched::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Matched> {
+        let normals = (0..r.count(32)?)
+            .map(|_| Some(([r.u64()?, r.u64()?], [r.f64()?, r.f64()?])))
+            .collect::<Option<BTreeMap<_, _>>>()?;
+        let inserted = <[usize; 2]>::try_from(r.ints()?).ok()?;
+        let moved = <[usize; 2]>::try_from(r.ints()?).ok()?;
+        let made = (0..r.count(16)?)
+            .map(|_| Some([r.u64()?, r.u64()?]))
+            .collect::<Option<_>>()?;
+        Some(Matched {
+            normals,
+            inserted,
+            moved,
+            made,
+        })
+    }
 }

@@ -40,8 +40,9 @@ pub struct CurveCondition {
 /// The user's meshed problem (plain data, filled from the options by `app`).
 #[derive(Clone, Debug)]
 pub struct MeshSpec {
-    /// The parsed file (read once, when the options are read; its mesh released once the
-    /// bodies are built where no later phase reads it).
+    /// The parsed file (read once, on world rank 0, when the options are read; sent to the
+    /// other ranks where they build the bodies; its mesh released once the bodies are built
+    /// where no later phase reads it).
     pub gmsh: super::parsed::ParsedFile,
     pub conditions: Vec<CurveCondition>,
     /// Γc: body 1's curve and body 2's curve.

@@ -1,7 +1,10 @@
 //! A Gmsh problem's parsed file, and when it is let go.
 //!
-//! Every rank holds the parsed file whole (world rank 0 reads it and sends it,
-//! [`super::settings::shared_mesh`]) until both bodies' problems are built from it. Only a
+//! World rank 0 reads the file and checks the options against it; the other ranks learn its
+//! facts (its physical names, each body's dofs, its extent, how its contact curves were made
+//! to match) and hold no mesh ([`ParsedFile::on_root`]). A run that builds its bodies on every
+//! rank has rank 0 send them the parsed file first ([`ParsedFile::share`]); one that builds
+//! them on world rank 0 alone (`-nndd_mesh_input root`, `app::input`) never sends it. Only a
 //! reference solution's refinement, a mortar run's matched meshes and an adaptive run's
 //! remeshing read it again; a run that does none of these releases it before its bodies are
 //! set up ([`ParsedFile::release`]), keeping what it reports of the file to its end: the path,
@@ -38,33 +41,61 @@ pub struct ParsedFile {
     pub names: BTreeMap<(i32, i32), String>,
     /// The dofs of each body (2 per node of its physical surface; they size the rank groups).
     pub body_dofs: [usize; 2],
+    /// The mesh's bounding box, lower left and upper right corners.
+    pub bbox: [[f64; 2]; 2],
+    /// The points of the mesh this rank held: all of them on the rank that read it or was
+    /// sent it, none on a rank that held its facts alone.
+    pub held_points: usize,
     mesh: Held,
 }
 
-/// Whether the mesh itself is still held.
+/// Whether the mesh itself is held.
 #[derive(Clone, Debug)]
 enum Held {
     Whole(Rc<GmshMesh>),
+    /// Held on world rank 0 alone, which read it (on the others; [`ParsedFile::share`] sends it).
+    OnRoot,
     /// Let go once the bodies were built (no later phase of the run reads it).
     Released,
 }
 
 impl ParsedFile {
+    /// The file of `mesh`, held here (and on every rank that made it alike).
     pub fn new(mesh: GmshMesh) -> ParsedFile {
         ParsedFile {
             path: mesh.path.clone(),
             names: mesh.names.clone(),
             body_dofs: BODY_NAMES.map(|name| 2 * mesh.surface_node_count(name)),
+            bbox: crate::fem::checks::bbox(&mesh.points),
+            held_points: mesh.points.len(),
             mesh: Held::Whole(Rc::new(mesh)),
         }
     }
 
+    /// The file world rank 0 holds, on another rank: its facts alone.
+    pub fn on_root(
+        path: String,
+        names: BTreeMap<(i32, i32), String>,
+        body_dofs: [usize; 2],
+        bbox: [[f64; 2]; 2],
+    ) -> ParsedFile {
+        ParsedFile {
+            path,
+            names,
+            body_dofs,
+            bbox,
+            held_points: 0,
+            mesh: Held::OnRoot,
+        }
+    }
+
     /// The mesh; an error where it was released (a phase that reads it after the bodies were
-    /// built must keep it: [`crate::app::options::Settings::reads_mesh_after_build`]).
+    /// built must keep it: [`crate::app::options::Settings::reads_mesh_after_build`]) or is
+    /// held on world rank 0 alone (a phase that reads it on every rank shares it first).
     pub fn mesh(&self) -> Result<&GmshMesh, MeshedError> {
         match &self.mesh {
             Held::Whole(mesh) => Ok(mesh),
-            Held::Released => Err(MeshedError::Released {
+            Held::Released | Held::OnRoot => Err(MeshedError::Released {
                 path: self.path.clone(),
             }),
         }
@@ -74,6 +105,37 @@ impl ParsedFile {
     /// keep it until they are dropped).
     pub fn release(&mut self) {
         self.mesh = Held::Released;
+    }
+
+    /// The mesh on every rank where world rank 0 alone holds it (collective over `world`;
+    /// nothing where every rank holds it, or none): rank 0 sends it as bytes
+    /// ([`GmshMesh::to_bytes`]). An error where the bytes do not read back.
+    pub fn share(&mut self, world: &mpi::topology::SimpleCommunicator) -> Result<(), String> {
+        use mpi::collective::SystemOperation;
+        use mpi::traits::{Communicator, CommunicatorCollectives};
+        let here = matches!(self.mesh, Held::OnRoot) as u8;
+        let mut needed = 0u8;
+        world.all_reduce_into(&here, &mut needed, SystemOperation::max());
+        if needed == 0 {
+            return Ok(());
+        }
+        let root = world.rank() == 0;
+        let path = self.path.clone();
+        let mesh = match &self.mesh {
+            Held::Whole(m) if root => Some(m.clone()),
+            _ => None,
+        };
+        let bytes = crate::parallel::root::bytes_from_root(&path, || {
+            mesh.map(|m| m.to_bytes())
+                .ok_or_else(|| format!("{path}: world rank 0 no longer holds the parsed mesh"))
+        })?;
+        if !root {
+            let mesh = GmshMesh::from_bytes(&bytes)
+                .ok_or_else(|| format!("{path}: the mesh sent by world rank 0 is damaged"))?;
+            self.held_points = mesh.points.len();
+            self.mesh = Held::Whole(Rc::new(mesh));
+        }
+        Ok(())
     }
 }
 

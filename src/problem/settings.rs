@@ -1,7 +1,7 @@
 //! The problem's options (`-nndd_problem`, `-nndd_mesh` and its `-nndd_bc_…`, the built-in
 //! problems' meshes and loads, the materials), read and validated into [`ProblemSettings`].
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::rc::Rc;
 
 use super::meshed::{CurveCondition, MeshSpec, MeshedError, BODY_NAMES};
@@ -10,9 +10,11 @@ use super::parsed::MeshInput;
 use super::parsed::ParsedFile;
 use super::{ContactDiscretisation, DiscretisationChoice, ProblemKind, ProblemSettings};
 use crate::fem::order::ElementOrder;
+use crate::fem::wire::{Reader, Writer};
 use crate::fem::Material;
 use crate::fem::{geo, gmsh};
 use crate::parallel::partition::Partitioner;
+use crate::parallel::root;
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::{self, OptionsBlock};
 
@@ -80,7 +82,7 @@ impl ProblemSettings {
         )?;
         let input = o.choice(
             "-nndd_mesh_input",
-            "With -nndd_mesh on several ranks: where the bodies are built: root (world rank 0 builds both, partitions them and sends every other rank its part, so that no other rank builds a whole body; a run that estimates, solves the reference, couples by mortar or adapts builds them on every rank, as every_rank), every_rank (every rank builds both bodies, then keeps its part)",
+            "With -nndd_mesh on several ranks: where the bodies are built: root (world rank 0, which reads the file, builds both, partitions them and sends every other rank its part, so that no other rank holds the file or a whole body; a run that estimates, solves the reference, couples by mortar or adapts builds them on every rank, as every_rank), every_rank (rank 0 sends every rank the parsed file, and each builds both bodies, then keeps its part)",
             &[("root", MeshInput::Root), ("every_rank", MeshInput::EveryRank)],
         )?;
         let geo_set = read_geo_set(o, kind, &mesh_file)?;
@@ -250,11 +252,13 @@ fn mesh_spec(
     order: ElementOrder,
 ) -> Result<MeshSpec, SettingsError> {
     let named = SettingsError::named;
-    let gmsh = read_shared(file, geo_set).map_err(|e| named("-nndd_mesh", e))?;
+    // (the mesh on world rank 0, the names on every rank: the options are checked on them)
+    let (gmsh, names) = read_on_root(file, geo_set).map_err(|e| named("-nndd_mesh", e))?;
+    let group_names = |dim: i32| gmsh::group_names(&names, dim);
     // The bodies first: without them nothing else the options name can be found.
     let missing: Vec<&str> = BODY_NAMES
         .into_iter()
-        .filter(|b| gmsh.tag(2, b).is_none())
+        .filter(|b| gmsh::tag_of(&names, 2, b).is_none())
         .collect();
     if !missing.is_empty() {
         return Err(named(
@@ -266,13 +270,12 @@ fn mesh_spec(
                     .map(|b| format!("'{b}'"))
                     .collect::<Vec<_>>()
                     .join(" or "),
-                gmsh.group_names(2),
-                gmsh.group_names(1)
+                group_names(2),
+                group_names(1)
             ),
         ));
     }
-    let curves: Vec<String> = gmsh
-        .names
+    let curves: Vec<String> = names
         .iter()
         .filter(|((d, _), _)| *d == 1)
         .map(|(_, n)| n.clone())
@@ -283,7 +286,7 @@ fn mesh_spec(
             "-nndd_contact",
             format!(
                 "give body 1's and body 2's contact curves as NAME1,NAME2 (got '{contact}'; physical curves: {})",
-                gmsh.group_names(1)
+                group_names(1)
             ),
         ));
     }
@@ -369,15 +372,16 @@ fn mesh_spec(
                 &name,
                 format!(
                     "names no physical curve of {file} or no condition (accepted: -nndd_bc_NAME_ux, _uy, _traction, _traction_end with NAME in: {})",
-                    gmsh.group_names(1)
+                    group_names(1)
                 ),
             ));
         }
     }
     let contact = [pair[0].to_string(), pair[1].to_string()];
-    let (gmsh, discretisation, matched) = resolve(gmsh, &contact, choice);
+    let (parsed, discretisation, matched) =
+        resolve_on_root(file, gmsh, &contact, choice).map_err(|e| named("-nndd_mesh", e))?;
     Ok(MeshSpec {
-        gmsh: ParsedFile::new(gmsh),
+        gmsh: parsed,
         conditions,
         contact,
         discretisation,
@@ -520,8 +524,7 @@ pub const PASCAL_MODULI: f64 = 1e8;
 /// (nndd reads coordinates in metres: a part drawn in mm is 1000 times too large, and a
 /// prescribed displacement strains it 1000 times too little).
 fn units_warning(mesh: &MeshSpec, materials: &[Material; 2]) -> Option<String> {
-    // (read with the options: the mesh is held)
-    let [lo, hi] = crate::fem::checks::bbox(&mesh.gmsh.mesh().ok()?.points);
+    let [lo, hi] = mesh.gmsh.bbox;
     let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
     let e = materials[0].young.max(materials[1].young);
     (size >= MILLIMETRE_MESH && e > PASCAL_MODULI).then(|| {
@@ -596,19 +599,84 @@ fn check_materials(
     Ok(warnings)
 }
 
-/// The mesh file, read and parsed on world rank 0 and sent to the other ranks as bytes (a parse
-/// on every rank costs the machine one parse per rank: Hertz level 6 on 8 ranks of 2 cores took
-/// 2.6 s); a `.geo` file meshed there first by gmsh with `geo_set` ([`geo::mesh`]). Collective;
-/// an error on rank 0 reaches every rank (the others' message says so).
-fn read_shared(file: &str, geo_set: &[(String, f64)]) -> Result<gmsh::GmshMesh, String> {
+/// The mesh file, read and parsed on world rank 0 (a `.geo` file meshed there first by gmsh
+/// with `geo_set`, [`geo::mesh`]), and its physical names, sent to the other ranks: the options
+/// are checked against the names on every rank, the rest on rank 0 ([`resolve_on_root`]).
+/// Collective; an error on rank 0 reaches every rank (the others' message says so).
+#[allow(clippy::type_complexity)]
+fn read_on_root(
+    file: &str,
+    geo_set: &[(String, f64)],
+) -> Result<(Option<gmsh::GmshMesh>, BTreeMap<(i32, i32), String>), String> {
     let path = std::path::Path::new(file);
-    shared_mesh(file, || {
-        match geo::is_geo(path) {
+    let mut mesh = None;
+    let bytes = root::bytes_from_root(file, || {
+        let m = match geo::is_geo(path) {
             true => geo::mesh(path, geo_set),
             false => gmsh::read(path),
         }
-        .map_err(|e| e.to_string())
-    })
+        .map_err(|e| e.to_string())?;
+        let mut w = Writer::default();
+        gmsh::write_names(&mut w, &m.names);
+        mesh = Some(m);
+        Ok(w.0)
+    })?;
+    let names = match &mesh {
+        Some(m) => m.names.clone(),
+        None => gmsh::read_names(&mut Reader::new(&bytes))
+            .ok_or_else(|| format!("{file}: the names sent by world rank 0 are damaged"))?,
+    };
+    Ok((mesh, names))
+}
+
+/// The contact curves `contact` resolved as `choice` says on world rank 0, which holds the
+/// `mesh` ([`resolve`]), and the file it gives there; the others learn what it found and the
+/// file's facts ([`ParsedFile::on_root`]). Collective.
+fn resolve_on_root(
+    file: &str,
+    mesh: Option<gmsh::GmshMesh>,
+    contact: &[String; 2],
+    choice: DiscretisationChoice,
+) -> Result<(ParsedFile, ContactDiscretisation, super::matched::Matched), String> {
+    let resolved = mesh.map(|m| {
+        let (m, discretisation, matched) = resolve(m, contact, choice);
+        (ParsedFile::new(m), discretisation, matched)
+    });
+    let facts = resolved.as_ref().map(|(parsed, discretisation, matched)| {
+        let mut w = Writer::default();
+        w.u8(match discretisation {
+            ContactDiscretisation::NodeToNode => 0,
+            ContactDiscretisation::Mortar => 1,
+        });
+        matched.write(&mut w);
+        w.text(&parsed.path);
+        gmsh::write_names(&mut w, &parsed.names);
+        w.ints(&parsed.body_dofs);
+        w.points(&parsed.bbox);
+        w.0
+    });
+    let bytes = root::bytes_from_root(file, move || {
+        facts.ok_or_else(|| format!("{file}: world rank 0 holds no mesh"))
+    })?;
+    if let Some(resolved) = resolved {
+        return Ok(resolved);
+    }
+    let damaged = || format!("{file}: the facts sent by world rank 0 are damaged");
+    let mut r = Reader::new(&bytes);
+    let discretisation = match r.u8().ok_or_else(damaged)? {
+        0 => ContactDiscretisation::NodeToNode,
+        _ => ContactDiscretisation::Mortar,
+    };
+    let matched = super::matched::Matched::read(&mut r).ok_or_else(damaged)?;
+    let facts = (|| {
+        let path = r.text()?;
+        let names = gmsh::read_names(&mut r)?;
+        let body_dofs = <[usize; 2]>::try_from(r.ints()?).ok()?;
+        let bbox = <[[f64; 2]; 2]>::try_from(r.points()?).ok()?;
+        r.is_done()
+            .then(|| ParsedFile::on_root(path, names, body_dofs, bbox))
+    })();
+    Ok((facts.ok_or_else(damaged)?, discretisation, matched))
 }
 
 /// The mesh `make` gives on world rank 0 (called there alone), sent to every rank as bytes;
@@ -617,34 +685,21 @@ pub fn shared_mesh(
     file: &str,
     make: impl FnOnce() -> Result<gmsh::GmshMesh, String>,
 ) -> Result<gmsh::GmshMesh, String> {
-    use crate::parallel::wait::politely;
-    use mpi::traits::{Communicator, Root};
+    use mpi::traits::Communicator;
     let world = mpi::topology::SimpleCommunicator::world();
-    let read = make;
     if world.size() == 1 {
-        return read();
+        return make();
     }
-    let root = world.process_at_rank(0);
-    // [read, length], then the bytes.
-    let mut head = [0u64; 2];
-    if world.rank() == 0 {
-        let mesh = read();
-        let mut bytes = mesh.as_ref().map_or(Vec::new(), |m| m.to_bytes());
-        head = [mesh.is_ok() as u64, bytes.len() as u64];
-        // (a non-blocking broadcast matches only non-blocking ones on the other ranks)
-        mpi::request::scope(|scope| politely(root.immediate_broadcast_into(scope, &mut head[..])));
-        if mesh.is_ok() {
-            root.broadcast_into(&mut bytes[..]);
-        }
-        return mesh;
+    let mut mesh = None;
+    let bytes = root::bytes_from_root(file, || {
+        let m = make()?;
+        let bytes = m.to_bytes();
+        mesh = Some(m);
+        Ok(bytes)
+    })?;
+    match mesh {
+        Some(m) => Ok(m),
+        None => gmsh::GmshMesh::from_bytes(&bytes)
+            .ok_or_else(|| format!("{file}: the mesh sent by world rank 0 is damaged")),
     }
-    // The other ranks wait for rank 0's parse without taking a core from it.
-    mpi::request::scope(|scope| politely(root.immediate_broadcast_into(scope, &mut head[..])));
-    if head[0] == 0 {
-        return Err(format!("{file}: world rank 0 could not read it"));
-    }
-    let mut bytes = vec![0u8; head[1] as usize];
-    root.broadcast_into(&mut bytes[..]);
-    gmsh::GmshMesh::from_bytes(&bytes)
-        .ok_or_else(|| format!("{file}: the mesh sent by world rank 0 is damaged"))
 }

@@ -24,12 +24,7 @@ impl GmshMesh {
             w.u8(step);
         });
         cells(&mut w, &self.lines);
-        w.int(self.names.len());
-        for ((dim, tag), name) in &self.names {
-            w.i32(*dim);
-            w.i32(*tag);
-            w.text(name);
-        }
+        write_names(&mut w, &self.names);
         // (a mesh of its own: no children)
         w.int(self.nesting.map_or(0, |n| n.children));
         w.0
@@ -45,9 +40,7 @@ impl GmshMesh {
         let runs = r.list(17, |r| Some((r.int()?, r.u64()?, r.u8()?)))?;
         let triangle_tags = ElementTags::from_runs(runs, len)?;
         let lines = read_cells(&mut r)?;
-        let names = (0..r.count(12)?)
-            .map(|_| Some(((r.i32()?, r.i32()?), r.text()?)))
-            .collect::<Option<BTreeMap<_, _>>>()?;
+        let names = read_names(&mut r)?;
         let nesting = match r.int()? {
             0 => None,
             children => Some(Nesting { children }),
@@ -93,4 +86,21 @@ fn read_cells<const N: usize>(r: &mut Reader) -> Option<Cells<N>> {
         set.push(r.u32()?);
     }
     Cells::from_parts(nodes, set, sets)
+}
+
+/// A file's physical names, by (dimension, tag), as bytes.
+pub fn write_names(w: &mut Writer, names: &BTreeMap<(i32, i32), String>) {
+    w.int(names.len());
+    for ((dim, tag), name) in names {
+        w.i32(*dim);
+        w.i32(*tag);
+        w.text(name);
+    }
+}
+
+/// What [`write_names`] wrote.
+pub fn read_names(r: &mut Reader) -> Option<BTreeMap<(i32, i32), String>> {
+    (0..r.count(16)?)
+        .map(|_| Some(((r.i32()?, r.i32()?), r.text()?)))
+        .collect()
 }

@@ -23,7 +23,31 @@ mod bytes;
 mod cells;
 mod refine;
 
+pub use bytes::{read_names, write_names};
 pub use cells::{Cells, ElementTags};
+
+/// The tag of the physical group `name` of dimension `dim` among a file's `names`.
+pub fn tag_of(names: &BTreeMap<(i32, i32), String>, dim: i32, name: &str) -> Option<i32> {
+    names
+        .iter()
+        .find(|((d, _), n)| *d == dim && n.as_str() == name)
+        .map(|((_, t), _)| *t)
+}
+
+/// The names of the physical groups of dimension `dim` among a file's `names`, for messages
+/// ("none" where there is none).
+pub fn group_names(names: &BTreeMap<(i32, i32), String>, dim: i32) -> String {
+    let v: Vec<&str> = names
+        .iter()
+        .filter(|((d, _), _)| *d == dim)
+        .map(|(_, n)| n.as_str())
+        .collect();
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
 
 /// What is wrong with a mesh file, in the words the user needs (the caller names the option).
 #[derive(Debug, thiserror::Error)]
@@ -454,10 +478,7 @@ impl GmshMesh {
     }
 
     pub fn tag(&self, dim: i32, name: &str) -> Option<i32> {
-        self.names
-            .iter()
-            .find(|((d, _), n)| *d == dim && n.as_str() == name)
-            .map(|((_, t), _)| *t)
+        tag_of(&self.names, dim, name)
     }
 
     /// The Gmsh tag of triangle `i` (its number from 1 where the tags are not known).
@@ -485,17 +506,7 @@ impl GmshMesh {
 
     /// The names of the physical groups of dimension `dim`, comma separated.
     pub fn group_names(&self, dim: i32) -> String {
-        let v: Vec<&str> = self
-            .names
-            .iter()
-            .filter(|((d, _), _)| *d == dim)
-            .map(|(_, n)| n.as_str())
-            .collect();
-        if v.is_empty() {
-            "none".into()
-        } else {
-            v.join(", ")
-        }
+        group_names(&self.names, dim)
     }
 
     /// The number of nodes of the triangles of the physical surface `name` (0 if none).
