@@ -538,37 +538,9 @@ fn ranks_write_what_one_writes(
     solve(1, &dir.join("a"), &args);
     let j = solve(ranks, &dir.join("b"), &args);
     assert_eq!(j["ranks"], ranks);
-    let (a, b) = (h5_contents(&dir.join("a")), h5_contents(&dir.join("b")));
-    let names = |c: &[(String, Vec<f64>)]| c.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
-    assert_eq!(
-        names(&a),
-        names(&b),
-        "the same datasets, shapes and attributes"
-    );
-    assert!(
-        a.len() > 20,
-        "{ranks} ranks, every {every}: {} datasets",
-        a.len()
-    );
-    for ((name, x), (_, y)) in a.iter().zip(&b) {
-        if name.contains('@') || name.contains("/Mesh/") {
-            assert_eq!(
-                x, y,
-                "every {every}: {name}: geometry and attributes are identical"
-            );
-        } else {
-            // η^NNDD_E of a converged iterate is at the solves' round-off: scale it by η^glo_E.
-            let scale_of = name.replace("eta_nndd", "eta_glo");
-            let scale_of = &a.iter().find(|c| c.0 == scale_of).unwrap().1;
-            let scale = scale_of.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
-            let d = x
-                .iter()
-                .zip(y)
-                .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
-                / scale;
-            assert!(d < 1e-9, "every {every}: {name}: differs by {d:e}");
-        }
-    }
+    let what = format!("{ranks} ranks, every {every}");
+    let datasets = same_results(&dir.join("a"), &dir.join("b"), 1e-9, &what);
+    assert!(datasets > 20, "{what}: {datasets} datasets");
     std::fs::remove_dir_all(&dir).ok();
     j
 }

@@ -591,3 +591,33 @@ pub fn same_displacements(one: &std::path::Path, other: &std::path::Path, what: 
         assert!(d < 1e-10, "{body}: {what} differ by {d:e}");
     }
 }
+
+/// Two runs' result files hold the same datasets and attributes (their names and shapes), the
+/// meshes and the attributes value for value, every field to `tol` of its largest entry
+/// (η^NNDD's maps, at the solves' round-off where the iterate converged, of η^glo's); the
+/// number of datasets and attributes.
+pub fn same_results(a: &Path, b: &Path, tol: f64, what: &str) -> usize {
+    let (a, b) = (h5_contents(a), h5_contents(b));
+    let names = |c: &[(String, Vec<f64>)]| c.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
+    assert_eq!(
+        names(&a),
+        names(&b),
+        "{what}: the same datasets, shapes and attributes"
+    );
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        if name.contains('@') || name.contains("/Mesh/") {
+            assert!(x == y, "{what}: {name}: geometry and attributes differ");
+            continue;
+        }
+        let scale_of = name.replace("eta_nndd", "eta_glo");
+        let scale_of = &a.iter().find(|c| c.0 == scale_of).unwrap().1;
+        let scale = scale_of.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+        let d = x
+            .iter()
+            .zip(y)
+            .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
+            / scale;
+        assert!(d < tol, "{what}: {name}: differs by {d:e}");
+    }
+    a.len()
+}
