@@ -143,19 +143,6 @@ impl ProblemSettings {
         )))
     }
 
-    /// A Gmsh problem's parsed file on every rank, where world rank 0 alone read it
-    /// ([`parsed::ParsedFile::share`]; collective over `world`): before every rank builds the
-    /// bodies from it.
-    pub fn share_parsed_file(
-        &mut self,
-        world: &mpi::topology::SimpleCommunicator,
-    ) -> Result<(), String> {
-        match self.mesh.as_mut() {
-            Some(spec) => spec.gmsh.share(world),
-            None => Ok(()),
-        }
-    }
-
     /// Total number of dofs of both bodies.
     pub fn dofs(&self) -> usize {
         self.body_dofs().iter().sum()

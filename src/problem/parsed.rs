@@ -139,6 +139,21 @@ impl ParsedFile {
     }
 }
 
+impl super::ProblemSettings {
+    /// A Gmsh problem's parsed file on every rank, where world rank 0 alone read it
+    /// ([`ParsedFile::share`]; collective over `world`): before every rank builds the bodies
+    /// from it.
+    pub fn share_parsed_file(
+        &mut self,
+        world: &mpi::topology::SimpleCommunicator,
+    ) -> Result<(), String> {
+        match self.mesh.as_mut() {
+            Some(spec) => spec.gmsh.share(world),
+            None => Ok(()),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
