@@ -7,13 +7,12 @@
 mod common;
 
 use std::io::{BufRead, BufReader};
-use std::os::unix::process::CommandExt;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use common::{f, json, mpirun_command, scratch, wait_within, walk, Ended};
+use common::{f, json, scratch, spawn, wait_within, walk, Ended};
 
 /// The tests of this file run one at a time: their time limits assume the machine's cores.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -23,16 +22,6 @@ const LIMIT: Duration = Duration::from_secs(10);
 
 fn serial() -> std::sync::MutexGuard<'static, ()> {
     SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-/// `mpirun -n np nndd args…` in its own process group, its output piped.
-fn spawn(np: usize, args: &[&str]) -> Child {
-    mpirun_command(np, args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .process_group(0)
-        .spawn()
-        .expect("mpirun starts")
 }
 
 /// `paper` n = 8 (estimates every 3 iterations, checkpoints every 4) on `np` ranks, output at

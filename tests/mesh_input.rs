@@ -97,8 +97,8 @@ fn ranks_other_than_the_first_are_sent_their_parts_and_write_what_every_rank_bui
 
 /// A run whose later phases read the whole meshes on every rank (here its estimates' overlaps)
 /// is sent the parsed file and builds them on every rank, as `every_rank`, whatever
-/// `-nndd_mesh_input` says; a built-in
-/// problem reports no input mesh (its grids are formulas), and the option is refused beside it.
+/// `-nndd_mesh_input` says; a built-in problem reports no input mesh (its grids are formulas),
+/// and the option is refused beside it.
 #[test]
 fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
     let dir = scratch("mesh-input-whole");
@@ -136,8 +136,6 @@ fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
 /// the fault, on 3 ranks: no rank is left waiting for bytes that will not come.
 #[test]
 fn a_fault_in_the_input_on_any_rank_ends_the_job() {
-    use std::os::unix::process::CommandExt as _;
-    use std::process::Stdio;
     use std::time::Duration;
     let dir = scratch("mesh-input-fault");
     let problem = paper_drawn_in_gmsh(&dir);
@@ -151,12 +149,7 @@ fn a_fault_in_the_input_on_any_rank_ends_the_job() {
             "-nndd_fault",
             &spec,
         ]);
-        let child = mpirun_command(3, &args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .process_group(0)
-            .spawn()
-            .expect("mpirun starts");
+        let child = spawn(3, &args);
         let what = format!("fault {spec} on 3 ranks");
         let e = wait_within(child, Duration::from_secs(60), &what);
         assert!(

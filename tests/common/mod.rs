@@ -621,3 +621,14 @@ pub fn same_results(a: &Path, b: &Path, tol: f64, what: &str) -> usize {
     }
     a.len()
 }
+
+/// `mpirun -n np nndd args…` in its own process group, its output piped.
+pub fn spawn(np: usize, args: &[&str]) -> Child {
+    use std::os::unix::process::CommandExt as _;
+    mpirun_command(np, args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .process_group(0)
+        .spawn()
+        .expect("mpirun starts")
+}
