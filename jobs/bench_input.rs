@@ -1,15 +1,20 @@
 //! What building a Gmsh problem's bodies once costs and saves (`-nndd_mesh_input`): `paper`
 //! drawn in Gmsh at level n (`gmsh -2 -format msh41 -bin -setnumber n N
-//! examples/paper/paper.geo`, 2 n² triangles per body), solved without estimates (θ = 0.25 to
-//! 1e-8) with `root` (world rank 0 builds both bodies and sends each rank its part) and
-//! `every_rank` (each rank builds both) in turn on each rank count. Per run one row: the
+//! examples/paper/paper.geo`, 2 n² triangles per body), solved (θ = 0.25 to 1e-8) without
+//! estimates, or with one estimate of the final iterate under `--estimate` (and the reference
+//! solution of factor R under `--reference R`, its peak once its fine bodies are built in the
+//! columns "ref"), with `root` (world
+//! rank 0 builds both bodies and sends each rank its part, and its shares of the estimates) and
+//! `every_rank` (each rank builds both) in turn on each rank count, the first of the two
+//! alternating from one rank count to the next (a run's time depends on what ran before it).
+//! Per run one row: the
 //! elements of the meshes world rank 0 and the others held in the input and their peak
 //! resident memory then (the summary's `input_mesh_elements_per_rank` and
 //! `input_peak_memory_mib_per_rank`), the run's largest peak and the sum over the ranks, the
 //! input's time (`timings.input`), the run's total and the potential energy. More ranks than
 //! cores run oversubscribed: their memory is what is measured, not their speed. Run through
-//! `jobs/bench-input [--ranks LIST] [n …]` (default n = 512 on 2 and 8 ranks); the table goes to
-//! `results/bench-input.txt`.
+//! `jobs/bench-input [--ranks LIST] [--estimate] [--reference R] [n …]` (default n = 512 on 2
+//! and 8 ranks); the table goes to `results/bench-input.txt`.
 
 #[path = "runner.rs"]
 mod runner;
@@ -18,15 +23,21 @@ use std::io::Write;
 use std::process::Command;
 
 fn main() {
-    let (levels, ranks) = parse_args();
+    let (levels, ranks, estimate, reference) = parse_args();
     let dir = runner::scratch("bench-input");
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let mut lines = vec![
-        format!("# jobs/bench-input: paper drawn in Gmsh, no estimate, theta 0.25, tol 1e-8; MiB per rank (peak resident), oversubscribed above {cores} ranks"),
+        format!("# jobs/bench-input{}: paper drawn in Gmsh, {}, theta 0.25, tol 1e-8; MiB per rank (peak resident), oversubscribed above {cores} ranks",
+            std::env::args().skip(1).map(|a| format!(" {a}")).collect::<String>(),
+            match (estimate, reference) {
+                (false, _) => "no estimate".to_string(),
+                (true, 0) => "one estimate".to_string(),
+                (true, r) => format!("one estimate, reference factor {r}"),
+            }),
         format!(
-            "{:>5} {:>5} {:>9} {:>10} {:>10} {:>12} {:>10} {:>12} {:>8} {:>8} {:>8} {:>7} {:>16}",
+            "{:>5} {:>5} {:>9} {:>10} {:>10} {:>12} {:>10} {:>12} {:>9} {:>12} {:>8} {:>8} {:>8} {:>7} {:>16}",
             "n", "ranks", "dofs", "input", "rank0 elts", "others elts", "rank0 MiB", "others MiB",
-            "max MiB", "sum MiB", "input s", "total s", "energy J/m"
+            "ref0 MiB", "ref others", "max MiB", "sum MiB", "input s", "total s", "energy J/m"
         ),
     ];
     for &n in &levels {
@@ -50,11 +61,15 @@ fn main() {
             .expect("gmsh runs (jobs/setup installs it)");
         assert!(st.success(), "gmsh failed on paper.geo, n = {n}");
         let msh = msh.to_str().expect("utf-8 path").to_string();
-        for &p in &ranks {
-            for input in ["root", "every_rank"] {
+        for (i, &p) in ranks.iter().enumerate() {
+            let order = match i % 2 {
+                0 => ["root", "every_rank"],
+                _ => ["every_rank", "root"],
+            };
+            for input in order {
                 eprintln!("bench-input: n = {n} on {p} ranks, -nndd_mesh_input {input} …");
                 let prefix = dir.join(format!("n{n}-p{p}-{input}"));
-                let args = problem_args(&msh, input);
+                let args = problem_args(&msh, input, estimate, reference);
                 let args: Vec<&str> = args.iter().map(String::as_str).collect();
                 let mpirun: &[&str] = if p > cores { &["--oversubscribe"] } else { &[] };
                 let row =
@@ -75,17 +90,19 @@ fn main() {
 }
 
 /// The options of `paper` on the Gmsh mesh `msh` (examples/paper/paper.opts gives its curves,
-/// conditions, θ and tolerance), no estimate, its bodies built as `input` says.
-fn problem_args(msh: &str, input: &str) -> Vec<String> {
+/// conditions, θ and tolerance), one estimate of the final iterate or none, with the reference
+/// solution of factor `reference` (none: 0), its bodies built as `input` says.
+fn problem_args(msh: &str, input: &str, estimate: bool, reference: usize) -> Vec<String> {
+    let reference = reference.to_string();
     [
         "-nndd_mesh",
         msh,
         "-nndd_estimate",
-        "false",
+        if estimate { "true" } else { "false" },
         "-nndd_estimate_every",
         "0",
         "-nndd_reference_factor",
-        "0",
+        &reference,
         "-nndd_mesh_input",
         input,
     ]
@@ -101,10 +118,11 @@ fn row(n: usize, p: usize, input: &str, j: &serde_json::Value, wall: f64) -> Str
             a.iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()
         })
     };
-    let (elements, input_peaks, peaks) = (
+    let (elements, input_peaks, peaks, reference_peaks) = (
         list("input_mesh_elements_per_rank"),
         list("input_peak_memory_mib_per_rank"),
         list("peak_memory_mib_per_rank"),
+        list("reference_input_peak_memory_mib_per_rank"),
     );
     let others = |v: &[f64]| -> String {
         let rest = v.get(1..).unwrap_or(&[]);
@@ -121,12 +139,14 @@ fn row(n: usize, p: usize, input: &str, j: &serde_json::Value, wall: f64) -> Str
     let max = peaks.iter().cloned().fold(0.0, f64::max);
     let sum: f64 = peaks.iter().sum();
     format!(
-        "{n:>5} {p:>5} {:>9} {input:>10} {:>10} {:>12} {:>10} {:>12} {max:>8.0} {sum:>8.0} {:>8.2} {wall:>7.1} {:>16.10e}",
+        "{n:>5} {p:>5} {:>9} {input:>10} {:>10} {:>12} {:>10} {:>12} {:>9} {:>12} {max:>8.0} {sum:>8.0} {:>8.2} {wall:>7.1} {:>16.10e}",
         runner::num(j, "dofs"),
         first(&elements),
         others(&elements),
         first(&input_peaks),
         others(&input_peaks),
+        first(&reference_peaks),
+        others(&reference_peaks),
         runner::num(&j["timings"], "input"),
         runner::num(j, "potential_energy"),
     )
@@ -141,13 +161,15 @@ fn write_table(lines: &[String]) {
         .expect("write results/bench-input.txt");
 }
 
-/// `[--ranks LIST] [n …]`: the levels (default 512) and the rank counts (default 2 and 8).
-fn parse_args() -> (Vec<usize>, Vec<usize>) {
+/// `[--ranks LIST] [--estimate] [--reference R] [n …]`: the levels (default 512), the rank
+/// counts (default 2 and 8), whether each run estimates and the reference factor (0: none;
+/// `--reference` implies `--estimate`).
+fn parse_args() -> (Vec<usize>, Vec<usize>, bool, usize) {
     let fail = |msg: String| -> ! {
         eprintln!("bench-input: {msg}");
         std::process::exit(2);
     };
-    let (mut levels, mut ranks) = (Vec::new(), vec![2, 8]);
+    let (mut levels, mut ranks, mut estimate, mut reference) = (Vec::new(), vec![2, 8], false, 0);
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -158,10 +180,18 @@ fn parse_args() -> (Vec<usize>, Vec<usize>) {
                 ranks =
                     runner::positive_list(&list).unwrap_or_else(|e| fail(format!("--ranks: {e}")));
             }
+            "--estimate" => estimate = true,
+            "--reference" => {
+                let r = it.next().and_then(|r| r.parse::<usize>().ok());
+                match r {
+                    Some(r @ 2..=16) => (estimate, reference) = (true, r),
+                    _ => fail("--reference needs a factor in 2..=16".into()),
+                }
+            }
             level => match level.parse::<usize>() {
                 Ok(n) if n >= 2 => levels.push(n),
                 _ => fail(format!(
-                    "'{level}': expected --ranks LIST or a level n >= 2"
+                    "'{level}': expected --ranks LIST, --estimate, --reference R or a level n >= 2"
                 )),
             },
         }
@@ -169,5 +199,5 @@ fn parse_args() -> (Vec<usize>, Vec<usize>) {
     if levels.is_empty() {
         levels.push(512);
     }
-    (levels, ranks)
+    (levels, ranks, estimate, reference)
 }

@@ -95,27 +95,140 @@ fn ranks_other_than_the_first_are_sent_their_parts_and_write_what_every_rank_bui
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A run whose later phases read the whole meshes on every rank (here its estimates' overlaps)
-/// is sent the parsed file and builds them on every rank, as `every_rank`, whatever
-/// `-nndd_mesh_input` says; a built-in problem reports no input mesh (its grids are formulas),
-/// and the option is refused beside it.
+/// An estimating run under `root`: world rank 0 makes every rank's shares of the estimates
+/// (its overlaps, their owners) and sends them with the parts, on 3 ranks (a rank estimating
+/// elements of both bodies), 5 (METIS; bodies split over their groups and estimated across
+/// them) and 4 and 5 (index blocks, each body estimated on its group); on 5 ranks with the
+/// reference solution (r = 2), whose fine bodies rank 0 builds from the file it refines and
+/// deals alike. No rank but world rank 0 held more of the meshes in the input than it holds
+/// through the run (less than both bodies), which is what it holds under `every_rank`, nor the
+/// file; the fine parts held are the same; the estimates, e_ref and the result files (the η
+/// maps included) are the same in both modes, and one rank's to 1e−10.
+#[test]
+fn estimating_ranks_are_sent_their_overlaps_and_estimate_what_every_rank_building_estimates() {
+    let dir = scratch("mesh-input-estimate");
+    let problem = paper_drawn_in_gmsh(&dir);
+    let mut args: Vec<&str> = problem.iter().map(String::as_str).collect();
+    args.extend([
+        "-nndd_tol",
+        "1e-12",
+        "-nndd_estimate",
+        "-nndd_estimate_every",
+        "0",
+    ]);
+    let with_reference = |r: &'static str| {
+        let mut a = args.clone();
+        a.extend(["-nndd_reference_factor", r]);
+        a
+    };
+    let ones = ["0", "2"].map(|r| solve(1, &dir.join(format!("one-{r}")), &with_reference(r)));
+    let eta = |j: &serde_json::Value, key: &str| j["estimates"][0][key].as_f64().unwrap();
+    let elements = |j: &serde_json::Value, key: &str| -> Vec<u64> {
+        serde_json::from_value(j[key].clone()).unwrap()
+    };
+    let runs = [
+        (3, "metis", "0"),
+        (5, "metis", "2"),
+        (4, "blocks", "0"),
+        (5, "blocks", "2"),
+    ];
+    for (ranks, partition, r) in runs {
+        let what = format!("{ranks} ranks ({partition}, reference factor {r})");
+        let one = &ones[(r == "2") as usize];
+        let run = |input: &str| {
+            let prefix = dir.join(format!("{ranks}-{partition}-{r}-{input}"));
+            let mut a = with_reference(r);
+            a.extend(["-nndd_mesh_input", input, "-nndd_partition", partition]);
+            (solve(ranks, &prefix, &a), prefix)
+        };
+        let (root, root_h5) = run("root");
+        let (every, every_h5) = run("every_rank");
+        let held = elements(&root, "held_mesh_elements_per_rank");
+        assert_eq!(
+            held,
+            elements(&every, "held_mesh_elements_per_rank"),
+            "{what}"
+        );
+        let input = elements(&root, "input_mesh_elements_per_rank");
+        assert_eq!(input[0], 4096, "{what}: world rank 0 built both bodies");
+        assert_eq!(
+            input[1..],
+            held[1..],
+            "{what}: the other ranks sent their parts"
+        );
+        assert!(
+            held[1..].iter().all(|&n| n < 4096),
+            "{what}: a rank other than world rank 0 holds both bodies whole: {held:?}"
+        );
+        assert_eq!(
+            elements(&every, "input_mesh_elements_per_rank"),
+            vec![4096; ranks]
+        );
+        // (the reference's fine bodies built on world rank 0 and dealt alike)
+        let fine = "held_reference_mesh_elements_per_rank";
+        assert_eq!(root[fine], every[fine], "{what}");
+        let file = elements(&root, "input_file_points_per_rank");
+        assert!(
+            file[0] > 2000 && file[1..].iter().all(|&n| n == 0),
+            "{what}: {file:?}"
+        );
+        // (relative to η^glo: η^NNDD is at round-off, the NNDD converged to 1e-12)
+        let scale = eta(one, "eta_glo");
+        let keys = match r {
+            "2" => &["eta_glo", "eta_fe", "eta_nndd", "e_ref"][..],
+            _ => &["eta_glo", "eta_fe", "eta_nndd"][..],
+        };
+        for &key in keys {
+            let (a, b, c) = (eta(one, key), eta(&root, key), eta(&every, key));
+            assert!(
+                (a - b).abs() < 1e-10 * scale,
+                "{what}: {key} {b} against {a}"
+            );
+            assert!(
+                (b - c).abs() < 1e-12 * scale,
+                "{what}: {key} {b} against {c}"
+            );
+        }
+        same_results(&root_h5, &every_h5, 1e-12, &what);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A run whose later phases read the parsed file on every rank (here an adaptive run, whose
+/// cycles remesh its geometry) is sent the file and builds the bodies on every rank, as
+/// `every_rank`, whatever `-nndd_mesh_input` says; a built-in problem reports no input mesh
+/// (its grids are formulas), and the option is refused beside it.
 #[test]
 fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
     let dir = scratch("mesh-input-whole");
-    let problem = paper_drawn_in_gmsh(&dir);
-    let mut args: Vec<&str> = problem.iter().map(String::as_str).collect();
-    args.extend(["-nndd_estimate", "-nndd_estimate_every", "0"]);
-    let j = solve(3, &dir.join("estimated"), &args);
+    let mut args = paper_mesh_args(
+        std::path::Path::new(PAPER_GEO),
+        "contact1,contact2",
+        "-1e-4",
+    );
+    args.extend(
+        [
+            "-nndd_geo_set",
+            "n=8",
+            "-nndd_adapt_tol",
+            "0.5",
+            "-nndd_adapt_max_cycles",
+            "1",
+        ]
+        .map(String::from),
+    );
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let j = solve(3, &dir.join("adaptive"), &args);
     assert_eq!(
         j["input_mesh_elements_per_rank"],
-        serde_json::json!([4096, 4096, 4096])
+        serde_json::json!([256, 256, 256])
     );
     let points = j["input_file_points_per_rank"].as_array().unwrap();
     assert!(
         points.len() == 3
             && points
                 .iter()
-                .all(|p| p == &points[0] && p.as_u64() > Some(2000))
+                .all(|p| p == &points[0] && p.as_u64() > Some(100))
     );
     let builtin = ["-nndd_problem", "paper", "-nndd_n", "8"];
     let j = solve(2, &dir.join("builtin"), &builtin);

@@ -1,17 +1,18 @@
 //! A Gmsh problem's bodies built once (`-nndd_mesh_input root`, the default on several ranks):
 //! world rank 0 builds both bodies' problems ([`build_on_root`]) and sends every other rank
 //! their outlines, Γc and conditions; once the ranks are laid out it partitions each body over
-//! its group and sends every rank of the group the body's problem cut to the part that rank
-//! reads, with its partition ([`deal_parts`]): what `app::keep_read_parts` leaves a rank that
-//! built the bodies itself, so the run goes on alike. No rank but world rank 0 builds or holds
-//! a whole body (docs/scaling.md, "Memory per rank"; the summary's
-//! `input_mesh_elements_per_rank`).
+//! its group and sends every rank its partition, each body's problem cut to the part the rank
+//! reads and, where the run estimates, the rank's shares of the estimates (its overlaps, made
+//! from the whole meshes on rank 0: `estimate::share::SharePlan`) ([`deal_parts`]): what
+//! `app::keep_read_parts` leaves a rank that built the bodies itself, so the run goes on
+//! alike. No rank but world rank 0 builds or holds a whole body (docs/scaling.md, "Memory per
+//! rank"; the summary's `input_mesh_elements_per_rank`).
 //!
-//! A run whose later phases read the whole meshes on every rank (its estimates' overlaps, the
-//! reference solution's refinement, the mortar discretisation, an adaptive run's remeshing)
-//! builds them on every rank instead ([`on_root`]).
+//! The reference solution's fine bodies (`-nndd_reference_factor`) are built on world rank 0
+//! and dealt alike: rank 0 refines the file (`solve::solve_reference`). A run whose later phases
+//! read the whole meshes on every rank (a mortar run, an adaptive run's remeshing) builds them
+//! on every rank instead ([`on_root`]).
 
-use std::ops::Range;
 use std::rc::Rc;
 
 use mpi::topology::SimpleCommunicator;
@@ -19,6 +20,10 @@ use mpi::traits::*;
 
 use super::options::Settings;
 use super::{agreed, AppError};
+use crate::estimate::estimator::{contact_elements, elements_read_by};
+use crate::estimate::reference::coarse_elements_under;
+use crate::estimate::share::{estimated_outside_group, Seed, SharePlan};
+use crate::fem::mesh::element_u32;
 use crate::fem::wire::{Reader, Writer};
 use crate::parallel::fault::{self, Agreement, Phase};
 use crate::parallel::layout::{block_of, Layout};
@@ -29,8 +34,10 @@ use crate::problem::parsed::MeshInput;
 use crate::problem::{self, BodyProblem, ContactDiscretisation};
 
 /// Whether this run builds its bodies on world rank 0 alone: a Gmsh problem on several ranks
-/// under `-nndd_mesh_input root`, coupled node to node, that neither estimates nor reads the
-/// parsed file after the build (`Settings::reads_mesh_after_build`).
+/// under `-nndd_mesh_input root`, coupled node to node (a mortar run's estimates read the
+/// whole matched meshes), that does not adapt (its cycles remesh the parsed file's geometry).
+/// Its reference solution's fine bodies are built on world rank 0 alike
+/// (`solve::solve_reference`).
 pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     let Some(spec) = &settings.problem.mesh else {
         return false;
@@ -38,8 +45,7 @@ pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     ranks > 1
         && settings.problem.input == MeshInput::Root
         && spec.discretisation == ContactDiscretisation::NodeToNode
-        && !settings.estimate.enabled
-        && !settings.reads_mesh_after_build()
+        && settings.adapt.is_none()
 }
 
 /// Both bodies' problems: whole on world rank 0, which builds them; on every other rank
@@ -96,19 +102,84 @@ fn damaged(what: &str) -> AppError {
     ))
 }
 
-/// The problems and the partitions each rank works with once the ranks are laid out: world
-/// rank 0 partitions each body over its group ([`Partition::dealt`]: the partitions the groups
-/// would make) and sends every rank of the group its partition and the body's problem cut to
-/// the part the rank reads ([`part_for`]); the other body released. Also the elements of the
+/// What a rank works with once the ranks are laid out ([`deal_parts`]).
+pub(super) struct Dealt {
+    /// The body of the rank's group.
+    pub alpha: usize,
+    /// The rank's partition of it.
+    pub partition: Partition,
+    /// Each body's problem cut to the part the rank reads, or whole where that part would be
+    /// most of it.
+    pub problems: [Rc<BodyProblem>; 2],
+    /// Where the run estimates: the rank's shares of the bodies' estimates, before their halos
+    /// are made ([`Estimator::take_shares`](crate::estimate::estimator::Estimator::take_shares)).
+    pub seeds: Option<[Seed; 2]>,
+}
+
+impl Dealt {
+    /// The elements of the meshes this rank holds.
+    fn held_elements(&self) -> usize {
+        (self.problems.iter())
+            .filter(|p| p.holds_mesh())
+            .map(|p| p.mesh().triangles.held_len())
+            .sum()
+    }
+
+    /// The bytes world rank 0 sends (`None`: a part that cannot be written, a mortar body's).
+    fn to_bytes(&self) -> Option<Vec<u8>> {
+        let mut w = Writer::default();
+        w.int(self.alpha);
+        self.partition.write(&mut w);
+        for p in &self.problems {
+            w.bytes(&p.to_bytes()?);
+        }
+        match &self.seeds {
+            None => w.u8(0),
+            Some(seeds) => {
+                w.u8(1);
+                seeds.iter().for_each(|s| s.write(&mut w));
+            }
+        }
+        Some(w.0)
+    }
+
+    /// What [`Dealt::to_bytes`] wrote.
+    fn from_bytes(bytes: &[u8]) -> Option<Dealt> {
+        let mut r = Reader::new(bytes);
+        let alpha = r.int()?;
+        let partition = Partition::read(&mut r)?;
+        let mut problem = |body| {
+            let p = BodyProblem::from_bytes(r.bytes()?)?;
+            (p.alpha == body).then(|| Rc::new(p))
+        };
+        let problems = [problem(1)?, problem(2)?];
+        let seeds = match r.u8()? {
+            0 => None,
+            1 => Some([Seed::read(&mut r)?, Seed::read(&mut r)?]),
+            _ => return None,
+        };
+        let dealt = Dealt {
+            alpha,
+            partition,
+            problems,
+            seeds,
+        };
+        r.is_done().then_some(dealt)
+    }
+}
+
+/// What each rank works with once the ranks are laid out ([`Dealt`]): world rank 0 partitions
+/// each body over its group ([`Partition::dealt`]: the partitions the groups would make) and
+/// sends every rank its partition, each body's problem cut to the part the rank reads and,
+/// where the run estimates, its shares of the estimates ([`dealt_to`]). Also the elements of the
 /// meshes this rank held in the input (world rank 0: both bodies'). Collective; the ranks
 /// agree on the partitions.
-#[allow(clippy::type_complexity)]
 pub(super) fn deal_parts(
     problems: [Rc<BodyProblem>; 2],
     settings: &Settings,
     layout: &Layout,
     agreement: &Agreement,
-) -> Result<([Rc<BodyProblem>; 2], [Option<Partition>; 2], usize), AppError> {
+) -> Result<(Dealt, usize), AppError> {
     let how = settings.problem.partitioner;
     let dealt = match layout.is_root() {
         true => {
@@ -122,84 +193,116 @@ pub(super) fn deal_parts(
     };
     let dealt = agreed(agreement, dealt.map_err(AppError::from))?;
     let mine = match dealt {
-        Some(partitions) => send_parts(&problems, partitions, layout),
-        None => receive_part(layout),
+        Some(partitions) => send_parts(&problems, partitions, settings, layout),
+        None => Dealt::from_bytes(&receive(&layout.world)),
     };
-    let (alpha, problem, partition) = agreed(agreement, mine)?;
+    let mine = mine
+        .filter(|d| layout.owns(d.alpha))
+        .ok_or_else(|| damaged("this rank's part of the bodies"));
+    let mine = agreed(agreement, mine)?;
     let input_elements = match layout.is_root() {
         true => problems.iter().map(|p| p.num_elements()).sum(),
-        false => problem.mesh().triangles.held_len(),
+        false => mine.held_elements(),
     };
-    let mut held = problems.map(|p| Rc::new(p.released()));
-    held[alpha - 1] = problem;
-    let mut partitions = [None, None];
-    partitions[alpha - 1] = Some(partition);
-    Ok((held, partitions, input_elements))
+    Ok((mine, input_elements))
 }
 
-/// On world rank 0: every other rank of each body's group sent its partition and its part
-/// of the body (a part that cannot be written, a mortar body's, sent empty: the rank refuses
-/// it); rank 0's own of body 1 returned.
+/// On world rank 0: every other rank sent what it works with ([`dealt_to`]; a part that cannot
+/// be written, a mortar body's, sent empty: the rank refuses it); rank 0's own returned.
 fn send_parts(
     problems: &[Rc<BodyProblem>; 2],
     partitions: [Vec<Partition>; 2],
+    settings: &Settings,
     layout: &Layout,
-) -> Result<(usize, Rc<BodyProblem>, Partition), AppError> {
+) -> Option<Dealt> {
+    let sizes = problems.each_ref().map(|p| p.num_elements());
+    let crosses = estimated_outside_group(sizes, layout);
+    let (how, recovery) = (settings.problem.partitioner, settings.estimate.recovery);
+    let plan = |k: usize| {
+        let mesh = Some(problems[k].mesh());
+        SharePlan::new(k + 1, mesh, sizes, layout, how, crosses[k], recovery)
+    };
+    let plans = settings.estimate.enabled.then(|| [plan(0), plan(1)]);
+    let gc = problems.each_ref().map(|p| match plans {
+        Some(_) => contact_elements(p),
+        None => Vec::new(),
+    });
+    let reference = settings.estimate.reference_factor;
     let mut own = None;
     let mut unwritten = false;
     for (k, parts) in partitions.into_iter().enumerate() {
-        let p = &problems[k];
         let ranks = layout.group_ranks(k + 1);
         for (g, partition) in parts.into_iter().enumerate() {
-            let blocks = [p.num_elements(), p.num_nodes()].map(|n| block_of(n, g, ranks.len()));
-            let part = part_for(p, &partition, blocks);
-            let world_rank = ranks.start + g;
-            if world_rank == 0 {
-                own = Some((k + 1, part, partition));
+            let to = (ranks.start + g, k + 1);
+            let dealt = dealt_to(to, partition, problems, (&plans, &gc), reference, layout);
+            if ranks.start + g == 0 {
+                own = Some(dealt);
                 continue;
             }
-            let mut w = Writer::default();
-            w.int(k + 1);
-            partition.write(&mut w);
-            let bytes = part.to_bytes();
+            let bytes = dealt.to_bytes();
             unwritten |= bytes.is_none();
-            w.0.extend_from_slice(&bytes.unwrap_or_default());
-            drop(part);
-            send(&layout.world, world_rank as i32, &w.0);
+            drop(dealt);
+            send(
+                &layout.world,
+                (ranks.start + g) as i32,
+                &bytes.unwrap_or_default(),
+            );
         }
     }
-    match (own, unwritten) {
-        (Some(own), false) => Ok(own),
-        _ => Err(damaged("the bodies' parts")),
-    }
+    own.filter(|_| !unwritten)
 }
 
-/// On a rank other than world rank 0: its body, its part of it and its partition, as rank 0
-/// sent them.
-fn receive_part(layout: &Layout) -> Result<(usize, Rc<BodyProblem>, Partition), AppError> {
-    let bytes = receive(&layout.world);
-    let mut r = Reader::new(&bytes);
-    let alpha = r.int().filter(|&a| layout.owns(a));
-    let partition = Partition::read(&mut r);
-    let problem = BodyProblem::from_bytes(r.rest());
-    match (alpha, partition, problem) {
-        (Some(alpha), Some(partition), Some(problem)) if problem.alpha == alpha => {
-            Ok((alpha, Rc::new(problem), partition))
+/// What world rank `rank` of body `alpha`'s group works with, its `partition` of the body
+/// given: each body's problem cut to the part the rank reads (what `app::release_unread_meshes`
+/// and `app::keep_read_parts` leave a rank that built the bodies itself,
+/// [`super::read_part_in`]) and its shares of the estimates where the run estimates (`plans`;
+/// `gc`: each body's Γc elements, which they read; with the reference solution of factor `r`,
+/// none where 0).
+fn dealt_to(
+    (rank, alpha): (usize, usize),
+    partition: Partition,
+    problems: &[Rc<BodyProblem>; 2],
+    (plans, gc): (&Option<[SharePlan; 2]>, &[Vec<u32>; 2]),
+    r: usize,
+    layout: &Layout,
+) -> Dealt {
+    let seeds = plans
+        .as_ref()
+        .map(|p| [0, 1].map(|k| p[k].seed(rank, layout)));
+    let held = [0, 1].map(|k| {
+        let p = &problems[k];
+        let ranks = layout.group_ranks(k + 1);
+        let in_group = k + 1 == alpha;
+        // (outside its group, a body is read where some of its elements are estimated outside
+        // the group, else released: `app::release_unread_meshes`)
+        if !in_group && !plans.as_ref().is_some_and(|p| p[k].crosses()) {
+            return Rc::new(p.released());
         }
-        _ => Err(damaged("this rank's part of its body")),
+        let block = |n| match in_group {
+            true => block_of(n, rank - ranks.start, ranks.len()),
+            false => 0..0,
+        };
+        // (e_ref's transfer to the rank's block of the fine elements reads the coarse ones
+        // under it, `Estimator::elements_read`)
+        let under = coarse_elements_under(block(r * r * p.num_elements()), r * r);
+        let read = match &seeds {
+            Some(seeds) => elements_read_by(seeds[k].elements_read(), &gc[k]).map(|mut read| {
+                read.extend(under.clone().map(element_u32));
+                read
+            }),
+            None => Some(Vec::new()),
+        };
+        let [cells, nodes] = [p.num_elements(), p.num_nodes()].map(block);
+        let partition = in_group.then_some(&partition);
+        let part = read.and_then(|read| super::read_part_in(p, cells, nodes, partition, read));
+        part.unwrap_or_else(|| p.clone())
+    });
+    Dealt {
+        alpha,
+        partition,
+        problems: held,
+        seeds,
     }
-}
-
-/// Body `p`'s problem cut to the part the rank of `partition` reads, its blocks of the
-/// output's `[cells, nodes]` given ([`super::read_part_in`]: what `keep_read_parts` keeps on
-/// that rank), or whole where that part would be most of it.
-fn part_for(
-    p: &Rc<BodyProblem>,
-    partition: &Partition,
-    blocks: [Range<usize>; 2],
-) -> Rc<BodyProblem> {
-    let [cells, nodes] = blocks;
-    super::read_part_in(p, cells, nodes, Some(partition), Vec::new()).unwrap_or_else(|| p.clone())
 }
 
 /// The most bytes one message carries (MPI counts them in an `int`).

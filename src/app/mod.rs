@@ -319,12 +319,13 @@ pub(crate) fn solve_cycle(
     // each rank lets go of the meshes it does not read.
     let (problems, dealt, input_elements) = match on_root {
         true => {
-            let (problems, partitions, n) =
-                input::deal_parts(problems, &settings, &layout, agreement)?;
+            let t_deal = Instant::now();
+            let (dealt, n) = input::deal_parts(problems, &settings, &layout, agreement)?;
+            timings.input += t_deal.elapsed().as_secs_f64();
             // (world rank 0's whole bodies and the parts it sent, back to the system before
             // the assembly and the factorisation allocate theirs)
             memory::release_free_memory(0);
-            (problems, Some(partitions), n)
+            (dealt.problems.clone(), Some(dealt), n)
         }
         false => {
             let n = input_mesh_elements(&problems);
@@ -341,12 +342,15 @@ pub(crate) fn solve_cycle(
     let mut estimator = run.estimator(&mut timings, &mut setup_warnings)?;
     // Partition: each body over its group (METIS); then a Gmsh body's mesh cut, on each rank,
     // to the part it reads from here on.
-    let partitions = match dealt {
-        Some(partitions) => partitions,
-        None => run.partitions()?,
+    let (partitions, problems) = match dealt {
+        Some(dealt) => hold_dealt(dealt, &mut estimator),
+        None => {
+            let partitions = run.partitions()?;
+            let held = keep_read_parts(problems, &settings, &layout, &partitions, &mut estimator);
+            (partitions, held)
+        }
     };
     drop(run);
-    let problems = keep_read_parts(problems, &settings, &layout, &partitions, &mut estimator);
     let run = Run::new(&settings, &layout, &problems, stages, agreement);
     // Setup: each rank's bodies (assembly, factorisation); the ranks agree.
     let bodies = run.set_up_bodies(partitions, &mut timings, &mut setup_warnings)?;
@@ -522,6 +526,23 @@ fn keep_read_parts(
         e.hold(&held);
     }
     held
+}
+
+/// The partitions and the problems of a rank that world rank 0 dealt them to
+/// ([`input::deal_parts`]), the estimator's shares made from the seeds it sent (collective).
+fn hold_dealt(
+    dealt: input::Dealt,
+    estimator: &mut Option<Estimator>,
+) -> ([Option<Partition>; 2], [Rc<BodyProblem>; 2]) {
+    let mut partitions = [None, None];
+    partitions[dealt.alpha - 1] = Some(dealt.partition);
+    if let Some(e) = estimator {
+        if let Some(seeds) = dealt.seeds {
+            e.take_shares(seeds);
+        }
+        e.hold(&dealt.problems);
+    }
+    (partitions, dealt.problems)
 }
 
 /// Body α's problem `p` with its mesh cut to the part this rank reads (`None` where its mesh is

@@ -41,6 +41,8 @@ pub struct Measured<'a> {
     pub input_points: Option<&'a [usize]>,
     /// Each rank's peak memory (MiB) at the end of the input.
     pub input_peaks: &'a [f64],
+    /// Each rank's peak memory (MiB) once the reference solution's fine bodies were built.
+    pub reference_input_peaks: Option<&'a [f64]>,
 }
 
 pub fn summarise(
@@ -59,6 +61,7 @@ pub fn summarise(
         reference_iterations,
         reference_held_nodes: _,
         reference_held_elements: _,
+        reference_input_peak_mib: _,
         estimate_held_nodes: _,
         input_mesh_elements: _,
         input_file_points: _,
@@ -76,6 +79,7 @@ pub fn summarise(
         input_elements,
         input_points,
         input_peaks,
+        reference_input_peaks,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
     let side = [body1, body2][crate::problem::pair_side([body1, body2])];
@@ -175,6 +179,7 @@ pub fn summarise(
         input_mesh_elements_per_rank: input_elements.map(<[usize]>::to_vec),
         input_file_points_per_rank: input_points.map(<[usize]>::to_vec),
         input_peak_memory_mib_per_rank: input_peaks.to_vec(),
+        reference_input_peak_memory_mib_per_rank: reference_input_peaks.map(<[f64]>::to_vec),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),
         xdmf: paths.xdmf().display().to_string(),
@@ -295,6 +300,15 @@ pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
 /// world rank (collective).
 pub fn input_peak_memory_per_rank(layout: &Layout, post: &PostProcessed) -> Vec<f64> {
     per_rank(layout, post.input_peak_memory_mib)
+}
+
+/// Each rank's peak memory (MiB) once the reference solution's fine bodies were built, by
+/// world rank, where it was solved (collective: it is solved on every rank or on none).
+pub fn reference_input_peak_memory_per_rank(
+    layout: &Layout,
+    post: &PostProcessed,
+) -> Option<Vec<f64>> {
+    (post.reference_input_peak_mib).map(|mine| per_rank(layout, mine))
 }
 
 /// Every rank's `mine`, by world rank, on every rank (collective).

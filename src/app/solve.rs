@@ -8,7 +8,7 @@ use super::agreed;
 use super::options::{Settings, SettingsError, SolverKind};
 use super::relaxed::{relaxed_warnings, Factored};
 use super::reported::{attach_estimates, keep_for_output, resolve_reported, Pending};
-use super::{AppError, LONG_PHASE_DOFS};
+use super::{input, AppError, LONG_PHASE_DOFS};
 use crate::dd::body::{uses_superlu_dist, Body, BodyError, SchurMode, SchurSource};
 use crate::dd::check::check_solution;
 use crate::dd::contact::ContactStep;
@@ -240,21 +240,29 @@ fn announce_setup(alpha: usize, problem: &BodyProblem, layout: &Layout) -> Resul
     Ok(())
 }
 
-/// The reference solution of (26): the nested mesh r·n, NNDD to tol 1e−8 (a mortar run's: on
-/// its estimates' matched meshes refined, with the initial gaps `gaps`).
+/// The reference solution of (26): the nested mesh r·n (r = `-nndd_reference_factor`, not 0),
+/// NNDD to tol 1e−8 (a mortar run's: on
+/// its estimates' matched meshes refined, with the initial gaps `gaps`); collective, the ranks
+/// agreeing on its input (`agreement`).
 pub fn solve_reference(
     settings: &Settings,
     layout: &Layout,
     stages: &Stages,
-    r: usize,
     timings: &mut Timings,
     gaps: Option<&crate::problem::transfer::GapField>,
     warnings: &mut Vec<String>,
+    agreement: &Agreement,
 ) -> Result<Result<Reference, String>, AppError> {
+    let r = settings.estimate.reference_factor;
     let t = Instant::now();
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
     let mut fine = settings.refined(r)?;
+    // (the refined file's facts, where world rank 0 alone holds the file and refined it)
+    let world = &layout.world;
+    fine.problem
+        .share_file_facts(world)
+        .map_err(AppError::Input)?;
     if layout.is_root() && (settings.output.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
         // Word before the long phase: the reference mesh has r² times the dofs.
         println!(
@@ -267,25 +275,8 @@ pub fn solve_reference(
     // All of it in the reference stage of -log_view.
     let stages = &stages.all_in_reference();
     let _s = stages.reference.enter();
-    let mut both = problem::build(&fine.problem)?;
-    // (a Gmsh problem's refined mesh, r² times the user's, freed before the fine factorisations)
-    fine.release_mesh_unread_later();
-    if let Some(g) = gaps {
-        both = g.apply(both);
-    }
-    // The fine problem of a body this rank does not work on freed before the factorisations
-    // (the NNDD reads the bodies alone).
-    let problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
-    drop(both);
-    let how = fine.problem.partitioner;
-    let cut = partitions(problems.each_ref().map(Option::as_ref), layout, how)?;
-    // A Gmsh body's fine mesh cut to the part this rank reads (its partition, its block of the
-    // fine elements, whose nodes e_ref's transfer reads, and Γc) before the factorisations.
-    let problems = problems.map(|p| {
-        let p = p?;
-        let part = super::read_part(&p, layout, cut[p.alpha - 1].as_ref(), Vec::new());
-        Some(part.unwrap_or(p))
-    });
+    let (problems, cut) = fine_parts(&mut fine, layout, gaps, agreement)?;
+    let input_peak_mib = crate::os::memory::peak_memory() / (1024.0 * 1024.0);
     let held = problems.each_ref().map(Option::as_ref);
     let held_elements = (held.iter().flatten())
         .map(|p| p.mesh().triangles.held_len())
@@ -374,7 +365,50 @@ pub fn solve_reference(
         iterations,
         held_nodes,
         held_elements,
+        input_peak_mib,
     }))
+}
+
+/// The reference's fine problem of each body this rank's group works on, cut to the part the
+/// rank reads (a Gmsh body's: its partition, its block of the fine elements, whose nodes
+/// e_ref's transfer reads, and Γc), and its partition: built on world rank 0 and dealt
+/// (`-nndd_mesh_input root`, [`input::on_root`]), else built on every rank, a mortar run's
+/// with its `gaps`. The fine problem of a body this rank does not work on is freed before the
+/// factorisations (the NNDD reads the bodies alone), and the refined file once the bodies are
+/// built.
+#[allow(clippy::type_complexity)]
+fn fine_parts(
+    fine: &mut Settings,
+    layout: &Layout,
+    gaps: Option<&crate::problem::transfer::GapField>,
+    agreement: &Agreement,
+) -> Result<([Option<Rc<BodyProblem>>; 2], [Option<Partition>; 2]), AppError> {
+    if gaps.is_none() && input::on_root(fine, layout.size) {
+        let built = input::build_on_root(fine, agreement, &layout.world)?;
+        fine.release_mesh_unread_later();
+        let (dealt, _) = input::deal_parts(built, fine, layout, agreement)?;
+        let k = dealt.alpha - 1;
+        let mut problems = [None, None];
+        problems[k] = Some(dealt.problems[k].clone());
+        let mut cut = [None, None];
+        cut[k] = Some(dealt.partition);
+        return Ok((problems, cut));
+    }
+    let mut both = problem::build(&fine.problem)?;
+    fine.release_mesh_unread_later();
+    if let Some(g) = gaps {
+        both = g.apply(both);
+    }
+    let problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
+    drop(both);
+    let how = fine.problem.partitioner;
+    let cut = partitions(problems.each_ref().map(Option::as_ref), layout, how)?;
+    let problems = problems.map(|p| {
+        let p = p?;
+        let part = super::read_part(&p, layout, cut[p.alpha - 1].as_ref(), Vec::new());
+        Some(part.unwrap_or(p))
+    });
+    Ok((problems, cut))
 }
 
 /// The reference mesh in words: the built-in problems' level, or the user's mesh refined.

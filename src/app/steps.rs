@@ -28,6 +28,8 @@ pub(crate) struct PostProcessed {
     pub(crate) reference_held_nodes: Option<usize>,
     /// The elements of the fine meshes this rank held for the reference solution.
     pub(crate) reference_held_elements: Option<usize>,
+    /// This rank's peak memory (MiB) once the reference solution's fine bodies were built.
+    pub(crate) reference_input_peak_mib: Option<f64>,
     /// The most nodes at which this rank held an estimated iterate's fields.
     pub(crate) estimate_held_nodes: Option<usize>,
     /// The elements of a Gmsh problem's meshes this rank held in the input: both bodies'
@@ -144,9 +146,17 @@ impl<'a> Run<'a> {
         let gaps = matched.as_ref().map(|_| GapField::new(problems));
         let reference = match settings.estimate.reference_factor {
             0 => None,
-            r => {
-                let gaps = gaps.as_ref();
-                match solve::solve_reference(on, layout, self.stages, r, timings, gaps, warnings)? {
+            _ => {
+                let (gaps, agreement) = (gaps.as_ref(), self.agreement);
+                match solve::solve_reference(
+                    on,
+                    layout,
+                    self.stages,
+                    timings,
+                    gaps,
+                    warnings,
+                    agreement,
+                )? {
                     Ok(reference) => Some(reference),
                     Err(w) => {
                         say_warnings(layout.is_root(), std::slice::from_ref(&w));
@@ -254,6 +264,7 @@ impl<'a> Run<'a> {
             reference_iterations: None,
             reference_held_nodes: None,
             reference_held_elements: None,
+            reference_input_peak_mib: None,
             estimate_held_nodes: None,
             input_mesh_elements: None,
             input_file_points: None,
@@ -287,6 +298,7 @@ impl<'a> Run<'a> {
         post.reference_iterations = e.and_then(|e| e.reference_iterations());
         post.reference_held_nodes = e.and_then(|e| e.reference_held_nodes());
         post.reference_held_elements = e.and_then(|e| e.reference_held_elements());
+        post.reference_input_peak_mib = e.and_then(|e| e.reference_input_peak_mib());
         post.estimate_held_nodes = e.map(|e| e.held_nodes());
         if let Some(e) = e {
             timings.estimation_parts = EstimationParts::from(e.part_seconds());
@@ -320,6 +332,7 @@ impl<'a> Run<'a> {
         // The high-water marks of the whole run, the output's fields included.
         let peaks = report::peak_memory_per_rank(layout);
         let input_peaks = report::input_peak_memory_per_rank(layout, post);
+        let reference_input_peaks = report::reference_input_peak_memory_per_rank(layout, post);
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let held_nodes = report::held_field_nodes_per_rank(layout, sol);
@@ -346,6 +359,7 @@ impl<'a> Run<'a> {
                 input_elements: input_elements.as_deref(),
                 input_points: input_points.as_deref(),
                 input_peaks: &input_peaks,
+                reference_input_peaks: reference_input_peaks.as_deref(),
             };
             let problems = [&*problems[0], &*problems[1]];
             let summary = report::summarise(settings, problems, layout, sol, post, measured);

@@ -13,7 +13,7 @@ use crate::estimate::cre::{worst, BodyEstimate, ElementWork};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::iteration::{body_fields, body_resolves, BodyFields, IterationData, Reaction};
 use crate::estimate::mortar::MortarEstimates;
-use crate::estimate::share::{block_owners, estimate_owner, estimated_outside_group, Share};
+use crate::estimate::share::{estimated_outside_group, Seed, Share, SharePlan};
 use crate::fem::mesh::element_u32;
 use crate::parallel::held;
 use crate::parallel::layout::Layout;
@@ -157,6 +157,23 @@ fn nodal_contact_forces(it: &Iterate) -> Vec<f64> {
         .collect()
 }
 
+/// The elements of a body that an estimating rank reads, its share's recoveries reading
+/// `recovered` (`None`: every element, [`Share::elements_read`]): those, with the body's Γc
+/// elements `gc` ([`contact_elements`]), which its contact terms read, where it recovers some.
+pub(crate) fn elements_read_by(recovered: Option<Vec<u32>>, gc: &[u32]) -> Option<Vec<u32>> {
+    let mut read = recovered?;
+    if !read.is_empty() {
+        read.extend_from_slice(gc);
+    }
+    Some(read)
+}
+
+/// The elements of body `p` along Γc (one per segment; O(N) on the held mesh).
+pub(crate) fn contact_elements(p: &BodyProblem) -> Vec<u32> {
+    let gc = p.mesh().chain_elements(&p.contact_nodes);
+    gc.into_iter().flatten().map(element_u32).collect()
+}
+
 /// The jumps û²_k − û¹_k (x, y) of the iterate at the Γc pairs, on every rank (collective over
 /// all ranks: each body's first rank contributes its trace).
 fn contact_jumps(layout: &Layout, bodies: [Option<&Body>; 2], it: &Iterate) -> Vec<[f64; 2]> {
@@ -288,6 +305,12 @@ impl<'a> Estimator<'a> {
     /// The nodes at which this rank held the reference solution's fields (none without one).
     pub fn reference_held_nodes(&self) -> Option<usize> {
         self.reference.as_ref().map(|r| r.held_nodes)
+    }
+
+    /// This rank's peak memory (MiB) once the reference solution's fine bodies were built,
+    /// where it was solved ([`Reference::input_peak_mib`]).
+    pub fn reference_input_peak_mib(&self) -> Option<f64> {
+        self.reference.as_ref().map(|r| r.input_peak_mib)
     }
 
     /// The elements of the fine meshes this rank held for the reference solution, where it
@@ -455,16 +478,31 @@ impl<'a> Estimator<'a> {
         let shares = self.shares(self.crosses());
         [0, 1].map(|k| {
             let p = &self.problems[k];
-            let mut read = shares[k].elements_read()?;
-            if !read.is_empty() {
-                let gc = p.mesh().chain_elements(&p.contact_nodes);
-                read.extend(gc.into_iter().flatten().map(element_u32));
-            }
+            let recovered = shares[k].elements_read()?;
+            let mut read = match recovered.is_empty() {
+                true => recovered,
+                false => elements_read_by(Some(recovered), &contact_elements(p))?,
+            };
             if let Some(part) = self.reference.as_ref().and_then(|r| r.part(k)) {
                 read.extend(part.coarse_elements(p.num_elements()).map(element_u32));
             }
             Some(read)
         })
+    }
+
+    /// Makes this rank's shares of the bodies' estimates from `seeds`, world rank 0's plan of
+    /// them (`-nndd_mesh_input root`), rather than from the bodies' whole meshes at the first
+    /// estimate (collective, as [`Estimator::shares`]).
+    pub(crate) fn take_shares(&self, seeds: [Seed; 2]) {
+        let crosses = self.crosses();
+        for (k, seed) in seeds.into_iter().enumerate() {
+            let share = self
+                .parts
+                .run(Part::Recovery, || seed.share(crosses[k], self.layout));
+            if self.shares[k].set(share).is_err() {
+                panic!("the shares of body {} were made already", k + 1);
+            }
+        }
     }
 
     /// Reads `problems` from now on: the run's, each body's mesh cut to the part this rank

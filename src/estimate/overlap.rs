@@ -6,9 +6,10 @@
 use std::collections::HashSet;
 
 use crate::estimate::equilibrate::{
-    sweep_key, Boundary, BoundaryEdge, OperatorCache, Recovery, Restriction, SweepValues, NT,
+    sweep_key, Boundary, BoundaryEdge, OperatorCache, Recovery, Restriction, Stars, SweepValues, NT,
 };
-use crate::fem::mesh::Mesh;
+use crate::fem::mesh::{element_u32, Mesh};
+use crate::fem::wire::{Reader, Writer};
 use crate::parallel::layout::Layout;
 
 /// A rank's own elements of a body mesh plus `rings` rings of neighbouring elements (elements
@@ -53,8 +54,9 @@ pub struct Halo {
 
 impl Halo {
     /// The exchange pattern of the sub-mesh `ov` (none: this rank holds none of the body's
-    /// elements); `owner`: the rank estimating each body element, in the world (`world`) or
-    /// in the body's group. Collective over that communicator.
+    /// elements); `owner`: the rank estimating each of its elements, in the world (`world`)
+    /// or in the body's group (read at the elements the rank does not own). Collective over
+    /// that communicator.
     pub fn new(ov: Option<&Overlap>, owner: &[u32], world: bool, layout: &Layout) -> Halo {
         let size = if world {
             layout.size as usize
@@ -65,8 +67,8 @@ impl Halo {
         if let Some(ov) = ov {
             for (l, &e) in ov.elements.iter().enumerate() {
                 if !ov.owned[l] {
-                    recv[owner[e] as usize].push(l);
-                    ask[owner[e] as usize].push(e as u64);
+                    recv[owner[l] as usize].push(l);
+                    ask[owner[l] as usize].push(e as u64);
                 }
             }
         }
@@ -163,35 +165,98 @@ impl Overlap {
     ///
     /// Panics if `own` or `colours` do not match the mesh.
     pub fn new(mesh: &Mesh, own: &[bool], rings: usize, colours: &[u8]) -> Overlap {
+        assert_eq!(
+            own.len(),
+            mesh.triangles.len(),
+            "`own`: one entry per element"
+        );
+        let mine: Vec<u32> = (0..own.len())
+            .filter(|&e| own[e])
+            .map(element_u32)
+            .collect();
+        Overlap::around(mesh, &Stars::of(mesh), &mine, rings, colours)
+    }
+
+    /// [`Overlap::new`] of the own elements `own` (increasing), its rings grown through the
+    /// mesh's `stars`: O(N) to clear the marks and O(overlap) beyond, so that world rank 0
+    /// makes every rank's overlap from one [`Stars`] (`share::SharePlan`).
+    ///
+    /// Panics if `own` or `colours` do not match the mesh.
+    pub fn around(
+        mesh: &Mesh,
+        stars: &Stars,
+        own: &[u32],
+        rings: usize,
+        colours: &[u8],
+    ) -> Overlap {
         let (nt, nn) = (mesh.triangles.len(), mesh.num_nodes());
-        assert_eq!(own.len(), nt, "`own`: one entry per element");
         assert_eq!(colours.len(), nn, "`colours`: one entry per node");
-        let mut inside = own.to_vec();
+        let mut inside = vec![false; nt];
         let mut marked = vec![false; nn];
+        own.iter().for_each(|&e| inside[e as usize] = true);
+        let mut elements: Vec<u32> = own.to_vec();
+        // Ring r + 1: the elements around the vertices of ring r (those of the rings before
+        // were marked then).
+        let mut ring = elements.clone();
         for _ in 0..rings {
-            for (t, _) in mesh.triangles.iter().zip(&inside).filter(|(_, &i)| i) {
-                t.iter().for_each(|&v| marked[v] = true);
-            }
-            let mut grown = false;
-            for (t, i) in mesh.triangles.iter().zip(inside.iter_mut()) {
-                if !*i && t.iter().any(|&v| marked[v]) {
-                    *i = true;
-                    grown = true;
+            let mut next = Vec::new();
+            for &e in &ring {
+                for v in mesh.triangles.get(e as usize) {
+                    if !std::mem::replace(&mut marked[v], true) {
+                        for &f in stars.at(v) {
+                            if !std::mem::replace(&mut inside[f as usize], true) {
+                                next.push(f);
+                            }
+                        }
+                    }
                 }
             }
-            if !grown {
+            if next.is_empty() {
                 break;
             }
+            elements.extend_from_slice(&next);
+            ring = next;
         }
-        let elements: Vec<usize> = (0..nt).filter(|&e| inside[e]).collect();
+        elements.sort_unstable();
+        let elements: Vec<usize> = elements.into_iter().map(|e| e as usize).collect();
         let (sub, nodes) = mesh.sub_mesh(elements.iter().copied());
+        let is_own = |e: usize| own.binary_search(&element_u32(e)).is_ok();
         Overlap {
             mesh: sub,
-            owned: elements.iter().map(|&e| own[e]).collect(),
+            owned: elements.iter().map(|&e| is_own(e)).collect(),
             vertex_key: nodes.iter().map(|&v| sweep_key(colours[v], v)).collect(),
             elements,
             nodes,
         }
+    }
+
+    /// The overlap as bytes ([`Writer`]): what world rank 0 makes of a rank's share and sends
+    /// it under `-nndd_mesh_input root` (`share::Seed`).
+    pub fn write(&self, w: &mut Writer) {
+        self.mesh.write(w);
+        w.ints(&self.elements);
+        w.ints(&self.nodes);
+        w.list(&self.owned, |w, &o| w.u8(o as u8));
+        w.list(&self.vertex_key, |w, &k| w.u64(k));
+    }
+
+    /// What [`Overlap::write`] wrote (`None`: bytes that do not read back as one, the counts
+    /// disagreeing with the sub-mesh's included).
+    pub fn read(r: &mut Reader) -> Option<Overlap> {
+        let ov = Overlap {
+            mesh: Mesh::read(r)?,
+            elements: r.ints()?,
+            nodes: r.ints()?,
+            owned: r.list(1, |r| r.u8().map(|o| o != 0))?,
+            vertex_key: r.list(8, |r| r.u64())?,
+        };
+        let elements = ov.mesh.triangles.len();
+        let nodes = ov.mesh.num_nodes();
+        let agree = ov.elements.len() == elements
+            && ov.owned.len() == elements
+            && ov.nodes.len() == nodes
+            && ov.vertex_key.len() == nodes;
+        agree.then_some(ov)
     }
 
     /// Rings of overlap for which `equilibrate_restricted` on the sub-mesh is exact on the
@@ -636,6 +701,59 @@ mod tests {
         for r in 0..=rings {
             let d = partitioned(&mesh, &bd, &u, &full, &part, PATCH3, r);
             println!("{r:3}  {:.2e}  {:.2e}", d.cre, d.coef);
+        }
+    }
+
+    #[test]
+    fn overlap_reads_back_as_written_and_damaged_bytes_are_refused() {
+        let mesh = Mesh::structured([0.0, 0.0], [2.0, 1.0], 8, 6);
+        let colours = vertex_colours(&mesh);
+        let own: Vec<bool> = (0..mesh.triangles.len()).map(|e| e % 3 == 0).collect();
+        let ov = Overlap::new(&mesh, &own, 2, &colours);
+        let mut w = Writer::default();
+        ov.write(&mut w);
+        let back = Overlap::read(&mut Reader::new(&w.0)).unwrap();
+        assert_eq!(
+            (&back.elements, &back.nodes, &back.owned, &back.vertex_key),
+            (&ov.elements, &ov.nodes, &ov.owned, &ov.vertex_key)
+        );
+        assert_eq!(back.mesh.fingerprint(), ov.mesh.fingerprint());
+        assert!(Overlap::read(&mut Reader::new(&w.0[..w.0.len() - 1])).is_none());
+        // (one owned flag short of the sub-mesh's elements)
+        let mut short = ov.clone();
+        short.owned.pop();
+        let mut w = Writer::default();
+        short.write(&mut w);
+        assert!(Overlap::read(&mut Reader::new(&w.0)).is_none());
+    }
+
+    /// The rings grown through the vertex stars are those of sweeps over the whole mesh
+    /// (ring r + 1: every element with a vertex of an element of the rings ≤ r), up to the
+    /// connected component (`usize::MAX`).
+    #[test]
+    fn rings_grown_through_the_stars_are_the_whole_mesh_sweeps() {
+        let mesh = Mesh::structured([0.0, 0.0], [3.0, 1.0], 12, 5);
+        let colours = vertex_colours(&mesh);
+        let mut rng = Lcg(11);
+        let own: Vec<bool> = (0..mesh.triangles.len())
+            .map(|_| rng.next() > 0.93)
+            .collect();
+        for rings in [0, 1, 2, 3, 5, usize::MAX] {
+            let mut inside = own.clone();
+            for _ in 0..rings.min(100) {
+                let mut marked = vec![false; mesh.num_nodes()];
+                for (t, _) in mesh.triangles.iter().zip(&inside).filter(|(_, &i)| i) {
+                    t.iter().for_each(|&v| marked[v] = true);
+                }
+                for (t, i) in mesh.triangles.iter().zip(inside.iter_mut()) {
+                    *i |= t.iter().any(|&v| marked[v]);
+                }
+            }
+            let swept: Vec<usize> = (0..inside.len()).filter(|&e| inside[e]).collect();
+            let ov = Overlap::new(&mesh, &own, rings, &colours);
+            assert_eq!(ov.elements, swept, "{rings} rings");
+            let owned: Vec<bool> = swept.iter().map(|&e| own[e]).collect();
+            assert_eq!(ov.owned, owned, "{rings} rings");
         }
     }
 

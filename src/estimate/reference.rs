@@ -25,6 +25,9 @@ pub struct Reference {
     /// The elements of the fine bodies' meshes this rank held through their set-up and solve
     /// (a Gmsh body's part, `app::read_part`; a built-in body's grid, whole, holds nothing).
     pub held_elements: usize,
+    /// This rank's peak resident memory (MiB) once the fine bodies were built and cut to its
+    /// parts, before their set-up (what building them on the rank costs it).
+    pub input_peak_mib: f64,
 }
 
 impl Reference {
@@ -88,6 +91,16 @@ impl FineMesh {
     }
 }
 
+/// The elements of a coarse mesh under its fine elements `fine`, each coarse triangle split
+/// into `r2` consecutive fine ones ([`ReferencePart::coarse_elements`]; world rank 0 adds
+/// them to the coarse part it sends a rank under `-nndd_mesh_input root`).
+pub fn coarse_elements_under(fine: Range<usize>, r2: usize) -> Range<usize> {
+    match fine.is_empty() {
+        true => 0..0,
+        false => fine.start / r2..(fine.end - 1) / r2 + 1,
+    }
+}
+
 impl ReferencePart {
     /// The part on the fine mesh's elements `elements` of the fine problem (`fine`, of
     /// `material`), before it is solved: its nodes are those at which the fine bodies keep
@@ -123,10 +136,7 @@ impl ReferencePart {
     /// same count.
     pub fn coarse_elements(&self, coarse_elements: usize) -> Range<usize> {
         let r2 = (self.fine.elements / coarse_elements.max(1)).max(1);
-        match self.elements.is_empty() {
-            true => 0..0,
-            false => self.elements.start / r2..(self.elements.end - 1) / r2 + 1,
-        }
+        coarse_elements_under(self.elements(), r2)
     }
 
     /// The fine nodes this part holds.

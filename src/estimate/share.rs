@@ -8,13 +8,16 @@
 //! [`Halo::exchange_sweep`]), so the estimates do not depend on the assignment; the ranks
 //! that share a body recover it in step.
 
+use std::cell::OnceCell;
 use std::ops::Range;
 
-use crate::estimate::equilibrate::{vertex_colours, Recovery};
+use crate::estimate::equilibrate::{vertex_colours, Recovery, Stars};
 use crate::estimate::overlap::{colour_count, Halo, Overlap};
 use crate::estimate::view::View;
 use crate::fem::mesh::{element_u32, Mesh};
+use crate::fem::wire::{Reader, Writer};
 use crate::parallel::layout::Layout;
+use crate::parallel::partition::Partitioner;
 
 /// The world rank estimating each element of body k + 1 (what a rank makes of a body it estimates:
 /// the other's size is all it reads of the other body). Each body's elements in slabs along the
@@ -110,6 +113,205 @@ fn slab_order(mesh: &Mesh) -> Vec<u32> {
     order
 }
 
+/// Who estimates a body's elements ([`estimate_owner`], or [`block_owners`] for a body dealt
+/// in index blocks and estimated on its group alone): what every rank's share of its estimates
+/// is made from ([`SharePlan::seed`]). Made on each rank that takes part in the body's
+/// estimates from its whole mesh, or under `-nndd_mesh_input root` on world rank 0 for every
+/// rank (`app::input`).
+pub struct SharePlan<'m> {
+    alpha: usize,
+    mesh: Option<&'m Mesh>,
+    /// The world rank estimating each element (empty without the mesh).
+    owner: Vec<u32>,
+    /// Whether several ranks estimate the body's elements.
+    split: bool,
+    crosses: bool,
+    recovery: Recovery,
+    /// Made where a rank's overlap is first made: the mesh's colouring, its vertices' stars
+    /// and each rank's elements.
+    colours: OnceCell<Vec<u8>>,
+    stars: OnceCell<Stars>,
+    by_rank: OnceCell<ByRank>,
+}
+
+/// The elements each world rank estimates, increasing (a compressed list: rank q's are
+/// `elements[start[q]..start[q + 1]]`).
+struct ByRank {
+    start: Vec<usize>,
+    elements: Vec<u32>,
+}
+
+impl ByRank {
+    fn of(owner: &[u32]) -> ByRank {
+        let ranks = owner.iter().map(|&r| r as usize + 1).max().unwrap_or(0);
+        let mut start = vec![0usize; ranks + 1];
+        owner.iter().for_each(|&r| start[r as usize + 1] += 1);
+        for q in 0..ranks {
+            start[q + 1] += start[q];
+        }
+        let mut fill = start.clone();
+        let mut elements = vec![0u32; owner.len()];
+        for (e, &r) in owner.iter().enumerate() {
+            elements[fill[r as usize]] = element_u32(e);
+            fill[r as usize] += 1;
+        }
+        ByRank { start, elements }
+    }
+
+    fn of_rank(&self, q: usize) -> &[u32] {
+        match self.start.get(q..q + 2) {
+            Some(&[a, b]) => &self.elements[a..b],
+            _ => &[],
+        }
+    }
+}
+
+impl<'m> SharePlan<'m> {
+    /// The plan of body `alpha` on `mesh` (none: the rank takes no part in its estimates),
+    /// the bodies' element counts being `sizes`, estimated outside its group (`crosses`,
+    /// [`estimated_outside_group`]) or not, dealt over its group by `how`.
+    pub fn new(
+        alpha: usize,
+        mesh: Option<&'m Mesh>,
+        sizes: [usize; 2],
+        layout: &Layout,
+        how: Partitioner,
+        crosses: bool,
+        recovery: Recovery,
+    ) -> SharePlan<'m> {
+        let k = alpha - 1;
+        let in_blocks = how == Partitioner::IndexBlocks && !crosses;
+        let owner = match mesh {
+            Some(_) if in_blocks => block_owners(layout, alpha, sizes[k]),
+            Some(m) => estimate_owner(sizes, m, layout.size as usize, k),
+            None => Vec::new(),
+        };
+        let first = owner.first().copied().unwrap_or(0);
+        SharePlan {
+            alpha,
+            mesh,
+            split: owner.iter().any(|&r| r != first),
+            owner,
+            crosses,
+            recovery,
+            colours: OnceCell::new(),
+            stars: OnceCell::new(),
+            by_rank: OnceCell::new(),
+        }
+    }
+
+    /// Whether some of the body's elements are estimated outside its group.
+    pub fn crosses(&self) -> bool {
+        self.crosses
+    }
+
+    /// World rank `rank`'s share of the body's estimates, to be made a [`Share`] there
+    /// ([`Seed::share`]). The plan's mesh is read where the rank estimates some of the body's
+    /// elements and others estimate the rest: its overlap is grown through the mesh's vertex
+    /// stars, made once ([`Overlap::around`]: O(N) to clear its marks, O(overlap) beyond).
+    pub fn seed(&self, rank: usize, layout: &Layout) -> Seed {
+        let group = layout.group_ranks(self.alpha);
+        if !self.crosses && !group.contains(&rank) {
+            return Seed::Elsewhere;
+        }
+        if !self.split {
+            return match self.owner.first() {
+                Some(&r) if r as usize == rank => Seed::Whole,
+                _ => Seed::Elsewhere,
+            };
+        }
+        let mine = (self.by_rank.get_or_init(|| ByRank::of(&self.owner))).of_rank(rank);
+        if mine.is_empty() {
+            return Seed::Idle;
+        }
+        let mesh = self
+            .mesh
+            .expect("a rank that estimates a body's elements holds its mesh");
+        let colours = self.colours.get_or_init(|| vertex_colours(mesh));
+        let stars = self.stars.get_or_init(|| Stars::of(mesh));
+        // The recovery exchanges the overlap's values between sweeps.
+        let rings = Overlap::rings_exchanged(self.recovery, colour_count(colours));
+        let overlap = Overlap::around(mesh, stars, mine, rings, colours);
+        // (the halo's ranks: world ranks, or ranks in the group)
+        let base = if self.crosses { 0 } else { group.start as u32 };
+        let owner = (overlap.elements.iter())
+            .map(|&e| self.owner[e] - base)
+            .collect();
+        Seed::Part(Box::new(overlap), owner)
+    }
+}
+
+/// A rank's share of one body's estimates before its halo is made ([`Seed::share`]): what
+/// [`SharePlan::seed`] makes of it, where the rank is or on world rank 0.
+pub enum Seed {
+    Whole,
+    /// Some elements: the overlap, and the rank estimating each of its elements (world ranks
+    /// where the body is estimated outside its group, else ranks in the group).
+    Part(Box<Overlap>, Vec<u32>),
+    Idle,
+    Elsewhere,
+}
+
+impl Seed {
+    /// This rank's share (collective over the body's group, or every rank where the body is
+    /// estimated outside it, `crosses`: the halos' exchange patterns).
+    pub fn share(self, crosses: bool, layout: &Layout) -> Share {
+        match self {
+            Seed::Whole => Share::Whole,
+            Seed::Elsewhere => Share::Elsewhere,
+            Seed::Idle => Share::Idle(Halo::new(None, &[], crosses, layout)),
+            Seed::Part(overlap, owner) => {
+                let halo = Halo::new(Some(&overlap), &owner, crosses, layout);
+                Share::Part(overlap, halo)
+            }
+        }
+    }
+
+    /// The elements of the body this rank's recoveries read ([`Share::elements_read`]).
+    pub fn elements_read(&self) -> Option<Vec<u32>> {
+        match self {
+            Seed::Whole => None,
+            Seed::Part(o, _) => Some(overlap_elements(o)),
+            Seed::Idle | Seed::Elsewhere => Some(Vec::new()),
+        }
+    }
+
+    /// The seed as bytes ([`Writer`]).
+    pub fn write(&self, w: &mut Writer) {
+        match self {
+            Seed::Whole => w.u8(0),
+            Seed::Elsewhere => w.u8(1),
+            Seed::Idle => w.u8(2),
+            Seed::Part(overlap, owner) => {
+                w.u8(3);
+                overlap.write(w);
+                w.u32s(owner);
+            }
+        }
+    }
+
+    /// What [`Seed::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Seed> {
+        match r.u8()? {
+            0 => Some(Seed::Whole),
+            1 => Some(Seed::Elsewhere),
+            2 => Some(Seed::Idle),
+            3 => {
+                let overlap = Overlap::read(r)?;
+                let owner = r.u32s()?;
+                (owner.len() == overlap.elements.len())
+                    .then(|| Seed::Part(Box::new(overlap), owner))
+            }
+            _ => None,
+        }
+    }
+}
+
+/// The body elements of an overlap, by their global indices.
+fn overlap_elements(o: &Overlap) -> Vec<u32> {
+    o.elements.iter().map(|&e| element_u32(e)).collect()
+}
+
 /// This rank's part in the estimates of one body.
 pub enum Share {
     /// Every element of the body.
@@ -123,49 +325,12 @@ pub enum Share {
 }
 
 impl Share {
-    /// This rank's share of the body `alpha` on `mesh` whose elements the world ranks `owner`
-    /// estimate. When they are all in the body's group (`crosses` false), its halo exchanges
-    /// run on the group and the other ranks have nothing to do with it; else on all ranks
-    /// (which then all have the body's fields). Collective over that communicator when the
-    /// body is split over several ranks. `owner` is not read on a rank that takes no part
-    /// (outside the group, `crosses` false).
-    pub fn new(
-        alpha: usize,
-        mesh: Option<&Mesh>,
-        owner: &[u32],
-        crosses: bool,
-        recovery: Recovery,
-        layout: &Layout,
-    ) -> Share {
-        let me = layout.rank as usize;
-        let group = layout.group_ranks(alpha);
-        if !crosses && !group.contains(&me) {
-            return Share::Elsewhere;
-        }
-        let first = owner.first().copied().unwrap_or(0);
-        let split = owner.iter().any(|&r| r != first);
-        let mine = owner.contains(&(me as u32));
-        // The halo's ranks: world ranks, or ranks in the group.
-        let scoped: Vec<u32> = if crosses {
-            owner.to_vec()
-        } else {
-            owner.iter().map(|&r| r - group.start as u32).collect()
-        };
-        match (split, mine) {
-            (false, true) => Share::Whole,
-            (false, false) => Share::Elsewhere,
-            (true, false) => Share::Idle(Halo::new(None, &scoped, crosses, layout)),
-            (true, true) => {
-                let mesh = mesh.expect("a rank that estimates a body's elements holds its mesh");
-                let colours = vertex_colours(mesh);
-                let own: Vec<bool> = owner.iter().map(|&r| r as usize == me).collect();
-                // The recovery exchanges the overlap's values between sweeps.
-                let rings = Overlap::rings_exchanged(recovery, colour_count(&colours));
-                let overlap = Overlap::new(mesh, &own, rings, &colours);
-                let halo = Halo::new(Some(&overlap), &scoped, crosses, layout);
-                Share::Part(Box::new(overlap), halo)
-            }
-        }
+    /// This rank's share of the body whose estimates `plan` deals out ([`SharePlan::seed`],
+    /// [`Seed::share`]). Collective over the body's group, or every
+    /// rank where the body is estimated outside it.
+    pub fn new(plan: &SharePlan, layout: &Layout) -> Share {
+        plan.seed(layout.rank as usize, layout)
+            .share(plan.crosses, layout)
     }
 
     /// The elements of the body this rank's recoveries read: `None` for every one, else
@@ -173,7 +338,7 @@ impl Share {
     pub fn elements_read(&self) -> Option<Vec<u32>> {
         match self {
             Share::Whole => None,
-            Share::Part(o, _) => Some(o.elements.iter().map(|&e| element_u32(e)).collect()),
+            Share::Part(o, _) => Some(overlap_elements(o)),
             Share::Idle(_) | Share::Elsewhere => Some(Vec::new()),
         }
     }
@@ -196,6 +361,38 @@ mod tests {
     fn estimate_owners(meshes: [&Mesh; 2], ranks: usize) -> [Vec<u32>; 2] {
         let sizes = meshes.map(|m| m.triangles.len());
         [0, 1].map(|k| estimate_owner(sizes, meshes[k], ranks, k))
+    }
+
+    /// A seed reads back as written (what world rank 0 sends a rank under
+    /// `-nndd_mesh_input root`); a part's owners must match its overlap.
+    #[test]
+    fn seeds_read_back_as_written() {
+        let mesh = Mesh::structured([0.0, 0.0], [2.0, 1.0], 8, 6);
+        let colours = vertex_colours(&mesh);
+        let own: Vec<bool> = (0..mesh.triangles.len()).map(|e| e < 40).collect();
+        let overlap = Overlap::new(&mesh, &own, 3, &colours);
+        let owner: Vec<u32> = overlap.owned.iter().map(|&o| (!o) as u32).collect();
+        let bytes = |s: &Seed| {
+            let mut w = Writer::default();
+            s.write(&mut w);
+            w.0
+        };
+        for seed in [Seed::Whole, Seed::Idle, Seed::Elsewhere] {
+            let back = Seed::read(&mut Reader::new(&bytes(&seed))).unwrap();
+            assert_eq!(back.elements_read(), seed.elements_read());
+        }
+        let part = Seed::Part(Box::new(overlap.clone()), owner.clone());
+        let written = bytes(&part);
+        let Some(Seed::Part(o, back)) = Seed::read(&mut Reader::new(&written)) else {
+            panic!("a part reads back as a part");
+        };
+        assert_eq!(
+            (o.elements, back),
+            (overlap.elements.clone(), owner.clone())
+        );
+        let short = Seed::Part(Box::new(overlap), owner[1..].to_vec());
+        assert!(Seed::read(&mut Reader::new(&bytes(&short))).is_none());
+        assert!(Seed::read(&mut Reader::new(&[7])).is_none());
     }
 
     /// Slab order: by the barycentre along the longer side, ties by element index.

@@ -8,7 +8,8 @@ use crate::dd::nndd::IterationRecord;
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Timings {
     /// Reading the options and the mesh file, and building both bodies' problems (with the
-    /// pairing of Γc).
+    /// pairing of Γc); under `-nndd_mesh_input root` also dealing every rank its parts (the
+    /// partitions and the estimates' overlaps made on world rank 0).
     pub input: f64,
     pub assembly: f64,
     pub factorisation: f64,
@@ -254,6 +255,11 @@ pub struct Summary {
     /// the bodies' problems were built (or a rank's part sent) and the ranks laid out, before
     /// the bodies are set up (what building the whole bodies on a rank costs it).
     pub input_peak_memory_mib_per_rank: Vec<f64>,
+    /// The same once the reference solution's fine bodies were built and cut to each rank's
+    /// parts, before their set-up, when solved (`-nndd_reference_factor`: world rank 0 builds
+    /// a Gmsh problem's under `-nndd_mesh_input root`, every rank under `every_rank`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_input_peak_memory_mib_per_rank: Option<Vec<f64>>,
     /// Ranks of each body's group.
     pub body_ranks: [usize; 2],
     /// Largest equilibrium residuals of the recovered stresses over the estimated iterations

@@ -79,7 +79,9 @@ impl ProblemSettings {
         self.grids[alpha - 1]
     }
 
-    /// The same problem on the nested mesh refined `r` times.
+    /// The same problem on the nested mesh refined `r` times (a Gmsh mesh where it is held:
+    /// a rank that holds its facts alone is told the refined file's by world rank 0,
+    /// [`ProblemSettings::share_file_facts`]).
     pub fn refined(&self, r: usize) -> Result<ProblemSettings, meshed::MeshedError> {
         let mut s = self.clone();
         s.n *= r;
@@ -87,7 +89,7 @@ impl ProblemSettings {
             *g = (g.0 * r, g.1 * r);
         }
         if let Some(spec) = s.mesh.as_mut() {
-            spec.gmsh = parsed::ParsedFile::new(spec.gmsh.mesh()?.refined(r));
+            spec.gmsh = spec.gmsh.refined(r)?;
             spec.nested = Some(r);
         }
         Ok(s)

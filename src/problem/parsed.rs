@@ -14,7 +14,8 @@ use std::collections::BTreeMap;
 use std::rc::Rc;
 
 use super::curves::MeshedError;
-use crate::fem::gmsh::GmshMesh;
+use crate::fem::gmsh::{self, GmshMesh};
+use crate::fem::wire::{Reader, Writer};
 
 /// Where a Gmsh problem's bodies are built on several ranks (`-nndd_mesh_input`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -89,6 +90,59 @@ impl ParsedFile {
         }
     }
 
+    /// The file's facts as bytes ([`Writer`]): what world rank 0, which holds the mesh, tells
+    /// the ranks that do not ([`ParsedFile::read_facts`]).
+    pub fn write_facts(&self, w: &mut Writer) {
+        w.text(&self.path);
+        gmsh::write_names(w, &self.names);
+        w.ints(&self.body_dofs);
+        w.points(&self.bbox);
+    }
+
+    /// The file of the facts [`ParsedFile::write_facts`] wrote, its mesh on world rank 0.
+    pub fn read_facts(r: &mut Reader) -> Option<ParsedFile> {
+        let path = r.text()?;
+        let names = gmsh::read_names(r)?;
+        let body_dofs = <[usize; 2]>::try_from(r.ints()?).ok()?;
+        let bbox = <[[f64; 2]; 2]>::try_from(r.points()?).ok()?;
+        Some(ParsedFile::on_root(path, names, body_dofs, bbox))
+    }
+
+    /// The file of this one's mesh refined `r` times ([`GmshMesh::refined`]): held where this
+    /// one is; on a rank where world rank 0 alone holds the mesh, its facts are the coarse
+    /// file's until [`ParsedFile::share_facts`] gives it the refined one's.
+    pub fn refined(&self, r: usize) -> Result<ParsedFile, MeshedError> {
+        match &self.mesh {
+            Held::OnRoot => Ok(self.clone()),
+            _ => Ok(ParsedFile::new(self.mesh()?.refined(r))),
+        }
+    }
+
+    /// World rank 0's facts on every rank where it alone holds the mesh (collective over
+    /// `world`; nothing where no rank holds the file's facts alone): after rank 0 made the
+    /// file ([`ParsedFile::refined`]). An error where the bytes do not read back.
+    pub fn share_facts(&mut self, world: &mpi::topology::SimpleCommunicator) -> Result<(), String> {
+        if !needed_anywhere(matches!(self.mesh, Held::OnRoot), world) {
+            return Ok(());
+        }
+        let facts = matches!(self.mesh, Held::Whole(_)).then(|| {
+            let mut w = Writer::default();
+            self.write_facts(&mut w);
+            w.0
+        });
+        let path = self.path.clone();
+        let bytes = crate::parallel::root::bytes_from_root(&path, || {
+            facts.ok_or_else(|| format!("{path}: world rank 0 holds no mesh"))
+        })?;
+        if matches!(self.mesh, Held::OnRoot) {
+            let mut r = Reader::new(&bytes);
+            *self = ParsedFile::read_facts(&mut r)
+                .filter(|_| r.is_done())
+                .ok_or_else(|| format!("{path}: the facts sent by world rank 0 are damaged"))?;
+        }
+        Ok(())
+    }
+
     /// The mesh; an error where it was released (a phase that reads it after the bodies were
     /// built must keep it: [`crate::app::options::Settings::reads_mesh_after_build`]) or is
     /// held on world rank 0 alone (a phase that reads it on every rank shares it first).
@@ -111,12 +165,8 @@ impl ParsedFile {
     /// nothing where every rank holds it, or none): rank 0 sends it as bytes
     /// ([`GmshMesh::to_bytes`]). An error where the bytes do not read back.
     pub fn share(&mut self, world: &mpi::topology::SimpleCommunicator) -> Result<(), String> {
-        use mpi::collective::SystemOperation;
-        use mpi::traits::{Communicator, CommunicatorCollectives};
-        let here = matches!(self.mesh, Held::OnRoot) as u8;
-        let mut needed = 0u8;
-        world.all_reduce_into(&here, &mut needed, SystemOperation::max());
-        if needed == 0 {
+        use mpi::traits::Communicator;
+        if !needed_anywhere(matches!(self.mesh, Held::OnRoot), world) {
             return Ok(());
         }
         let root = world.rank() == 0;
@@ -139,6 +189,15 @@ impl ParsedFile {
     }
 }
 
+/// Whether `here` holds on some rank of `world` (collective).
+fn needed_anywhere(here: bool, world: &mpi::topology::SimpleCommunicator) -> bool {
+    use mpi::collective::SystemOperation;
+    use mpi::traits::CommunicatorCollectives;
+    let mut needed = 0u8;
+    world.all_reduce_into(&(here as u8), &mut needed, SystemOperation::max());
+    needed > 0
+}
+
 impl super::ProblemSettings {
     /// A Gmsh problem's parsed file on every rank, where world rank 0 alone read it
     /// ([`ParsedFile::share`]; collective over `world`): before every rank builds the bodies
@@ -149,6 +208,20 @@ impl super::ProblemSettings {
     ) -> Result<(), String> {
         match self.mesh.as_mut() {
             Some(spec) => spec.gmsh.share(world),
+            None => Ok(()),
+        }
+    }
+
+    /// A Gmsh problem's file facts on every rank, as world rank 0 holds them
+    /// ([`ParsedFile::share_facts`]; collective over `world`): after
+    /// [`ProblemSettings::refined`](super::ProblemSettings::refined), which refines the mesh
+    /// where it is held.
+    pub fn share_file_facts(
+        &mut self,
+        world: &mpi::topology::SimpleCommunicator,
+    ) -> Result<(), String> {
+        match self.mesh.as_mut() {
+            Some(spec) => spec.gmsh.share_facts(world),
             None => Ok(()),
         }
     }

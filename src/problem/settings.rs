@@ -82,7 +82,7 @@ impl ProblemSettings {
         )?;
         let input = o.choice(
             "-nndd_mesh_input",
-            "With -nndd_mesh on several ranks: where the bodies are built: root (world rank 0, which reads the file, builds both, partitions them and sends every other rank its part, so that no other rank holds the file or a whole body; a run that estimates, solves the reference, couples by mortar or adapts builds them on every rank, as every_rank), every_rank (rank 0 sends every rank the parsed file, and each builds both bodies, then keeps its part)",
+            "With -nndd_mesh on several ranks: where the bodies are built: root (world rank 0, which reads the file, builds both, partitions them and sends every other rank its part, and its shares of the estimates, the reference solution's fine bodies alike, so that no other rank holds the file or a whole body; a run that couples by mortar or adapts builds them on every rank, as every_rank), every_rank (rank 0 sends every rank the parsed file, and each builds both bodies, then keeps its part)",
             &[("root", MeshInput::Root), ("every_rank", MeshInput::EveryRank)],
         )?;
         let geo_set = read_geo_set(o, kind, &mesh_file)?;
@@ -649,10 +649,7 @@ fn resolve_on_root(
             ContactDiscretisation::Mortar => 1,
         });
         matched.write(&mut w);
-        w.text(&parsed.path);
-        gmsh::write_names(&mut w, &parsed.names);
-        w.ints(&parsed.body_dofs);
-        w.points(&parsed.bbox);
+        parsed.write_facts(&mut w);
         w.0
     });
     let bytes = root::bytes_from_root(file, move || {
@@ -668,14 +665,7 @@ fn resolve_on_root(
         _ => ContactDiscretisation::Mortar,
     };
     let matched = super::matched::Matched::read(&mut r).ok_or_else(damaged)?;
-    let facts = (|| {
-        let path = r.text()?;
-        let names = gmsh::read_names(&mut r)?;
-        let body_dofs = <[usize; 2]>::try_from(r.ints()?).ok()?;
-        let bbox = <[[f64; 2]; 2]>::try_from(r.points()?).ok()?;
-        r.is_done()
-            .then(|| ParsedFile::on_root(path, names, body_dofs, bbox))
-    })();
+    let facts = ParsedFile::read_facts(&mut r).filter(|_| r.is_done());
     Ok((facts.ok_or_else(damaged)?, discretisation, matched))
 }
 

@@ -140,4 +140,4 @@ pub(crate) use sizes::{NC, NT};
 pub use stress::{
     element_cre, element_cre_varying, EquilibratedStress, EquilibrationStats, Residuals,
 };
-pub use topology::{sweep_key, vertex_colours};
+pub use topology::{sweep_key, vertex_colours, Stars};

@@ -69,6 +69,25 @@ fn index_order_colours(mesh: &Mesh) -> Vec<u8> {
     colour
 }
 
+/// The elements around every vertex of a mesh, in increasing order (12 bytes per element and
+/// 8 per vertex): what growing many overlaps on one mesh reads (`overlap::Overlap::around`).
+pub struct Stars {
+    ptr: Vec<usize>,
+    around: Vec<u32>,
+}
+
+impl Stars {
+    pub fn of(mesh: &Mesh) -> Stars {
+        let (ptr, around) = vertex_stars(mesh, |e, _| element_u32(e));
+        Stars { ptr, around }
+    }
+
+    /// The elements around vertex `v`.
+    pub fn at(&self, v: usize) -> &[u32] {
+        &self.around[self.ptr[v]..self.ptr[v + 1]]
+    }
+}
+
 /// The distinct neighbours (vertices sharing an element) of every vertex, sorted, as a
 /// compressed list (8 bytes per vertex and 4 per neighbour).
 struct Neighbours {

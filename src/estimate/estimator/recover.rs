@@ -335,13 +335,10 @@ impl Estimator<'_> {
                     // not held through the solve)
                     let takes_part = crosses[k] || self.layout.owns(k + 1);
                     let mesh = takes_part.then(|| self.problems[k].mesh());
-                    let in_blocks = self.partitioner == Partitioner::IndexBlocks && !crosses[k];
-                    let owner = match mesh {
-                        Some(_) if in_blocks => block_owners(self.layout, k + 1, sizes[k]),
-                        Some(m) => estimate_owner(sizes, m, self.layout.size as usize, k),
-                        None => Vec::new(),
-                    };
-                    Share::new(k + 1, mesh, &owner, crosses[k], self.recovery, self.layout)
+                    let (how, recovery) = (self.partitioner, self.recovery);
+                    let plan =
+                        SharePlan::new(k + 1, mesh, sizes, self.layout, how, crosses[k], recovery);
+                    Share::new(&plan, self.layout)
                 })
             })
         })
