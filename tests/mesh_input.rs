@@ -167,6 +167,15 @@ fn estimating_ranks_are_sent_their_overlaps_and_estimate_what_every_rank_buildin
         // (the reference's fine bodies built on world rank 0 and dealt alike)
         let fine = "held_reference_mesh_elements_per_rank";
         assert_eq!(root[fine], every[fine], "{what}");
+        // (each rank's peak once the fine bodies were built, where the reference is solved)
+        let peaks = root["reference_input_peak_memory_mib_per_rank"].as_array();
+        match r {
+            "2" => assert!(
+                peaks.is_some_and(|p| p.len() == ranks && p.iter().all(|m| m.as_f64() > Some(1.0))),
+                "{what}: {peaks:?}"
+            ),
+            _ => assert!(peaks.is_none(), "{what}: {peaks:?}"),
+        }
         let file = elements(&root, "input_file_points_per_rank");
         assert!(
             file[0] > 2000 && file[1..].iter().all(|&n| n == 0),

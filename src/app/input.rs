@@ -9,7 +9,7 @@
 //! rank"; the summary's `input_mesh_elements_per_rank`).
 //!
 //! The reference solution's fine bodies (`-nndd_reference_factor`) are built on world rank 0
-//! and dealt alike: rank 0 refines the file (`solve::solve_reference`). A run whose later phases
+//! and dealt alike: rank 0 refines the file (`reference::solve_reference`). A run whose later phases
 //! read the whole meshes on every rank (a mortar run, an adaptive run's remeshing) builds them
 //! on every rank instead ([`on_root`]).
 
@@ -37,7 +37,7 @@ use crate::problem::{self, BodyProblem, ContactDiscretisation};
 /// under `-nndd_mesh_input root`, coupled node to node (a mortar run's estimates read the
 /// whole matched meshes), that does not adapt (its cycles remesh the parsed file's geometry).
 /// Its reference solution's fine bodies are built on world rank 0 alike
-/// (`solve::solve_reference`).
+/// (`reference::solve_reference`).
 pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     let Some(spec) = &settings.problem.mesh else {
         return false;

@@ -13,6 +13,7 @@ mod cycles;
 mod input;
 pub mod options;
 pub mod preflight;
+mod reference;
 mod relaxed;
 mod report;
 mod reported;

@@ -148,7 +148,7 @@ impl<'a> Run<'a> {
             0 => None,
             _ => {
                 let (gaps, agreement) = (gaps.as_ref(), self.agreement);
-                match solve::solve_reference(
+                match reference::solve_reference(
                     on,
                     layout,
                     self.stages,
