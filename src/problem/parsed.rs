@@ -5,8 +5,9 @@
 //! to match) and hold no mesh ([`ParsedFile::on_root`]). A run that builds its bodies on every
 //! rank has rank 0 send them the parsed file first ([`ParsedFile::share`]); one that builds
 //! them on world rank 0 alone (`-nndd_mesh_input root`, `app::input`) never sends it. Only a
-//! reference solution's refinement, a mortar run's matched meshes and an adaptive run's
-//! remeshing read it again; a run that does none of these releases it before its bodies are
+//! reference solution's refinement (there on world rank 0 alone, which tells the other ranks
+//! the refined file's facts, [`ParsedFile::share_facts`]), a mortar run's matched meshes and
+//! an adaptive run's remeshing read it again; a run that does none of these releases it before its bodies are
 //! set up ([`ParsedFile::release`]), keeping what it reports of the file to its end: the path,
 //! the physical names and each body's dofs.
 
