@@ -29,7 +29,6 @@ use crate::parallel::fault::{self, Agreement, Phase};
 use crate::parallel::layout::{block_of, Layout};
 use crate::parallel::partition::Partition;
 use crate::parallel::root;
-use crate::parallel::wait::politely;
 use crate::problem::parsed::MeshInput;
 use crate::problem::{self, BodyProblem, ContactDiscretisation};
 
@@ -194,7 +193,7 @@ pub(super) fn deal_parts(
     let dealt = agreed(agreement, dealt.map_err(AppError::from))?;
     let mine = match dealt {
         Some(partitions) => send_parts(&problems, partitions, settings, layout),
-        None => Dealt::from_bytes(&receive(&layout.world)),
+        None => Dealt::from_bytes(&root::receive_from_root(&layout.world)),
     };
     let mine = mine
         .filter(|d| layout.owns(d.alpha))
@@ -242,7 +241,7 @@ fn send_parts(
             let bytes = dealt.to_bytes();
             unwritten |= bytes.is_none();
             drop(dealt);
-            send(
+            root::send_to(
                 &layout.world,
                 (ranks.start + g) as i32,
                 &bytes.unwrap_or_default(),
@@ -303,29 +302,4 @@ fn dealt_to(
         problems: held,
         seeds,
     }
-}
-
-/// The most bytes one message carries (MPI counts them in an `int`).
-const CHUNK: usize = 1 << 30;
-
-/// Sends `bytes` to world rank `to`: their length, then them, in messages of at most
-/// [`CHUNK`] bytes.
-fn send(world: &SimpleCommunicator, to: i32, bytes: &[u8]) {
-    let dest = world.process_at_rank(to);
-    dest.send(&(bytes.len() as u64));
-    for chunk in bytes.chunks(CHUNK) {
-        dest.send(chunk);
-    }
-}
-
-/// What world rank 0 [`send`]s this rank (waiting for it without taking a core from rank 0).
-fn receive(world: &SimpleCommunicator) -> Vec<u8> {
-    let root = world.process_at_rank(0);
-    let mut len = 0u64;
-    mpi::request::scope(|scope| politely(root.immediate_receive_into(scope, &mut len)));
-    let mut bytes = vec![0u8; len as usize];
-    for chunk in bytes.chunks_mut(CHUNK) {
-        root.receive_into(chunk);
-    }
-    bytes
 }

@@ -280,7 +280,8 @@ pub(crate) fn solve_cycle(
         true => input::build_on_root(&settings, agreement, world)?,
         false => {
             // (world rank 0 read the file: every rank builds from it)
-            let shared = settings.problem.share_parsed_file(world);
+            let file = settings.problem.parsed_file_mut();
+            let shared = file.map_or(Ok(()), |f| f.share(world));
             agreed(agreement, shared.map_err(AppError::Input))?;
             build_problems(&settings, agreement)?
         }

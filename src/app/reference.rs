@@ -39,9 +39,8 @@ pub fn solve_reference(
     let mut fine = settings.refined(r)?;
     // (the refined file's facts, where world rank 0 alone holds the file and refined it)
     let world = &layout.world;
-    fine.problem
-        .share_file_facts(world)
-        .map_err(AppError::Input)?;
+    let file = fine.problem.parsed_file_mut();
+    (file.map_or(Ok(()), |f| f.share_facts(world))).map_err(AppError::Input)?;
     if layout.is_root() && (settings.output.monitor || fine.problem.dofs() >= LONG_PHASE_DOFS) {
         // Word before the long phase: the reference mesh has r² times the dofs.
         println!(

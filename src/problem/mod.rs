@@ -81,7 +81,7 @@ impl ProblemSettings {
 
     /// The same problem on the nested mesh refined `r` times (a Gmsh mesh where it is held:
     /// a rank that holds its facts alone is told the refined file's by world rank 0,
-    /// [`ProblemSettings::share_file_facts`]).
+    /// [`ParsedFile::share_facts`](parsed::ParsedFile::share_facts)).
     pub fn refined(&self, r: usize) -> Result<ProblemSettings, meshed::MeshedError> {
         let mut s = self.clone();
         s.n *= r;

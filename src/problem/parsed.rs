@@ -200,31 +200,10 @@ fn needed_anywhere(here: bool, world: &mpi::topology::SimpleCommunicator) -> boo
 }
 
 impl super::ProblemSettings {
-    /// A Gmsh problem's parsed file on every rank, where world rank 0 alone read it
-    /// ([`ParsedFile::share`]; collective over `world`): before every rank builds the bodies
-    /// from it.
-    pub fn share_parsed_file(
-        &mut self,
-        world: &mpi::topology::SimpleCommunicator,
-    ) -> Result<(), String> {
-        match self.mesh.as_mut() {
-            Some(spec) => spec.gmsh.share(world),
-            None => Ok(()),
-        }
-    }
-
-    /// A Gmsh problem's file facts on every rank, as world rank 0 holds them
-    /// ([`ParsedFile::share_facts`]; collective over `world`): after
-    /// [`ProblemSettings::refined`](super::ProblemSettings::refined), which refines the mesh
-    /// where it is held.
-    pub fn share_file_facts(
-        &mut self,
-        world: &mpi::topology::SimpleCommunicator,
-    ) -> Result<(), String> {
-        match self.mesh.as_mut() {
-            Some(spec) => spec.gmsh.share_facts(world),
-            None => Ok(()),
-        }
+    /// A Gmsh problem's parsed file (`None` for a built-in problem): what
+    /// [`ParsedFile::share`] and [`ParsedFile::share_facts`] complete on every rank.
+    pub fn parsed_file_mut(&mut self) -> Option<&mut ParsedFile> {
+        self.mesh.as_mut().map(|spec| &mut spec.gmsh)
     }
 }
 
