@@ -77,6 +77,13 @@ fn a_roller_and_a_load_give_the_exact_patch_solution() {
                 "{what}: {}",
                 j["warnings"]
             );
+            // (on several ranks world rank 0 alone made them match and built the bodies)
+            let file: Vec<u64> =
+                serde_json::from_value(j["input_file_points_per_rank"].clone()).unwrap();
+            assert!(
+                file[0] > 0 && file[1..].iter().all(|&n| n == 0),
+                "{what}: {file:?}"
+            );
             if solver == "nndd" {
                 assert_eq!(j["dirichlet_body"], 2, "{what}: the body held by contact");
                 assert_eq!(j["neumann_step"][1], "none", "{what}");

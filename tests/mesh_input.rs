@@ -203,8 +203,81 @@ fn estimating_ranks_are_sent_their_overlaps_and_estimate_what_every_rank_buildin
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A mortar run (curves meshed on their own, coupled as meshed) under `root`: world rank 0
+/// sends each rank its part with the mortar body's coupling, on Hertz meshed 1:1.7 (3 ranks,
+/// METIS; 4, index blocks) and the pin in its hole, whose closed curves are coupled all round
+/// (3 ranks). No rank but world rank 0 holds the file or more of the meshes than it holds
+/// through the run, the parts held are those of `every_rank`, and the result files are the same
+/// in both modes and one rank's solution to 1e−10.
+#[test]
+fn a_mortar_run_s_ranks_are_sent_their_parts_with_the_coupling() {
+    let dir = scratch("mesh-input-mortar");
+    let hertz = gmsh_level(HERTZ_NM_GEO, &dir, "hertz-nm", 2);
+    let pin = gmsh_level(PIN_HOLE_GEO, &dir, "pin-hole", 1);
+    let elements = |j: &serde_json::Value, key: &str| -> Vec<u64> {
+        serde_json::from_value(j[key].clone()).unwrap()
+    };
+    let cases = [
+        ("hertz", HERTZ_NM_OPTS, &hertz, 3, "metis"),
+        ("hertz", HERTZ_NM_OPTS, &hertz, 4, "blocks"),
+        ("pin", PIN_HOLE_OPTS, &pin, 3, "metis"),
+    ];
+    for (name, opts, msh, ranks, partition) in cases {
+        let what = format!("{name} on {ranks} ranks ({partition})");
+        let mortar = [
+            "-nndd_contact_discretisation",
+            "mortar",
+            "-nndd_tol",
+            "1e-12",
+        ];
+        let one = solve_meshed(1, opts, msh, &dir.join(format!("{name}-one")), &mortar);
+        let run = |input: &str| {
+            let prefix = dir.join(format!("{name}-{ranks}-{partition}-{input}"));
+            let mut a = mortar.to_vec();
+            a.extend(["-nndd_mesh_input", input, "-nndd_partition", partition]);
+            (solve_meshed(ranks, opts, msh, &prefix, &a), prefix)
+        };
+        let (root, root_h5) = run("root");
+        let (every, every_h5) = run("every_rank");
+        assert_eq!(root["contact_curves"]["discretisation"], "mortar", "{what}");
+        let whole = elements(&every, "input_mesh_elements_per_rank");
+        assert!(whole.iter().all(|&n| n == whole[0]), "{what}: {whole:?}");
+        let (input, held) = (
+            elements(&root, "input_mesh_elements_per_rank"),
+            elements(&root, "held_mesh_elements_per_rank"),
+        );
+        assert_eq!(input[0], whole[0], "{what}: world rank 0 built both bodies");
+        assert_eq!(input[1..], held[1..], "{what}: the others sent their parts");
+        assert!(
+            input[1..].iter().all(|&n| n < whole[0]),
+            "{what}: a rank other than world rank 0 holds both bodies: {input:?} of {}",
+            whole[0]
+        );
+        assert_eq!(
+            held,
+            elements(&every, "held_mesh_elements_per_rank"),
+            "{what}"
+        );
+        let file = elements(&root, "input_file_points_per_rank");
+        assert!(
+            file[0] > 100 && file[1..].iter().all(|&n| n == 0),
+            "{what}: {file:?}"
+        );
+        assert_eq!(root["iterations"], every["iterations"], "{what}");
+        same_results(&root_h5, &every_h5, 1e-12, &what);
+        let (a, b) = (f(&one, "potential_energy"), f(&root, "potential_energy"));
+        assert!(
+            ((a - b) / a).abs() < 1e-10,
+            "{what}: energy {b} against {a}"
+        );
+        same_displacements(&dir.join(format!("{name}-one")), &root_h5, &what);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A run whose later phases read the parsed file on every rank (here an adaptive run, whose
-/// cycles remesh its geometry) is sent the file and builds the bodies on every rank, as
+/// cycles remesh its geometry; a mortar run's estimates, which map its bodies onto matched
+/// meshes, alike) is sent the file and builds the bodies on every rank, as
 /// `every_rank`, whatever `-nndd_mesh_input` says; a built-in problem reports no input mesh
 /// (its grids are formulas), and the option is refused beside it.
 #[test]
@@ -238,6 +311,17 @@ fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
             && points
                 .iter()
                 .all(|p| p == &points[0] && p.as_u64() > Some(100))
+    );
+    let hertz = gmsh_level(HERTZ_NM_GEO, &dir, "hertz-nm", 1);
+    let estimate = ["-nndd_contact_discretisation", "mortar", "-nndd_estimate"];
+    let j = solve_meshed(3, HERTZ_NM_OPTS, &hertz, &dir.join("mortar"), &estimate);
+    let points = j["input_file_points_per_rank"].as_array().unwrap();
+    assert!(
+        points.len() == 3
+            && points
+                .iter()
+                .all(|p| p == &points[0] && p.as_u64() > Some(100)),
+        "a mortar run that estimates: {points:?}"
     );
     let builtin = ["-nndd_problem", "paper", "-nndd_n", "8"];
     let j = solve(2, &dir.join("builtin"), &builtin);

@@ -9,9 +9,10 @@
 //! rank"; the summary's `input_mesh_elements_per_rank`).
 //!
 //! The reference solution's fine bodies (`-nndd_reference_factor`) are built on world rank 0
-//! and dealt alike: rank 0 refines the file (`reference::solve_reference`). A run whose later phases
-//! read the whole meshes on every rank (a mortar run, an adaptive run's remeshing) builds them
-//! on every rank instead ([`on_root`]).
+//! and dealt alike: rank 0 refines the file (`reference::solve_reference`). A mortar run's
+//! bodies are sent with their coupling. A run whose later phases read the whole meshes on
+//! every rank (a mortar run's estimates, an adaptive run's remeshing) builds them on every
+//! rank instead ([`on_root`]).
 
 use std::rc::Rc;
 
@@ -33,18 +34,18 @@ use crate::problem::parsed::MeshInput;
 use crate::problem::{self, BodyProblem, ContactDiscretisation};
 
 /// Whether this run builds its bodies on world rank 0 alone: a Gmsh problem on several ranks
-/// under `-nndd_mesh_input root`, coupled node to node (a mortar run's estimates read the
-/// whole matched meshes), that does not adapt (its cycles remesh the parsed file's geometry).
-/// Its reference solution's fine bodies are built on world rank 0 alike
-/// (`reference::solve_reference`).
+/// under `-nndd_mesh_input root` whose later phases do not read the whole meshes on every rank
+/// (a mortar run's estimates map both bodies onto their matched meshes, an adaptive run's
+/// cycles remesh the parsed file's geometry). Its reference solution's fine bodies are built on
+/// world rank 0 alike (`reference::solve_reference`).
 pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     let Some(spec) = &settings.problem.mesh else {
         return false;
     };
+    let mortar = spec.discretisation == ContactDiscretisation::Mortar;
     ranks > 1
         && settings.problem.input == MeshInput::Root
-        && spec.discretisation == ContactDiscretisation::NodeToNode
-        && settings.adapt.is_none()
+        && !super::reads_whole_meshes(settings, mortar)
 }
 
 /// Both bodies' problems: whole on world rank 0, which builds them; on every other rank
@@ -69,7 +70,7 @@ pub(super) fn build_on_root(
         let mut w = Writer::default();
         for b in p {
             b.mesh_fingerprint();
-            w.bytes(&b.released().to_bytes().unwrap_or_default());
+            w.bytes(&b.released().to_bytes());
         }
         w.0
     });
@@ -124,13 +125,13 @@ impl Dealt {
             .sum()
     }
 
-    /// The bytes world rank 0 sends (`None`: a part that cannot be written, a mortar body's).
-    fn to_bytes(&self) -> Option<Vec<u8>> {
+    /// The bytes world rank 0 sends.
+    fn to_bytes(&self) -> Vec<u8> {
         let mut w = Writer::default();
         w.int(self.alpha);
         self.partition.write(&mut w);
         for p in &self.problems {
-            w.bytes(&p.to_bytes()?);
+            w.bytes(&p.to_bytes());
         }
         match &self.seeds {
             None => w.u8(0),
@@ -139,7 +140,7 @@ impl Dealt {
                 seeds.iter().for_each(|s| s.write(&mut w));
             }
         }
-        Some(w.0)
+        w.0
     }
 
     /// What [`Dealt::to_bytes`] wrote.
@@ -206,8 +207,8 @@ pub(super) fn deal_parts(
     Ok((mine, input_elements))
 }
 
-/// On world rank 0: every other rank sent what it works with ([`dealt_to`]; a part that cannot
-/// be written, a mortar body's, sent empty: the rank refuses it); rank 0's own returned.
+/// On world rank 0: every other rank sent what it works with ([`dealt_to`]); rank 0's own
+/// returned.
 fn send_parts(
     problems: &[Rc<BodyProblem>; 2],
     partitions: [Vec<Partition>; 2],
@@ -228,7 +229,6 @@ fn send_parts(
     });
     let reference = settings.estimate.reference_factor;
     let mut own = None;
-    let mut unwritten = false;
     for (k, parts) in partitions.into_iter().enumerate() {
         let ranks = layout.group_ranks(k + 1);
         for (g, partition) in parts.into_iter().enumerate() {
@@ -239,16 +239,11 @@ fn send_parts(
                 continue;
             }
             let bytes = dealt.to_bytes();
-            unwritten |= bytes.is_none();
             drop(dealt);
-            root::send_to(
-                &layout.world,
-                (ranks.start + g) as i32,
-                &bytes.unwrap_or_default(),
-            );
+            root::send_to(&layout.world, (ranks.start + g) as i32, &bytes);
         }
     }
-    own.filter(|_| !unwritten)
+    own
 }
 
 /// What world rank `rank` of body `alpha`'s group works with, its `partition` of the body

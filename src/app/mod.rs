@@ -287,9 +287,13 @@ pub(crate) fn solve_cycle(
         }
     };
     if let Some(why) = settings.problem.node_to_node_instead(&problems)? {
-        // (`-nndd_contact_discretisation auto` where mortar is not available)
+        // (`-nndd_contact_discretisation auto` where mortar is not available: the curves made
+        // to match on world rank 0, the bodies built again as before)
         settings.warnings.push(why);
-        problems = build_problems(&settings, agreement)?;
+        problems = match on_root {
+            true => input::build_on_root(&settings, agreement, world)?,
+            false => build_problems(&settings, agreement)?,
+        };
     }
     say_contact_curves(&settings, &problems, world.rank() == 0);
     // The mortar discretisation, or a body held only by contact, decides the Dirichlet step's
@@ -471,7 +475,7 @@ fn release_unread_meshes(
     layout: &Layout,
 ) -> [Rc<BodyProblem>; 2] {
     let pair = [&*problems[0], &*problems[1]];
-    if reads_whole_meshes(settings, pair) {
+    if reads_whole_meshes(settings, mortar(pair)) {
         return problems;
     }
     let sizes = pair.map(|p| p.num_elements());
@@ -485,11 +489,16 @@ fn release_unread_meshes(
     })
 }
 
-/// Whether a rank that holds a body's mesh reads it whole through the run: a mortar run's
-/// estimates map both bodies' meshes onto their matched ones, an adaptive run remeshes both.
-fn reads_whole_meshes(settings: &Settings, problems: [&BodyProblem; 2]) -> bool {
-    let mortar = problem::discretisation(problems) == ContactDiscretisation::Mortar;
+/// Whether a rank that holds a body's mesh reads it whole through the run (`mortar`: the
+/// bodies are coupled by mortar): a mortar run's estimates map both bodies' meshes onto their
+/// matched ones, an adaptive run remeshes both.
+fn reads_whole_meshes(settings: &Settings, mortar: bool) -> bool {
     (mortar && settings.estimate.enabled) || settings.adapt.is_some()
+}
+
+/// Whether the bodies `problems` are coupled by mortar.
+fn mortar(problems: [&BodyProblem; 2]) -> bool {
+    problem::discretisation(problems) == ContactDiscretisation::Mortar
 }
 
 /// Each body's problem with its mesh, where it is listed (a Gmsh body's), cut to the part this
@@ -510,7 +519,7 @@ fn keep_read_parts(
     // (a built-in body's mesh is its grid's formula: nothing to cut; the condition is the same
     // on every rank, as the estimator's shares are made collectively)
     let pair = [&*problems[0], &*problems[1]];
-    if settings.problem.mesh.is_none() || reads_whole_meshes(settings, pair) {
+    if settings.problem.mesh.is_none() || reads_whole_meshes(settings, mortar(pair)) {
         return problems;
     }
     let estimated = estimator.as_ref().map(|e| e.elements_read());

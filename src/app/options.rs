@@ -226,13 +226,15 @@ impl Settings {
                 format!("friction (-nndd_friction {}) is not available with the mortar discretisation yet; use node_to_node (the curves are then made to match)", self.friction.name()),
             ));
         }
-        let closed = match &self.problem.mesh {
-            Some(spec) => spec
+        // (read from the file where the run estimates, which holds it on every rank: a mortar
+        // run that does not may hold it on world rank 0 alone, `app::input::on_root`)
+        let closed = match (&self.problem.mesh, self.estimate.enabled) {
+            (Some(spec), true) => spec
                 .closed_contact()
                 .map_err(|e| SettingsError::named("-nndd_contact", e.to_string()))?,
-            None => None,
+            _ => None,
         };
-        if let (Some(curve), true) = (closed, self.estimate.enabled) {
+        if let Some(curve) = closed {
             return Err(SettingsError::named(
                 "-nndd_contact",
                 format!("the contact curve '{curve}' is closed: the error estimates are not available on closed contact curves yet (their matched meshes need open ones); solve without -nndd_estimate, -nndd_estimate_every, -nndd_reference_factor and -nndd_stop balanced, or name open arcs"),

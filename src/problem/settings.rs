@@ -444,15 +444,20 @@ impl MeshSpec {
     }
 
     /// The same problem node to node (`auto`'s choice where mortar is not available): the
-    /// user's curves made to match ([`super::conform`]).
+    /// user's curves made to match ([`super::conform`]) on world rank 0, the others told what
+    /// it made (where they do not hold the file: `-nndd_mesh_input root`). Collective.
     pub fn node_to_node(&self) -> Result<MeshSpec, MeshedError> {
         if self.discretisation == ContactDiscretisation::NodeToNode {
             return Ok(self.clone());
         }
-        let (gmsh, matched) = super::conform::conform(self.gmsh.mesh()?, &self.contact);
+        let mesh = self.gmsh.mesh().ok().cloned();
+        let given = DiscretisationChoice::Given(ContactDiscretisation::NodeToNode);
+        let (gmsh, discretisation, matched) =
+            resolve_on_root(&self.gmsh.path, mesh, &self.contact, given)
+                .map_err(|e| super::curves::opt_err("-nndd_mesh", e))?;
         Ok(MeshSpec {
-            gmsh: ParsedFile::new(gmsh),
-            discretisation: ContactDiscretisation::NodeToNode,
+            gmsh,
+            discretisation,
             matched: Rc::new(matched),
             ..self.clone()
         })

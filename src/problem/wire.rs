@@ -1,9 +1,10 @@
 //! A body's problem as bytes: what the rank that built both bodies sends each other rank
 //! (`app::input`), with the mesh as that rank holds it (whole, its part, or released to the
-//! outline). Node-to-node problems alone: a mortar trace's coupling is not written.
+//! outline), and its trace on Γc (a mortar body's coupling with it).
 
 use std::cell::OnceCell;
 
+use super::mortar::Coupling;
 use super::{BodyMesh, BodyProblem, GcTrace, NeumannEdge, Outline, Support};
 use crate::fem::mesh::Mesh;
 use crate::fem::wire::{Reader, Writer};
@@ -15,12 +16,8 @@ const RELEASED: u8 = 2;
 
 impl BodyProblem {
     /// The problem as bytes, its mesh as held here and its whole mesh's fingerprint (made
-    /// here from the whole mesh where not yet); `None` for a body under the mortar
-    /// discretisation (its coupling is not written).
-    pub fn to_bytes(&self) -> Option<Vec<u8>> {
-        if matches!(self.trace, GcTrace::Mortar(_)) {
-            return None;
-        }
+    /// here from the whole mesh where not yet).
+    pub fn to_bytes(&self) -> Vec<u8> {
         let mut w = Writer::default();
         w.int(self.alpha);
         match &self.mesh {
@@ -60,7 +57,8 @@ impl BodyProblem {
             Support::Conditions => 0,
             Support::Contact => 1,
         });
-        Some(w.0)
+        write_trace(&mut w, &self.trace);
+        w.0
     }
 
     /// What [`BodyProblem::to_bytes`] wrote (`None` for bytes it did not write).
@@ -98,7 +96,6 @@ impl BodyProblem {
             dirichlet,
             neumann,
             contact_nodes: r.ints()?,
-            trace: GcTrace::Nodes,
             gap: r.f64s()?,
             contact_normals: r.points()?,
             contact_lengths: r.f64s()?,
@@ -109,9 +106,69 @@ impl BodyProblem {
                 1 => Support::Contact,
                 _ => return None,
             },
+            // (the fields are read in the order written)
+            trace: read_trace(&mut r)?,
         };
         r.is_done().then_some(problem)
     }
+}
+
+const NODES: u8 = 0;
+const MORTAR: u8 = 1;
+
+/// A body's trace on Γc: node to node, or a mortar body's coupling ([`Coupling`]: its rows of
+/// P by the other body's node, the weighted gaps and normals, and where Γc closes).
+fn write_trace(w: &mut Writer, trace: &GcTrace) {
+    let GcTrace::Mortar(c) = trace else {
+        w.u8(NODES);
+        return;
+    };
+    w.u8(MORTAR);
+    w.ints(&c.nodes);
+    w.points(&c.normals);
+    w.f64s(&c.gap);
+    w.list(&c.rows, |w, row| {
+        w.list(row, |w, &(node, p)| {
+            w.int(node);
+            w.f64(p);
+        })
+    });
+    w.f64(c.seconds);
+    match c.closing {
+        None => w.u8(0),
+        Some(length) => {
+            w.u8(1);
+            w.f64(length);
+        }
+    }
+}
+
+/// What [`write_trace`] wrote.
+fn read_trace(r: &mut Reader) -> Option<GcTrace> {
+    match r.u8()? {
+        NODES => return Some(GcTrace::Nodes),
+        MORTAR => {}
+        _ => return None,
+    }
+    let nodes = r.ints()?;
+    let normals = r.points()?;
+    let gap = r.f64s()?;
+    let rows = r.list(8, |r| r.list(16, |r| Some((r.int()?, r.f64()?))))?;
+    let seconds = r.f64()?;
+    let closing = match r.u8()? {
+        0 => None,
+        1 => Some(r.f64()?),
+        _ => return None,
+    };
+    let coupling = Coupling {
+        nodes,
+        normals,
+        gap,
+        rows,
+        seconds,
+        closing,
+    };
+    Some(GcTrace::Mortar(std::rc::Rc::new(coupling)))
 }
 
 #[cfg(test)]
@@ -119,32 +176,37 @@ mod tests {
     use super::*;
     use crate::problem::{benchmarks, ProblemKind, ProblemSettings};
 
-    /// A built-in body, whole, as a part and released, read back with the same data: its
-    /// counts, conditions, Γc, outline and fingerprint.
-    #[test]
-    fn a_body_problem_written_as_bytes_reads_back_the_same() {
+    /// `paper` n's settings, both bodies steel.
+    fn paper(n: usize) -> ProblemSettings {
         let steel = Material {
             young: 210e9,
             poisson: 0.27,
         };
-        let settings = ProblemSettings {
+        ProblemSettings {
             kind: ProblemKind::Paper,
-            n: 4,
-            grids: [(4, 4), (4, 4)],
+            n,
+            grids: [(n, n), (n, n)],
             materials: [steel, steel],
             u_d: -1e-4,
             f_max: 1e7,
             mesh: None,
             partitioner: Default::default(),
             input: Default::default(),
-        };
+        }
+    }
+
+    /// A built-in body, whole, as a part and released, read back with the same data: its
+    /// counts, conditions, Γc, outline and fingerprint.
+    #[test]
+    fn a_body_problem_written_as_bytes_reads_back_the_same() {
+        let settings = paper(4);
         let body = benchmarks::body(&settings, 2);
         // (made from the whole mesh, and kept by the part and the outline made from it)
         let fingerprint = body.mesh_fingerprint();
         let part = body.part(&[0, 5, 9], &[1]);
         let released = body.released();
         for p in [&body, &part, &released] {
-            let back = BodyProblem::from_bytes(&p.to_bytes().unwrap()).expect("read back");
+            let back = BodyProblem::from_bytes(&p.to_bytes()).expect("read back");
             assert_eq!(
                 (back.alpha, back.num_nodes(), back.num_elements()),
                 (2, body.num_nodes(), body.num_elements())
@@ -171,14 +233,39 @@ mod tests {
             );
             assert_eq!(back.trace, GcTrace::Nodes);
         }
-        let back = BodyProblem::from_bytes(&part.to_bytes().unwrap()).unwrap();
+        let back = BodyProblem::from_bytes(&part.to_bytes()).unwrap();
         assert_eq!(back.mesh().triangles.get(9), body.mesh().triangles.get(9));
-        let bytes = body.to_bytes().unwrap();
+        let bytes = body.to_bytes();
         assert!(BodyProblem::from_bytes(&bytes[..bytes.len() - 1]).is_none());
         // A part whose whole mesh's fingerprint was never made cannot make it.
         let fresh = benchmarks::body(&settings, 2).part(&[0], &[]);
         let made =
             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| fresh.mesh_fingerprint()));
         assert!(made.is_err());
+    }
+
+    /// A mortar body's coupling read back entry for entry (its rows of P, gaps, normals and
+    /// the closing segment), and a damaged trace refused.
+    #[test]
+    fn a_mortar_trace_reads_back_the_same() {
+        let mut body = benchmarks::body(&paper(4), 1);
+        let coupling = Coupling {
+            nodes: vec![3, 7],
+            normals: vec![[0.0, 1.0], [0.6, 0.8]],
+            gap: vec![1e-3, -2e-4],
+            rows: vec![vec![(10, 0.25), (11, 0.75)], vec![(11, 1.0)]],
+            seconds: 0.5,
+            closing: Some(0.125),
+        };
+        for closing in [Some(0.125), None] {
+            body.trace = GcTrace::Mortar(std::rc::Rc::new(Coupling {
+                closing,
+                ..coupling.clone()
+            }));
+            let bytes = body.to_bytes();
+            let back = BodyProblem::from_bytes(&bytes).expect("read back");
+            assert_eq!(back.trace, body.trace);
+            assert!(BodyProblem::from_bytes(&bytes[..bytes.len() - 1]).is_none());
+        }
     }
 }
