@@ -208,7 +208,7 @@ fn estimating_ranks_are_sent_their_overlaps_and_estimate_what_every_rank_buildin
 /// METIS; 4, index blocks) and the pin in its hole, whose closed curves are coupled all round
 /// (3 ranks). No rank but world rank 0 holds the file or more of the meshes than it holds
 /// through the run, the parts held are those of `every_rank`, and the result files are the same
-/// in both modes and one rank's solution to 1e−10.
+/// in both modes (to 1e−10: MUMPS's parallel round-off) and one rank's solution to 1e−10.
 #[test]
 fn a_mortar_run_s_ranks_are_sent_their_parts_with_the_coupling() {
     let dir = scratch("mesh-input-mortar");
@@ -264,7 +264,9 @@ fn a_mortar_run_s_ranks_are_sent_their_parts_with_the_coupling() {
             "{what}: {file:?}"
         );
         assert_eq!(root["iterations"], every["iterations"], "{what}");
-        same_results(&root_h5, &every_h5, 1e-12, &what);
+        // (MUMPS's factorisation over several ranks is not reproducible to the last bit: two
+        // runs alike differ by up to 3e-12 of the largest stress here)
+        same_results(&root_h5, &every_h5, 1e-10, &what);
         let (a, b) = (f(&one, "potential_energy"), f(&root, "potential_energy"));
         assert!(
             ((a - b) / a).abs() < 1e-10,
@@ -275,14 +277,14 @@ fn a_mortar_run_s_ranks_are_sent_their_parts_with_the_coupling() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A run whose later phases read the parsed file on every rank (here an adaptive run, whose
-/// cycles remesh its geometry; a mortar run's estimates, which map its bodies onto matched
-/// meshes, alike) is sent the file and builds the bodies on every rank, as
-/// `every_rank`, whatever `-nndd_mesh_input` says; a built-in problem reports no input mesh
-/// (its grids are formulas), and the option is refused beside it.
+/// An adaptive run under `root`, on 4 ranks: world rank 0 remeshes each cycle's geometry,
+/// keeps the file (no other rank holds it) and deals the bodies, and builds the whole meshes
+/// again for the size view; every rank holds its parts through each cycle, not the whole
+/// bodies, the same parts as under `every_rank`, and the cycles (their meshes, η^glo and the
+/// last cycle's result files) are those of `every_rank`.
 #[test]
-fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
-    let dir = scratch("mesh-input-whole");
+fn an_adaptive_run_s_cycles_are_dealt_from_world_rank_0() {
+    let dir = scratch("mesh-input-adapt");
     let mut args = paper_mesh_args(
         std::path::Path::new(PAPER_GEO),
         "contact1,contact2",
@@ -291,27 +293,76 @@ fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
     args.extend(
         [
             "-nndd_geo_set",
-            "n=8",
+            "n=32",
             "-nndd_adapt_tol",
-            "0.5",
+            "0.02",
             "-nndd_adapt_max_cycles",
-            "1",
+            "3",
+            "-nndd_tol",
+            "1e-12",
         ]
         .map(String::from),
     );
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let j = solve(3, &dir.join("adaptive"), &args);
-    assert_eq!(
-        j["input_mesh_elements_per_rank"],
-        serde_json::json!([256, 256, 256])
-    );
-    let points = j["input_file_points_per_rank"].as_array().unwrap();
+    let elements = |j: &serde_json::Value, key: &str| -> Vec<u64> {
+        serde_json::from_value(j[key].clone()).unwrap()
+    };
+    let run = |input: &str| {
+        let mut a: Vec<&str> = args.iter().map(String::as_str).collect();
+        a.extend(["-nndd_mesh_input", input]);
+        solve(4, &dir.join(input), &a)
+    };
+    let (root, every) = (run("root"), run("every_rank"));
+    let cycles = |j: &serde_json::Value| -> Vec<(u64, f64)> {
+        let list = j["cycles"].as_array().unwrap();
+        list.iter()
+            .map(|c| (c["elements"].as_u64().unwrap(), f(c, "eta_glo")))
+            .collect()
+    };
+    let (a, b) = (cycles(&root), cycles(&every));
+    assert!(a.len() >= 2, "at least one remeshing: {a:?}");
+    assert_eq!(a.len(), b.len());
+    for ((na, ea), (nb, eb)) in a.iter().zip(&b) {
+        assert_eq!(na, nb, "the same meshes: {a:?} against {b:?}");
+        assert!((ea - eb).abs() < 1e-12 * ea, "eta_glo {ea} against {eb}");
+    }
+    // (the last cycle's input and parts)
+    let whole = a.last().unwrap().0;
+    let file = elements(&root, "input_file_points_per_rank");
     assert!(
-        points.len() == 3
-            && points
-                .iter()
-                .all(|p| p == &points[0] && p.as_u64() > Some(100))
+        file[0] > 1000 && file[1..].iter().all(|&n| n == 0),
+        "the last cycle's file on world rank 0 alone: {file:?}"
     );
+    assert_eq!(
+        elements(&every, "input_file_points_per_rank"),
+        vec![file[0]; 4]
+    );
+    let input = elements(&root, "input_mesh_elements_per_rank");
+    let held = elements(&root, "held_mesh_elements_per_rank");
+    assert_eq!(input[0], whole, "world rank 0 built both bodies");
+    assert_eq!(input[1..], held[1..], "the others sent their parts");
+    assert_eq!(held, elements(&every, "held_mesh_elements_per_rank"));
+    assert!(
+        held.iter().all(|&n| n < whole),
+        "every rank holds parts, not both bodies: {held:?} of {whole}"
+    );
+    let last = format!("-cycle{}", a.len());
+    let prefix = |input: &str| dir.join(format!("{input}{last}"));
+    same_results(
+        &prefix("root"),
+        &prefix("every_rank"),
+        1e-12,
+        "the last cycle",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A run whose later phases read the parsed file on every rank (a mortar run's estimates,
+/// which map its bodies onto matched meshes) is sent the file and builds the bodies on every
+/// rank, as `every_rank`, whatever `-nndd_mesh_input` says; a built-in problem reports no
+/// input mesh (its grids are formulas), and the option is refused beside it.
+#[test]
+fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
+    let dir = scratch("mesh-input-whole");
     let hertz = gmsh_level(HERTZ_NM_GEO, &dir, "hertz-nm", 1);
     let estimate = ["-nndd_contact_discretisation", "mortar", "-nndd_estimate"];
     let j = solve_meshed(3, HERTZ_NM_OPTS, &hertz, &dir.join("mortar"), &estimate);

@@ -9,6 +9,7 @@
 //! series, each its own mesh with its fields), `PREFIX-final.xdmf` (the last cycle alone) and
 //! `PREFIX.json` (the last cycle's summary with `adapt` and `cycles`).
 
+use std::rc::Rc;
 use std::time::Instant;
 
 use mpi::topology::SimpleCommunicator;
@@ -19,6 +20,7 @@ use super::{agreed, solve_cycle, AppError, Cycle, Outcome, Start};
 use crate::io::output::{self, OutputPaths};
 use crate::parallel::fault::Agreement;
 use crate::petsc::log::Stages;
+use crate::problem::BodyProblem;
 
 /// One cycle, as the summary's `cycles` lists it.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -190,9 +192,12 @@ fn next_meshes(
         adapt::AIM * adapt.tol * record.energy_norm * (record.eta_fe / record.eta_glo).min(1.0);
     let view = cycle_paths(base, cycle).with_ext("size.pos");
     let written = match layout.is_root() {
-        true => adapt::write_size_field(adapt, problems, &eta_fe, target, &view)
-            .map(Some)
-            .map_err(|e| AppError::Adapt(format!("{}: {e}", view.display()))),
+        true => whole_bodies_on_root(solved).and_then(|whole| {
+            let whole = [&*whole[0], &*whole[1]];
+            adapt::write_size_field(adapt, whole, &eta_fe, target, &view)
+                .map(Some)
+                .map_err(|e| AppError::Adapt(format!("{}: {e}", view.display())))
+        }),
         false => Ok(None),
     };
     let prediction = agreed(agreement, written)?;
@@ -202,7 +207,8 @@ fn next_meshes(
         .mesh
         .as_ref()
         .expect("an adaptive run has its geometry");
-    let spec = adapt::remesh(spec, &view, cycle + 1).map_err(AppError::Adapt)?;
+    let input = solved.settings.problem.input;
+    let spec = adapt::remesh(spec, input, &view, cycle + 1).map_err(AppError::Adapt)?;
     // Every rank needs the prediction only for the record: rank 0's is the one written.
     let prediction = prediction.unwrap_or(Prediction {
         elements: 0.0,
@@ -210,6 +216,17 @@ fn next_meshes(
         eta_fe: None,
     });
     Ok((spec, prediction))
+}
+
+/// On world rank 0, the cycle's bodies with their whole meshes, which the size view covers:
+/// the solved ones where it held them whole, else built again from the cycle's file, which
+/// rank 0 keeps (the ranks hold their parts through the solve, `app::keep_read_parts`, and
+/// under `-nndd_mesh_input root` no other rank holds the file; a build gives the same meshes).
+fn whole_bodies_on_root(solved: &Cycle) -> Result<[Rc<BodyProblem>; 2], AppError> {
+    match solved.problems.iter().all(|p| p.holds_listed_mesh()) {
+        true => Ok(solved.problems.clone()),
+        false => Ok(crate::problem::build(&solved.settings.problem)?),
+    }
 }
 
 /// The cycle's line (rank 0).

@@ -10,9 +10,10 @@
 //!
 //! The reference solution's fine bodies (`-nndd_reference_factor`) are built on world rank 0
 //! and dealt alike: rank 0 refines the file (`reference::solve_reference`). A mortar run's
-//! bodies are sent with their coupling. A run whose later phases read the whole meshes on
-//! every rank (a mortar run's estimates, an adaptive run's remeshing) builds them on every
-//! rank instead ([`on_root`]).
+//! bodies are sent with their coupling; an adaptive run's cycles each so (rank 0 remeshes, and
+//! builds the whole meshes again for the size view, `cycles::whole_bodies_on_root`). A mortar run
+//! that estimates, which maps both whole bodies onto their matched meshes on every rank,
+//! builds them on every rank instead ([`on_root`]).
 
 use std::rc::Rc;
 
@@ -35,9 +36,8 @@ use crate::problem::{self, BodyProblem, ContactDiscretisation};
 
 /// Whether this run builds its bodies on world rank 0 alone: a Gmsh problem on several ranks
 /// under `-nndd_mesh_input root` whose later phases do not read the whole meshes on every rank
-/// (a mortar run's estimates map both bodies onto their matched meshes, an adaptive run's
-/// cycles remesh the parsed file's geometry). Its reference solution's fine bodies are built on
-/// world rank 0 alike (`reference::solve_reference`).
+/// (a mortar run's estimates map both bodies onto their matched meshes). Its reference
+/// solution's fine bodies are built on world rank 0 alike (`reference::solve_reference`).
 pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     let Some(spec) = &settings.problem.mesh else {
         return false;

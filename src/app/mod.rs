@@ -465,8 +465,7 @@ fn say_warnings(root: bool, warnings: &[String]) {
 
 /// Each body's problem as this rank keeps it through the run: whole where a phase on this
 /// rank reads the body's mesh (the body of the rank's group, a body some of whose elements
-/// are estimated outside its group, every body of a mortar run that estimates or of an
-/// adaptive run), else with
+/// are estimated outside its group, every body of a mortar run that estimates), else with
 /// its mesh released ([`BodyProblem::released`]: its outline, O(√N), and its counts), so
 /// that a rank holds one body's mesh where it used to hold both.
 fn release_unread_meshes(
@@ -491,9 +490,10 @@ fn release_unread_meshes(
 
 /// Whether a rank that holds a body's mesh reads it whole through the run (`mortar`: the
 /// bodies are coupled by mortar): a mortar run's estimates map both bodies' meshes onto their
-/// matched ones, an adaptive run remeshes both.
+/// matched ones. (An adaptive run's size view covers the whole meshes on world rank 0 alone,
+/// which builds them again from the cycle's file, `cycles::whole_bodies_on_root`.)
 fn reads_whole_meshes(settings: &Settings, mortar: bool) -> bool {
-    (mortar && settings.estimate.enabled) || settings.adapt.is_some()
+    mortar && settings.estimate.enabled
 }
 
 /// Whether the bodies `problems` are coupled by mortar.
@@ -507,8 +507,8 @@ fn mortar(problems: [&BodyProblem; 2]) -> bool {
 /// rows), its block of the output's cells and nodes, Γc's nodes and the elements its estimates
 /// read ([`Estimator::elements_read`]; collective: the estimator's shares, its overlaps, are
 /// made here rather than at the first estimate). A body estimated whole on the rank, a
-/// built-in body (its grid's formula holds nothing), a part of most of the mesh, a mortar run
-/// that estimates and an adaptive run ([`reads_whole_meshes`]) keep theirs.
+/// built-in body (its grid's formula holds nothing), a part of most of the mesh and a mortar
+/// run that estimates ([`reads_whole_meshes`]) keep theirs.
 fn keep_read_parts(
     problems: [Rc<BodyProblem>; 2],
     settings: &Settings,

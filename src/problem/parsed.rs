@@ -7,7 +7,8 @@
 //! them on world rank 0 alone (`-nndd_mesh_input root`, `app::input`) never sends it. Only a
 //! reference solution's refinement (there on world rank 0 alone, which tells the other ranks
 //! the refined file's facts, [`ParsedFile::share_facts`]), a mortar run's matched meshes and
-//! an adaptive run's remeshing read it again; a run that does none of these releases it before its bodies are
+//! an adaptive run's size view and remeshing (under `root` on world rank 0 alone, which keeps
+//! each cycle's new file, [`crate::problem::meshed::MeshSpec::remeshed`]) read it again; a run that does none of these releases it before its bodies are
 //! set up ([`ParsedFile::release`]), keeping what it reports of the file to its end: the path,
 //! the physical names and each body's dofs.
 

@@ -431,16 +431,19 @@ fn resolve(
 }
 
 impl MeshSpec {
-    /// The same problem on a new mesh of its geometry (an adaptive run's next cycle): the
-    /// contact curves resolved as [`mesh_spec`] does.
-    pub fn remeshed(&self, gmsh: gmsh::GmshMesh) -> MeshSpec {
-        let (gmsh, discretisation, matched) = resolve(gmsh, &self.contact, self.choice);
-        MeshSpec {
-            gmsh: ParsedFile::new(gmsh),
+    /// The same problem on a new mesh `gmsh` of its geometry (an adaptive run's next cycle),
+    /// given on world rank 0 and on the other ranks that hold it (`None` on those that do
+    /// not: they are told the file's facts, [`resolve_on_root`]): the contact curves resolved
+    /// as [`mesh_spec`] does. Collective; an error on every rank where rank 0 has no mesh.
+    pub fn remeshed(&self, gmsh: Option<gmsh::GmshMesh>) -> Result<MeshSpec, String> {
+        let (gmsh, discretisation, matched) =
+            resolve_on_root(&self.gmsh.path, gmsh, &self.contact, self.choice)?;
+        Ok(MeshSpec {
+            gmsh,
             discretisation,
             matched: Rc::new(matched),
             ..self.clone()
-        }
+        })
     }
 
     /// The same problem node to node (`auto`'s choice where mortar is not available): the
