@@ -12,9 +12,12 @@
 //! resident memory then (the summary's `input_mesh_elements_per_rank` and
 //! `input_peak_memory_mib_per_rank`), the run's largest peak and the sum over the ranks, the
 //! input's time (`timings.input`), the run's total and the potential energy. More ranks than
-//! cores run oversubscribed: their memory is what is measured, not their speed. Run through
-//! `jobs/bench-input [--ranks LIST] [--estimate] [--reference R] [n …]` (default n = 512 on 2
-//! and 8 ranks); the table goes to `results/bench-input.txt`.
+//! cores run oversubscribed: their memory is what is measured, not their speed. Under
+//! `--adapt TOL` each run adapts instead, from examples/paper/paper.geo at level n
+//! (`-nndd_adapt_tol TOL`, at most 4 cycles; the row is the last cycle's, its dofs, input and
+//! peaks, the total the whole run's). Run through `jobs/bench-input [--ranks LIST]
+//! [--estimate] [--reference R] [--adapt TOL] [n …]` (default n = 512 on 2 and 8 ranks); the
+//! table goes to `results/bench-input.txt`.
 
 #[path = "runner.rs"]
 mod runner;
@@ -22,17 +25,35 @@ mod runner;
 use std::io::Write;
 use std::process::Command;
 
+/// What the command line asks for ([`parse_args`]).
+struct Args {
+    levels: Vec<usize>,
+    ranks: Vec<usize>,
+    estimate: bool,
+    /// The reference factor (0: none).
+    reference: usize,
+    /// `-nndd_adapt_tol` (none: a run on the level's mesh).
+    adapt: Option<f64>,
+}
+
 fn main() {
-    let (levels, ranks, estimate, reference) = parse_args();
+    let Args {
+        levels,
+        ranks,
+        estimate,
+        reference,
+        adapt,
+    } = parse_args();
     let dir = runner::scratch("bench-input");
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let mut lines = vec![
         format!("# jobs/bench-input{}: paper drawn in Gmsh, {}, theta 0.25, tol 1e-8; MiB per rank (peak resident), oversubscribed above {cores} ranks",
             std::env::args().skip(1).map(|a| format!(" {a}")).collect::<String>(),
-            match (estimate, reference) {
-                (false, _) => "no estimate".to_string(),
-                (true, 0) => "one estimate".to_string(),
-                (true, r) => format!("one estimate, reference factor {r}"),
+            match (adapt, estimate, reference) {
+                (Some(tol), ..) => format!("adaptive from paper.geo to eta_glo <= {tol} ||u_h||_E, the last cycle's row"),
+                (None, false, _) => "no estimate".to_string(),
+                (None, true, 0) => "one estimate".to_string(),
+                (None, true, r) => format!("one estimate, reference factor {r}"),
             }),
         format!(
             "{:>5} {:>5} {:>9} {:>10} {:>10} {:>12} {:>10} {:>12} {:>9} {:>12} {:>8} {:>8} {:>8} {:>7} {:>16}",
@@ -42,24 +63,34 @@ fn main() {
     ];
     for &n in &levels {
         let msh = dir.join(format!("paper-{n}.msh"));
-        let st = Command::new("gmsh")
-            .args([
-                "-2",
-                "-format",
-                "msh41",
-                "-bin",
-                "-v",
-                "1",
-                "-setnumber",
-                "n",
-            ])
-            .arg(n.to_string())
-            .arg("examples/paper/paper.geo")
-            .arg("-o")
-            .arg(&msh)
-            .status()
-            .expect("gmsh runs (jobs/setup installs it)");
-        assert!(st.success(), "gmsh failed on paper.geo, n = {n}");
+        let how = match adapt {
+            Some(tol) => How::Adapt(tol),
+            None => How::Once {
+                estimate,
+                reference,
+            },
+        };
+        // (an adaptive run meshes the geometry itself)
+        if adapt.is_none() {
+            let st = Command::new("gmsh")
+                .args([
+                    "-2",
+                    "-format",
+                    "msh41",
+                    "-bin",
+                    "-v",
+                    "1",
+                    "-setnumber",
+                    "n",
+                ])
+                .arg(n.to_string())
+                .arg("examples/paper/paper.geo")
+                .arg("-o")
+                .arg(&msh)
+                .status()
+                .expect("gmsh runs (jobs/setup installs it)");
+            assert!(st.success(), "gmsh failed on paper.geo, n = {n}");
+        }
         let msh = msh.to_str().expect("utf-8 path").to_string();
         for (i, &p) in ranks.iter().enumerate() {
             let order = match i % 2 {
@@ -69,7 +100,7 @@ fn main() {
             for input in order {
                 eprintln!("bench-input: n = {n} on {p} ranks, -nndd_mesh_input {input} …");
                 let prefix = dir.join(format!("n{n}-p{p}-{input}"));
-                let args = problem_args(&msh, input, estimate, reference);
+                let args = problem_args(n, &msh, input, how);
                 let args: Vec<&str> = args.iter().map(String::as_str).collect();
                 let mpirun: &[&str] = if p > cores { &["--oversubscribe"] } else { &[] };
                 let row =
@@ -89,26 +120,47 @@ fn main() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The options of `paper` on the Gmsh mesh `msh` (examples/paper/paper.opts gives its curves,
-/// conditions, θ and tolerance), one estimate of the final iterate or none, with the reference
-/// solution of factor `reference` (none: 0), its bodies built as `input` says.
-fn problem_args(msh: &str, input: &str, estimate: bool, reference: usize) -> Vec<String> {
-    let reference = reference.to_string();
-    [
-        "-nndd_mesh",
-        msh,
-        "-nndd_estimate",
-        if estimate { "true" } else { "false" },
-        "-nndd_estimate_every",
-        "0",
-        "-nndd_reference_factor",
-        &reference,
-        "-nndd_mesh_input",
-        input,
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect()
+/// What each run does.
+#[derive(Clone, Copy)]
+enum How {
+    /// A solve on the level's mesh, one estimate of the final iterate or none, with the
+    /// reference solution of factor `reference` (none: 0).
+    Once { estimate: bool, reference: usize },
+    /// Adaptive cycles from paper.geo at the level until η^glo ≤ TOL ‖u_h‖_E.
+    Adapt(f64),
+}
+
+/// The options of `paper` at level `n` (examples/paper/paper.opts gives its curves,
+/// conditions, θ and tolerance) on the Gmsh mesh `msh` or its geometry, as `how` says, its
+/// bodies built as `input` says.
+fn problem_args(n: usize, msh: &str, input: &str, how: How) -> Vec<String> {
+    let mut args = match how {
+        How::Once {
+            estimate,
+            reference,
+        } => vec![
+            "-nndd_mesh".into(),
+            msh.into(),
+            "-nndd_estimate".into(),
+            estimate.to_string(),
+            "-nndd_estimate_every".into(),
+            "0".into(),
+            "-nndd_reference_factor".into(),
+            reference.to_string(),
+        ],
+        How::Adapt(tol) => vec![
+            "-nndd_mesh".into(),
+            "examples/paper/paper.geo".into(),
+            "-nndd_geo_set".into(),
+            format!("n={n}"),
+            "-nndd_adapt_tol".into(),
+            tol.to_string(),
+            "-nndd_adapt_max_cycles".into(),
+            "4".into(),
+        ],
+    };
+    args.extend(["-nndd_mesh_input".into(), input.into()]);
+    args
 }
 
 /// One row of the table from a run's summary `j` and its wall time.
@@ -161,15 +213,16 @@ fn write_table(lines: &[String]) {
         .expect("write results/bench-input.txt");
 }
 
-/// `[--ranks LIST] [--estimate] [--reference R] [n …]`: the levels (default 512), the rank
-/// counts (default 2 and 8), whether each run estimates and the reference factor (0: none;
-/// `--reference` implies `--estimate`).
-fn parse_args() -> (Vec<usize>, Vec<usize>, bool, usize) {
+/// `[--ranks LIST] [--estimate] [--reference R] [--adapt TOL] [n …]`: the levels (default
+/// 512), the rank counts (default 2 and 8), whether each run estimates and the reference factor
+/// (0: none; `--reference` implies `--estimate`), or the adaptive runs' tolerance.
+fn parse_args() -> Args {
     let fail = |msg: String| -> ! {
         eprintln!("bench-input: {msg}");
         std::process::exit(2);
     };
     let (mut levels, mut ranks, mut estimate, mut reference) = (Vec::new(), vec![2, 8], false, 0);
+    let mut adapt = None;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -188,10 +241,17 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool, usize) {
                     _ => fail("--reference needs a factor in 2..=16".into()),
                 }
             }
+            "--adapt" => {
+                let tol = it.next().and_then(|t| t.parse::<f64>().ok());
+                match tol {
+                    Some(t) if t > 0.0 && t < 1.0 => adapt = Some(t),
+                    _ => fail("--adapt needs a tolerance in (0, 1)".into()),
+                }
+            }
             level => match level.parse::<usize>() {
                 Ok(n) if n >= 2 => levels.push(n),
                 _ => fail(format!(
-                    "'{level}': expected --ranks LIST, --estimate, --reference R or a level n >= 2"
+                    "'{level}': expected --ranks LIST, --estimate, --reference R, --adapt TOL or a level n >= 2"
                 )),
             },
         }
@@ -199,5 +259,11 @@ fn parse_args() -> (Vec<usize>, Vec<usize>, bool, usize) {
     if levels.is_empty() {
         levels.push(512);
     }
-    (levels, ranks, estimate, reference)
+    Args {
+        levels,
+        ranks,
+        estimate,
+        reference,
+        adapt,
+    }
 }
