@@ -168,7 +168,8 @@ fn cycle_paths(base: &OutputPaths, cycle: usize) -> OutputPaths {
 }
 
 /// The next cycle's problem: the size view from η^FE's element maps (rank 0, written beside
-/// the cycle's files), both bodies remeshed by Gmsh (rank 0, sent to every rank).
+/// the cycle's files), both bodies remeshed by Gmsh (rank 0; sent to every rank under `every_rank`,
+/// [`adapt::remesh`]).
 fn next_meshes(
     solved: &Cycle,
     record: &CycleRecord,
