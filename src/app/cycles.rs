@@ -221,7 +221,7 @@ fn next_meshes(
 
 /// On world rank 0, the cycle's bodies with their whole meshes, which the size view covers:
 /// the solved ones where it held them whole, else built again from the cycle's file, which
-/// rank 0 keeps (the ranks hold their parts through the solve, `app::keep_read_parts`, and
+/// rank 0 keeps (the ranks hold their parts through the solve, `app::parts::keep_read_parts`, and
 /// under `-nndd_mesh_input root` no other rank holds the file; a build gives the same meshes).
 fn whole_bodies_on_root(solved: &Cycle) -> Result<[Rc<BodyProblem>; 2], AppError> {
     match solved.problems.iter().all(|p| p.holds_listed_mesh()) {

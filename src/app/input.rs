@@ -4,7 +4,7 @@
 //! its group and sends every rank its partition, each body's problem cut to the part the rank
 //! reads and, where the run estimates, the rank's shares of the estimates (its overlaps, made
 //! from the whole meshes on rank 0: `estimate::share::SharePlan`) ([`deal_parts`]): what
-//! `app::keep_read_parts` leaves a rank that built the bodies itself, so the run goes on
+//! `app::parts::keep_read_parts` leaves a rank that built the bodies itself, so the run goes on
 //! alike. No rank but world rank 0 builds or holds a whole body (docs/scaling.md, "Memory per
 //! rank"; the summary's `input_mesh_elements_per_rank`).
 //!
@@ -45,7 +45,7 @@ pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     let mortar = spec.discretisation == ContactDiscretisation::Mortar;
     ranks > 1
         && settings.problem.input == MeshInput::Root
-        && !super::reads_whole_meshes(settings, mortar)
+        && !super::parts::reads_whole_meshes(settings, mortar)
 }
 
 /// Both bodies' problems: whole on world rank 0, which builds them; on every other rank
@@ -247,9 +247,9 @@ fn send_parts(
 }
 
 /// What world rank `rank` of body `alpha`'s group works with, its `partition` of the body
-/// given: each body's problem cut to the part the rank reads (what `app::release_unread_meshes`
-/// and `app::keep_read_parts` leave a rank that built the bodies itself,
-/// [`super::read_part_in`]) and its shares of the estimates where the run estimates (`plans`;
+/// given: each body's problem cut to the part the rank reads (what `app::parts::release_unread_meshes`
+/// and `app::parts::keep_read_parts` leave a rank that built the bodies itself,
+/// [`super::parts::read_part_in`]) and its shares of the estimates where the run estimates (`plans`;
 /// `gc`: each body's Γc elements, which they read; with the reference solution of factor `r`,
 /// none where 0).
 fn dealt_to(
@@ -268,7 +268,7 @@ fn dealt_to(
         let ranks = layout.group_ranks(k + 1);
         let in_group = k + 1 == alpha;
         // (outside its group, a body is read where some of its elements are estimated outside
-        // the group, else released: `app::release_unread_meshes`)
+        // the group, else released: `app::parts::release_unread_meshes`)
         if !in_group && !plans.as_ref().is_some_and(|p| p[k].crosses()) {
             return Rc::new(p.released());
         }
@@ -288,7 +288,8 @@ fn dealt_to(
         };
         let [cells, nodes] = [p.num_elements(), p.num_nodes()].map(block);
         let partition = in_group.then_some(&partition);
-        let part = read.and_then(|read| super::read_part_in(p, cells, nodes, partition, read));
+        let part =
+            read.and_then(|read| super::parts::read_part_in(p, cells, nodes, partition, read));
         part.unwrap_or_else(|| p.clone())
     });
     Dealt {

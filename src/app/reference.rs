@@ -183,7 +183,7 @@ fn fine_parts(
     let cut = partitions(problems.each_ref().map(Option::as_ref), layout, how)?;
     let problems = problems.map(|p| {
         let p = p?;
-        let part = super::read_part(&p, layout, cut[p.alpha - 1].as_ref(), Vec::new());
+        let part = super::parts::read_part(&p, layout, cut[p.alpha - 1].as_ref(), Vec::new());
         Some(part.unwrap_or(p))
     });
     Ok((problems, cut))

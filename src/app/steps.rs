@@ -9,7 +9,7 @@ pub(super) struct Run<'a> {
     settings: &'a Settings,
     layout: &'a Layout,
     /// The bodies' problems: as built, then each Gmsh body's mesh cut to the part the rank
-    /// reads ([`super::keep_read_parts`]).
+    /// reads ([`super::parts::keep_read_parts`]).
     problems: [Rc<BodyProblem>; 2],
     stages: &'a Stages,
     agreement: &'a Agreement,

@@ -23,7 +23,7 @@ pub struct Reference {
     /// The nodes at which this rank held the fine bodies' solution (both bodies' counts).
     pub held_nodes: usize,
     /// The elements of the fine bodies' meshes this rank held through their set-up and solve
-    /// (a Gmsh body's part, `app::read_part`; a built-in body's grid, whole, holds nothing).
+    /// (a Gmsh body's part, `app::parts::read_part`; a built-in body's grid, whole, holds nothing).
     pub held_elements: usize,
     /// This rank's peak resident memory (MiB) once the fine bodies were built and cut to its
     /// parts, before their set-up (what building them on the rank costs it).

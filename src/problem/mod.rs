@@ -384,7 +384,7 @@ impl BodyProblem {
     ///
     /// # Panics
     /// Where this rank released it ([`BodyProblem::released`]): a rank releases the mesh of a
-    /// body only where nothing after reads it there (`app::release_unread_meshes`). Where it
+    /// body only where nothing after reads it there (`app::parts::release_unread_meshes`). Where it
     /// holds a part ([`BodyProblem::part`]), on reading an element or a node beyond it.
     pub fn mesh(&self) -> &Mesh {
         match &self.mesh {

@@ -28,7 +28,7 @@ pub enum MeshInput {
     /// [`EveryRank`]: MeshInput::EveryRank
     #[default]
     Root,
-    /// Every rank builds both bodies, then keeps its part (`app::keep_read_parts`).
+    /// Every rank builds both bodies, then keeps its part (`app::parts::keep_read_parts`).
     EveryRank,
 }
 
