@@ -22,7 +22,7 @@ use mpi::traits::*;
 
 use super::options::Settings;
 use super::{agreed, AppError};
-use crate::estimate::estimator::{contact_elements, elements_read_by};
+use crate::estimate::estimator::{contact_elements, elements_read_by, Estimator};
 use crate::estimate::reference::coarse_elements_under;
 use crate::estimate::share::{estimated_outside_group, Seed, SharePlan};
 use crate::fem::mesh::element_u32;
@@ -117,6 +117,23 @@ pub(super) struct Dealt {
 }
 
 impl Dealt {
+    /// The partitions and the problems this rank holds, the estimator's shares made from the
+    /// seeds world rank 0 sent (collective).
+    pub(super) fn hold(
+        self,
+        estimator: &mut Option<Estimator>,
+    ) -> ([Option<Partition>; 2], [Rc<BodyProblem>; 2]) {
+        let mut partitions = [None, None];
+        partitions[self.alpha - 1] = Some(self.partition);
+        if let Some(e) = estimator {
+            if let Some(seeds) = self.seeds {
+                e.take_shares(seeds);
+            }
+            e.hold(&self.problems);
+        }
+        (partitions, self.problems)
+    }
+
     /// The elements of the meshes this rank holds.
     fn held_elements(&self) -> usize {
         (self.problems.iter())

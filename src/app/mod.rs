@@ -350,7 +350,7 @@ pub(crate) fn solve_cycle(
     // Partition: each body over its group (METIS); then a Gmsh body's mesh cut, on each rank,
     // to the part it reads from here on.
     let (partitions, problems) = match dealt {
-        Some(dealt) => parts::hold_dealt(dealt, &mut estimator),
+        Some(dealt) => dealt.hold(&mut estimator),
         None => {
             let partitions = run.partitions()?;
             let held =

@@ -1,12 +1,11 @@
 //! What each rank keeps of the bodies' meshes once the ranks are laid out: the body of its
 //! group and any body it estimates part of, the others released to their outlines
 //! ([`release_unread_meshes`]); then, once the bodies are partitioned, each mesh cut to the
-//! part the rank reads ([`keep_read_parts`]), or the parts world rank 0 dealt it
-//! ([`hold_dealt`], `app::input`). docs/scaling.md, "Memory per rank".
+//! part the rank reads ([`keep_read_parts`]; where world rank 0 builds the bodies, it cuts
+//! every rank's part alike, `app::input`). docs/scaling.md, "Memory per rank".
 
 use std::rc::Rc;
 
-use super::input;
 use super::options::Settings;
 use crate::estimate::estimator::Estimator;
 use crate::parallel::layout::Layout;
@@ -89,23 +88,6 @@ pub(super) fn keep_read_parts(
     held
 }
 
-/// The partitions and the problems of a rank that world rank 0 dealt them to
-/// ([`input::deal_parts`]), the estimator's shares made from the seeds it sent (collective).
-pub(super) fn hold_dealt(
-    dealt: input::Dealt,
-    estimator: &mut Option<Estimator>,
-) -> ([Option<Partition>; 2], [Rc<BodyProblem>; 2]) {
-    let mut partitions = [None, None];
-    partitions[dealt.alpha - 1] = Some(dealt.partition);
-    if let Some(e) = estimator {
-        if let Some(seeds) = dealt.seeds {
-            e.take_shares(seeds);
-        }
-        e.hold(&dealt.problems);
-    }
-    (partitions, dealt.problems)
-}
-
 /// Body α's problem `p` with its mesh cut to the part this rank reads (`None` where its mesh is
 /// not listed, or the part would be most of it: a part holds 4 B more per entry than the
 /// whole): the `elements` given, its elements of `partition` and its nodes (its rows), its
@@ -150,7 +132,7 @@ pub(super) fn read_part_in(
 
 /// The elements of the bodies' meshes this rank holds once they are built: both bodies'
 /// where it built them, none of a built-in body's (its grid's formula), its part where
-/// world rank 0 built them ([`input::deal_parts`] counts those).
+/// world rank 0 built them (`input::deal_parts` counts those).
 pub(super) fn input_mesh_elements(problems: &[Rc<BodyProblem>; 2]) -> usize {
     (problems.iter())
         .filter(|p| p.holds_listed_mesh())
