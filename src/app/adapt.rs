@@ -12,7 +12,6 @@ use crate::parallel::layout::Layout;
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::{self, OptionsBlock};
 use crate::problem::meshed::MeshSpec;
-use crate::problem::parsed::MeshInput;
 use crate::problem::{BodyProblem, ContactDiscretisation, ProblemKind, ProblemSettings};
 
 /// What an adaptive run aims at and how its meshes are chosen (plain data).
@@ -262,36 +261,23 @@ fn skirt(points: &mut Vec<[f64; 2]>, triangles: &mut Vec<[usize; 3]>, nodal: &mu
 }
 
 /// The next cycle's problem: both bodies meshed again by Gmsh from `spec`'s geometry with the
-/// sizes of the background view `view`, on world rank 0, which keeps the file under
-/// `-nndd_mesh_input root` (`input`) and sends it to every rank under `every_rank`. The
-/// `.geo` file sees `nndd_cycle` set to the cycle's number (it may drop structured-mesh
-/// constraints, `Transfinite`, that a size field cannot move: examples/paper/paper.geo does).
-/// Collective.
-pub fn remesh(
-    spec: &MeshSpec,
-    input: MeshInput,
-    view: &Path,
-    cycle: usize,
-) -> Result<MeshSpec, String> {
+/// sizes of the background view `view`, on world rank 0, which keeps the new file and tells the
+/// other ranks its facts (a cycle that builds its bodies on every rank sends them the file,
+/// `ParsedFile::share`). The `.geo` file sees `nndd_cycle` set to the cycle's number (it may
+/// drop structured-mesh constraints, `Transfinite`, that a size field cannot move:
+/// examples/paper/paper.geo does). Collective.
+pub fn remesh(spec: &MeshSpec, view: &Path, cycle: usize) -> Result<MeshSpec, String> {
     let path = PathBuf::from(&spec.gmsh.path);
     let mut parameters = spec.geo_set.clone();
     parameters.retain(|(n, _)| n != "nndd_cycle");
     parameters.push(("nndd_cycle".into(), cycle as f64));
-    let remeshed = || geo::remesh(&path, &parameters, view).map_err(|e| e.to_string());
-    let world = mpi::topology::SimpleCommunicator::world();
-    if input == MeshInput::EveryRank || world.size() == 1 {
-        let gmsh = crate::problem::settings::shared_mesh(&spec.gmsh.path, remeshed)?;
-        return spec.remeshed(Some(gmsh));
-    }
-    // (`root`: world rank 0 alone holds the new file; a cycle whose bodies are built on every
-    // rank is sent it then, `ParsedFile::share`)
-    match world.rank() == 0 {
-        true => match remeshed() {
+    match mpi::topology::SimpleCommunicator::world().rank() == 0 {
+        true => match geo::remesh(&path, &parameters, view) {
             Ok(gmsh) => spec.remeshed(Some(gmsh)),
             Err(e) => {
                 // (the others learn of it from the facts rank 0 cannot send)
                 let _ = spec.remeshed(None);
-                Err(e)
+                Err(e.to_string())
             }
         },
         false => spec.remeshed(None),

@@ -168,8 +168,7 @@ fn cycle_paths(base: &OutputPaths, cycle: usize) -> OutputPaths {
 }
 
 /// The next cycle's problem: the size view from η^FE's element maps (rank 0, written beside
-/// the cycle's files), both bodies remeshed by Gmsh (rank 0; sent to every rank under `every_rank`,
-/// [`adapt::remesh`]).
+/// the cycle's files), both bodies remeshed by Gmsh (rank 0, [`adapt::remesh`]).
 fn next_meshes(
     solved: &Cycle,
     record: &CycleRecord,
@@ -208,8 +207,7 @@ fn next_meshes(
         .mesh
         .as_ref()
         .expect("an adaptive run has its geometry");
-    let input = solved.settings.problem.input;
-    let spec = adapt::remesh(spec, input, &view, cycle + 1).map_err(AppError::Adapt)?;
+    let spec = adapt::remesh(spec, &view, cycle + 1).map_err(AppError::Adapt)?;
     // Every rank needs the prediction only for the record: rank 0's is the one written.
     let prediction = prediction.unwrap_or(Prediction {
         elements: 0.0,

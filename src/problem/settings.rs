@@ -676,28 +676,3 @@ fn resolve_on_root(
     let facts = ParsedFile::read_facts(&mut r).filter(|_| r.is_done());
     Ok((facts.ok_or_else(damaged)?, discretisation, matched))
 }
-
-/// The mesh `make` gives on world rank 0 (called there alone), sent to every rank as bytes;
-/// `file` names it in the other ranks' messages. Collective.
-pub fn shared_mesh(
-    file: &str,
-    make: impl FnOnce() -> Result<gmsh::GmshMesh, String>,
-) -> Result<gmsh::GmshMesh, String> {
-    use mpi::traits::Communicator;
-    let world = mpi::topology::SimpleCommunicator::world();
-    if world.size() == 1 {
-        return make();
-    }
-    let mut mesh = None;
-    let bytes = root::bytes_from_root(file, || {
-        let m = make()?;
-        let bytes = m.to_bytes();
-        mesh = Some(m);
-        Ok(bytes)
-    })?;
-    match mesh {
-        Some(m) => Ok(m),
-        None => gmsh::GmshMesh::from_bytes(&bytes)
-            .ok_or_else(|| format!("{file}: the mesh sent by world rank 0 is damaged")),
-    }
-}
