@@ -140,12 +140,15 @@ fn check_scanned(list: &[(u64, [f64; 3])], e: &Errors) -> Result<(), GmshError> 
     Ok(())
 }
 
+/// Each node tag's index among the points.
+type NodeIndex = HashMap<u64, usize>;
+
 /// The nodes, numbered compactly in the file's order: each node tag's index, and the points.
 fn read_points(
     msh: &mshio::MshFile<u64, i32, f64>,
     scanned: Option<Vec<(u64, [f64; 3])>>,
     e: &Errors,
-) -> Result<(HashMap<u64, usize>, Vec<[f64; 2]>), GmshError> {
+) -> Result<(NodeIndex, Vec<[f64; 2]>), GmshError> {
     let nodes = msh
         .data
         .nodes
@@ -153,7 +156,7 @@ fn read_points(
         .ok_or_else(|| e.not_msh("no $Nodes section".into()))?;
     // With dense tags (min..=max over the file) mshio keeps no tag map: the tags then run
     // consecutively from the smallest one, block after block.
-    let mut index: HashMap<u64, usize> = HashMap::new();
+    let mut index: NodeIndex = HashMap::new();
     let mut points = Vec::new();
     let mut next_tag = nodes.min_node_tag;
     let total: usize = nodes.node_blocks.iter().map(|b| b.nodes.len()).sum();
@@ -205,7 +208,7 @@ fn read_points(
 /// curves, each with its entity's physical tags; points are ignored, anything else refused.
 fn read_elements(
     msh: &mshio::MshFile<u64, i32, f64>,
-    index: &HashMap<u64, usize>,
+    index: &NodeIndex,
     e: &Errors,
 ) -> Result<(Cells<3>, ElementTags, Cells<2>), GmshError> {
     let entities = msh
