@@ -3,7 +3,9 @@
 //! n = 512 and on 2 and 8 ranks at n = 1024 (`--quick`: n = 128 and 256). Per run one row: the peak
 //! resident memory of each rank (the summary's `peak_memory_mib_per_rank`), its largest and
 //! smallest, the ideal (the 2-rank largest × 2 / ranks, where the same binary ran n on 2
-//! ranks), their ratio, the sum over the ranks and its ratio to the 2-rank sum, the wall time,
+//! ranks), their ratio, the sum over the ranks and its ratio to the 2-rank sum, the same sum
+//! with the shared libraries' resident pages counted once (the summary's
+//! `file_backed_memory_mib_per_rank`: one copy on a machine) and its ratio, the wall time,
 //! the solve's time and η^glo. With `NNDD_BEFORE=path/to/nndd` every case runs with that binary
 //! too, right after this one's (a before/after table measured in one run). More ranks than
 //! cores run oversubscribed: their memory is what is measured, not their speed. The table goes
@@ -32,13 +34,13 @@ fn main() {
             k => format!("an estimate every {k} iterations"),
         }),
         format!(
-            "{:>7} {:>5} {:>5} {:>9} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>7} {:>7} {:>12}",
+            "{:>7} {:>5} {:>5} {:>9} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>9} {:>11} {:>7} {:>7} {:>12}",
             "binary", "n", "ranks", "dofs", "max MiB", "min MiB", "ideal", "max/ideal", "sum MiB",
-            "sum/sum@2", "wall s", "solve s", "eta_glo"
+            "sum/sum@2", "libs once", "once/once@2", "wall s", "solve s", "eta_glo"
         ),
     ];
-    // (binary, n) → (largest, sum) on 2 ranks
-    let mut two: HashMap<(&str, usize), (f64, f64)> = HashMap::new();
+    // (binary, n) → (largest, sum, sum with the libraries once) on 2 ranks
+    let mut two: HashMap<(&str, usize), (f64, f64, f64)> = HashMap::new();
     for &(n, ranks) in &cases {
         for (name, exe) in &binaries {
             eprintln!("bench-memory-ranks: {name}, n = {n} on {ranks} ranks …");
@@ -76,8 +78,16 @@ fn main() {
             let max = peaks.iter().cloned().fold(0.0, f64::max);
             let min = peaks.iter().cloned().fold(f64::INFINITY, f64::min);
             let sum: f64 = peaks.iter().sum();
+            // The ranks' shared libraries' pages counted once, not once per rank (the
+            // summary's file_backed_memory_mib_per_rank; 0 where a binary does not say).
+            let files: Vec<f64> = j["file_backed_memory_mib_per_rank"]
+                .as_array()
+                .map_or(Vec::new(), |a| {
+                    a.iter().filter_map(|v| v.as_f64()).collect()
+                });
+            let once = sum - files.iter().sum::<f64>() + files.iter().cloned().fold(0.0, f64::max);
             if ranks == 2 {
-                two.insert((name, n), (max, sum));
+                two.insert((name, n), (max, sum, once));
             }
             let base = two.get(&(name, n));
             let ideal = base.map(|b| b.0 * 2.0 / ranks as f64);
@@ -87,11 +97,12 @@ fn main() {
                 .and_then(|e| e.last())
                 .map_or(f64::NAN, |e| runner::num(e, "eta_glo"));
             lines.push(format!(
-                "{name:>7} {n:>5} {ranks:>5} {:>9} {max:>8.0} {min:>8.0} {:>8} {:>10} {sum:>8.0} {:>9} {wall:>7.1} {:>7.2} {eta:>12.6e}",
+                "{name:>7} {n:>5} {ranks:>5} {:>9} {max:>8.0} {min:>8.0} {:>8} {:>10} {sum:>8.0} {:>9} {once:>9.0} {:>11} {wall:>7.1} {:>7.2} {eta:>12.6e}",
                 runner::num(&j, "dofs"),
                 opt(ideal, 0),
                 opt(ideal.map(|i| max / i), 2),
                 opt(base.map(|b| sum / b.1), 2),
+                opt(base.map(|b| once / b.2), 2),
                 runner::solve_seconds(&j),
             ));
             eprintln!("{}", lines.last().expect("a row"));

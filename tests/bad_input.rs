@@ -335,7 +335,7 @@ fn superlu_dist_refuses_a_second_factorisation_on_body_1() {
 
 /// A mesh or a reference mesh that would not fit in the machine's memory is refused before
 /// anything is built, with the estimated need (the model of `src/app/capacity.rs`: 13 TiB for
-/// the reference mesh 32768, 25 TiB for the mesh 40000) and, for the reference, the largest
+/// the reference mesh 32768, 20 TiB for the mesh 40000) and, for the reference, the largest
 /// factor that fits; a small factor runs.
 #[test]
 fn meshes_beyond_the_memory_are_refused_before_any_solve() {
@@ -377,5 +377,78 @@ fn meshes_beyond_the_memory_are_refused_before_any_solve() {
     ];
     let j = solve(2, &dir.join("r2"), &args);
     assert!(j["estimates"][0]["e_ref"].as_f64().unwrap() > 0.0);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `-nndd_memory_check warn` runs a mesh the memory model refuses, saying the model's line as
+/// a warning before any mesh is built: `paper` n = 4000 (64 M dofs, about 170 GiB by the
+/// model) goes on to its problem's set-up, where an injected fault on rank 0 (`-nndd_fault
+/// 0:mesh`, once the built-in grids' problems, their formulas, are made) ends it; refused by
+/// default, with the warning's line as the error.
+#[test]
+fn a_refused_mesh_runs_with_a_warning_under_memory_check_warn() {
+    let refused = fails_with(
+        2,
+        &["-nndd_n", "4000", "-nndd_fault", "0:mesh"],
+        Some(1),
+        &[
+            "-nndd_n 4000",
+            "GiB",
+            "available",
+            "-nndd_memory_check warn",
+        ],
+    );
+    let warned = fails_with(
+        2,
+        &[
+            "-nndd_n",
+            "4000",
+            "-nndd_memory_check",
+            "warn",
+            "-nndd_fault",
+            "0:mesh",
+        ],
+        Some(1),
+        &["injected fault in phase 'mesh' on rank 0"],
+    );
+    assert!(!warned.contains("GiB"), "{warned}");
+    let dir = scratch("memory-warn");
+    let prefix = dir.join("run");
+    let out = mpirun(
+        2,
+        &[
+            "-nndd_output",
+            prefix.to_str().unwrap(),
+            "-nndd_n",
+            "4000",
+            "-nndd_memory_check",
+            "warn",
+            "-nndd_fault",
+            "0:mesh",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let warnings: Vec<&str> = (stderr.lines())
+        .filter(|l| l.starts_with("nndd: warning:"))
+        .collect();
+    // Said once, by rank 0, before the fault: the refusal's line (the memory available may
+    // differ by a little between the runs), and that it runs anyway.
+    let model = refused.trim_start_matches("nndd: error: ");
+    let need = &model[..model.find(" (estimated;").expect(model)];
+    assert!(model.ends_with(" (or -nndd_memory_check warn)"), "{model}");
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(
+        warnings[0].starts_with(&format!("nndd: warning: {need} (estimated;"))
+            && warnings[0].ends_with(
+                "; use a coarser mesh or more nodes; run anyway (-nndd_memory_check warn)"
+            ),
+        "{stderr}"
+    );
+    let at = |needle: &str| {
+        stderr
+            .find(needle)
+            .unwrap_or_else(|| panic!("{needle}: {stderr}"))
+    };
+    assert!(at("nndd: warning:") < at("injected fault"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -158,6 +158,20 @@ fn four_ranks_write_the_file_one_rank_writes() {
             j["held_mesh_elements_per_rank"],
             serde_json::json!(vec![288; 4])
         );
+        // Each rank's shared libraries' resident pages (/proc's RssFile), part of its peak.
+        let numbers = |key: &str| -> Vec<f64> {
+            (j[key].as_array().unwrap().iter())
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let (files, peaks) = (
+            numbers("file_backed_memory_mib_per_rank"),
+            numbers("peak_memory_mib_per_rank"),
+        );
+        assert_eq!(files.len(), 4);
+        for (f, p) in files.iter().zip(&peaks) {
+            assert!(1.0 < *f && f < p, "{files:?} against the peaks {peaks:?}");
+        }
     }
 }
 

@@ -215,15 +215,16 @@ impl Outcome {
 pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, AppError> {
     let t_start = Instant::now();
     // Settings: every -nndd_ option, validated; the ranks agree before going on.
-    let settings = read_settings(agreement, world.rank())?;
+    let mut settings = read_settings(agreement, world.rank())?;
     if let Some(outcome) = help_or_version(world.rank())? {
         return Ok(outcome);
     }
     // Memory: the meshes must fit in the nodes' memory (before any mesh is built).
-    agreed(
+    settings.memory_warning = agreed(
         agreement,
         capacity::check(&settings, &world).map_err(AppError::from),
     )?;
+    say_warnings(world.rank() == 0, settings.memory_warning.as_slice());
     let stages = prepare_solve()?;
     match &settings.adapt {
         // One solve on the given mesh.

@@ -43,6 +43,16 @@ impl SolverKind {
     }
 }
 
+/// What a run that the memory model (`app::capacity`) says does not fit does (`-nndd_memory_check`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MemoryCheck {
+    /// It is refused before any mesh is built, with the estimate and what to change.
+    #[default]
+    Refuse,
+    /// It runs, with the same line as a warning (where the model is known to be high).
+    Warn,
+}
+
 /// All settings of a run, with the paper's defaults: each layer's own settings, and what the
 /// run itself decides (solver, ranks, restart points).
 #[derive(Clone, Debug)]
@@ -72,6 +82,11 @@ pub struct Settings {
     pub adapt: Option<AdaptSettings>,
     /// Test only: fail on one rank at one phase (`-nndd_fault RANK:PHASE[:panic]`).
     pub fault: Option<Fault>,
+    /// What a run the memory model says does not fit does (`-nndd_memory_check`).
+    pub memory_check: MemoryCheck,
+    /// The memory model's warning under [`MemoryCheck::Warn`], said before any mesh is built
+    /// (in the summary's warnings first).
+    pub memory_warning: Option<String>,
     /// What the settings allow but the user should know (printed once, and in the summary).
     pub warnings: Vec<String>,
     /// Every option as given (command line and options files, PETSc's listing), before nndd
@@ -147,6 +162,11 @@ impl Settings {
             Bounds::NON_NEGATIVE_INT,
         )?;
         let restart = read_restart(&mut o)?;
+        let memory_check = o.choice(
+            "-nndd_memory_check",
+            "A run whose meshes the memory model (docs/scaling.md, \"Memory, and the size check\") says would not fit in the nodes' available memory: refuse (before any mesh is built, naming the estimate), warn (run it, with the same line as a warning: where the model is known to be high, by up to two fifths on the measured runs)",
+            &[("refuse", MemoryCheck::Refuse), ("warn", MemoryCheck::Warn)],
+        )?;
         if let Some(a) = &adapt {
             a.check_problem(&problem)?;
             check_adaptive(&nndd.stop, restart.is_some())?;
@@ -169,6 +189,8 @@ impl Settings {
             restart,
             adapt,
             fault,
+            memory_check,
+            memory_warning: None,
             warnings,
             options_text: petsc::options_text()?,
         })

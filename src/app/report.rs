@@ -41,6 +41,8 @@ pub struct Measured<'a> {
     pub input_points: Option<&'a [usize]>,
     /// Each rank's peak memory (MiB) at the end of the input.
     pub input_peaks: &'a [f64],
+    /// Each rank's resident file-backed memory (MiB) at the end ([`file_backed_memory_per_rank`]).
+    pub file_backed: &'a [f64],
     /// Each rank's peak memory (MiB) once the reference solution's fine bodies were built.
     pub reference_input_peaks: Option<&'a [f64]>,
 }
@@ -79,6 +81,7 @@ pub fn summarise(
         input_elements,
         input_points,
         input_peaks,
+        file_backed,
         reference_input_peaks,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
@@ -171,6 +174,7 @@ pub fn summarise(
         timings,
         peak_memory_mib: peaks.iter().cloned().fold(0.0, f64::max),
         peak_memory_mib_per_rank: peaks.to_vec(),
+        file_backed_memory_mib_per_rank: file_backed.to_vec(),
         held_mesh_elements_per_rank: held_elements.to_vec(),
         held_displacement_nodes_per_rank: held_nodes.to_vec(),
         held_reference_displacement_nodes_per_rank: held_reference.map(<[usize]>::to_vec),
@@ -193,9 +197,8 @@ pub fn summarise(
                 EstimateMeaning::default()
             }
         }),
-        warnings: settings
-            .warnings
-            .iter()
+        warnings: (settings.memory_warning.iter())
+            .chain(&settings.warnings)
             .chain(&sol.warnings)
             .cloned()
             .collect(),
@@ -294,6 +297,12 @@ pub fn report(settings: &Settings, summary: &Summary, sol: &Solution) {
 /// Peak memory of every rank (MiB), on every rank.
 pub fn peak_memory_per_rank(layout: &Layout) -> Vec<f64> {
     per_rank(layout, memory::peak_memory() / (1024.0 * 1024.0))
+}
+
+/// Each rank's resident file-backed memory (MiB) now, by world rank (collective): its shared
+/// libraries' pages ([`memory::resident_file_backed`]).
+pub fn file_backed_memory_per_rank(layout: &Layout) -> Vec<f64> {
+    per_rank(layout, memory::resident_file_backed() / (1024.0 * 1024.0))
 }
 
 /// Each rank's peak resident memory (MiB) at the end of the input ([`PostProcessed`]), by

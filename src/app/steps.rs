@@ -331,6 +331,7 @@ impl<'a> Run<'a> {
         timings.total = t_start.elapsed().as_secs_f64();
         // The high-water marks of the whole run, the output's fields included.
         let peaks = report::peak_memory_per_rank(layout);
+        let file_backed = report::file_backed_memory_per_rank(layout);
         let input_peaks = report::input_peak_memory_per_rank(layout, post);
         let reference_input_peaks = report::reference_input_peak_memory_per_rank(layout, post);
         let held_elements =
@@ -359,6 +360,7 @@ impl<'a> Run<'a> {
                 input_elements: input_elements.as_deref(),
                 input_points: input_points.as_deref(),
                 input_peaks: &input_peaks,
+                file_backed: &file_backed,
                 reference_input_peaks: reference_input_peaks.as_deref(),
             };
             let problems = [&*problems[0], &*problems[1]];

@@ -214,6 +214,10 @@ pub struct Summary {
     pub peak_memory_mib: f64,
     /// Peak resident memory of every rank (MiB), by world rank.
     pub peak_memory_mib_per_rank: Vec<f64>,
+    /// Each rank's resident file-backed memory at the end (MiB), by world rank: its shared
+    /// libraries' pages, part of its peak above but one copy for all the ranks of a machine
+    /// (what the machine holds at most is about Σ (peak − this) + the largest of this).
+    pub file_backed_memory_mib_per_rank: Vec<f64>,
     /// The elements of the bodies' meshes each rank holds through the run, by world rank: its
     /// group's body (and a body it estimates outside that body's group, or both in a mortar
     /// run that estimates or an adaptive run), of a Gmsh body the part it reads once the
