@@ -11,11 +11,10 @@
 //! (what every rank of a body's group holds of the whole body: MUMPS's arrays over its whole
 //! elimination tree, the partition's node numbering), and per dof of each mesh
 //! `PER_DOF_LOG · log2(dofs)` bytes over all ranks (MUMPS's fill of a 2D mesh grows as
-//! dofs · log dofs in nested-dissection order, the groups' PORD; a body alone on its rank is
-//! ordered by AMD, whose fill is larger on some meshes: the Gmsh drawing's at n = 1024 takes
-//! 30 % more than the built-in grid's, and the fit takes the larger, as it takes the groups'
-//! growth faster than dofs · log dofs from n = 1024 to 1448; GAMG's hierarchy costs
-//! less). The available memory is the sum over the run's nodes of `MemAvailable`
+//! dofs · log dofs in nested-dissection order; GAMG's hierarchy costs less). The fit takes the
+//! larger of the built-in grid and the Gmsh drawing, whose estimate on 2 ranks at n = 1024
+//! holds 2.2 GiB more on body 1's rank (in the estimate; without one both peak alike),
+//! and the groups' growth faster than dofs · log dofs from n = 1024 to 1448. The available memory is the sum over the run's nodes of `MemAvailable`
 //! (`/proc/meminfo`), or of the cgroup's limit less its usage where that is lower (a Slurm
 //! job's `--mem`). A run the model refuses may still fit where it overestimates (by up to
 //! two fifths on the measured runs): `-nndd_memory_check warn` runs it with a warning
@@ -184,7 +183,7 @@ mod tests {
         // paper n = 512 with one estimate (1 052 676 dofs) peaks at 1711 MiB summed over
         // 2 ranks, 2072 over 4 and 2505 over 8; n = 1024 (4 202 500) at 7338 over 2 and
         // 9285 over 8 (jobs/bench-memory-ranks); drawn in Gmsh, n = 512 at 1719 over 2 and
-        // 2581 over 8, n = 1024 at 9503 over 2 (AMD's fill of the drawing) and 9285 over 8
+        // 2581 over 8, n = 1024 at 9503 over 2 (the estimate on the drawing's body 1) and 9285 over 8
         // (jobs/bench-input --estimate), n = 1448 (8 398 404) at 21 750 over 8 (`mpirun -n 8
         // nndd -options_file examples/paper/paper.opts -nndd_mesh paper-1448.msh
         // -nndd_estimate -nndd_estimate_every 0`); n = 1448 at 16 080 and n = 1600
