@@ -381,7 +381,7 @@ fn meshes_beyond_the_memory_are_refused_before_any_solve() {
 }
 
 /// `-nndd_memory_check warn` runs a mesh the memory model refuses, saying the model's line as
-/// a warning before any mesh is built: `paper` n = 4000 (64 M dofs, about 170 GiB by the
+/// a warning before any mesh is built: `paper` n = 4000 (64 M dofs, about 164 GiB by the
 /// model) goes on to its problem's set-up, where an injected fault on rank 0 (`-nndd_fault
 /// 0:mesh`, once the built-in grids' problems, their formulas, are made) ends it; refused by
 /// default, with the warning's line as the error.

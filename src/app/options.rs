@@ -164,7 +164,7 @@ impl Settings {
         let restart = read_restart(&mut o)?;
         let memory_check = o.choice(
             "-nndd_memory_check",
-            "A run whose meshes the memory model (docs/scaling.md, \"Memory, and the size check\") says would not fit in the nodes' available memory: refuse (before any mesh is built, naming the estimate), warn (run it, with the same line as a warning: where the model is known to be high, by up to two fifths on the measured runs)",
+            "A run whose meshes the memory model (docs/scaling.md, \"Memory, and the size check\") says would not fit in the nodes' available memory: refuse (before any mesh is built, naming the estimate), warn (run it, with the same line as a warning: where the model is known to be high, by up to a third on the measured runs with factored bodies)",
             &[("refuse", MemoryCheck::Refuse), ("warn", MemoryCheck::Warn)],
         )?;
         if let Some(a) = &adapt {

@@ -13,8 +13,14 @@ pub(crate) const NT: usize = 12;
 /// Shape-cache capacity of a recovery that reads a triangle's operator in every patch step
 /// (`patch-classic`); beyond it the local operator is recomputed at each use.
 pub(super) const MAX_SHAPES: usize = 1 << 18;
-/// Quantum of the shape key (normalised coordinates), 2⁻⁴⁴ ≈ 5.7e-14.
-pub(super) const SHAPE_QUANTUM: f64 = 1.0 / 17_592_186_044_416.0;
+/// Quantum of the shape key (normalised coordinates), 2⁻⁴⁰ ≈ 9.1e-13: above the rounding a
+/// mesher leaves in its points (about 2e-16 · |x|, 1e-13 of a patch 2e-3 wide): at 2⁻⁴⁴
+/// the patterns of `paper` drawn in Gmsh at n = 1024 (`examples/paper/paper.geo`, transfinite)
+/// missed on body 1, whose recovery on 2 ranks then built 574 990 patch operators, 4.3 GB, and
+/// peaked at 5691 MiB against 3546 with 2⁻⁴⁰ (estimate 38.8 s against 16.0, η^glo the same to
+/// 1e-12); an operator shared by two patterns that differ by one quantum is off by about as
+/// much, far below the 1e-10 of the equilibrium checks.
+pub(super) const SHAPE_QUANTUM: f64 = 1.0 / 1_099_511_627_776.0;
 
 /// Capacity of the patch-operator cache's patterns of such a recovery; beyond it patch
 /// operators are recomputed at each use (at 2¹⁶, the Hertz example at level 5 took 386 s
