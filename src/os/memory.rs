@@ -1,5 +1,6 @@
 //! The process's memory as the kernel and the C allocator see it: the peak resident size a
-//! run reports, and the freed heap given back between its phases.
+//! run reports with its file-backed part (the shared libraries' pages), and the freed heap
+//! given back between its phases.
 
 /// Peak resident set size of this process in bytes: the kernel's high-water mark
 /// (getrusage's ru_maxrss). PETSc's `PetscMemoryGetMaximumUsage` only samples the resident
