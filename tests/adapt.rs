@@ -9,7 +9,8 @@
 //! - The loop on `paper` from its coarse mesh (examples/paper/paper.geo, n = 8) to ε = 4 %:
 //!   η^glo falls every cycle and ends below ε ‖u_h‖_E, above e_ref at every cycle, with the
 //!   same meshes and numbers on 1, 2 and 3 ranks; ParaView's time series of the cycles and the
-//!   last cycle alone; the run that cannot reach ε in its cycles ends with exit 3.
+//!   last cycle alone; the run that cannot reach ε in its cycles ends with exit 3, as does
+//!   one whose next meshes would not fit in the memory it may use (`-nndd_memory_limit`).
 //! - Curved contact curves remeshed from one view (the pin in its groove, examples/pin): their
 //!   nodes come close to each other, and making them match moves them onto their partners
 //!   instead of inserting slivers beside them; the second cycle solves and η^glo falls.
@@ -244,7 +245,74 @@ fn a_tolerance_not_reached_in_the_cycles_ends_with_exit_3() {
     let cycles = j["cycles"].as_array().unwrap();
     assert_eq!(cycles.len(), 2);
     assert!(f(&cycles[1], "relative_error") > 0.01);
+    assert!(j["adapt"]["memory"].is_null());
+    next_meshes_that_would_not_fit_end_the_cycles(&dir, &args, cycles);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The same run held by `-nndd_memory_limit` to between the size check's model of its first
+/// and second cycles (`app::capacity::estimate`, from the `cycles` of the run without it):
+/// the second meshes are refused after the first cycle, whose numbers stand, the closing line
+/// saying why, exit 3; under `-nndd_memory_check warn` the second cycle runs with the model's
+/// line first in its warnings.
+fn next_meshes_that_would_not_fit_end_the_cycles(
+    dir: &Path,
+    args: &[String],
+    unlimited: &[serde_json::Value],
+) {
+    let dofs = |c: &serde_json::Value| c["dofs"].as_u64().unwrap() as usize;
+    let model = |c| nndd::app::capacity::estimate(2, dofs(c), None) / (1024.0 * 1024.0);
+    let (first, second) = (model(&unlimited[0]), model(&unlimited[1]));
+    assert!(second > first + 0.5, "{first} and {second} MiB");
+    let limit = format!("{:.3}", 0.5 * (first + second));
+    for check in ["refuse", "warn"] {
+        let prefix = dir.join(format!("limited-{check}"));
+        let mut a = args.to_vec();
+        a.extend(["-nndd_output", &prefix.display().to_string()].map(String::from));
+        a.extend(["-nndd_memory_limit", &limit, "-nndd_memory_check", check].map(String::from));
+        let out = mpirun(2, &strs(&a));
+        let text = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(3), "{text}");
+        let j = common::json(&prefix);
+        let cycles = j["cycles"].as_array().unwrap();
+        let (x, y) = (f(&cycles[0], "eta_glo"), f(&unlimited[0], "eta_glo"));
+        assert!((x - y).abs() < 1e-12 * y, "{x} against {y}");
+        let needs = format!(
+            "-nndd_adapt_tol 0.01: cycle 2's meshes ({} dofs) need about",
+            dofs(&unlimited[1])
+        );
+        if check == "refuse" {
+            let line = text
+                .lines()
+                .find(|l| {
+                    l.contains("(1 %) not reached (the next meshes would not fit) in 1 cycle(s)")
+                })
+                .unwrap_or_else(|| panic!("no closing line in\n{text}"));
+            println!("{line}");
+            assert!(
+                line.contains(&needs)
+                    && line.contains("-nndd_memory_limit (")
+                    && line.ends_with("(or -nndd_memory_check warn)"),
+                "{line}"
+            );
+            assert_eq!(j["adapt"]["verdict"], "memory_limit");
+            assert_eq!(cycles.len(), 1);
+            assert!(j["adapt"]["memory"].as_str().unwrap().contains(&needs));
+        } else {
+            assert_eq!(j["adapt"]["verdict"], "max_cycles");
+            assert_eq!(cycles.len(), 2);
+            assert_eq!(dofs(&cycles[1]), dofs(&unlimited[1]));
+            let first_warning = j["warnings"][0].as_str().unwrap_or_default();
+            assert!(
+                first_warning.contains(&needs)
+                    && first_warning.ends_with("(-nndd_memory_check warn)"),
+                "{}",
+                j["warnings"]
+            );
+            assert_eq!(text.matches(&needs).count(), 1, "{text}");
+        }
+    }
 }
 
 #[test]

@@ -19,6 +19,7 @@ fn estimator_settings_in_range() {
         "-nndd_reference_factor",
     );
     refused(1, &["-nndd_estimate_every", "-2"], "-nndd_estimate_every");
+    refused(1, &["-nndd_memory_limit", "-1"], "-nndd_memory_limit");
 }
 
 #[test]

@@ -1,7 +1,9 @@
-//! Whether a run fits in the memory of its nodes, checked before any mesh is built: the
-//! subdomain factorisations of the mesh n and, with `-nndd_reference_factor r`, of the
-//! reference mesh r·n (both held at once while the reference is solved). A run that would not
-//! fit is refused with its estimated memory, instead of swapping or being killed part-way.
+//! Whether a run fits in the memory of its nodes, checked before any mesh is built and, in an
+//! adaptive run, before each cycle's meshes are built ([`Meshes`]): the subdomain
+//! factorisations of the mesh n and, with `-nndd_reference_factor r`, of the reference mesh
+//! r·n (both held at once while the reference is solved). A run that would not fit is refused
+//! with its estimated memory, instead of swapping or being killed part-way; an adaptive run
+//! whose next meshes would not fit ends with the cycles it solved (`app::cycles`).
 //!
 //! The estimate is a model of the measured peaks, fitted to `jobs/bench-memory-ranks` (`paper`
 //! with one estimate on 2, 4 and 8 ranks at n = 512 and 1024) and `jobs/bench-input
@@ -12,11 +14,15 @@
 //! elimination tree, the partition's node numbering), and per dof of each mesh
 //! `PER_DOF_LOG · log2(dofs)` bytes over all ranks (MUMPS's fill of a 2D mesh grows as
 //! dofs · log dofs in nested-dissection order; GAMG's hierarchy costs less), which the fit
-//! takes above the groups' growth, faster than dofs · log dofs from n = 1024 to 1448. The available memory is the sum over the run's nodes of `MemAvailable`
-//! (`/proc/meminfo`), or of the cgroup's limit less its usage where that is lower (a Slurm
-//! job's `--mem`). A run the model refuses may still fit where it overestimates (by up to a
-//! third on the measured runs with factored bodies, 1.9 × with CG + GAMG's): `-nndd_memory_check warn` runs it with a warning
-//! ([`MemoryCheck`]).
+//! takes above the groups' growth, faster than dofs · log dofs from n = 1024 to 1448.
+//!
+//! The available memory is the sum over the run's nodes of `MemAvailable` (`/proc/meminfo`),
+//! or of the cgroup's limit less its usage where that is lower (a Slurm job's `--mem`), plus
+//! what the run's ranks there hold resident already (the model counts them: their start-up, a
+//! cycle's state), and at most `-nndd_memory_limit` per node where it is given. A run the
+//! model refuses may still fit where it overestimates (by up to a third on the measured runs
+//! with factored bodies, 1.9 × with CG + GAMG's): `-nndd_memory_check warn` runs it with a
+//! warning ([`MemoryCheck`]).
 
 use mpi::collective::SystemOperation;
 use mpi::topology::{Communicator as _, SimpleCommunicator};
@@ -41,8 +47,11 @@ fn mesh_bytes(dofs: usize) -> f64 {
     PER_DOF_LOG * n * n.log2()
 }
 
-/// The memory this node offers: `MemAvailable`, or the cgroup's room if lower (bytes).
-fn node_available() -> f64 {
+/// The memory this node offers the run (bytes): `MemAvailable`, or the cgroup's room if lower,
+/// plus `held`, what the run's ranks on the node already hold resident (the model counts
+/// their start-up and, in an adaptive run, what a cycle keeps); at most `limit` where given
+/// (`-nndd_memory_limit`).
+fn node_available(held: f64, limit: Option<f64>) -> f64 {
     let meminfo = std::fs::read_to_string("/proc/meminfo").unwrap_or_default();
     let kib = |key: &str| {
         meminfo
@@ -57,19 +66,22 @@ fn node_available() -> f64 {
             bytes = bytes.min(max - current);
         }
     }
-    bytes
+    (bytes + held).min(limit.unwrap_or(f64::INFINITY))
 }
 
-/// The memory the run's nodes offer (bytes), summed over the nodes (collective).
-fn available(world: &SimpleCommunicator) -> f64 {
+/// The memory the run's nodes offer it (bytes), summed over the nodes (collective): each
+/// node's [`node_available`], with what its ranks hold now.
+fn available(world: &SimpleCommunicator, limit: Option<f64>) -> f64 {
     let node = world.split_shared(world.rank());
-    let mine = if node.rank() == 0 {
-        node_available()
-    } else {
-        0.0
+    let mine = crate::os::memory::resident();
+    let mut held = 0.0;
+    node.all_reduce_into(&mine, &mut held, SystemOperation::sum());
+    let offered = match node.rank() {
+        0 => node_available(held, limit),
+        _ => 0.0,
     };
     let mut total = 0.0;
-    world.all_reduce_into(&mine, &mut total, SystemOperation::sum());
+    world.all_reduce_into(&offered, &mut total, SystemOperation::sum());
     total
 }
 
@@ -92,13 +104,23 @@ pub fn estimate(ranks: usize, dofs: usize, reference: Option<usize>) -> f64 {
         + mesh_bytes(dofs).max(reference.map_or(0.0, mesh_bytes))
 }
 
-/// Refuses a run whose meshes would not fit (collective; the same answer on every rank), or
+/// The meshes a size check is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Meshes {
+    /// The run's given meshes (before any is built).
+    Given,
+    /// An adaptive run's meshes for cycle k (remeshed, not yet built).
+    Cycle(usize),
+}
+
+/// Refuses a run whose `meshes` would not fit (collective; the same answer on every rank), or
 /// under [`MemoryCheck::Warn`] returns the same line as a warning.
 pub fn check(
     settings: &Settings,
     world: &SimpleCommunicator,
+    meshes: Meshes,
 ) -> Result<Option<String>, SettingsError> {
-    verdict(shortfall(settings, world), settings.memory_check)
+    verdict(shortfall(settings, world, meshes), settings.memory_check)
 }
 
 /// What `mode` makes of the model's `short`fall: the error, a warning, or nothing.
@@ -121,49 +143,86 @@ fn verdict(
     }
 }
 
-/// Why the run's meshes would not fit in its nodes' memory, or `None` where they fit
+/// `bytes` in GiB to a tenth, or in MiB below 1 GiB.
+fn size(bytes: f64) -> String {
+    match bytes >= GIB {
+        true => format!("{:.1} GiB", bytes / GIB),
+        false => format!("{:.0} MiB", bytes / MIB),
+    }
+}
+
+/// Why the run's `meshes` would not fit in its nodes' memory, or `None` where they fit
 /// (collective).
-fn shortfall(settings: &Settings, world: &SimpleCommunicator) -> Option<SettingsError> {
+fn shortfall(
+    settings: &Settings,
+    world: &SimpleCommunicator,
+    meshes: Meshes,
+) -> Option<SettingsError> {
     let ranks = world.size() as usize;
     let dofs = settings.problem.dofs();
     let base = estimate(ranks, dofs, None);
     let r = settings.estimate.reference_factor;
     let fine = (r > 0).then(|| fine_dofs(settings, r));
     let need = estimate(ranks, dofs, fine);
-    let have = available(world);
+    let have = available(world, settings.memory_limit);
     if need <= have {
         return None;
     }
-    let gib = |b: f64| format!("{:.1} GiB", b / GIB);
+    let mut room = format!("{} available", size(have));
+    let mut more = vec!["more nodes".to_string()];
+    if let Some(limit) = settings.memory_limit {
+        room.push_str(" under -nndd_memory_limit");
+        more.push(format!(
+            "a larger -nndd_memory_limit ({:.0} MiB per node given)",
+            limit / MIB
+        ));
+    }
+    let (what, verb) = match meshes {
+        Meshes::Cycle(k) => (format!("cycle {k}'s meshes ({dofs} dofs)"), "need"),
+        Meshes::Given => (format!("the mesh ({dofs} dofs)"), "needs"),
+    };
     Some(match fine {
         Some(reference_dofs) if base <= have => {
             // The largest factor that fits, for the message.
             let fits = (1..r)
                 .rev()
                 .find(|&f| estimate(ranks, dofs, Some(fine_dofs(settings, f))) <= have);
+            let on = match (meshes, &settings.problem.mesh) {
+                (Meshes::Cycle(k), _) => format!("cycle {k}'s meshes refined {r} times"),
+                (Meshes::Given, Some(_)) => format!("the mesh refined {r} times"),
+                (Meshes::Given, None) => format!("mesh {}", settings.problem.n * r),
+            };
             SettingsError::Named {
                 option: format!("-nndd_reference_factor {r}"),
                 message: format!(
-                    "the reference solution on mesh {} ({reference_dofs} dofs) needs about {} (estimated; the run's nodes have {} available); {}",
-                    settings.problem.n * r,
-                    gib(need),
-                    gib(have),
+                    "the reference solution on {on} ({reference_dofs} dofs) needs about {} (estimated; the run's nodes have {room}); {}",
+                    size(need),
                     match fits {
-                        Some(f) => format!("use a factor of at most {f}, or more nodes"),
-                        None => "run on more nodes, or without -nndd_reference_factor".into(),
+                        Some(f) => format!("use a factor of at most {f}, or {}", more.join(" or ")),
+                        None => format!("use {}, or no -nndd_reference_factor", more.join(" or ")),
                     }
                 ),
             }
         }
         _ => SettingsError::Named {
-            option: match &settings.problem.mesh {
-                Some(spec) => format!("-nndd_mesh {}", spec.gmsh.path),
-                None => format!("-nndd_n {}", settings.problem.n),
+            option: match (&settings.problem.mesh, &settings.adapt, meshes) {
+                (_, Some(adapt), Meshes::Cycle(_)) => format!("-nndd_adapt_tol {}", adapt.tol),
+                (Some(spec), _, _) => format!("-nndd_mesh {}", spec.gmsh.path),
+                (None, _, _) => format!("-nndd_n {}", settings.problem.n),
             },
             message: format!(
-                "the mesh ({dofs} dofs) needs about {} (estimated; the run's nodes have {} available); use a coarser mesh or more nodes",
-                gib(base),
-                gib(have)
+                "{what} {verb} about {} (estimated; the run's nodes have {room}); use {}",
+                size(base),
+                {
+                    let first = match meshes {
+                        Meshes::Cycle(_) => "a larger tolerance",
+                        Meshes::Given => "a coarser mesh",
+                    };
+                    let mut all = vec![first.to_string()];
+                    all.extend(more);
+                    let last = all.pop().expect("two or more");
+                    format!("{} or {last}", all.join(", "))
+                },
             ),
         },
     })

@@ -16,7 +16,7 @@ use mpi::topology::SimpleCommunicator;
 
 use super::adapt::{self, AdaptSettings, Prediction};
 use super::options::Settings;
-use super::{agreed, solve_cycle, AppError, Cycle, Outcome, Start};
+use super::{agreed, capacity, say_warnings, solve_cycle, AppError, Cycle, Outcome, Start};
 use crate::io::output::{self, OutputPaths};
 use crate::parallel::fault::Agreement;
 use crate::petsc::log::Stages;
@@ -86,6 +86,9 @@ pub enum Verdict {
     MaxCycles,
     /// A cycle's solve did not end as asked (its own exit says why).
     SolveStopped,
+    /// The next meshes would not fit in the nodes' memory (`app::capacity`; the summary's
+    /// `adapt.memory` says by how much).
+    MemoryLimit,
 }
 
 /// The cycles of an adaptive run (collective); the exit: 0 reached, 3 not reached in
@@ -114,14 +117,8 @@ pub fn run(
         )?;
         let Some(mut record) = CycleRecord::of(cycle, &solved) else {
             // (interrupted, or not converged before an estimate: the cycle's files say so)
-            finish(
-                &solved,
-                &base,
-                &records,
-                cycle,
-                adapt,
-                Verdict::SolveStopped,
-            )?;
+            let verdict = Verdict::SolveStopped;
+            finish(&solved, &base, &records, cycle, adapt, verdict, None)?;
             return Ok(solved.outcome);
         };
         let reached = record.relative_error <= adapt.tol;
@@ -134,10 +131,10 @@ pub fn run(
                 (true, true) => Verdict::Reached,
                 (false, true) => Verdict::MaxCycles,
             };
-            finish(&solved, &base, &records, cycle, adapt, verdict)?;
+            finish(&solved, &base, &records, cycle, adapt, verdict, None)?;
             return Ok(match verdict {
                 Verdict::Reached => Outcome::Solved,
-                Verdict::MaxCycles => Outcome::Unreached,
+                Verdict::MaxCycles | Verdict::MemoryLimit => Outcome::Unreached,
                 Verdict::SolveStopped => solved.outcome,
             });
         }
@@ -156,6 +153,19 @@ pub fn run(
         record.next_mesh = Some(prediction);
         announce(&solved, &record, adapt);
         records.push(record);
+        // The next meshes must fit in the nodes' memory, as the first had to (`app::capacity`:
+        // a later cycle may be many times larger); else the cycles end with this one's answer.
+        match capacity::check(&settings, world, capacity::Meshes::Cycle(cycle + 1)) {
+            Ok(warning) => {
+                say_warnings(solved.layout.is_root(), warning.as_slice());
+                settings.memory_warning = warning;
+            }
+            Err(refused) => {
+                let (verdict, why) = (Verdict::MemoryLimit, refused.to_string());
+                finish(&solved, &base, &records, cycle, adapt, verdict, Some(&why))?;
+                return Ok(Outcome::Unreached);
+            }
+        }
     }
     unreachable!("the last cycle returns")
 }
@@ -260,7 +270,8 @@ fn announce(solved: &Cycle, r: &CycleRecord, adapt: &AdaptSettings) {
 
 /// The run's own files (rank 0; the ranks agree on their write): PREFIX.xdmf (the cycles),
 /// PREFIX-final.xdmf (the last), PREFIX.json (the last cycle's summary with `adapt` and
-/// `cycles`), and the closing line.
+/// `cycles`), and the closing line; `memory`: why the next meshes were refused
+/// ([`Verdict::MemoryLimit`]).
 fn finish(
     last: &Cycle,
     base: &OutputPaths,
@@ -268,10 +279,11 @@ fn finish(
     cycles: usize,
     adapt: &AdaptSettings,
     verdict: Verdict,
+    memory: Option<&str>,
 ) -> Result<(), AppError> {
     let layout = &last.layout;
     let written = match layout.is_root() {
-        true => write_run_files(base, records, cycles, adapt, verdict),
+        true => write_run_files(base, records, cycles, adapt, verdict, memory),
         false => Ok(()),
     };
     let agreed_written = layout.agree(written.is_ok());
@@ -288,9 +300,11 @@ fn finish(
             Verdict::Reached => "reached",
             Verdict::MaxCycles => "not reached",
             Verdict::SolveStopped => "not reached (a cycle's solve stopped)",
+            Verdict::MemoryLimit => "not reached (the next meshes would not fit)",
         };
+        let why = memory.map_or(String::new(), |m| format!("; {m}"));
         crate::io::monitor::say(format_args!(
-            "nndd: -nndd_adapt_tol {} ({} %) {how} in {} cycle(s): eta_glo/||u_h||_E {}; results {} (cycles), {}",
+            "nndd: -nndd_adapt_tol {} ({} %) {how} in {} cycle(s): eta_glo/||u_h||_E {}; results {} (cycles), {}{why}",
             adapt.tol,
             100.0 * adapt.tol,
             records.len(),
@@ -308,6 +322,7 @@ fn write_run_files(
     count: usize,
     adapt: &AdaptSettings,
     verdict: Verdict,
+    memory: Option<&str>,
 ) -> Result<(), AppError> {
     let fail =
         |what: &std::path::Path, e: String| AppError::Adapt(format!("{}: {e}", what.display()));
@@ -342,6 +357,7 @@ fn write_run_files(
         "limits": {"refine": adapt.limits.refine, "coarsen": adapt.limits.coarsen},
         "verdict": verdict,
         "cycles_run": count,
+        "memory": memory,
     });
     summary["cycles"] = serde_json::to_value(records).map_err(|e| AppError::Json(e.to_string()))?;
     let json = serde_json::to_string_pretty(&summary).map_err(|e| AppError::Json(e.to_string()))?;

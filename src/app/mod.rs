@@ -222,7 +222,7 @@ pub fn run(world: SimpleCommunicator, agreement: &Agreement) -> Result<Outcome, 
     // Memory: the meshes must fit in the nodes' memory (before any mesh is built).
     settings.memory_warning = agreed(
         agreement,
-        capacity::check(&settings, &world).map_err(AppError::from),
+        capacity::check(&settings, &world, capacity::Meshes::Given).map_err(AppError::from),
     )?;
     say_warnings(world.rank() == 0, settings.memory_warning.as_slice());
     let stages = prepare_solve()?;

@@ -84,6 +84,9 @@ pub struct Settings {
     pub fault: Option<Fault>,
     /// What a run the memory model says does not fit does (`-nndd_memory_check`).
     pub memory_check: MemoryCheck,
+    /// The most memory the run may use on each node (bytes; `-nndd_memory_limit`, given in
+    /// MiB), where less than the node has available.
+    pub memory_limit: Option<f64>,
     /// The memory model's warning under [`MemoryCheck::Warn`], said before any mesh is built
     /// (in the summary's warnings first).
     pub memory_warning: Option<String>,
@@ -167,6 +170,16 @@ impl Settings {
             "A run whose meshes the memory model (docs/scaling.md, \"Memory, and the size check\") says would not fit in the nodes' available memory: refuse (before any mesh is built, naming the estimate), warn (run it, with the same line as a warning: where the model is known to be high, by up to a third on the measured runs with factored bodies)",
             &[("refuse", MemoryCheck::Refuse), ("warn", MemoryCheck::Warn)],
         )?;
+        let (limit_mib, _) = o.real_in(
+            "-nndd_memory_limit",
+            "The most memory (MiB) the run may use on each node, where less than the node has available (a shared node's share): the size check's memory model is held to it, before the run and before each adaptive cycle (0: the node's available memory)",
+            0.0,
+            Bounds {
+                accepted: ">= 0 (MiB per node; 0: no limit)",
+                ..Bounds::NON_NEGATIVE
+            },
+        )?;
+        let memory_limit = (limit_mib > 0.0).then_some(limit_mib * 1024.0 * 1024.0);
         if let Some(a) = &adapt {
             a.check_problem(&problem)?;
             check_adaptive(&nndd.stop, restart.is_some())?;
@@ -190,6 +203,7 @@ impl Settings {
             adapt,
             fault,
             memory_check,
+            memory_limit,
             memory_warning: None,
             warnings,
             options_text: petsc::options_text()?,

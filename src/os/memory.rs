@@ -1,6 +1,7 @@
 //! The process's memory as the kernel and the C allocator see it: the peak resident size a
-//! run reports with its file-backed part (the shared libraries' pages), and the freed heap
-//! given back between its phases.
+//! run reports with its file-backed part (the shared libraries' pages), the resident size
+//! now (which the size check counts as the run's own), and the freed heap given back between
+//! its phases.
 
 /// Peak resident set size of this process in bytes: the kernel's high-water mark
 /// (getrusage's ru_maxrss). PETSc's `PetscMemoryGetMaximumUsage` only samples the resident
@@ -20,10 +21,21 @@ pub fn peak_memory() -> f64 {
 /// any file it maps. The ranks on one machine share these pages, so a sum of the ranks'
 /// resident sizes counts them once per rank. 0 where the kernel does not say.
 pub fn resident_file_backed() -> f64 {
+    status_bytes("RssFile:")
+}
+
+/// This process's resident size in bytes now (`VmRSS` in /proc/self/status: anonymous,
+/// file-backed and shared pages). 0 where the kernel does not say.
+pub fn resident() -> f64 {
+    status_bytes("VmRSS:")
+}
+
+/// The size `key` of /proc/self/status in bytes (the kernel gives kB), or 0.
+fn status_bytes(key: &str) -> f64 {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     status
         .lines()
-        .find_map(|l| l.strip_prefix("RssFile:"))
+        .find_map(|l| l.strip_prefix(key))
         .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
         .map_or(0.0, |kib| kib * 1024.0)
 }
