@@ -92,7 +92,8 @@ pub enum Verdict {
 }
 
 /// The cycles of an adaptive run (collective); the exit: 0 reached, 3 not reached in
-/// `-nndd_adapt_max_cycles` cycles (or a cycle's NNDD not converged), 4 interrupted.
+/// `-nndd_adapt_max_cycles` cycles, or before the next meshes would not fit in the nodes'
+/// memory (or a cycle's NNDD not converged), 4 interrupted.
 pub fn run(
     world: &SimpleCommunicator,
     settings: &Settings,
