@@ -89,7 +89,7 @@ impl EstimateMeaning {
     /// The meaning of a mortar run's estimates (docs/method.md §7, "The estimates").
     pub fn mortar() -> EstimateMeaning {
         EstimateMeaning {
-            eta_glo: "guaranteed upper bound of the energy-norm error of the iterate against the exact solution of the continuous contact problem on the meshes' polygons, paired along body 1's interpolated normal field, with the initial gap the mortar nodal gaps interpolated along the non-mortar curve (docs/method.md section 7); includes the correction that moves apart the pairs the weighted constraint lets penetrate",
+            eta_glo: "guaranteed upper bound of the energy-norm error of the iterate against the exact solution of the continuous contact problem on the meshes' polygons, paired along body 1's interpolated normal field (or with a node within 1 % of a segment off it), with the initial gap the mortar nodal gaps interpolated along the non-mortar curve (docs/method.md section 7); includes the correction that moves apart the pairs the weighted constraint lets penetrate",
             eta_fe: "the part of the error due to the mesh: the same construction with each body re-solved under its own contact forces (docs/method.md section 7)",
             eta_nndd: "the part of the error due to stopping the NNDD: the error of the iterate against the mortar-discrete contact problem's solution; tends to 0 as the NNDD converges",
             ..EstimateMeaning::default()

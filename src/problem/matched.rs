@@ -19,6 +19,10 @@ pub struct Matched {
     /// The points of the nodes inserted or moved (by [`point_key`]), to tell a triangle nndd
     /// made from the user's in messages.
     pub made: std::collections::BTreeSet<[u64; 2]>,
+    /// The pairs of nodes left as they are next to each other (within
+    /// [`super::conform::NEAR`], by [`point_key`]): body 1's node and its partner, body 2's
+    /// node off its normal line, which the pairing takes as it is.
+    pub near: BTreeMap<[u64; 2], [u64; 2]>,
 }
 
 /// The key of a point in [`Matched::normals`].
@@ -41,6 +45,10 @@ impl Matched {
         for k in &self.made {
             k.iter().for_each(|&x| w.u64(x));
         }
+        w.int(self.near.len());
+        for (a, b) in &self.near {
+            a.iter().chain(b).for_each(|&x| w.u64(x));
+        }
     }
 
     /// What [`Matched::write`] wrote.
@@ -53,11 +61,15 @@ impl Matched {
         let made = (0..r.count(16)?)
             .map(|_| Some([r.u64()?, r.u64()?]))
             .collect::<Option<_>>()?;
+        let near = (0..r.count(32)?)
+            .map(|_| Some(([r.u64()?, r.u64()?], [r.u64()?, r.u64()?])))
+            .collect::<Option<_>>()?;
         Some(Matched {
             normals,
             inserted,
             moved,
             made,
+            near,
         })
     }
 }

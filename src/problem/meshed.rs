@@ -368,7 +368,9 @@ fn refined_normals(
 }
 
 /// Pair the contact curves: every node of body 1's side with the node of body 2's side on
-/// its normal line (within 1e−8 of the curve's length), the nearer one if several. After
+/// its normal line (within 1e−8 of the curve's length), the nearer one if several, or with
+/// the node next to it that the matching left as it is (a mortar run's matched meshes,
+/// `conform::NEAR`). After
 /// [`super::conform`] the curves match wherever they overlap: Γc is the run of body 1's nodes
 /// that have a partner, which must be one piece, and their partners must be the nodes of one
 /// piece of body 2's curve in order; the nodes beyond stay candidates only. g₀ is the distance
@@ -429,13 +431,18 @@ fn pair_interface(spec: &MeshSpec, bodies: &[GmshBody]) -> Result<Pairing, Meshe
             (n[1] * d[0] - n[0] * d[1], n[0] * d[0] + n[1] * d[1])
         }
     };
-    // Each normal line's partner: the nearest node on the line.
+    // Each normal line's partner: the nearest node on the line, or the node next to it that
+    // the matching left as it is (`conform::NEAR`).
+    let key = super::matched::point_key;
+    let near = |k: usize, b: usize| {
+        (spec.matched.near.get(&key(curve1[k]))).is_some_and(|&n| n == key(p2.get(b)))
+    };
     let partner: Vec<Option<usize>> = (0..chain1.len())
         .map(|k| {
             sides[1]
                 .iter()
                 .copied()
-                .filter(|&b| offset(k, b).0.abs() <= tol)
+                .filter(|&b| offset(k, b).0.abs() <= tol || near(k, b))
                 .min_by(|&x, &y| offset(k, x).1.abs().total_cmp(&offset(k, y).1.abs()))
         })
         .collect();
