@@ -6,6 +6,7 @@ use super::solve::Solution;
 use super::PostProcessed;
 use crate::dd::friction::{FrictionLaw, PairState};
 use crate::dd::nndd::{Iterate, Relaxation};
+use crate::estimate::equilibrate::Residuals;
 use crate::estimate::EstimateRecord;
 use crate::io::fields;
 use crate::io::monitor::{self, sci};
@@ -93,16 +94,14 @@ pub fn summarise(
     let builtin = settings.problem.mesh.is_none();
     let matched = settings.problem.mesh.as_ref().map(|m| &*m.matched);
     let residuals = (!sol.estimates.is_empty()).then(|| {
-        let mut r = EquilibriumResiduals::default();
-        for e in &sol.estimates {
-            let x = &e.residuals;
-            r.divergence = r.divergence.max(x.divergence);
-            r.internal_jump = r.internal_jump.max(x.internal_jump);
-            r.element_jump = r.element_jump.max(x.element_jump);
-            r.boundary = r.boundary.max(x.boundary);
-            r.point_reaction = r.point_reaction.max(x.point_reaction);
+        let r = worst_residuals(&sol.estimates);
+        EquilibriumResiduals {
+            divergence: r.divergence,
+            internal_jump: r.internal_jump,
+            element_jump: r.element_jump,
+            boundary: r.boundary,
+            point_reaction: r.point_reaction,
         }
-        r
     });
     Summary {
         problem: settings.problem.kind.name().into(),
@@ -475,4 +474,9 @@ fn friction_zones(
             .filter(|(_, s)| **s == PairState::Slip)
             .fold(0.0, |m, (v, _)| m.max(v.abs())),
     })
+}
+
+/// The largest equilibrium residuals of the recovered stresses over the run's estimates.
+pub(super) fn worst_residuals(estimates: &[EstimateRecord]) -> Residuals {
+    (estimates.iter()).fold(Residuals::default(), |w, e| w.worst(e.residuals))
 }

@@ -294,6 +294,11 @@ impl<'a> Run<'a> {
             &mut sol.estimates,
             &mut sol.history,
         ))?;
+        // The recovered stresses must be admissible to round-off for η^glo to bound the error.
+        if let Some(w) = report::worst_residuals(&sol.estimates).warning() {
+            say_warnings(layout.is_root(), std::slice::from_ref(&w));
+            sol.warnings.push(w);
+        }
         post.logged_flops = layout.sum(Petsc::logged_flops());
         post.reference_iterations = e.and_then(|e| e.reference_iterations());
         post.reference_held_nodes = e.and_then(|e| e.reference_held_nodes());

@@ -151,7 +151,7 @@ impl<'a> ElementWork<'a> {
             .map(|e| e.map(|v| [sign * v[0], sign * v[1]]))
             .collect();
         let r = self.recover(Data::Glo, &t_alpha, data, operators, parts)?;
-        self.est.residuals = worst(self.est.residuals, r);
+        self.est.residuals = self.est.residuals.worst(r);
         let u_d = match data.nndd_variant {
             NnddVariant::Discrete => &self.fields.u_d,
             NnddVariant::Density => &self.fields.u_tilde,
@@ -205,7 +205,7 @@ impl<'a> ElementWork<'a> {
         }
         let edges = polygon::nodal_edges(&traction);
         let r = self.recover(Data::Fe, &edges, data, operators, parts)?;
-        self.est.residuals = worst(self.est.residuals, r);
+        self.est.residuals = self.est.residuals.worst(r);
         Ok(())
     }
 
@@ -484,16 +484,6 @@ fn bubbles(p: &BodyProblem, data: &IterationData) -> HashMap<usize, ElementBubbl
         );
     }
     out
-}
-
-pub(super) fn worst(a: Residuals, b: Residuals) -> Residuals {
-    Residuals {
-        divergence: a.divergence.max(b.divergence),
-        internal_jump: a.internal_jump.max(b.internal_jump),
-        element_jump: a.element_jump.max(b.element_jump),
-        boundary: a.boundary.max(b.boundary),
-        point_reaction: a.point_reaction.max(b.point_reaction),
-    }
 }
 
 /// The Γc traction vector of body α (nodal values of a P1 density per unit length of body 1's

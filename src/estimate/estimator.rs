@@ -9,7 +9,7 @@ use std::rc::Rc;
 use crate::dd::body::Body;
 use crate::dd::displacement::Displacement;
 use crate::dd::nndd::Iterate;
-use crate::estimate::cre::{worst, BodyEstimate, ElementWork};
+use crate::estimate::cre::{BodyEstimate, ElementWork};
 use crate::estimate::equilibrate::{OperatorCache, Recovery, Residuals};
 use crate::estimate::iteration::{body_fields, body_resolves, BodyFields, IterationData, Reaction};
 use crate::estimate::mortar::MortarEstimates;

@@ -429,7 +429,7 @@ impl Estimator<'_> {
             for c in 0..3 {
                 sums[c] += t[c];
             }
-            res = worst(res, est.residuals);
+            res = res.worst(est.residuals);
             for v in [&mut est.glo, &mut est.fe, &mut est.nndd]
                 .into_iter()
                 .flatten()
