@@ -167,6 +167,26 @@ fn estimating_ranks_are_sent_their_overlaps_and_estimate_what_every_rank_buildin
         // (the reference's fine bodies built on world rank 0 and dealt alike)
         let fine = "held_reference_mesh_elements_per_rank";
         assert_eq!(root[fine], every[fine], "{what}");
+        if r == "2" {
+            let (held, input) = (
+                elements(&root, fine),
+                elements(&root, "reference_input_mesh_elements_per_rank"),
+            );
+            assert_eq!(
+                input[0],
+                4 * 4096,
+                "{what}: world rank 0 built both fine bodies"
+            );
+            assert_eq!(
+                input[1..],
+                held[1..],
+                "{what}: the others were sent their parts"
+            );
+            assert_eq!(
+                elements(&every, "reference_input_mesh_elements_per_rank"),
+                vec![4 * 4096; ranks]
+            );
+        }
         // (each rank's peak once the fine bodies were built, where the reference is solved)
         let peaks = root["reference_input_peak_memory_mib_per_rank"].as_array();
         match r {

@@ -547,7 +547,9 @@ fn mortar_estimates_where_the_curves_nodes_come_near_each_other() {
 /// run's field at most at 1.2 times its share of body 1's nodes plus the outline, and the
 /// estimate's fields (the carried iterate, the recoveries' overlaps with their rings) at fewer
 /// nodes than body 1 has (carried whole, the iterate was held at all of body 1's matched
-/// nodes, more); η^glo, η^FE and e_ref are the one rank's to 1e−10.
+/// nodes, more), and no rank but world rank 0 builds the reference's fine bodies (the matched
+/// meshes refined): each other rank holds in their input the part it solves on, less than half
+/// of them; η^glo, η^FE and e_ref are the one rank's to 1e−10.
 #[test]
 fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
     let dir = scratch("mortar-held");
@@ -590,6 +592,30 @@ fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
                 nodes[0]
             );
         }
+        // (the reference's fine bodies, the matched meshes refined, built on world rank 0
+        // alone and dealt: every other rank held in their input the part it holds through
+        // their solve)
+        let whole = serde_json::from_value::<Vec<usize>>(
+            base["reference_input_mesh_elements_per_rank"].clone(),
+        )
+        .unwrap()[0];
+        let (input, fine) = (
+            list("reference_input_mesh_elements_per_rank"),
+            list("held_reference_mesh_elements_per_rank"),
+        );
+        assert_eq!(
+            input[0], whole,
+            "{what}: world rank 0 built both fine bodies"
+        );
+        assert_eq!(
+            input[1..],
+            fine[1..],
+            "{what}: the other ranks were sent their parts"
+        );
+        assert!(
+            fine[1..].iter().all(|&n| n < whole / 2),
+            "{what}: a rank holds a fine body whole: {fine:?} of {whole}"
+        );
         for key in ["eta_glo", "eta_fe", "e_ref"] {
             let d = ((last(&j, key) - last(&base, key)) / last(&base, key)).abs();
             println!(

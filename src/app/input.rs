@@ -9,7 +9,8 @@
 //! rank"; the summary's `input_mesh_elements_per_rank`).
 //!
 //! The reference solution's fine bodies (`-nndd_reference_factor`) are built on world rank 0
-//! and dealt alike: rank 0 refines the file (`reference::solve_reference`). A mortar run's
+//! and dealt alike: rank 0 refines the file (`reference::solve_reference`; a mortar run's
+//! estimates' matched meshes, which every rank made, with their initial gaps). A mortar run's
 //! bodies are sent with their coupling; an adaptive run's cycles each so (rank 0 remeshes, and
 //! builds the whole meshes again for the size view, `cycles::whole_bodies_on_root`). A mortar run
 //! that estimates, which maps both whole bodies onto their matched meshes on every rank,
@@ -32,6 +33,7 @@ use crate::parallel::layout::{block_of, Layout};
 use crate::parallel::partition::Partition;
 use crate::parallel::root;
 use crate::problem::parsed::MeshInput;
+use crate::problem::transfer::GapField;
 use crate::problem::{self, BodyProblem, ContactDiscretisation};
 
 /// Whether this run builds its bodies on world rank 0 alone: a Gmsh problem on several ranks
@@ -48,16 +50,23 @@ pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
         && !super::parts::reads_whole_meshes(settings, mortar)
 }
 
-/// Both bodies' problems: whole on world rank 0, which builds them; on every other rank
+/// Both bodies' problems: whole on world rank 0, which builds them (a mortar run's reference
+/// with the initial gaps `gaps` of its estimates' matched meshes); on every other rank
 /// released to their outlines, Γc and conditions ([`BodyProblem::released`]), as rank 0 sends
 /// them (collective; the ranks agree on rank 0's build).
 pub(super) fn build_on_root(
     settings: &Settings,
+    gaps: Option<&GapField>,
     agreement: &Agreement,
     world: &SimpleCommunicator,
 ) -> Result<[Rc<BodyProblem>; 2], AppError> {
     let built = match world.rank() == 0 {
-        true => problem::build(&settings.problem).map(Some),
+        true => problem::build(&settings.problem).map(|p| {
+            Some(match gaps {
+                Some(g) => g.apply(p),
+                None => p,
+            })
+        }),
         false => Ok(None),
     };
     let built = built.map_err(AppError::from).and_then(|p| {

@@ -279,7 +279,7 @@ pub(crate) fn solve_cycle(
     // its phases read).
     let on_root = input::on_root(&settings, world.size());
     let mut problems = match on_root {
-        true => input::build_on_root(&settings, agreement, world)?,
+        true => input::build_on_root(&settings, None, agreement, world)?,
         false => {
             // (world rank 0 read the file: every rank builds from it)
             let file = settings.problem.parsed_file_mut();
@@ -293,7 +293,7 @@ pub(crate) fn solve_cycle(
         // to match on world rank 0, the bodies built again as before)
         settings.warnings.push(why);
         problems = match on_root {
-            true => input::build_on_root(&settings, agreement, world)?,
+            true => input::build_on_root(&settings, None, agreement, world)?,
             false => build_problems(&settings, agreement)?,
         };
     }

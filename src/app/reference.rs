@@ -36,7 +36,16 @@ pub fn solve_reference(
     let t = Instant::now();
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
-    let mut fine = settings.refined(r)?;
+    // (a mortar run's matched file, which every rank made alike, refined on world rank 0
+    // alone where it builds the fine bodies: the others hold its facts)
+    let mut coarse = std::borrow::Cow::Borrowed(settings);
+    if gaps.is_some() && input::on_root(settings, layout.size) && !layout.is_root() {
+        if let Some(file) = coarse.to_mut().problem.parsed_file_mut() {
+            *file = file.facts_only();
+        }
+    }
+    let mut fine = coarse.refined(r)?;
+    drop(coarse);
     // (the refined file's facts, where world rank 0 alone holds the file and refined it)
     let world = &layout.world;
     let file = fine.problem.parsed_file_mut();
@@ -53,7 +62,11 @@ pub fn solve_reference(
     // All of it in the reference stage of -log_view.
     let stages = &stages.all_in_reference();
     let _s = stages.reference.enter();
-    let (problems, cut) = fine_parts(&mut fine, layout, gaps, agreement)?;
+    let FineParts {
+        problems,
+        cut,
+        input_elements,
+    } = fine_parts(&mut fine, layout, gaps, agreement)?;
     let input_peak_mib = crate::os::memory::peak_memory() / (1024.0 * 1024.0);
     let held = problems.each_ref().map(Option::as_ref);
     let held_elements = (held.iter().flatten())
@@ -143,40 +156,56 @@ pub fn solve_reference(
         iterations,
         held_nodes,
         held_elements,
+        input_elements,
         input_peak_mib,
     }))
+}
+
+/// The reference's fine problems as this rank holds them ([`fine_parts`]).
+struct FineParts {
+    /// Each body's this rank's group works on, cut to the part the rank reads.
+    problems: [Option<Rc<BodyProblem>>; 2],
+    /// The rank's partition of its group's body.
+    cut: [Option<Partition>; 2],
+    /// The fine elements this rank held in the input: both bodies' where it built them,
+    /// else the part it was sent.
+    input_elements: usize,
 }
 
 /// The reference's fine problem of each body this rank's group works on, cut to the part the
 /// rank reads (a Gmsh body's: its partition, its block of the fine elements, whose nodes
 /// e_ref's transfer reads, and Γc), and its partition: built on world rank 0 and dealt
-/// (`-nndd_mesh_input root`, [`input::on_root`]), else built on every rank, a mortar run's
+/// (`-nndd_mesh_input root`, [`input::on_root`]), else built on every rank; a mortar run's
 /// with its `gaps`. The fine problem of a body this rank does not work on is freed before the
 /// factorisations (the NNDD reads the bodies alone), and the refined file once the bodies are
 /// built.
-#[allow(clippy::type_complexity)]
 fn fine_parts(
     fine: &mut Settings,
     layout: &Layout,
     gaps: Option<&crate::problem::transfer::GapField>,
     agreement: &Agreement,
-) -> Result<([Option<Rc<BodyProblem>>; 2], [Option<Partition>; 2]), AppError> {
-    if gaps.is_none() && input::on_root(fine, layout.size) {
-        let built = input::build_on_root(fine, agreement, &layout.world)?;
+) -> Result<FineParts, AppError> {
+    if input::on_root(fine, layout.size) {
+        let built = input::build_on_root(fine, gaps, agreement, &layout.world)?;
         fine.release_mesh_unread_later();
-        let (dealt, _) = input::deal_parts(built, fine, layout, agreement)?;
+        let (dealt, input_elements) = input::deal_parts(built, fine, layout, agreement)?;
         let k = dealt.alpha - 1;
         let mut problems = [None, None];
         problems[k] = Some(dealt.problems[k].clone());
         let mut cut = [None, None];
         cut[k] = Some(dealt.partition);
-        return Ok((problems, cut));
+        return Ok(FineParts {
+            problems,
+            cut,
+            input_elements,
+        });
     }
     let mut both = problem::build(&fine.problem)?;
     fine.release_mesh_unread_later();
     if let Some(g) = gaps {
         both = g.apply(both);
     }
+    let input_elements = both.iter().map(|p| p.num_elements()).sum();
     let problems = owned(&both, layout).map(Option::<&Rc<BodyProblem>>::cloned);
     drop(both);
     let how = fine.problem.partitioner;
@@ -186,7 +215,11 @@ fn fine_parts(
         let part = super::parts::read_part(&p, layout, cut[p.alpha - 1].as_ref(), Vec::new());
         Some(part.unwrap_or(p))
     });
-    Ok((problems, cut))
+    Ok(FineParts {
+        problems,
+        cut,
+        input_elements,
+    })
 }
 
 /// The reference mesh in words: the built-in problems' level, or the user's mesh refined.

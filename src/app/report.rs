@@ -44,6 +44,8 @@ pub struct Measured<'a> {
     pub input_peaks: &'a [f64],
     /// Each rank's resident file-backed memory (MiB) at the end ([`file_backed_memory_per_rank`]).
     pub file_backed: &'a [f64],
+    /// The elements of the fine meshes each rank held in the reference solution's input.
+    pub reference_input_elements: Option<&'a [usize]>,
     /// Each rank's peak memory (MiB) once the reference solution's fine bodies were built.
     pub reference_input_peaks: Option<&'a [f64]>,
 }
@@ -64,6 +66,7 @@ pub fn summarise(
         reference_iterations,
         reference_held_nodes: _,
         reference_held_elements: _,
+        reference_input_elements: _,
         reference_input_peak_mib: _,
         estimate_held_nodes: _,
         input_mesh_elements: _,
@@ -83,6 +86,7 @@ pub fn summarise(
         input_points,
         input_peaks,
         file_backed,
+        reference_input_elements,
         reference_input_peaks,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
@@ -182,6 +186,7 @@ pub fn summarise(
         input_mesh_elements_per_rank: input_elements.map(<[usize]>::to_vec),
         input_file_points_per_rank: input_points.map(<[usize]>::to_vec),
         input_peak_memory_mib_per_rank: input_peaks.to_vec(),
+        reference_input_mesh_elements_per_rank: reference_input_elements.map(<[usize]>::to_vec),
         reference_input_peak_memory_mib_per_rank: reference_input_peaks.map(<[f64]>::to_vec),
         body_ranks: layout.group_sizes,
         h5: paths.h5().display().to_string(),

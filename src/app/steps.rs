@@ -28,6 +28,8 @@ pub(crate) struct PostProcessed {
     pub(crate) reference_held_nodes: Option<usize>,
     /// The elements of the fine meshes this rank held for the reference solution.
     pub(crate) reference_held_elements: Option<usize>,
+    /// The elements of the fine meshes this rank held in the reference solution's input.
+    pub(crate) reference_input_elements: Option<usize>,
     /// This rank's peak memory (MiB) once the reference solution's fine bodies were built.
     pub(crate) reference_input_peak_mib: Option<f64>,
     /// The most nodes at which this rank held an estimated iterate's fields.
@@ -264,6 +266,7 @@ impl<'a> Run<'a> {
             reference_iterations: None,
             reference_held_nodes: None,
             reference_held_elements: None,
+            reference_input_elements: None,
             reference_input_peak_mib: None,
             estimate_held_nodes: None,
             input_mesh_elements: None,
@@ -303,6 +306,7 @@ impl<'a> Run<'a> {
         post.reference_iterations = e.and_then(|e| e.reference_iterations());
         post.reference_held_nodes = e.and_then(|e| e.reference_held_nodes());
         post.reference_held_elements = e.and_then(|e| e.reference_held_elements());
+        post.reference_input_elements = e.and_then(|e| e.reference_input_elements());
         post.reference_input_peak_mib = e.and_then(|e| e.reference_input_peak_mib());
         post.estimate_held_nodes = e.map(|e| e.held_nodes());
         if let Some(e) = e {
@@ -342,13 +346,14 @@ impl<'a> Run<'a> {
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let held_nodes = report::held_field_nodes_per_rank(layout, sol);
-        let [held_reference, held_estimate, held_reference_elements, input_elements, input_points] =
+        let [held_reference, held_estimate, held_reference_elements, input_elements, input_points, reference_input_elements] =
             [
                 post.reference_held_nodes,
                 post.estimate_held_nodes,
                 post.reference_held_elements,
                 post.input_mesh_elements,
                 post.input_file_points,
+                post.reference_input_elements,
             ]
             .map(|n| n.map(|n| report::counts_per_rank(layout, n as u64)));
         let mut written = Ok(());
@@ -366,6 +371,7 @@ impl<'a> Run<'a> {
                 input_points: input_points.as_deref(),
                 input_peaks: &input_peaks,
                 file_backed: &file_backed,
+                reference_input_elements: reference_input_elements.as_deref(),
                 reference_input_peaks: reference_input_peaks.as_deref(),
             };
             let problems = [&*problems[0], &*problems[1]];

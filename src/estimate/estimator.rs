@@ -313,6 +313,12 @@ impl<'a> Estimator<'a> {
         self.reference.as_ref().map(|r| r.input_peak_mib)
     }
 
+    /// The elements of the fine meshes this rank held in the reference solution's input,
+    /// where it was solved ([`Reference::input_elements`]).
+    pub fn reference_input_elements(&self) -> Option<usize> {
+        self.reference.as_ref().map(|r| r.input_elements)
+    }
+
     /// The elements of the fine meshes this rank held for the reference solution, where it
     /// was solved ([`Reference::held_elements`]).
     pub fn reference_held_elements(&self) -> Option<usize> {

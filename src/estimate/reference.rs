@@ -25,6 +25,10 @@ pub struct Reference {
     /// The elements of the fine bodies' meshes this rank held through their set-up and solve
     /// (a Gmsh body's part, `app::parts::read_part`; a built-in body's grid, whole, holds nothing).
     pub held_elements: usize,
+    /// The elements of the fine bodies' meshes this rank held in the input: both bodies'
+    /// where it built them (world rank 0 alone under `-nndd_mesh_input root`), else the part
+    /// it was sent.
+    pub input_elements: usize,
     /// This rank's peak resident memory (MiB) once the fine bodies were built and cut to its
     /// parts, before their set-up (what building them on the rank costs it).
     pub input_peak_mib: f64,

@@ -259,6 +259,12 @@ pub struct Summary {
     /// the bodies' problems were built (or a rank's part sent) and the ranks laid out, before
     /// the bodies are set up (what building the whole bodies on a rank costs it).
     pub input_peak_memory_mib_per_rank: Vec<f64>,
+    /// The elements of the reference solution's fine meshes each rank held in its input, when
+    /// solved, by world rank: both bodies' on a rank that built them (world rank 0 alone under
+    /// `-nndd_mesh_input root`, a mortar run's matched meshes refined there alike; every rank
+    /// under `every_rank`), else the part world rank 0 sent it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_input_mesh_elements_per_rank: Option<Vec<usize>>,
     /// The same once the reference solution's fine bodies were built and cut to each rank's
     /// parts, before their set-up, when solved (`-nndd_reference_factor`: world rank 0 builds
     /// a Gmsh problem's under `-nndd_mesh_input root`, every rank under `every_rank`).
