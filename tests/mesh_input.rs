@@ -376,24 +376,45 @@ fn an_adaptive_run_s_cycles_are_dealt_from_world_rank_0() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A run whose later phases read the parsed file on every rank (a mortar run's estimates,
-/// which map its bodies onto matched meshes) is sent the file and builds the bodies on every
-/// rank, as `every_rank`, whatever `-nndd_mesh_input` says; a built-in problem reports no
-/// input mesh (its grids are formulas), and the option is refused beside it.
+/// A run whose later phases read the parsed file on every rank (an adaptive mortar run,
+/// whose estimates map its bodies onto matched meshes in every cycle) is sent the file and
+/// builds the bodies and the matched meshes on every rank, as `every_rank`, whatever
+/// `-nndd_mesh_input` says; a built-in problem reports no input mesh (its grids are formulas),
+/// and the option is refused beside it.
 #[test]
 fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
     let dir = scratch("mesh-input-whole");
-    let hertz = gmsh_level(HERTZ_NM_GEO, &dir, "hertz-nm", 1);
-    let estimate = ["-nndd_contact_discretisation", "mortar", "-nndd_estimate"];
-    let j = solve_meshed(3, HERTZ_NM_OPTS, &hertz, &dir.join("mortar"), &estimate);
-    let points = j["input_file_points_per_rank"].as_array().unwrap();
-    assert!(
-        points.len() == 3
-            && points
-                .iter()
-                .all(|p| p == &points[0] && p.as_u64() > Some(100)),
-        "a mortar run that estimates: {points:?}"
-    );
+    let prefix = dir.join("mortar");
+    // (the prefix after the options file, which names its own)
+    let adapt = [
+        "-options_file",
+        HERTZ_NM_OPTS,
+        "-nndd_mesh",
+        HERTZ_NM_GEO,
+        "-nndd_geo_set",
+        "level=1",
+        "-nndd_contact_discretisation",
+        "mortar",
+        "-nndd_estimate",
+        "-nndd_adapt_tol",
+        "0.5",
+        "-nndd_adapt_max_cycles",
+        "1",
+        "-nndd_output",
+        prefix.to_str().unwrap(),
+    ];
+    let j = solve(3, &prefix, &adapt);
+    let per_rank = |key: &str| -> Vec<u64> { serde_json::from_value(j[key].clone()).unwrap() };
+    for key in [
+        "input_file_points_per_rank",
+        "held_matched_mesh_elements_per_rank",
+    ] {
+        let n = per_rank(key);
+        assert!(
+            n.len() == 3 && n.iter().all(|&p| p == n[0] && p > 100),
+            "an adaptive mortar run: {key} {n:?}"
+        );
+    }
     let builtin = ["-nndd_problem", "paper", "-nndd_n", "8"];
     let j = solve(2, &dir.join("builtin"), &builtin);
     assert!(j.get("input_mesh_elements_per_rank").is_none());

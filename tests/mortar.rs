@@ -547,9 +547,12 @@ fn mortar_estimates_where_the_curves_nodes_come_near_each_other() {
 /// run's field at most at 1.2 times its share of body 1's nodes plus the outline, and the
 /// estimate's fields (the carried iterate, the recoveries' overlaps with their rings) at fewer
 /// nodes than body 1 has (carried whole, the iterate was held at all of body 1's matched
-/// nodes, more), and no rank but world rank 0 builds the reference's fine bodies (the matched
-/// meshes refined): each other rank holds in their input the part it solves on, less than half
-/// of them; η^glo, η^FE and e_ref are the one rank's to 1e−10.
+/// nodes, more). No rank but world rank 0 reads the file or builds a whole mesh: the run's
+/// meshes, the matched meshes (world rank 0 sends each rank its parts and its part of the maps
+/// between them) and the reference's fine bodies (the matched meshes refined: each other rank
+/// holds in their input the part it solves on, less than half of them); η^glo, η^FE and e_ref
+/// are the one rank's to 1e−10, and on 4 ranks those of `-nndd_mesh_input every_rank`, which
+/// builds every mesh whole on every rank, to 1e−12.
 #[test]
 fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
     let dir = scratch("mortar-held");
@@ -564,6 +567,8 @@ fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
         "bands",
     ];
     let base = hertz_run(1, &msh, &dir.join("a"), &args);
+    let whole = |key: &str| serde_json::from_value::<Vec<usize>>(base[key].clone()).unwrap()[0];
+    let matched = whole("held_matched_mesh_elements_per_rank");
     let nodes = body_nodes(&base);
     let outline = ["body1", "body2"].map(|b| outline_nodes(&dir.join("a"), b));
     let last = last_estimate;
@@ -592,13 +597,29 @@ fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
                 nodes[0]
             );
         }
+        // (the file read, and the run's and the matched meshes built, on world rank 0 alone)
+        let points = list("input_file_points_per_rank");
+        assert!(
+            points[0] > 0 && points[1..].iter().all(|&p| p == 0),
+            "{what}: {points:?}"
+        );
+        let (run, held) = (
+            list("input_mesh_elements_per_rank"),
+            list("held_matched_mesh_elements_per_rank"),
+        );
+        let mesh = whole("input_mesh_elements_per_rank");
+        assert!(
+            run[1..].iter().all(|&n| n < mesh),
+            "{what}: {run:?} of {mesh}"
+        );
+        assert!(
+            held.iter().all(|&n| n < matched),
+            "{what}: {held:?} of {matched}"
+        );
         // (the reference's fine bodies, the matched meshes refined, built on world rank 0
         // alone and dealt: every other rank held in their input the part it holds through
         // their solve)
-        let whole = serde_json::from_value::<Vec<usize>>(
-            base["reference_input_mesh_elements_per_rank"].clone(),
-        )
-        .unwrap()[0];
+        let whole = whole("reference_input_mesh_elements_per_rank");
         let (input, fine) = (
             list("reference_input_mesh_elements_per_rank"),
             list("held_reference_mesh_elements_per_rank"),
@@ -626,6 +647,21 @@ fn a_mortar_run_s_estimates_carry_the_iterate_on_each_rank_s_part() {
             assert!(d < 1e-10, "{what}: {key} differs by {d:e}");
         }
         assert!(last(&j, "eta_nndd") < 1e-4 * last(&j, "eta_glo"), "{what}");
+        if ranks == 4 {
+            let mut every = args.to_vec();
+            every.extend(["-nndd_mesh_input", "every_rank"]);
+            let e = hertz_run(ranks, &msh, &dir.join("every"), &every);
+            let held: Vec<usize> =
+                serde_json::from_value(e["held_matched_mesh_elements_per_rank"].clone()).unwrap();
+            assert_eq!(held, vec![matched; ranks], "every_rank");
+            for key in ["eta_glo", "eta_fe", "e_ref"] {
+                let d = ((last(&j, key) - last(&e, key)) / last(&e, key)).abs();
+                assert!(
+                    d < 1e-12,
+                    "{what}: {key} differs from every_rank's by {d:e}"
+                );
+            }
+        }
     }
     std::fs::remove_dir_all(&dir).ok();
 }

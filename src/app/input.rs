@@ -10,11 +10,13 @@
 //!
 //! The reference solution's fine bodies (`-nndd_reference_factor`) are built on world rank 0
 //! and dealt alike: rank 0 refines the file (`reference::solve_reference`; a mortar run's
-//! estimates' matched meshes, which every rank made, with their initial gaps). A mortar run's
-//! bodies are sent with their coupling; an adaptive run's cycles each so (rank 0 remeshes, and
-//! builds the whole meshes again for the size view, `cycles::whole_bodies_on_root`). A mortar run
-//! that estimates, which maps both whole bodies onto their matched meshes on every rank,
-//! builds them on every rank instead ([`on_root`]).
+//! estimates' matched meshes, with their initial gaps). A mortar run's bodies are sent with
+//! their coupling, and where it estimates, its estimates' matched meshes and each rank's part
+//! of the maps between the two ([`deal_matched`]); an adaptive run's cycles each so (rank 0
+//! remeshes, and builds the whole meshes again for the size view,
+//! `cycles::whole_bodies_on_root`). An adaptive mortar run, whose estimates map both whole
+//! bodies onto their matched meshes in every cycle on every rank, builds them on every rank
+//! instead ([`on_root`]).
 
 use std::rc::Rc;
 
@@ -24,6 +26,7 @@ use mpi::traits::*;
 use super::options::Settings;
 use super::{agreed, AppError};
 use crate::estimate::estimator::{contact_elements, elements_read_by, Estimator};
+use crate::estimate::mortar::MortarMaps;
 use crate::estimate::reference::coarse_elements_under;
 use crate::estimate::share::{estimated_outside_group, Seed, SharePlan};
 use crate::fem::mesh::element_u32;
@@ -38,8 +41,10 @@ use crate::problem::{self, BodyProblem, ContactDiscretisation};
 
 /// Whether this run builds its bodies on world rank 0 alone: a Gmsh problem on several ranks
 /// under `-nndd_mesh_input root` whose later phases do not read the whole meshes on every rank
-/// (a mortar run's estimates map both bodies onto their matched meshes). Its reference
-/// solution's fine bodies are built on world rank 0 alike (`reference::solve_reference`).
+/// (an adaptive mortar run's estimates, which map both bodies onto their matched meshes in
+/// every cycle). Its reference solution's fine bodies are built on world rank 0 alike
+/// (`reference::solve_reference`), and a mortar run's estimates' matched meshes
+/// ([`deal_matched`]).
 pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     let Some(spec) = &settings.problem.mesh else {
         return false;
@@ -47,11 +52,11 @@ pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
     let mortar = spec.discretisation == ContactDiscretisation::Mortar;
     ranks > 1
         && settings.problem.input == MeshInput::Root
-        && !super::parts::reads_whole_meshes(settings, mortar)
+        && !(super::parts::reads_whole_meshes(settings, mortar) && settings.adapt.is_some())
 }
 
-/// Both bodies' problems: whole on world rank 0, which builds them (a mortar run's reference
-/// with the initial gaps `gaps` of its estimates' matched meshes); on every other rank
+/// Both bodies' problems: whole on world rank 0, which builds them (a mortar run's estimates'
+/// matched problems, and their reference's, with the initial gaps `gaps`); on every other rank
 /// released to their outlines, Γc and conditions ([`BodyProblem::released`]), as rank 0 sends
 /// them (collective; the ranks agree on rank 0's build).
 pub(super) fn build_on_root(
@@ -134,10 +139,9 @@ impl Dealt {
     ) -> ([Option<Partition>; 2], [Rc<BodyProblem>; 2]) {
         let mut partitions = [None, None];
         partitions[self.alpha - 1] = Some(self.partition);
-        if let Some(e) = estimator {
-            if let Some(seeds) = self.seeds {
-                e.take_shares(seeds);
-            }
+        // (a mortar run's estimator holds its matched problems, dealt on their own)
+        if let (Some(e), Some(seeds)) = (estimator, self.seeds) {
+            e.take_shares(seeds);
             e.hold(&self.problems);
         }
         (partitions, self.problems)
@@ -248,12 +252,19 @@ fn send_parts(
         let mesh = Some(problems[k].mesh());
         SharePlan::new(k + 1, mesh, sizes, layout, how, crosses[k], recovery)
     };
-    let plans = settings.estimate.enabled.then(|| [plan(0), plan(1)]);
+    // (a mortar run's estimates and its reference are on its matched meshes, [`deal_matched`])
+    let mortar = super::parts::mortar([&problems[0], &problems[1]]);
+    let estimated = settings.estimate.enabled && !mortar;
+    let plans = estimated.then(|| [plan(0), plan(1)]);
     let gc = problems.each_ref().map(|p| match plans {
         Some(_) => contact_elements(p),
         None => Vec::new(),
     });
-    let reference = settings.estimate.reference_factor;
+    let reference = if mortar {
+        0
+    } else {
+        settings.estimate.reference_factor
+    };
     let mut own = None;
     for (k, parts) in partitions.into_iter().enumerate() {
         let ranks = layout.group_ranks(k + 1);
@@ -324,4 +335,76 @@ fn dealt_to(
         problems: held,
         seeds,
     }
+}
+
+/// The initial gaps of a mortar run's estimates' matched problems ([`GapField`]), made on world
+/// rank 0 from the run's whole problems `whole` it built, on every rank (collective).
+pub(super) fn gaps_from_root(whole: Option<&[Rc<BodyProblem>; 2]>) -> Result<GapField, AppError> {
+    let bytes = root::bytes_from_root("the estimates' initial gaps", || {
+        let run = whole.ok_or_else(|| "world rank 0 holds no whole bodies".to_string())?;
+        let mut w = Writer::default();
+        GapField::new([&run[0], &run[1]]).write(&mut w);
+        Ok(w.0)
+    });
+    let bytes = bytes.map_err(AppError::Input)?;
+    let mut r = Reader::new(&bytes);
+    (GapField::read(&mut r).filter(|_| r.is_done()))
+        .ok_or_else(|| damaged("the estimates' initial gaps"))
+}
+
+/// A mortar run's estimates' `matched` problems (docs/method.md §7, "The estimates") built on
+/// world rank 0 alone, with the initial gaps `gaps`: rank 0 matched the curves of the file it
+/// read ([`crate::problem::ProblemSettings::for_estimates`]), builds the matched problems and
+/// the maps between the run's whole problems `whole` (its own, kept whole until here) and
+/// them, and sends every rank its part of the maps ([`MortarMaps::part`]) and what it works
+/// with of the matched problems, its shares of their estimates included ([`deal_parts`]): no
+/// rank but world rank 0 holds a whole mesh. Collective; the ranks agree on rank 0's maps.
+pub(super) fn deal_matched(
+    matched: &Settings,
+    whole: Option<&[Rc<BodyProblem>; 2]>,
+    gaps: &GapField,
+    layout: &Layout,
+    agreement: &Agreement,
+) -> Result<(Dealt, MortarMaps), AppError> {
+    let built = build_on_root(matched, Some(gaps), agreement, &layout.world)?;
+    let maps = match (layout.is_root(), whole) {
+        (true, Some(run)) => MortarMaps::new(run, &built)
+            .map(Some)
+            .map_err(AppError::from),
+        (true, None) => Err(damaged("the run's bodies")),
+        (false, _) => Ok(None),
+    };
+    let mine = match agreed(agreement, maps)? {
+        Some(maps) => Some(send_maps(&maps, &built, layout)),
+        None => {
+            let bytes = root::receive_from_root(&layout.world);
+            let mut r = Reader::new(&bytes);
+            MortarMaps::read(&mut r).filter(|_| r.is_done())
+        }
+    };
+    let mine = mine.ok_or_else(|| damaged("this rank's part of the estimates' maps"));
+    let mine = agreed(agreement, mine)?;
+    let (dealt, _) = deal_parts(built, matched, layout, agreement)?;
+    Ok((dealt, mine))
+}
+
+/// On world rank 0: every other rank sent its part of the whole `maps` ([`MortarMaps::part`],
+/// `matched` the whole matched problems); rank 0's own returned.
+fn send_maps(maps: &MortarMaps, matched: &[Rc<BodyProblem>; 2], layout: &Layout) -> MortarMaps {
+    let mut own = None;
+    for alpha in [1, 2] {
+        let ranks = layout.group_ranks(alpha);
+        for rank in ranks.clone() {
+            let part = maps.part(matched, (rank, alpha), ranks.clone());
+            if rank == 0 {
+                own = Some(part);
+                continue;
+            }
+            let mut w = Writer::default();
+            part.write(&mut w);
+            drop(part);
+            root::send_to(&layout.world, rank as i32, &w.0);
+        }
+    }
+    own.expect("world rank 0 is in body 1's group")
 }

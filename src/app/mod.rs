@@ -32,7 +32,7 @@ use crate::dd::body::{Body, BodyError};
 use crate::dd::contact::ContactError;
 use crate::dd::monolithic::MonolithicError;
 use crate::dd::nndd::{LoopState, NnddError};
-use crate::estimate::mortar::MortarEstimates;
+use crate::estimate::mortar::{MortarEstimates, MortarMaps};
 use crate::estimate::{EstimateError, Estimator};
 use crate::io::checkpoint::{self, CheckpointError, Identity};
 use crate::io::fields;
@@ -325,6 +325,10 @@ pub(crate) fn solve_cycle(
     restart.from = restart.from.take().or(carried);
     // Input: world rank 0 partitions the bodies it built and sends each rank its part, or
     // each rank lets go of the meshes it does not read.
+    // (a mortar run's estimates map the whole bodies onto their matched meshes on world rank 0,
+    // which keeps them until then: `Run::estimator`)
+    let mortar_estimates = settings.estimate.enabled && parts::mortar([&problems[0], &problems[1]]);
+    let whole = (on_root && mortar_estimates && layout.is_root()).then(|| problems.clone());
     let (problems, dealt, input_elements) = match on_root {
         true => {
             let t_deal = Instant::now();
@@ -347,7 +351,7 @@ pub(crate) fn solve_cycle(
     // solve at the estimated iterations and on the reported iterate; made first, so that the
     // reference's fine factorisations are freed before the run's own are made.
     let mut setup_warnings = Vec::new();
-    let mut estimator = run.estimator(&mut timings, &mut setup_warnings)?;
+    let mut estimator = run.estimator(whole, &mut timings, &mut setup_warnings)?;
     // Partition: each body over its group (METIS); then a Gmsh body's mesh cut, on each rank,
     // to the part it reads from here on.
     let (partitions, problems) = match dealt {

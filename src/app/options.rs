@@ -262,10 +262,11 @@ impl Settings {
                 format!("friction (-nndd_friction {}) is not available with the mortar discretisation yet; use node_to_node (the curves are then made to match)", self.friction.name()),
             ));
         }
-        // (read from the file where the run estimates, which holds it on every rank: a mortar
-        // run that does not may hold it on world rank 0 alone, `app::input::on_root`)
+        // (read from the file where the run estimates, on the ranks that hold it: world rank 0
+        // alone under `-nndd_mesh_input root`, `app::input::on_root`, the ranks agreeing on
+        // its verdict)
         let closed = match (&self.problem.mesh, self.estimate.enabled) {
-            (Some(spec), true) => spec
+            (Some(spec), true) if !spec.gmsh.is_on_root() => spec
                 .closed_contact()
                 .map_err(|e| SettingsError::named("-nndd_contact", e.to_string()))?,
             _ => None,

@@ -44,6 +44,8 @@ pub struct Measured<'a> {
     pub input_peaks: &'a [f64],
     /// Each rank's resident file-backed memory (MiB) at the end ([`file_backed_memory_per_rank`]).
     pub file_backed: &'a [f64],
+    /// The elements of a mortar run's estimates' matched meshes each rank held.
+    pub matched_elements: Option<&'a [usize]>,
     /// The elements of the fine meshes each rank held in the reference solution's input.
     pub reference_input_elements: Option<&'a [usize]>,
     /// Each rank's peak memory (MiB) once the reference solution's fine bodies were built.
@@ -69,6 +71,7 @@ pub fn summarise(
         reference_input_elements: _,
         reference_input_peak_mib: _,
         estimate_held_nodes: _,
+        matched_mesh_elements: _,
         input_mesh_elements: _,
         input_file_points: _,
         input_peak_memory_mib: _,
@@ -87,6 +90,7 @@ pub fn summarise(
         input_peaks,
         file_backed,
         reference_input_elements,
+        matched_elements,
         reference_input_peaks,
     } = measured;
     // Γc's pairs at the nodes of its pair side (body 1, or the non-mortar body).
@@ -183,6 +187,7 @@ pub fn summarise(
         held_reference_displacement_nodes_per_rank: held_reference.map(<[usize]>::to_vec),
         held_reference_mesh_elements_per_rank: held_reference_elements.map(<[usize]>::to_vec),
         held_estimate_displacement_nodes_per_rank: held_estimate.map(<[usize]>::to_vec),
+        held_matched_mesh_elements_per_rank: matched_elements.map(<[usize]>::to_vec),
         input_mesh_elements_per_rank: input_elements.map(<[usize]>::to_vec),
         input_file_points_per_rank: input_points.map(<[usize]>::to_vec),
         input_peak_memory_mib_per_rank: input_peaks.to_vec(),

@@ -141,17 +141,22 @@ pub fn owned<'a>(
 
 /// The bodies of a mortar run's matched problems (its estimates' re-solves,
 /// [`crate::estimate::mortar::MortarEstimates`]): factored on the run's groups, without
-/// interface operators.
+/// interface operators, each on this rank's partition `given` (world rank 0's, where it dealt
+/// them) or on the partitions the groups make.
 pub fn setup_matched_bodies(
     settings: &Settings,
     problems: &[Rc<BodyProblem>; 2],
+    given: Option<[Option<Partition>; 2]>,
     layout: &Layout,
     stages: &Stages,
     timings: &mut Timings,
 ) -> Result<[Option<Body>; 2], AppError> {
     let mut bodies: [Option<Body>; 2] = [None, None];
     let how = settings.problem.partitioner;
-    let parts = partitions(owned(problems, layout), layout, how)?;
+    let parts = match given {
+        Some(parts) => parts,
+        None => partitions(owned(problems, layout), layout, how)?,
+    };
     for (alpha, partition) in [1, 2].into_iter().zip(parts) {
         if let Some(partition) = partition {
             let problem = &problems[alpha - 1];

@@ -34,6 +34,8 @@ pub(crate) struct PostProcessed {
     pub(crate) reference_input_peak_mib: Option<f64>,
     /// The most nodes at which this rank held an estimated iterate's fields.
     pub(crate) estimate_held_nodes: Option<usize>,
+    /// The elements of a mortar run's estimates' matched meshes this rank held.
+    pub(crate) matched_mesh_elements: Option<usize>,
     /// The elements of a Gmsh problem's meshes this rank held in the input: both bodies'
     /// where it built them, else the part it was sent (`app::input`).
     pub(crate) input_mesh_elements: Option<usize>,
@@ -128,9 +130,12 @@ impl<'a> Run<'a> {
     /// (one that does not converge is a warning, added to `warnings`: no e_ref then, as is a
     /// factorisation made again with a larger relaxation). A mortar
     /// run's estimates and reference work on the matched meshes of
-    /// [`crate::problem::ProblemSettings::for_estimates`], their bodies set up here.
+    /// [`crate::problem::ProblemSettings::for_estimates`], their bodies set up here: built on
+    /// every rank, or on world rank 0 alone and dealt where it built the run's bodies, `whole`
+    /// there ([`input::deal_matched`]).
     pub(super) fn estimator(
         &self,
+        whole: Option<[Rc<BodyProblem>; 2]>,
         timings: &mut Timings,
         warnings: &mut Vec<String>,
     ) -> Result<Option<Estimator<'a>>, AppError> {
@@ -139,13 +144,35 @@ impl<'a> Run<'a> {
             true => settings.problem.for_estimates()?,
             false => None,
         };
-        let matched = matched.map(|problem| Settings {
+        let mut matched = matched.map(|problem| Settings {
             problem,
             ..settings.clone()
         });
+        // (where world rank 0 alone holds the file, it matched the curves: its facts here)
+        if let Some(file) = matched.as_mut().and_then(|m| m.problem.parsed_file_mut()) {
+            file.share_facts(&layout.world).map_err(AppError::Input)?;
+        }
+        let on_root = matched.is_some() && input::on_root(settings, layout.size);
+        let gaps = match (&matched, on_root) {
+            (None, _) => None,
+            (Some(_), false) => Some(GapField::new([&*self.problems[0], &*self.problems[1]])),
+            (Some(_), true) => Some(input::gaps_from_root(whole.as_ref())?),
+        };
+        let dealt = match (&matched, &gaps, on_root) {
+            (Some(m), Some(g), true) => {
+                let agreement = self.agreement;
+                Some(input::deal_matched(
+                    m,
+                    whole.as_ref(),
+                    g,
+                    layout,
+                    agreement,
+                )?)
+            }
+            _ => None,
+        };
+        drop(whole);
         let on = matched.as_ref().unwrap_or(settings);
-        let problems = [&*self.problems[0], &*self.problems[1]];
-        let gaps = matched.as_ref().map(|_| GapField::new(problems));
         let reference = match settings.estimate.reference_factor {
             0 => None,
             _ => {
@@ -186,15 +213,30 @@ impl<'a> Run<'a> {
             .with_partitioner(settings.problem.partitioner);
             return Ok(Some(e));
         };
-        let problems = gaps.apply(crate::problem::build(&matched.problem)?);
-        let bodies = solve::setup_matched_bodies(&matched, &problems, layout, self.stages, timings);
+        let (problems, partitions, maps, seeds) = match dealt {
+            Some((dealt, maps)) => {
+                let mut partitions = [None, None];
+                partitions[dealt.alpha - 1] = Some(dealt.partition);
+                (dealt.problems, Some(partitions), Ok(maps), dealt.seeds)
+            }
+            None => {
+                let problems = gaps.apply(crate::problem::build(&matched.problem)?);
+                let maps = MortarMaps::new(&self.problems, &problems).map_err(AppError::from);
+                (problems, None, maps, None)
+            }
+        };
+        let maps = agreed(self.agreement, maps)?;
+        let (stages, given) = (self.stages, partitions);
+        let bodies =
+            solve::setup_matched_bodies(&matched, &problems, given, layout, stages, timings);
         let bodies = agreed(self.agreement, bodies)?;
         warnings.extend(relaxed_warnings(&bodies, layout, Factored::Matched));
-        let mortar = agreed(
-            self.agreement,
-            MortarEstimates::new(self.problems.clone(), &problems, bodies).map_err(AppError::from),
-        )?;
+        let mortar = MortarEstimates::new(self.problems.clone(), maps, bodies);
+        let stages = Some(self.stages.estimation_parts);
         let e = Estimator::new(&settings.estimate, qp, layout, &problems, reference, stages);
+        if let Some(seeds) = seeds {
+            e.take_shares(seeds);
+        }
         Ok(Some(e.with_mortar(mortar)))
     }
 
@@ -269,6 +311,7 @@ impl<'a> Run<'a> {
             reference_input_elements: None,
             reference_input_peak_mib: None,
             estimate_held_nodes: None,
+            matched_mesh_elements: None,
             input_mesh_elements: None,
             input_file_points: None,
             input_peak_memory_mib: 0.0,
@@ -309,6 +352,7 @@ impl<'a> Run<'a> {
         post.reference_input_elements = e.and_then(|e| e.reference_input_elements());
         post.reference_input_peak_mib = e.and_then(|e| e.reference_input_peak_mib());
         post.estimate_held_nodes = e.map(|e| e.held_nodes());
+        post.matched_mesh_elements = e.and_then(|e| e.matched_mesh_elements());
         if let Some(e) = e {
             timings.estimation_parts = EstimationParts::from(e.part_seconds());
         }
@@ -346,7 +390,7 @@ impl<'a> Run<'a> {
         let held_elements =
             report::held_mesh_elements_per_rank(layout, [&problems[0], &problems[1]]);
         let held_nodes = report::held_field_nodes_per_rank(layout, sol);
-        let [held_reference, held_estimate, held_reference_elements, input_elements, input_points, reference_input_elements] =
+        let [held_reference, held_estimate, held_reference_elements, input_elements, input_points, reference_input_elements, matched_elements] =
             [
                 post.reference_held_nodes,
                 post.estimate_held_nodes,
@@ -354,6 +398,7 @@ impl<'a> Run<'a> {
                 post.input_mesh_elements,
                 post.input_file_points,
                 post.reference_input_elements,
+                post.matched_mesh_elements,
             ]
             .map(|n| n.map(|n| report::counts_per_rank(layout, n as u64)));
         let mut written = Ok(());
@@ -372,6 +417,7 @@ impl<'a> Run<'a> {
                 input_peaks: &input_peaks,
                 file_backed: &file_backed,
                 reference_input_elements: reference_input_elements.as_deref(),
+                matched_elements: matched_elements.as_deref(),
                 reference_input_peaks: reference_input_peaks.as_deref(),
             };
             let problems = [&*problems[0], &*problems[1]];

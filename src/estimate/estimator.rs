@@ -302,6 +302,15 @@ impl<'a> Estimator<'a> {
         self.held_nodes.get()
     }
 
+    /// The elements of a mortar run's estimates' matched meshes this rank holds (both bodies':
+    /// its parts where world rank 0 dealt them, `app::input::deal_matched`); `None` for any
+    /// other run.
+    pub fn matched_mesh_elements(&self) -> Option<usize> {
+        self.mortar.as_ref()?;
+        let held = (self.problems.iter()).filter(|p| p.holds_mesh());
+        Some(held.map(|p| p.mesh().triangles.held_len()).sum())
+    }
+
     /// The nodes at which this rank held the reference solution's fields (none without one).
     pub fn reference_held_nodes(&self) -> Option<usize> {
         self.reference.as_ref().map(|r| r.held_nodes)

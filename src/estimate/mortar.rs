@@ -25,8 +25,10 @@ use super::traction::Interface;
 use crate::dd::body::{Body, FieldAt, GcForces};
 use crate::dd::displacement::Displacement;
 use crate::dd::nndd::Iterate;
+use crate::fem::mesh::element_u32;
+use crate::fem::wire::{Reader, Writer};
 use crate::fem::{element_dofs, element_stiffness};
-use crate::parallel::layout::Layout;
+use crate::parallel::layout::{block_of, Layout};
 use crate::problem::transfer::{place, Transfer};
 use crate::problem::{pair_side, BodyProblem};
 
@@ -36,16 +38,41 @@ pub struct MortarEstimates {
     pub problems: [Rc<BodyProblem>; 2],
     /// The matched problems' bodies (factored, on the same groups as the run's).
     pub bodies: [Option<Body>; 2],
+    maps: MortarMaps,
+    /// The mortar problem's Γc (the non-mortar chain's pairs).
+    chain: Interface,
+}
+
+/// The maps between a mortar run's meshes and its estimates' matched ones, made from the whole
+/// meshes ([`MortarMaps::new`]) and held whole or as the part a rank reads
+/// ([`MortarMaps::part`]: world rank 0 sends each rank its part under `-nndd_mesh_input root`).
+#[derive(Clone, Debug)]
+pub struct MortarMaps {
     transfers: [Transfer; 2],
     /// The non-mortar (pair) side: 0 or 1.
     side: usize,
-    /// The mortar problem's Γc (the non-mortar chain's pairs).
-    chain: Interface,
     /// Each matched pair's place on the non-mortar chain: (segment k, fraction t).
     places: Vec<(usize, f64)>,
     /// The matched pair of each non-mortar pair (its node is one of the matched side's).
     matched_pair: Vec<Option<usize>>,
+    /// What the lift δ_n reads of each body's matched mesh at Γc ([`LiftData`]).
+    lift: [LiftData; 2],
 }
+
+/// What the lift δ_n reads of a body's matched mesh, all of it at Γc's nodes
+/// ([`lift_shares`], [`lift_energy`]).
+#[derive(Clone, Debug, Default)]
+struct LiftData {
+    /// a_k = nᵀK_kk n at each pair's node: its stiffness along the pair's normal.
+    stiffness: Vec<f64>,
+    /// Whether the pair's node has a displacement component along its normal prescribed.
+    held: Vec<bool>,
+    /// The elements with a vertex on Γc: (element, each vertex's pair, its stiffness).
+    elements: Vec<LiftElement>,
+}
+
+/// An element with a vertex on Γc ([`LiftData`]).
+type LiftElement = (usize, [Option<usize>; 3], [[f64; 6]; 6]);
 
 /// A mortar iterate on the matched meshes.
 pub struct Carried {
@@ -58,14 +85,12 @@ pub struct Carried {
     pub lift_elements: [Vec<(usize, f64)>; 2],
 }
 
-impl MortarEstimates {
-    /// The estimates' maps between the run's `problems` and the `matched` ones, whose bodies
-    /// `bodies` this rank owns.
+impl MortarMaps {
+    /// The maps between the run's `problems` and the `matched` ones, both whole.
     pub fn new(
-        problems: [Rc<BodyProblem>; 2],
+        problems: &[Rc<BodyProblem>; 2],
         matched: &[Rc<BodyProblem>; 2],
-        bodies: [Option<Body>; 2],
-    ) -> Result<MortarEstimates, crate::problem::meshed::MeshedError> {
+    ) -> Result<MortarMaps, crate::problem::meshed::MeshedError> {
         let side = pair_side([&problems[0], &problems[1]]);
         let transfers = [
             Transfer::new(&problems[0], &matched[0])?,
@@ -95,15 +120,94 @@ impl MortarEstimates {
             .iter()
             .map(|n| fine_of.get(n).and_then(|f| index.get(f).copied()))
             .collect();
-        Ok(MortarEstimates {
-            chain: Interface::new(nm.contact_lengths.clone()),
-            problems,
-            bodies,
+        Ok(MortarMaps {
             transfers,
             side,
             places,
             matched_pair,
+            lift: [0, 1].map(|k| LiftData::new(&matched[k])),
         })
+    }
+
+    /// The part world rank `rank` of body α's group (α = `alpha`, the group's ranks `ranks`)
+    /// reads of these whole maps, `matched` the whole matched problems: its body's transfer at
+    /// the matched nodes its fields are kept at (its block of them, Γc and the outline,
+    /// `Body::keep_fields_at`) and its block of the matched elements, whose maps it sums onto
+    /// their parents (whole on a group of one rank); the other body's, none.
+    pub fn part(
+        &self,
+        matched: &[Rc<BodyProblem>; 2],
+        (rank, alpha): (usize, usize),
+        ranks: std::ops::Range<usize>,
+    ) -> MortarMaps {
+        let transfers = [0, 1].map(|k| {
+            let whole = &self.transfers[k];
+            if k + 1 != alpha {
+                return whole.restricted(&[], &[]);
+            }
+            if ranks.len() == 1 {
+                return whole.clone();
+            }
+            let p = &matched[k];
+            let block = |n| block_of(n, rank - ranks.start, ranks.len());
+            let mut nodes: Vec<u32> = (block(p.num_nodes()).chain(p.contact_nodes.iter().copied()))
+                .chain(p.outline().nodes().iter().copied())
+                .map(element_u32)
+                .collect();
+            nodes.sort_unstable();
+            nodes.dedup();
+            let elements: Vec<u32> = block(p.num_elements()).map(element_u32).collect();
+            whole.restricted(&nodes, &elements)
+        });
+        MortarMaps {
+            transfers,
+            ..self.clone()
+        }
+    }
+
+    /// The maps as bytes ([`MortarMaps::read`] reads them back).
+    pub fn write(&self, w: &mut Writer) {
+        self.transfers.iter().for_each(|t| t.write(w));
+        w.int(self.side);
+        w.list(&self.places, |w, &(k, t)| {
+            w.int(k);
+            w.f64(t);
+        });
+        w.list(&self.matched_pair, |w, i| w.int(i.map_or(0, |i| i + 1)));
+        self.lift.iter().for_each(|l| l.write(w));
+    }
+
+    /// What [`MortarMaps::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<MortarMaps> {
+        let transfers = [Transfer::read(r)?, Transfer::read(r)?];
+        let side = r.int().filter(|&s| s < 2)?;
+        let places = r.list(16, |r| Some((r.int()?, r.f64()?)))?;
+        let matched_pair = r.list(8, |r| Some(r.int()?.checked_sub(1)))?;
+        let lift = [LiftData::read(r)?, LiftData::read(r)?];
+        Some(MortarMaps {
+            transfers,
+            side,
+            places,
+            matched_pair,
+            lift,
+        })
+    }
+}
+
+impl MortarEstimates {
+    /// The estimates of a mortar run: its `problems` (whole, or this rank's parts), the
+    /// `maps` onto the matched ones, whose bodies `bodies` this rank owns.
+    pub fn new(
+        problems: [Rc<BodyProblem>; 2],
+        maps: MortarMaps,
+        bodies: [Option<Body>; 2],
+    ) -> MortarEstimates {
+        MortarEstimates {
+            chain: Interface::new(problems[maps.side].contact_lengths.clone()),
+            problems,
+            bodies,
+            maps,
+        }
     }
 
     /// The matched bodies, as the estimator takes them.
@@ -114,17 +218,18 @@ impl MortarEstimates {
     /// The run's element that element `e` of body `k`'s matched mesh lies in, and the number
     /// of the run's elements of body `k`.
     pub fn parent(&self, k: usize, e: usize) -> usize {
-        self.transfers[k].parent(e)
+        self.maps.transfers[k].parent(e)
     }
 
     /// The number of the run's elements of body `k` (the parents of its matched mesh's).
     pub fn run_elements(&self, k: usize) -> usize {
-        self.transfers[k].coarse_elements()
+        self.maps.transfers[k].coarse_elements()
     }
 
     /// A P1 density of the matched Γc at the run's pairs (0 where a pair has no matched one).
     pub fn at_pairs(&self, density: &[f64]) -> Vec<f64> {
-        self.matched_pair
+        self.maps
+            .matched_pair
             .iter()
             .map(|i| i.map_or(0.0, |i| density[i]))
             .collect()
@@ -141,7 +246,7 @@ impl MortarEstimates {
         matched: &Body,
         u: &Displacement,
     ) -> Result<Displacement, EstimateError> {
-        let t = &self.transfers[k];
+        let t = &self.maps.transfers[k];
         let Some(nodes) = matched.kept_nodes() else {
             let whole = match u.as_whole() {
                 Some(_) => std::borrow::Cow::Borrowed(u),
@@ -189,7 +294,7 @@ impl MortarEstimates {
         let lambda: Vec<f64> = (0..m).map(|i| dot(normals[i], u1(i))).collect();
         let gap = |i: usize| matched[0].gap[i] + dot(normals[i], u2(i)) - lambda[i];
         let lift: Vec<f64> = (0..m).map(|i| (-gap(i)).max(0.0)).collect();
-        let shares = lift_shares(matched, &lift);
+        let shares = lift_shares(&self.maps.lift, &lift);
         let lambda: Vec<f64> = (0..m).map(|i| lambda[i] - shares[0][i]).collect();
         let trace2: Vec<f64> = (0..m)
             .map(|i| dot(normals[i], u2(i)) + shares[1][i])
@@ -204,8 +309,7 @@ impl MortarEstimates {
         }
         let forces = [0, 1].map(|a| {
             let s = self.chain.density(&it.forces[a]);
-            let v: Vec<f64> = self
-                .places
+            let v: Vec<f64> = (self.maps.places)
                 .iter()
                 .map(|&(k, t)| match s.get(k + 1) {
                     Some(next) => (1.0 - t) * s[k] + t * next,
@@ -231,7 +335,7 @@ impl MortarEstimates {
         Ok(Carried {
             iterate,
             u_plain,
-            lift_elements: [0, 1].map(|k| lift_energy(&matched[k], &shares[k])),
+            lift_elements: [0, 1].map(|k| lift_energy(&self.maps.lift[k], &matched[k], &shares[k])),
         })
     }
 
@@ -278,7 +382,7 @@ impl MortarEstimates {
                     energy(&ke, &d)
                 })
                 .collect();
-            if k == self.side {
+            if k == self.maps.side {
                 let obstacle = p.obstacle(&it.lambda);
                 let nodes = &p.contact_nodes;
                 let elements = mesh.chain_elements(nodes);
@@ -307,57 +411,20 @@ impl MortarEstimates {
 /// nᵀK^α_kk n its nodal stiffness along the normal (the split that minimises Σ_α a^α x_α²
 /// with x₁ + x₂ = −G_k: the least energy, up to the nodes' coupling); all of it on the other
 /// body where one's node has a displacement component along n prescribed (û keeps Γ_D's
-/// values; where both have, the data fix the pair and nothing is moved).
-fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
+/// values; where both have, the data fix the pair and nothing is moved). `data`: each body's
+/// [`LiftData`].
+fn lift_shares(data: &[LiftData; 2], lift: &[f64]) -> [Vec<f64>; 2] {
     let m = lift.len();
-    let stiffness = [0, 1].map(|k| {
-        let p = &matched[k];
-        let at: HashMap<usize, usize> = p
-            .contact_nodes
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| lift[*i] > 0.0)
-            .map(|(i, &n)| (n, i))
-            .collect();
-        let mut a = vec![0.0; m];
-        for e in 0..p.num_elements() {
-            let t = p.mesh().triangles.get(e);
-            if !t.iter().any(|n| at.contains_key(n)) {
-                continue;
-            }
-            let ke = element_stiffness(&p.mesh().triangle_points(e), &p.material);
-            for (j, n) in t.iter().enumerate() {
-                if let Some(&i) = at.get(n) {
-                    let v = p.contact_normals[i];
-                    a[i] += (0..2)
-                        .map(|r| {
-                            v[r] * (0..2).map(|c| ke[2 * j + r][2 * j + c] * v[c]).sum::<f64>()
-                        })
-                        .sum::<f64>();
-                }
-            }
-        }
-        a
-    });
-    let held = [0, 1].map(|k| {
-        let p = &matched[k];
-        let fixed: BTreeSet<usize> = p.dirichlet.iter().map(|&(dof, _)| dof).collect();
-        p.contact_nodes
-            .iter()
-            .zip(&p.contact_normals)
-            .map(|(&n, normal)| (0..2).any(|c| normal[c] != 0.0 && fixed.contains(&(2 * n + c))))
-            .collect::<Vec<bool>>()
-    });
     let part = |k: usize| -> Vec<f64> {
         (0..m)
             .map(|i| {
-                if lift[i] == 0.0 || held[k][i] {
+                if lift[i] == 0.0 || data[k].held[i] {
                     return 0.0;
                 }
-                if held[1 - k][i] {
+                if data[1 - k].held[i] {
                     return lift[i];
                 }
-                let (a, b) = (stiffness[k][i], stiffness[1 - k][i]);
+                let (a, b) = (data[k].stiffness[i], data[1 - k].stiffness[i]);
                 lift[i] * b / (a + b)
             })
             .collect()
@@ -365,28 +432,92 @@ fn lift_shares(matched: &[Rc<BodyProblem>; 2], lift: &[f64]) -> [Vec<f64>; 2] {
     [part(0), part(1)]
 }
 
-/// ‖δ_n‖²_E on the elements of the lift `lift` (along the pairs' normals) at a body's matched
-/// Γc nodes that it moves: (element, value).
-fn lift_energy(p: &BodyProblem, lift: &[f64]) -> Vec<(usize, f64)> {
-    let delta: HashMap<usize, [f64; 2]> = (p.contact_nodes.iter().zip(lift))
-        .zip(&p.contact_normals)
-        .filter(|((_, &l), _)| l != 0.0)
-        .map(|((&n, &l), v)| (n, [l * v[0], l * v[1]]))
-        .collect();
-    if delta.is_empty() {
-        return Vec::new();
-    }
-    let mesh = p.mesh();
-    (0..p.num_elements())
-        .filter_map(|e| {
+impl LiftData {
+    /// What the lift reads of the (whole) matched problem `p`.
+    fn new(p: &BodyProblem) -> LiftData {
+        let m = p.contact_nodes.len();
+        let at: HashMap<usize, usize> = (p.contact_nodes.iter().enumerate())
+            .map(|(i, &n)| (n, i))
+            .collect();
+        let mut stiffness = vec![0.0; m];
+        let mut elements = Vec::new();
+        let mesh = p.mesh();
+        for e in 0..p.num_elements() {
             let t = mesh.triangles.get(e);
-            if !t.iter().any(|a| delta.contains_key(a)) {
-                return None;
+            let pairs = t.map(|n| at.get(&n).copied());
+            if pairs.iter().all(Option::is_none) {
+                continue;
             }
             let ke = element_stiffness(&mesh.triangle_points(e), &p.material);
-            let d: [f64; 6] =
-                std::array::from_fn(|r| delta.get(&t[r / 2]).map_or(0.0, |v| v[r % 2]));
-            Some((e, energy(&ke, &d)))
+            for (j, i) in pairs.iter().enumerate() {
+                if let Some(&i) = i.as_ref() {
+                    let v = p.contact_normals[i];
+                    stiffness[i] += (0..2)
+                        .map(|r| {
+                            v[r] * (0..2).map(|c| ke[2 * j + r][2 * j + c] * v[c]).sum::<f64>()
+                        })
+                        .sum::<f64>();
+                }
+            }
+            elements.push((e, pairs, ke));
+        }
+        let fixed: BTreeSet<usize> = p.dirichlet.iter().map(|&(dof, _)| dof).collect();
+        let held = (p.contact_nodes.iter().zip(&p.contact_normals))
+            .map(|(&n, normal)| (0..2).any(|c| normal[c] != 0.0 && fixed.contains(&(2 * n + c))))
+            .collect();
+        LiftData {
+            stiffness,
+            held,
+            elements,
+        }
+    }
+
+    fn write(&self, w: &mut Writer) {
+        w.f64s(&self.stiffness);
+        w.list(&self.held, |w, &h| w.u8(h as u8));
+        w.list(&self.elements, |w, (e, pairs, ke)| {
+            w.int(*e);
+            pairs.iter().for_each(|i| w.int(i.map_or(0, |i| i + 1)));
+            ke.iter().for_each(|row| row.iter().for_each(|&v| w.f64(v)));
+        });
+    }
+
+    fn read(r: &mut Reader) -> Option<LiftData> {
+        let stiffness = r.f64s()?;
+        let held = r.list(1, |r| Some(r.u8()? != 0))?;
+        let elements = r.list(8 * 40, |r| {
+            let e = r.int()?;
+            let mut pairs = [None; 3];
+            for p in pairs.iter_mut() {
+                *p = r.int()?.checked_sub(1);
+            }
+            let mut ke = [[0.0; 6]; 6];
+            for v in ke.iter_mut().flatten() {
+                *v = r.f64()?;
+            }
+            Some((e, pairs, ke))
+        })?;
+        (held.len() == stiffness.len()).then_some(LiftData {
+            stiffness,
+            held,
+            elements,
+        })
+    }
+}
+
+/// ‖δ_n‖²_E on the elements of the lift `lift` (along the pairs' normals of the matched
+/// problem `p`, `data` its [`LiftData`]) at a body's matched Γc nodes that it moves:
+/// (element, value).
+fn lift_energy(data: &LiftData, p: &BodyProblem, lift: &[f64]) -> Vec<(usize, f64)> {
+    let delta = |i: Option<usize>, c: usize| {
+        i.filter(|&i| lift[i] != 0.0)
+            .map_or(0.0, |i| lift[i] * p.contact_normals[i][c])
+    };
+    (data.elements.iter())
+        .filter(|(_, pairs, _)| pairs.iter().any(|i| i.is_some_and(|i| lift[i] != 0.0)))
+        .map(|(e, pairs, ke)| {
+            let d: [f64; 6] = std::array::from_fn(|r| delta(pairs[r / 2], r % 2));
+            (*e, energy(ke, &d))
         })
         .collect()
 }

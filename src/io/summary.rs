@@ -244,6 +244,11 @@ pub struct Summary {
     /// the rank holds it so), when the run estimates.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_estimate_displacement_nodes_per_rank: Option<Vec<usize>>,
+    /// The elements of a mortar run's estimates' matched meshes (docs/method.md §7) each rank
+    /// held, both bodies', when it estimates: its parts where world rank 0 built them and
+    /// dealt them (`-nndd_mesh_input root`), else as the run's own meshes are held.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_matched_mesh_elements_per_rank: Option<Vec<usize>>,
     /// The elements of a Gmsh problem's meshes each rank held in the input, by world rank:
     /// both bodies' on a rank that built them (world rank 0 alone under `-nndd_mesh_input
     /// root`, every rank under `every_rank` or where a later phase reads the whole meshes),

@@ -100,7 +100,8 @@ impl ProblemSettings {
     /// The problem the estimates of a mortar run work on (`None` for any other run): the
     /// user's meshes with each contact curve's nodes inserted into the other, nothing moved
     /// ([`conform::Snap::InsertOnly`]), coupled node to node (docs/method.md §7, "The
-    /// estimates"). Every P1 field of the user's meshes is one of these meshes', so the mortar
+    /// estimates"; on a rank where world rank 0 alone holds the file, its facts until
+    /// [`parsed::ParsedFile::share_facts`] gives it the matched file's). Every P1 field of the user's meshes is one of these meshes', so the mortar
     /// iterate carries over exactly ([`transfer::Transfer`]); its continuous problem is that of
     /// §6 on the user's polygons, and its nested refinements give the reference solution.
     pub fn for_estimates(&self) -> Result<Option<ProblemSettings>, meshed::MeshedError> {
@@ -110,11 +111,19 @@ impl ProblemSettings {
         if spec.discretisation != ContactDiscretisation::Mortar {
             return Ok(None);
         }
-        let (gmsh, matched) =
-            conform::conform_with(spec.gmsh.mesh()?, &spec.contact, conform::Snap::InsertOnly);
+        let (gmsh, matched) = match spec.gmsh.is_on_root() {
+            // (world rank 0 matches the curves of the file it holds alone, and tells the
+            // others the matched file's facts: `ParsedFile::share_facts`)
+            true => (spec.gmsh.clone(), Default::default()),
+            false => {
+                let snap = conform::Snap::InsertOnly;
+                let (gmsh, matched) = conform::conform_with(spec.gmsh.mesh()?, &spec.contact, snap);
+                (parsed::ParsedFile::new(gmsh), matched)
+            }
+        };
         let mut s = self.clone();
         s.mesh = Some(meshed::MeshSpec {
-            gmsh: parsed::ParsedFile::new(gmsh),
+            gmsh,
             discretisation: ContactDiscretisation::NodeToNode,
             matched: Rc::new(matched),
             ..spec.clone()

@@ -92,6 +92,11 @@ impl ParsedFile {
         }
     }
 
+    /// Whether world rank 0 alone holds the mesh (this rank its facts).
+    pub fn is_on_root(&self) -> bool {
+        matches!(self.mesh, Held::OnRoot)
+    }
+
     /// This file as a rank holds it where world rank 0 alone holds the mesh: its facts
     /// ([`ParsedFile::on_root`]; a file every rank made alike, of which world rank 0's is
     /// the one read on).

@@ -13,6 +13,7 @@ use super::curves::MeshedError;
 use super::matched::point_key;
 use super::BodyProblem;
 use crate::fem::mesh::Mesh;
+use crate::fem::wire::{Reader, Writer};
 use crate::fem::Dofs;
 
 /// Where a node of the matched mesh comes from.
@@ -24,14 +25,30 @@ enum Source {
     Segment { a: usize, b: usize, t: f64 },
 }
 
-/// The map from one body's mesh (the user's) to its matched refinement.
+/// The map from one body's mesh (the user's) to its matched refinement: whole, or a rank's
+/// part of it ([`Transfer::restricted`]: the matched nodes and elements the rank reads).
 #[derive(Clone, Debug)]
 pub struct Transfer {
+    /// The matched nodes' sources: all of them, or those of `nodes`.
     sources: Vec<Source>,
-    /// The user's triangle each matched triangle lies in.
+    /// The matched nodes `sources` are of, ascending (`None`: all).
+    nodes: Option<Vec<u32>>,
+    /// The user's triangle each matched triangle lies in: all of them, or those of `elements`.
     parents: Vec<usize>,
+    /// The matched elements `parents` are of, ascending (`None`: all).
+    elements: Option<Vec<u32>>,
     /// The number of the user's triangles.
     coarse_elements: usize,
+}
+
+/// Entry `i`'s place among `ids` (ascending; `None`: all), or a panic naming `what`: a phase
+/// reads beyond the part of the transfer the rank was given.
+fn place_of(ids: &Option<Vec<u32>>, i: usize, what: &str) -> usize {
+    let Some(ids) = ids else { return i };
+    match u32::try_from(i).ok().map(|i| ids.binary_search(&i)) {
+        Some(Ok(k)) => k,
+        _ => panic!("matched {what} {i} is not in this rank's part of the transfer"),
+    }
 }
 
 /// Relative distance (to the segment's length) within which an inserted node lies on a
@@ -85,13 +102,31 @@ impl Transfer {
         let parents = parents(coarse, fine, &sources).map_err(invalid)?;
         Ok(Transfer {
             sources,
+            nodes: None,
             parents,
+            elements: None,
             coarse_elements: coarse.triangles.len(),
         })
     }
 
-    /// The P1 field `u` (x, y per node) of the user's mesh on the matched mesh.
+    /// This (whole) transfer's part at the matched `nodes` and `elements` (each ascending):
+    /// what a rank reads of it.
+    pub fn restricted(&self, nodes: &[u32], elements: &[u32]) -> Transfer {
+        Transfer {
+            sources: nodes.iter().map(|&n| self.sources[n as usize]).collect(),
+            nodes: Some(nodes.to_vec()),
+            parents: elements.iter().map(|&e| self.parents[e as usize]).collect(),
+            elements: Some(elements.to_vec()),
+            coarse_elements: self.coarse_elements,
+        }
+    }
+
+    /// The P1 field `u` (x, y per node) of the user's mesh on the (whole) matched mesh.
     pub fn interpolate(&self, u: &[f64]) -> Vec<f64> {
+        assert!(
+            self.nodes.is_none(),
+            "a part of a transfer interpolates at its nodes"
+        );
         (0..self.sources.len())
             .flat_map(|n| self.value_at(u, n))
             .collect()
@@ -101,7 +136,7 @@ impl Transfer {
     /// reads them alone), ascending.
     pub fn stencil_nodes(&self, nodes: &[u32]) -> Vec<usize> {
         let mut coarse: Vec<usize> = (nodes.iter())
-            .flat_map(|&n| match self.sources[n as usize] {
+            .flat_map(|&n| match self.source(n as usize) {
                 Source::Node(i) => [Some(i), None],
                 Source::Segment { a, b, .. } => [Some(a), Some(b)],
             })
@@ -120,9 +155,15 @@ impl Transfer {
             .collect()
     }
 
+    /// Matched node `n`'s source.
+    fn source(&self, n: usize) -> Source {
+        self.sources[place_of(&self.nodes, n, "node")]
+    }
+
     /// Matched node `n`'s (x, y) of the P1 field `u` of the user's mesh.
     fn value_at(&self, u: &(impl Dofs + ?Sized), n: usize) -> [f64; 2] {
-        std::array::from_fn(|c| match self.sources[n] {
+        let source = self.source(n);
+        std::array::from_fn(|c| match source {
             Source::Node(i) => u[2 * i + c],
             Source::Segment { a, b, t } => (1.0 - t) * u[2 * a + c] + t * u[2 * b + c],
         })
@@ -130,6 +171,7 @@ impl Transfer {
 
     /// The matched node of each of the user's nodes that is one (`None` for the others).
     pub fn fine_node_of(&self) -> HashMap<usize, usize> {
+        assert!(self.nodes.is_none(), "a whole transfer");
         self.sources
             .iter()
             .enumerate()
@@ -142,7 +184,64 @@ impl Transfer {
 
     /// The user's element that matched element `e` lies in.
     pub fn parent(&self, e: usize) -> usize {
-        self.parents[e]
+        self.parents[place_of(&self.elements, e, "element")]
+    }
+
+    /// The transfer as bytes ([`Transfer::read`] reads them back).
+    pub fn write(&self, w: &mut Writer) {
+        w.list(&self.sources, |w, s| match *s {
+            Source::Node(i) => {
+                w.u8(0);
+                w.int(i);
+            }
+            Source::Segment { a, b, t } => {
+                w.u8(1);
+                w.int(a);
+                w.int(b);
+                w.f64(t);
+            }
+        });
+        let ids = |w: &mut Writer, ids: &Option<Vec<u32>>| match ids {
+            None => w.u8(0),
+            Some(ids) => {
+                w.u8(1);
+                w.u32s(ids);
+            }
+        };
+        ids(w, &self.nodes);
+        w.ints(&self.parents);
+        ids(w, &self.elements);
+        w.int(self.coarse_elements);
+    }
+
+    /// What [`Transfer::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<Transfer> {
+        let sources = r.list(9, |r| match r.u8()? {
+            0 => Some(Source::Node(r.int()?)),
+            1 => Some(Source::Segment {
+                a: r.int()?,
+                b: r.int()?,
+                t: r.f64()?,
+            }),
+            _ => None,
+        })?;
+        let ids = |r: &mut Reader| match r.u8()? {
+            0 => Some(None),
+            1 => Some(Some(r.u32s()?)),
+            _ => None,
+        };
+        let nodes = ids(r)?;
+        let parents = r.ints()?;
+        let elements = ids(r)?;
+        let coarse_elements = r.int()?;
+        let aligned = |ids: &Option<Vec<u32>>, n: usize| ids.as_ref().is_none_or(|i| i.len() == n);
+        (aligned(&nodes, sources.len()) && aligned(&elements, parents.len())).then_some(Transfer {
+            sources,
+            nodes,
+            parents,
+            elements,
+            coarse_elements,
+        })
     }
 
     /// The number of the user's elements.
@@ -180,6 +279,24 @@ impl GapField {
                 .collect(),
             values: nm.gap.clone(),
         }
+    }
+
+    /// The gap field as bytes ([`GapField::read`] reads them back).
+    pub fn write(&self, w: &mut Writer) {
+        w.int(self.side);
+        w.points(&self.points);
+        w.f64s(&self.values);
+    }
+
+    /// What [`GapField::write`] wrote.
+    pub fn read(r: &mut Reader) -> Option<GapField> {
+        let side = r.int().filter(|&s| s < 2)?;
+        let (points, values) = (r.points()?, r.f64s()?);
+        (points.len() == values.len()).then_some(GapField {
+            side,
+            points,
+            values,
+        })
     }
 
     /// g₀* at the point `x` of the non-mortar polygon (its nearest point there).
@@ -345,5 +462,18 @@ mod tests {
             t.interpolate_at(&u[..], &[3, 2]),
             [&v[6..8], &v[4..6]].concat()
         );
+        // A rank's part (matched nodes 2 and 3, element 1), sent as bytes: the same values and
+        // parent there; a node outside it is refused.
+        let mut w = Writer::default();
+        t.restricted(&[2, 3], &[1]).write(&mut w);
+        let mut r = Reader::new(&w.0);
+        let part = Transfer::read(&mut r).filter(|_| r.is_done()).unwrap();
+        assert_eq!(
+            part.interpolate_at(&u[..], &[3, 2]),
+            t.interpolate_at(&u[..], &[3, 2])
+        );
+        assert_eq!((part.parent(1), part.stencil_nodes(&[3])), (0, vec![0, 1]));
+        let outside = std::panic::catch_unwind(|| part.interpolate_at(&u[..], &[1]));
+        assert!(outside.is_err());
     }
 }
