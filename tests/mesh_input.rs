@@ -376,45 +376,62 @@ fn an_adaptive_run_s_cycles_are_dealt_from_world_rank_0() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A run whose later phases read the parsed file on every rank (an adaptive mortar run,
-/// whose estimates map its bodies onto matched meshes in every cycle) is sent the file and
-/// builds the bodies and the matched meshes on every rank, as `every_rank`, whatever
-/// `-nndd_mesh_input` says; a built-in problem reports no input mesh (its grids are formulas),
-/// and the option is refused beside it.
+/// An adaptive mortar run, whose estimates map its bodies onto matched meshes in every cycle,
+/// on 3 ranks: under `root` world rank 0 alone reads each cycle's file and builds its meshes,
+/// the matched ones included, and the last cycle's η^glo is `every_rank`'s, under which every
+/// rank is sent the file and builds every mesh whole; a built-in problem reports no input mesh
+/// (its grids are formulas), and the option is refused beside it.
 #[test]
-fn a_run_that_reads_whole_meshes_builds_them_on_every_rank() {
+fn an_adaptive_mortar_run_builds_its_meshes_where_mesh_input_says() {
     let dir = scratch("mesh-input-whole");
-    let prefix = dir.join("mortar");
-    // (the prefix after the options file, which names its own)
-    let adapt = [
-        "-options_file",
-        HERTZ_NM_OPTS,
-        "-nndd_mesh",
-        HERTZ_NM_GEO,
-        "-nndd_geo_set",
-        "level=1",
-        "-nndd_contact_discretisation",
-        "mortar",
-        "-nndd_estimate",
-        "-nndd_adapt_tol",
-        "0.5",
-        "-nndd_adapt_max_cycles",
-        "1",
-        "-nndd_output",
-        prefix.to_str().unwrap(),
-    ];
-    let j = solve(3, &prefix, &adapt);
-    let per_rank = |key: &str| -> Vec<u64> { serde_json::from_value(j[key].clone()).unwrap() };
+    let run = |input: &str| {
+        let prefix = dir.join(format!("mortar-{input}"));
+        // (the prefix after the options file, which names its own)
+        let args = [
+            "-options_file",
+            HERTZ_NM_OPTS,
+            "-nndd_mesh",
+            HERTZ_NM_GEO,
+            "-nndd_geo_set",
+            "level=2",
+            "-nndd_contact_discretisation",
+            "mortar",
+            "-nndd_estimate",
+            "-nndd_adapt_tol",
+            "0.08",
+            "-nndd_adapt_max_cycles",
+            "2",
+            "-nndd_tol",
+            "1e-10",
+            "-nndd_mesh_input",
+            input,
+            "-nndd_output",
+            prefix.to_str().unwrap(),
+        ];
+        solve(3, &prefix, &args)
+    };
+    let (root, every) = (run("root"), run("every_rank"));
+    let per_rank = |j: &serde_json::Value, key: &str| -> Vec<u64> {
+        serde_json::from_value(j[key].clone()).unwrap()
+    };
     for key in [
         "input_file_points_per_rank",
         "held_matched_mesh_elements_per_rank",
     ] {
-        let n = per_rank(key);
+        let (r, e) = (per_rank(&root, key), per_rank(&every, key));
         assert!(
-            n.len() == 3 && n.iter().all(|&p| p == n[0] && p > 100),
-            "an adaptive mortar run: {key} {n:?}"
+            e.len() == 3 && e.iter().all(|&p| p == e[0] && p > 100),
+            "every_rank: {key} {e:?}"
+        );
+        assert!(
+            r[1..].iter().all(|&p| p < e[0]),
+            "root: {key} {r:?} against {e:?}"
         );
     }
+    assert_eq!(per_rank(&root, "input_file_points_per_rank")[1..], [0, 0]);
+    let eta = |j: &serde_json::Value| j["estimates"][0]["eta_glo"].as_f64().unwrap();
+    let d = (eta(&root) - eta(&every)).abs() / eta(&every);
+    assert!(d < 1e-9, "the last cycle's eta_glo differs by {d:e}");
     let builtin = ["-nndd_problem", "paper", "-nndd_n", "8"];
     let j = solve(2, &dir.join("builtin"), &builtin);
     assert!(j.get("input_mesh_elements_per_rank").is_none());

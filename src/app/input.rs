@@ -14,9 +14,7 @@
 //! their coupling, and where it estimates, its estimates' matched meshes and each rank's part
 //! of the maps between the two ([`deal_matched`]); an adaptive run's cycles each so (rank 0
 //! remeshes, and builds the whole meshes again for the size view,
-//! `cycles::whole_bodies_on_root`). An adaptive mortar run, whose estimates map both whole
-//! bodies onto their matched meshes in every cycle on every rank, builds them on every rank
-//! instead ([`on_root`]).
+//! `cycles::whole_bodies_on_root`).
 
 use std::rc::Rc;
 
@@ -37,22 +35,14 @@ use crate::parallel::partition::Partition;
 use crate::parallel::root;
 use crate::problem::parsed::MeshInput;
 use crate::problem::transfer::GapField;
-use crate::problem::{self, BodyProblem, ContactDiscretisation};
+use crate::problem::{self, BodyProblem};
 
 /// Whether this run builds its bodies on world rank 0 alone: a Gmsh problem on several ranks
-/// under `-nndd_mesh_input root` whose later phases do not read the whole meshes on every rank
-/// (an adaptive mortar run's estimates, which map both bodies onto their matched meshes in
-/// every cycle). Its reference solution's fine bodies are built on world rank 0 alike
-/// (`reference::solve_reference`), and a mortar run's estimates' matched meshes
+/// under `-nndd_mesh_input root`. Its reference solution's fine bodies are built on world rank
+/// 0 alike (`reference::solve_reference`), and a mortar run's estimates' matched meshes
 /// ([`deal_matched`]).
 pub(super) fn on_root(settings: &Settings, ranks: i32) -> bool {
-    let Some(spec) = &settings.problem.mesh else {
-        return false;
-    };
-    let mortar = spec.discretisation == ContactDiscretisation::Mortar;
-    ranks > 1
-        && settings.problem.input == MeshInput::Root
-        && !(super::parts::reads_whole_meshes(settings, mortar) && settings.adapt.is_some())
+    settings.problem.mesh.is_some() && ranks > 1 && settings.problem.input == MeshInput::Root
 }
 
 /// Both bodies' problems: whole on world rank 0, which builds them (a mortar run's estimates'

@@ -38,9 +38,9 @@ pub(super) fn release_unread_meshes(
 }
 
 /// Whether a rank that holds a body's mesh reads it whole through the run (`mortar`: the
-/// bodies are coupled by mortar), where it built the bodies itself: a mortar run's estimates
-/// map both bodies' meshes onto their matched ones (under `-nndd_mesh_input root` world rank 0
-/// alone does, `app::input::deal_matched`, but for an adaptive run's). (An adaptive run's size
+/// bodies are coupled by mortar), where it built the bodies itself (`-nndd_mesh_input
+/// every_rank`): a mortar run's estimates map both bodies' meshes onto their matched ones
+/// (under `root` world rank 0 alone does, `app::input::deal_matched`). (An adaptive run's size
 /// view covers the whole meshes on world rank 0 alone, which builds them again from the
 /// cycle's file, `cycles::whole_bodies_on_root`.)
 pub(super) fn reads_whole_meshes(settings: &Settings, mortar: bool) -> bool {

@@ -82,7 +82,7 @@ impl ProblemSettings {
         )?;
         let input = o.choice(
             "-nndd_mesh_input",
-            "With -nndd_mesh on several ranks: where the bodies are built: root (world rank 0, which reads the file, builds both, partitions them and sends every other rank its part, and its shares of the estimates, the reference solution's fine bodies alike, so that no other rank holds the file or a whole body; a mortar body with its coupling and an adaptive run's cycles alike, rank 0 remeshing; a mortar run's estimates' matched meshes and its rank's part of the maps onto them alike; an adaptive run that couples by mortar builds them on every rank, as every_rank), every_rank (rank 0 sends every rank the parsed file, and each builds both bodies, then keeps its part)",
+            "With -nndd_mesh on several ranks: where the bodies are built: root (world rank 0, which reads the file, builds both, partitions them and sends every other rank its part, and its shares of the estimates, the reference solution's fine bodies alike, so that no other rank holds the file or a whole body; a mortar body with its coupling and an adaptive run's cycles alike, rank 0 remeshing; a mortar run's estimates' matched meshes and its rank's part of the maps onto them alike), every_rank (rank 0 sends every rank the parsed file, and each builds both bodies, then keeps its part)",
             &[("root", MeshInput::Root), ("every_rank", MeshInput::EveryRank)],
         )?;
         let geo_set = read_geo_set(o, kind, &mesh_file)?;
