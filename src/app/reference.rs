@@ -36,16 +36,7 @@ pub fn solve_reference(
     let t = Instant::now();
     // A stop signal ends the reference solve at once (nothing of it is worth keeping).
     let before = signals::enter(StopPhase::Reference);
-    // (a mortar run's matched file, which every rank made alike, refined on world rank 0
-    // alone where it builds the fine bodies: the others hold its facts)
-    let mut coarse = std::borrow::Cow::Borrowed(settings);
-    if gaps.is_some() && input::on_root(settings, layout.size) && !layout.is_root() {
-        if let Some(file) = coarse.to_mut().problem.parsed_file_mut() {
-            *file = file.facts_only();
-        }
-    }
-    let mut fine = coarse.refined(r)?;
-    drop(coarse);
+    let mut fine = settings.refined(r)?;
     // (the refined file's facts, where world rank 0 alone holds the file and refined it)
     let world = &layout.world;
     let file = fine.problem.parsed_file_mut();

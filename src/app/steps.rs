@@ -158,16 +158,10 @@ impl<'a> Run<'a> {
             (Some(_), false) => Some(GapField::new([&*self.problems[0], &*self.problems[1]])),
             (Some(_), true) => Some(input::gaps_from_root(whole.as_ref())?),
         };
-        let dealt = match (&matched, &gaps, on_root) {
-            (Some(m), Some(g), true) => {
-                let agreement = self.agreement;
-                Some(input::deal_matched(
-                    m,
-                    whole.as_ref(),
-                    g,
-                    layout,
-                    agreement,
-                )?)
+        let dealt = match (&matched, &gaps) {
+            (Some(m), Some(g)) if on_root => {
+                let whole = whole.as_ref();
+                Some(input::deal_matched(m, whole, g, layout, self.agreement)?)
             }
             _ => None,
         };
@@ -226,9 +220,14 @@ impl<'a> Run<'a> {
             }
         };
         let maps = agreed(self.agreement, maps)?;
-        let (stages, given) = (self.stages, partitions);
-        let bodies =
-            solve::setup_matched_bodies(&matched, &problems, given, layout, stages, timings);
+        let bodies = solve::setup_matched_bodies(
+            &matched,
+            &problems,
+            partitions,
+            layout,
+            self.stages,
+            timings,
+        );
         let bodies = agreed(self.agreement, bodies)?;
         warnings.extend(relaxed_warnings(&bodies, layout, Factored::Matched));
         let mortar = MortarEstimates::new(self.problems.clone(), maps, bodies);

@@ -97,14 +97,6 @@ impl ParsedFile {
         matches!(self.mesh, Held::OnRoot)
     }
 
-    /// This file as a rank holds it where world rank 0 alone holds the mesh: its facts
-    /// ([`ParsedFile::on_root`]; a file every rank made alike, of which world rank 0's is
-    /// the one read on).
-    pub fn facts_only(&self) -> ParsedFile {
-        let (names, bbox) = (self.names.clone(), self.bbox);
-        ParsedFile::on_root(self.path.clone(), names, self.body_dofs, bbox)
-    }
-
     /// The file's facts as bytes ([`Writer`]): what world rank 0, which holds the mesh, tells
     /// the ranks that do not ([`ParsedFile::read_facts`]).
     pub fn write_facts(&self, w: &mut Writer) {
