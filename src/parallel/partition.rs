@@ -14,6 +14,7 @@
 use std::ops::Range;
 
 use crate::fem::mesh::Mesh;
+use crate::fem::order::ElementOrder;
 use crate::fem::wire::{Reader, Writer};
 use crate::parallel::layout::{block_of, Layout};
 use crate::petsc::Int;
@@ -39,6 +40,28 @@ pub enum Partitioner {
     /// ([`Layout::block`]), the nodes already in rank order: compact parts where the body's
     /// numbering is (a built-in grid's rows, a Gmsh body in `-nndd_mesh_order bands`).
     IndexBlocks,
+}
+
+/// What the user asked for (`-nndd_partition`): a partitioner, or `auto`, the default: index
+/// blocks where a body's numbering is compact (a built-in grid's rows, a Gmsh body in
+/// `-nndd_mesh_order bands`), so that a rank holds one share of its body and the output's block
+/// is its part; METIS's parts in a Gmsh file's own order, where a block of the file's triangles
+/// lies all over the body.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PartitionChoice {
+    Auto,
+    Given(Partitioner),
+}
+
+impl PartitionChoice {
+    /// The partitioner for bodies numbered in `order` (`None`: the built-in grids').
+    pub fn resolve(self, order: Option<ElementOrder>) -> Partitioner {
+        match (self, order) {
+            (PartitionChoice::Given(how), _) => how,
+            (PartitionChoice::Auto, Some(ElementOrder::File)) => Partitioner::Metis,
+            (PartitionChoice::Auto, None | Some(ElementOrder::Bands)) => Partitioner::IndexBlocks,
+        }
+    }
 }
 
 /// The distribution of one body over its group of `size` ranks.
@@ -387,6 +410,25 @@ mod tests {
                 let owner = parts[0].owner_of_petsc_node(rows[d] as usize / 2);
                 assert!(parts[owner].owns_dof(d));
             }
+        }
+    }
+
+    /// `auto` deals a body in index blocks where its numbering is compact (a built-in grid,
+    /// a Gmsh body in bands) and by METIS in a Gmsh file's order; a given one is kept.
+    #[test]
+    fn auto_partitions_in_blocks_where_the_numbering_is_compact() {
+        use ElementOrder::{Bands, File};
+        let (auto, blocks, metis) = (
+            PartitionChoice::Auto,
+            PartitionChoice::Given(Partitioner::IndexBlocks),
+            PartitionChoice::Given(Partitioner::Metis),
+        );
+        assert_eq!(auto.resolve(None), Partitioner::IndexBlocks);
+        assert_eq!(auto.resolve(Some(Bands)), Partitioner::IndexBlocks);
+        assert_eq!(auto.resolve(Some(File)), Partitioner::Metis);
+        for order in [None, Some(Bands), Some(File)] {
+            assert_eq!(blocks.resolve(order), Partitioner::IndexBlocks);
+            assert_eq!(metis.resolve(order), Partitioner::Metis);
         }
     }
 

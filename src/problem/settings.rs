@@ -13,7 +13,7 @@ use crate::fem::order::ElementOrder;
 use crate::fem::wire::{Reader, Writer};
 use crate::fem::Material;
 use crate::fem::{geo, gmsh};
-use crate::parallel::partition::Partitioner;
+use crate::parallel::partition::{PartitionChoice, Partitioner};
 use crate::parallel::root;
 use crate::petsc::readers::{Bounds, SettingsError};
 use crate::petsc::{self, OptionsBlock};
@@ -75,10 +75,14 @@ impl ProblemSettings {
             "With -nndd_mesh: the order of each body's triangles and nodes: file (the mesh file's), bands (Cuthill-McKee bands across the body, the nodes numbered as the triangles meet them: on several ranks each rank holds little more than its share of a body's fields; the patch recovery's eta_glo differs from file's by up to about 1e-3, both bounds)",
             &[("file", ElementOrder::File), ("bands", ElementOrder::Bands)],
         )?;
-        let partitioner = o.choice(
+        let partition = o.choice(
             "-nndd_partition",
-            "How each body's elements and nodes are dealt over its group of ranks: metis (METIS's parts of the mesh), blocks (the output's index blocks: one distribution for the assembly, the output and the estimates of a body estimated on its group, so that a rank holds one share of its body's mesh, and its overlap's rings where it estimates; compact where the numbering is, the built-in grids' rows or a Gmsh body in -nndd_mesh_order bands, not in a Gmsh file's own order)",
-            &[("metis", Partitioner::Metis), ("blocks", Partitioner::IndexBlocks)],
+            "How each body's elements and nodes are dealt over its group of ranks: auto (blocks where the body's numbering is compact, a built-in grid's rows or a Gmsh body in -nndd_mesh_order bands; metis in a Gmsh file's own order), metis (METIS's parts of the mesh), blocks (the output's index blocks: one distribution for the assembly, the output and the estimates, so that a rank holds one share of its body's mesh, and its overlap's rings where it estimates; compact where the numbering is, not in a Gmsh file's own order)",
+            &[
+                ("auto", PartitionChoice::Auto),
+                ("metis", PartitionChoice::Given(Partitioner::Metis)),
+                ("blocks", PartitionChoice::Given(Partitioner::IndexBlocks)),
+            ],
         )?;
         let input = o.choice(
             "-nndd_mesh_input",
@@ -106,6 +110,7 @@ impl ProblemSettings {
             if kind == ProblemKind::Paper { 1e7 } else { 0.0 },
             Bounds::FINITE,
         )?;
+        let partitioner = partition.resolve(mesh.as_ref().map(|m| m.order));
         Ok(ProblemSettings {
             partitioner,
             input,
