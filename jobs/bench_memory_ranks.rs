@@ -11,8 +11,16 @@
 //! cores run oversubscribed: their memory is what is measured, not their speed. The table goes
 //! to `results/bench-memory-ranks.txt`. `--every K` estimates every K-th iteration instead
 //! (`-nndd_estimate_every K`: many estimated steps, each kept for the output). Run through
-//! `jobs/bench-memory-ranks [--quick] [--every K] [--ranks LIST] [n …]`: `--ranks` runs every n
-//! on each rank count of LIST, and levels n replace the default ones.
+//! `jobs/bench-memory-ranks [--quick] [--every K] [--ranks LIST] [n …] [-- OPTIONS…]`: `--ranks`
+//! runs every n on each rank count of LIST, levels n replace the default ones, and the options
+//! after `--` are given to every run (`-- -body1_mat_mumps_icntl_22 1 -body2_mat_mumps_icntl_22 1`).
+//!
+//! What no distribution of the work can remove is measured in the same run: each rank count's
+//! fixed cost F_P, the largest peak of a run of `paper` n = 8 on P ranks with the same options
+//! (the libraries, MPI's and PETSc's buffers: what a process holds whatever its share). The
+//! floor is then F_P + (max@2 − F_2) · 2 / P, the largest rank's peak had everything else fallen
+//! as 1/P, and the sum's floor P · F_P + (sum@2 − 2 F_2); the table gives both over the ideal and
+//! over the 2-rank sum, the least ratios any solver with these per-process costs could reach.
 
 #[path = "runner.rs"]
 mod runner;
@@ -21,7 +29,11 @@ use std::collections::HashMap;
 use std::io::Write;
 
 fn main() {
-    let Args { every, cases } = parse_args();
+    let Args {
+        every,
+        cases,
+        extra,
+    } = parse_args();
     let dir = runner::scratch("bench-memory-ranks");
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let mut binaries = vec![("this", "target/release/nndd".to_string())];
@@ -34,11 +46,17 @@ fn main() {
             k => format!("an estimate every {k} iterations"),
         }),
         format!(
-            "{:>7} {:>5} {:>5} {:>9} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>9} {:>11} {:>7} {:>7} {:>12}",
+            "{:>7} {:>5} {:>5} {:>9} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>9} {:>11} {:>6} {:>11} {:>12} {:>7} {:>7} {:>12}",
             "binary", "n", "ranks", "dofs", "max MiB", "min MiB", "ideal", "max/ideal", "sum MiB",
-            "sum/sum@2", "libs once", "once/once@2", "wall s", "solve s", "eta_glo"
+            "sum/sum@2", "libs once", "once/once@2", "fixed", "floor/ideal", "sfloor/sum@2",
+            "wall s", "solve s", "eta_glo"
         ),
     ];
+    if !extra.is_empty() {
+        lines.insert(1, format!("# every run with {}", extra.join(" ")));
+    }
+    // (binary, ranks) → the fixed cost F_P: the largest peak of `paper` n = 8 on those ranks
+    let mut fixed: HashMap<(&str, usize), f64> = HashMap::new();
     // (binary, n) → (largest, sum, sum with the libraries once) on 2 ranks
     let mut two: HashMap<(&str, usize), (f64, f64, f64)> = HashMap::new();
     for &(n, ranks) in &cases {
@@ -46,45 +64,48 @@ fn main() {
             eprintln!("bench-memory-ranks: {name}, n = {n} on {ranks} ranks …");
             std::env::set_var("NNDD", exe);
             let prefix = dir.join(format!("{name}-n{n}-p{ranks}"));
-            let args = [
-                "-nndd_n",
-                &n.to_string(),
-                "-nndd_estimate",
-                "-nndd_estimate_every",
-                &every.to_string(),
-                "-nndd_reference_factor",
-                "0",
-            ];
             let mpirun: &[&str] = if ranks > cores {
                 &["--oversubscribe"]
             } else {
                 &[]
             };
-            let (j, wall) =
-                match runner::try_run(ranks, "petsc-options/paper.opts", mpirun, &prefix, &args) {
-                    Ok(r) => r,
-                    Err(e) => {
-                        lines.push(format!("{name:>7} {n:>5} {ranks:>5} failed: {e}"));
-                        write_table(&lines);
-                        continue;
-                    }
-                };
-            let peaks: Vec<f64> = j["peak_memory_mib_per_rank"]
-                .as_array()
-                .expect("per-rank peaks")
-                .iter()
-                .map(|v| v.as_f64().expect("a number"))
-                .collect();
+            let run = |n: usize, prefix: &std::path::Path| {
+                let n = n.to_string();
+                let every = every.to_string();
+                let mut args = vec![
+                    "-nndd_n",
+                    &n,
+                    "-nndd_estimate",
+                    "-nndd_estimate_every",
+                    &every,
+                    "-nndd_reference_factor",
+                    "0",
+                ];
+                args.extend(extra.iter().map(String::as_str));
+                runner::try_run(ranks, "petsc-options/paper.opts", mpirun, prefix, &args)
+            };
+            if !fixed.contains_key(&(*name, ranks)) {
+                let tiny = dir.join(format!("{name}-fixed-p{ranks}"));
+                if let Ok((j, _)) = run(FIXED_N, &tiny) {
+                    let peaks = per_rank(&j, "peak_memory_mib_per_rank");
+                    fixed.insert((name, ranks), peaks.iter().cloned().fold(0.0, f64::max));
+                }
+            }
+            let (j, wall) = match run(n, &prefix) {
+                Ok(r) => r,
+                Err(e) => {
+                    lines.push(format!("{name:>7} {n:>5} {ranks:>5} failed: {e}"));
+                    write_table(&lines);
+                    continue;
+                }
+            };
+            let peaks = per_rank(&j, "peak_memory_mib_per_rank");
             let max = peaks.iter().cloned().fold(0.0, f64::max);
             let min = peaks.iter().cloned().fold(f64::INFINITY, f64::min);
             let sum: f64 = peaks.iter().sum();
             // The ranks' shared libraries' pages counted once, not once per rank (the
             // summary's file_backed_memory_mib_per_rank; 0 where a binary does not say).
-            let files: Vec<f64> = j["file_backed_memory_mib_per_rank"]
-                .as_array()
-                .map_or(Vec::new(), |a| {
-                    a.iter().filter_map(|v| v.as_f64()).collect()
-                });
+            let files = per_rank(&j, "file_backed_memory_mib_per_rank");
             let once = sum - files.iter().sum::<f64>() + files.iter().cloned().fold(0.0, f64::max);
             if ranks == 2 {
                 two.insert((name, n), (max, sum, once));
@@ -92,17 +113,29 @@ fn main() {
             let base = two.get(&(name, n));
             let ideal = base.map(|b| b.0 * 2.0 / ranks as f64);
             let opt = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+            let f_p = fixed.get(&(*name, ranks)).copied();
+            let f_2 = fixed.get(&(*name, 2)).copied();
+            // The floors: what the fixed costs leave, everything else falling as 1/P.
+            let floor = base
+                .zip(f_p.zip(f_2))
+                .map(|(b, (fp, f2))| fp + (b.0 - f2) * 2.0 / ranks as f64);
+            let sum_floor = base
+                .zip(f_p.zip(f_2))
+                .map(|(b, (fp, f2))| ranks as f64 * fp + (b.1 - 2.0 * f2));
             let eta = j["estimates"]
                 .as_array()
                 .and_then(|e| e.last())
                 .map_or(f64::NAN, |e| runner::num(e, "eta_glo"));
             lines.push(format!(
-                "{name:>7} {n:>5} {ranks:>5} {:>9} {max:>8.0} {min:>8.0} {:>8} {:>10} {sum:>8.0} {:>9} {once:>9.0} {:>11} {wall:>7.1} {:>7.2} {eta:>12.6e}",
+                "{name:>7} {n:>5} {ranks:>5} {:>9} {max:>8.0} {min:>8.0} {:>8} {:>10} {sum:>8.0} {:>9} {once:>9.0} {:>11} {:>6} {:>11} {:>12} {wall:>7.1} {:>7.2} {eta:>12.6e}",
                 runner::num(&j, "dofs"),
                 opt(ideal, 0),
                 opt(ideal.map(|i| max / i), 2),
                 opt(base.map(|b| sum / b.1), 2),
                 opt(base.map(|b| once / b.2), 2),
+                opt(f_p, 0),
+                opt(floor.zip(ideal).map(|(f, i)| f / i), 2),
+                opt(sum_floor.zip(base).map(|(f, b)| f / b.1), 2),
                 runner::solve_seconds(&j),
             ));
             eprintln!("{}", lines.last().expect("a row"));
@@ -113,6 +146,16 @@ fn main() {
     write_table(&lines);
     print!("{}", lines.join("\n") + "\n");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The level of the runs that measure a rank count's fixed cost.
+const FIXED_N: usize = 8;
+
+/// A summary's per-rank array (empty where the binary does not write it).
+fn per_rank(j: &serde_json::Value, key: &str) -> Vec<f64> {
+    j[key].as_array().map_or(Vec::new(), |a| {
+        a.iter().filter_map(|v| v.as_f64()).collect()
+    })
 }
 
 /// `results/bench-memory-ranks.txt`: the header and the rows so far.
@@ -129,9 +172,11 @@ struct Args {
     /// `-nndd_estimate_every` (0: the reported iterate alone).
     every: usize,
     cases: Vec<(usize, usize)>,
+    /// The options after `--`, given to every run.
+    extra: Vec<String>,
 }
 
-/// `[--quick] [--every K] [--ranks LIST] [n …]`: `--ranks LIST` runs each n on every rank count
+/// `[--quick] [--every K] [--ranks LIST] [n …] [-- OPTIONS…]`: `--ranks LIST` runs each n on every rank count
 /// of LIST; levels n replace the default ones (512 and 1024; `--quick`: 128 and 256), whose
 /// default rank counts are 2, 4, 8 for the first and 2, 8 for the second.
 fn parse_args() -> Args {
@@ -142,9 +187,11 @@ fn parse_args() -> Args {
     let (mut quick, mut every) = (false, 0);
     let mut ranks: Option<Vec<usize>> = None;
     let mut levels = Vec::new();
+    let mut extra = Vec::new();
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
+            "--" => extra.extend(it.by_ref()),
             "--quick" => quick = true,
             "--every" => {
                 every = it.next().and_then(|v| v.parse().ok()).unwrap_or_else(|| {
@@ -165,7 +212,7 @@ fn parse_args() -> Args {
             _ => match a.parse::<usize>() {
                 Ok(n) if n > 0 => levels.push(n),
                 _ => fail(format!(
-                    "unknown argument '{a}' (--quick, --every K, --ranks LIST, n …)"
+                    "unknown argument '{a}' (--quick, --every K, --ranks LIST, n …, -- OPTIONS…)"
                 )),
             },
         }
@@ -191,5 +238,9 @@ fn parse_args() -> Args {
             })
             .collect(),
     };
-    Args { every, cases }
+    Args {
+        every,
+        cases,
+        extra,
+    }
 }
