@@ -165,11 +165,7 @@ fn problem_args(n: usize, msh: &str, input: &str, how: How) -> Vec<String> {
 
 /// One row of the table from a run's summary `j` and its wall time.
 fn row(n: usize, p: usize, input: &str, j: &serde_json::Value, wall: f64) -> String {
-    let list = |key: &str| -> Vec<f64> {
-        j[key].as_array().map_or(Vec::new(), |a| {
-            a.iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()
-        })
-    };
+    let list = |key: &str| runner::nums(j, key);
     let (elements, input_peaks, peaks, reference_peaks) = (
         list("input_mesh_elements_per_rank"),
         list("input_peak_memory_mib_per_rank"),

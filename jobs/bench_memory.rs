@@ -81,12 +81,7 @@ fn main() {
             if iter { "iterative" } else { "factored" }
         );
         let (j, _) = runner::run(ranks, &prefix, &refs);
-        let peak: f64 = j["peak_memory_mib_per_rank"]
-            .as_array()
-            .expect("per-rank peaks")
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .sum();
+        let peak: f64 = runner::nums(&j, "peak_memory_mib_per_rank").iter().sum();
         let dofs = runner::num(&j, "dofs") as usize;
         let fine = if r > 0 { dofs_of(n * r) } else { 0 };
         let model = capacity::estimate(ranks, dofs, (r > 0).then_some(fine)) / 1048576.0;

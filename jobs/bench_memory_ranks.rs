@@ -86,9 +86,12 @@ fn main() {
             };
             if !fixed.contains_key(&(*name, ranks)) {
                 let tiny = dir.join(format!("{name}-fixed-p{ranks}"));
-                if let Ok((j, _)) = run(FIXED_N, &tiny) {
-                    let peaks = per_rank(&j, "peak_memory_mib_per_rank");
-                    fixed.insert((name, ranks), peaks.iter().cloned().fold(0.0, f64::max));
+                match run(FIXED_N, &tiny) {
+                    Ok((j, _)) => {
+                        let peaks = runner::nums(&j, "peak_memory_mib_per_rank");
+                        fixed.insert((name, ranks), peaks.iter().cloned().fold(0.0, f64::max));
+                    }
+                    Err(e) => eprintln!("bench-memory-ranks: no fixed cost on {ranks} ranks: {e}"),
                 }
             }
             let (j, wall) = match run(n, &prefix) {
@@ -99,13 +102,13 @@ fn main() {
                     continue;
                 }
             };
-            let peaks = per_rank(&j, "peak_memory_mib_per_rank");
+            let peaks = runner::nums(&j, "peak_memory_mib_per_rank");
             let max = peaks.iter().cloned().fold(0.0, f64::max);
             let min = peaks.iter().cloned().fold(f64::INFINITY, f64::min);
             let sum: f64 = peaks.iter().sum();
             // The ranks' shared libraries' pages counted once, not once per rank (the
             // summary's file_backed_memory_mib_per_rank; 0 where a binary does not say).
-            let files = per_rank(&j, "file_backed_memory_mib_per_rank");
+            let files = runner::nums(&j, "file_backed_memory_mib_per_rank");
             let once = sum - files.iter().sum::<f64>() + files.iter().cloned().fold(0.0, f64::max);
             if ranks == 2 {
                 two.insert((name, n), (max, sum, once));
@@ -115,13 +118,12 @@ fn main() {
             let opt = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
             let f_p = fixed.get(&(*name, ranks)).copied();
             let f_2 = fixed.get(&(*name, 2)).copied();
-            // The floors: what the fixed costs leave, everything else falling as 1/P.
-            let floor = base
-                .zip(f_p.zip(f_2))
-                .map(|(b, (fp, f2))| fp + (b.0 - f2) * 2.0 / ranks as f64);
-            let sum_floor = base
-                .zip(f_p.zip(f_2))
-                .map(|(b, (fp, f2))| ranks as f64 * fp + (b.1 - 2.0 * f2));
+            // The floors of the largest peak and of the sum: what the fixed costs leave,
+            // everything else falling as 1/P.
+            let floors = base.zip(f_p.zip(f_2)).map(|(b, (fp, f2))| {
+                let p = ranks as f64;
+                (fp + (b.0 - f2) * 2.0 / p, p * fp + (b.1 - 2.0 * f2))
+            });
             let eta = j["estimates"]
                 .as_array()
                 .and_then(|e| e.last())
@@ -134,8 +136,8 @@ fn main() {
                 opt(base.map(|b| sum / b.1), 2),
                 opt(base.map(|b| once / b.2), 2),
                 opt(f_p, 0),
-                opt(floor.zip(ideal).map(|(f, i)| f / i), 2),
-                opt(sum_floor.zip(base).map(|(f, b)| f / b.1), 2),
+                opt(floors.zip(ideal).map(|(f, i)| f.0 / i), 2),
+                opt(floors.zip(base).map(|(f, b)| f.1 / b.1), 2),
                 runner::solve_seconds(&j),
             ));
             eprintln!("{}", lines.last().expect("a row"));
@@ -150,13 +152,6 @@ fn main() {
 
 /// The level of the runs that measure a rank count's fixed cost.
 const FIXED_N: usize = 8;
-
-/// A summary's per-rank array (empty where the binary does not write it).
-fn per_rank(j: &serde_json::Value, key: &str) -> Vec<f64> {
-    j[key].as_array().map_or(Vec::new(), |a| {
-        a.iter().filter_map(|v| v.as_f64()).collect()
-    })
-}
 
 /// `results/bench-memory-ranks.txt`: the header and the rows so far.
 fn write_table(lines: &[String]) {
@@ -176,9 +171,10 @@ struct Args {
     extra: Vec<String>,
 }
 
-/// `[--quick] [--every K] [--ranks LIST] [n …] [-- OPTIONS…]`: `--ranks LIST` runs each n on every rank count
-/// of LIST; levels n replace the default ones (512 and 1024; `--quick`: 128 and 256), whose
-/// default rank counts are 2, 4, 8 for the first and 2, 8 for the second.
+/// `[--quick] [--every K] [--ranks LIST] [n …] [-- OPTIONS…]`: `--ranks LIST` runs each n on
+/// every rank count of LIST; levels n replace the default ones (512 and 1024; `--quick`: 128
+/// and 256), whose default rank counts are 2, 4, 8 for the first and 2, 8 for the second; the
+/// options after `--` go to every run.
 fn parse_args() -> Args {
     let fail = |msg: String| -> ! {
         eprintln!("bench-memory-ranks: {msg}");

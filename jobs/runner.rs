@@ -66,6 +66,14 @@ pub fn num(v: &serde_json::Value, key: &str) -> f64 {
     v[key].as_f64().unwrap_or(f64::NAN)
 }
 
+/// A summary's array of numbers, such as a per-rank one (`peak_memory_mib_per_rank`): NaN for
+/// an entry that is not a number, empty where the summary does not have it.
+pub fn nums(v: &serde_json::Value, key: &str) -> Vec<f64> {
+    v[key].as_array().map_or(Vec::new(), |a| {
+        a.iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect()
+    })
+}
+
 /// The solve's time in a summary: assembly + factorisation + interface operators + the NNDD
 /// loop (its steps and exchanges) + the fields, each a maximum over the ranks.
 pub fn solve_seconds(summary: &serde_json::Value) -> f64 {
